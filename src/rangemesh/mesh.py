@@ -1,0 +1,139 @@
+"""The result types: `Mesh` (arrays) and `Stats` (counts, timings, reasons)."""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+
+from .camera import Orthographic, Pinhole
+
+__all__ = ["Mesh", "Stats", "count_edges"]
+
+
+@dataclass(frozen=True)
+class Stats:
+    """What a meshing run produced and how long each stage took.
+
+    Attributes
+    ----------
+    vertices, edges, triangles : int
+        Counts of the final mesh (edges are undirected and counted once).
+    flipped_edges : int
+        Number of edge flips taken by stage three (0 without flips).
+    grid_shape : (int, int)
+        Shape of the sample grid, ``((Rs-1)V+1, (Z-1)H+1)``.
+    sampled_points : int
+        Distinct valid pixels in the sample grid (the Delaunay input).
+    seconds : dict of str to float
+        Wall time of each stage (``'prepare'``, ``'sampling'``,
+        ``'triangulation'``, ``'flipping'``) and ``'total'``.
+    reason : str
+        Empty for a normal mesh; for an empty mesh, why it is empty.
+    """
+
+    vertices: int = 0
+    edges: int = 0
+    triangles: int = 0
+    flipped_edges: int = 0
+    grid_shape: tuple[int, int] = (0, 0)
+    sampled_points: int = 0
+    seconds: dict = field(default_factory=dict)
+    reason: str = ""
+
+    def to_dict(self) -> dict:
+        """Plain-Python dictionary (JSON-ready)."""
+        d = asdict(self)
+        d["grid_shape"] = list(self.grid_shape)
+        return d
+
+
+def count_edges(faces: np.ndarray) -> int:
+    """Number of distinct undirected edges of a face array.
+
+    Parameters
+    ----------
+    faces : (F, 3) array of int
+
+    Returns
+    -------
+    int
+
+    Examples
+    --------
+    >>> count_edges(np.array([[0, 1, 2], [2, 1, 3]]))
+    5
+    """
+    faces = np.asarray(faces, dtype=np.int64)
+    if len(faces) == 0:
+        return 0
+    e = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
+    e.sort(axis=1)
+    key = e[:, 0] * (int(faces.max()) + 1) + e[:, 1]
+    return int(np.unique(key).size)
+
+
+@dataclass(frozen=True, eq=False)
+class Mesh:
+    """A triangle mesh made from a range image.
+
+    Attributes
+    ----------
+    vertices : (V, 3) ndarray of float64
+        3-D points, in the camera's 3-D space.
+    faces : (F, 3) ndarray of int32
+        Vertex indices, counter-clockwise in the image plane: the signed area
+        ``(r1-r0)*(c2-c0) - (c1-c0)*(r2-r0)`` of every face is positive, which is
+        counter-clockwise on screen when rows run down and columns right.
+    pixels : (V, 2) ndarray of int32
+        The ``(row, col)`` pixel each vertex came from.
+    camera : Orthographic or Pinhole
+        The mapping used to lift pixels to 3-D.
+    image_shape : (int, int)
+        Shape of the range image the mesh was made from.
+    stats : Stats
+        Counts, timings and, for an empty mesh, the reason.
+    """
+
+    vertices: np.ndarray
+    faces: np.ndarray
+    pixels: np.ndarray
+    camera: Orthographic | Pinhole
+    image_shape: tuple[int, int]
+    stats: Stats = field(default_factory=Stats)
+
+    @property
+    def is_empty(self) -> bool:
+        """True when the mesh has no triangle."""
+        return len(self.faces) == 0
+
+    def to_trimesh(self):
+        """Return a `trimesh.Trimesh` with the same vertices and faces (no merging).
+
+        Returns
+        -------
+        trimesh.Trimesh
+        """
+        import trimesh
+
+        return trimesh.Trimesh(self.vertices, self.faces, process=False)
+
+    def __repr__(self) -> str:
+        s = self.stats
+        extra = f", reason={s.reason!r}" if s.reason else ""
+        return (
+            f"Mesh(vertices={len(self.vertices)}, faces={len(self.faces)}, "
+            f"flipped_edges={s.flipped_edges}, image_shape={self.image_shape}{extra})"
+        )
+
+
+def empty_mesh(camera, image_shape, stats: Stats) -> Mesh:
+    """A well-formed mesh with no vertex and no face, carrying `stats`."""
+    return Mesh(
+        vertices=np.zeros((0, 3), np.float64),
+        faces=np.zeros((0, 3), np.int32),
+        pixels=np.zeros((0, 2), np.int32),
+        camera=camera,
+        image_shape=tuple(image_shape),
+        stats=stats,
+    )

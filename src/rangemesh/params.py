@@ -1,0 +1,173 @@
+"""Meshing parameters: one frozen dataclass holding every default of SPEC.md.
+
+Angles are given in degrees here (and on the command line) and converted to
+radians only when they are handed to the kernels.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+
+__all__ = ["MeshParams", "SAMPLING_CHOICES", "FLIP_CHOICES"]
+
+SAMPLING_CHOICES = ("adaptive", "uniform")
+FLIP_CHOICES = ("disparity", "error", None)
+
+
+def _pair(name: str, value) -> tuple[int, int]:
+    """Turn ``n`` or ``(n, m)`` into a pair of Python ints, or raise."""
+    if isinstance(value, (int,)) and not isinstance(value, bool):
+        value = (value, value)
+    try:
+        a, b = value
+    except (TypeError, ValueError):
+        raise TypeError(f"{name} must be an int or a pair of ints, got {value!r}") from None
+    out = []
+    for x in (a, b):
+        if isinstance(x, bool) or not float(x).is_integer():
+            raise TypeError(f"{name} must hold whole numbers, got {value!r}")
+        out.append(int(x))
+    return out[0], out[1]
+
+
+@dataclass(frozen=True)
+class MeshParams:
+    """Parameters of the Garcia & Sappa pipeline, with the paper's defaults.
+
+    Parameters
+    ----------
+    tiles : int or (int, int), default (4, 4)
+        Tiles ``(V, H)``: vertical stripes (along rows) by horizontal stripes
+        (along columns). Neighbouring tiles share one row or column of pixels.
+    samples : int or (int, int), default (10, 10)
+        Samples per tile ``(Rs, Z)``, rows by columns (the paper's R and zeta).
+        Each must be at least 2: the first and last samples of a tile are its
+        borders. The sample grid has ``((Rs-1)*V + 1) x ((Z-1)*H + 1)`` entries.
+    sampling : {'adaptive', 'uniform'}, default 'adaptive'
+        ``'adaptive'`` places samples by the log-curvature weight of the paper;
+        ``'uniform'`` gives every pixel the same weight (the paper's baseline,
+        same grid size).
+    flips : {'disparity', 'error', None}, default 'disparity'
+        ``'disparity'`` runs the paper's tests 1-5 and its final test;
+        ``'error'`` flips every edge whose approximation gain is positive
+        (the paper's comparison variant); ``None`` keeps the plain Delaunay mesh.
+    levels : int, default 2
+        Resolutions added into the curvature image (the paper uses 2: full and half).
+    curvature_floor : float, default 20
+        Curvature floor on a 0..255 depth scale (the paper's "e.g., 20"). The
+        curvature is normalised by the valid depth range, so the floor means
+        the same thing in any depth unit. Must be greater than 1 so that every
+        log weight is positive.
+    fill_gaps : bool, default True
+        Fill single-pixel holes (a background pixel with 8 valid neighbours)
+        with the mean of the neighbours, as the paper's first step does.
+    delta : float, default 20
+        Upper disparity threshold, degrees (the paper's Delta).
+    epsilon : float, default 0.3
+        Lower disparity threshold of test 2, degrees.
+    max_angle : float, default 160
+        Internal 3-D angle above which test 3 calls a triangle degenerate, degrees.
+    min_bend : float, default 5
+        Test 4: the two new triangles' normals must differ by more than this, degrees.
+    gain_threshold : float or None, default None
+        Stop flipping when the head of the queue has a gain below this. ``None``
+        means minus infinity: every edge with a finite gain is considered, which
+        the paper found works best. Ignored by ``flips='error'``, which always
+        stops at the first non-positive gain.
+
+    Raises
+    ------
+    ValueError
+        If a value is out of range or a string choice is unknown.
+    TypeError
+        If ``tiles`` or ``samples`` is not an int or a pair of ints.
+
+    Examples
+    --------
+    >>> p = MeshParams(tiles=4, samples=(10, 8))
+    >>> p.tiles, p.samples, p.grid_shape
+    ((4, 4), (10, 8), (37, 29))
+    """
+
+    tiles: tuple[int, int] = (4, 4)
+    samples: tuple[int, int] = (10, 10)
+    sampling: str = "adaptive"
+    flips: str | None = "disparity"
+    levels: int = 2
+    curvature_floor: float = 20.0
+    fill_gaps: bool = True
+    delta: float = 20.0
+    epsilon: float = 0.3
+    max_angle: float = 160.0
+    min_bend: float = 5.0
+    gain_threshold: float | None = None
+
+    def __post_init__(self):
+        tiles = _pair("tiles", self.tiles)
+        samples = _pair("samples", self.samples)
+        object.__setattr__(self, "tiles", tiles)
+        object.__setattr__(self, "samples", samples)
+        if min(tiles) < 1:
+            raise ValueError(f"tiles must be >= 1 in both directions, got {tiles}")
+        if min(samples) < 2:
+            raise ValueError(
+                f"samples must be >= 2 in both directions (a tile's first and last "
+                f"samples are its borders), got {samples}"
+            )
+        if self.sampling not in SAMPLING_CHOICES:
+            raise ValueError(
+                f"sampling must be one of {SAMPLING_CHOICES}, got {self.sampling!r}"
+            )
+        if self.flips not in FLIP_CHOICES:
+            raise ValueError(f"flips must be one of {FLIP_CHOICES}, got {self.flips!r}")
+        if isinstance(self.levels, bool) or not float(self.levels).is_integer() or self.levels < 1:
+            raise ValueError(f"levels must be a whole number >= 1, got {self.levels!r}")
+        object.__setattr__(self, "levels", int(self.levels))
+        for name in ("curvature_floor", "delta", "epsilon", "max_angle", "min_bend"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, (int, float)):
+                raise TypeError(f"{name} must be a number, got {value!r}")
+            if not math.isfinite(value):
+                raise ValueError(f"{name} must be finite, got {value!r}")
+            object.__setattr__(self, name, float(value))
+        if self.curvature_floor <= 1.0:
+            raise ValueError(
+                f"curvature_floor must be > 1 so that log weights stay positive, "
+                f"got {self.curvature_floor}"
+            )
+        for name in ("delta", "max_angle"):
+            if not 0.0 < getattr(self, name) <= 180.0:
+                raise ValueError(f"{name} must be in (0, 180] degrees, got {getattr(self, name)}")
+        for name in ("epsilon", "min_bend"):
+            if not 0.0 <= getattr(self, name) <= 180.0:
+                raise ValueError(f"{name} must be in [0, 180] degrees, got {getattr(self, name)}")
+        if self.gain_threshold is not None:
+            g = self.gain_threshold
+            if isinstance(g, bool) or not isinstance(g, (int, float)) or math.isnan(g):
+                raise ValueError(f"gain_threshold must be a number or None, got {g!r}")
+            object.__setattr__(self, "gain_threshold", float(g))
+        object.__setattr__(self, "fill_gaps", bool(self.fill_gaps))
+
+    @property
+    def grid_shape(self) -> tuple[int, int]:
+        """Shape ``(Gr, Gc)`` of the sample grid: ``((Rs-1)V+1, (Z-1)H+1)``."""
+        (v, h), (rs, z) = self.tiles, self.samples
+        return (rs - 1) * v + 1, (z - 1) * h + 1
+
+    def replace(self, **changes) -> MeshParams:
+        """Return a copy with some fields changed (checked again).
+
+        Raises
+        ------
+        TypeError
+            If a name is not a field of `MeshParams`.
+        """
+        unknown = set(changes) - {f.name for f in dataclasses.fields(self)}
+        if unknown:
+            raise TypeError(
+                f"unknown parameter(s) {sorted(unknown)}; known: "
+                f"{[f.name for f in dataclasses.fields(self)]}"
+            )
+        return dataclasses.replace(self, **changes)

@@ -1,0 +1,75 @@
+"""Input checks and the background mask: the first line of every pipeline.
+
+The background marker is turned into a boolean ``valid`` mask here and its
+numeric value never travels further (SPEC P1).
+"""
+
+from __future__ import annotations
+
+import math
+import numbers
+
+import numpy as np
+
+__all__ = ["to_depth_and_mask"]
+
+
+def to_depth_and_mask(image, background=None) -> tuple[np.ndarray, np.ndarray]:
+    """Check a range image and split it into float depth and a validity mask.
+
+    Parameters
+    ----------
+    image : (H, W) array_like of int or float
+        The range image. Boolean and complex arrays are refused.
+    background : float, optional
+        Value that marks pixels without depth (``0``, ``65535``, ...). NaN,
+        +inf and -inf always mark missing depth, whatever `background` says;
+        ``background=float('nan')`` is the same as ``None``.
+
+    Returns
+    -------
+    depth : (H, W) ndarray of float64
+        A new C-contiguous array; background pixels hold 0.0, a value that no
+        later stage reads.
+    valid : (H, W) ndarray of bool
+
+    Raises
+    ------
+    TypeError
+        If the image is not numeric or `background` is not a number.
+    ValueError
+        If the image is not 2-D or is empty.
+
+    Examples
+    --------
+    >>> d, v = to_depth_and_mask(np.array([[0, 5], [7, 0]], np.uint16), background=0)
+    >>> v
+    array([[False,  True],
+           [ True, False]])
+    """
+    arr = np.asarray(image)
+    if arr.dtype == object or not (
+        np.issubdtype(arr.dtype, np.integer) or np.issubdtype(arr.dtype, np.floating)
+    ):
+        raise TypeError(
+            f"image must be an array of integers or floats, got dtype {arr.dtype}"
+        )
+    if arr.ndim != 2:
+        hint = " (a colour image? pass one channel)" if arr.ndim == 3 else ""
+        raise ValueError(f"image must be 2-D (rows, cols), got shape {arr.shape}{hint}")
+    if arr.size == 0:
+        raise ValueError(f"image must not be empty, got shape {arr.shape}")
+    if background is not None:
+        if isinstance(background, bool) or not isinstance(background, numbers.Real):
+            raise TypeError(f"background must be a number, NaN or None, got {background!r}")
+        if math.isnan(float(background)):
+            background = None
+    depth = arr.astype(np.float64, order="C", copy=True)
+    valid = np.isfinite(depth)
+    if background is not None:
+        if np.issubdtype(arr.dtype, np.integer):
+            valid &= arr != background
+        else:
+            valid &= depth != float(background)
+    depth[~valid] = 0.0
+    return depth, valid

@@ -1,0 +1,262 @@
+"""Stage one: gap filling, multiresolution curvature, tiling and the sample grid.
+
+Paper section II.A; SPEC.md section 1. Everything here works on a float64
+``depth`` image and a boolean ``valid`` mask. The background marker has been
+turned into ``valid == False`` before any of these functions runs, so no
+background value ever reaches arithmetic (SPEC P1).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from . import _kernels
+from .params import MeshParams
+
+__all__ = [
+    "fill_gaps",
+    "curvature",
+    "sampling_weights",
+    "tile_bounds",
+    "sample_grid",
+]
+
+# The paper's images are 8-bit: its curvature floor of 20 lives on a 0..255 scale.
+_PAPER_SCALE = 255.0
+
+
+def fill_gaps(depth: np.ndarray, valid: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Fill single-pixel holes: one pass, paper II.A.1, SPEC 1.1.
+
+    A background pixel whose 8 neighbours all exist and are valid becomes valid
+    with the mean of those 8 depths. Pixels on the image border have fewer
+    than 8 neighbours and are never filled. Larger holes stay holes.
+
+    Parameters
+    ----------
+    depth : (H, W) ndarray of float64
+    valid : (H, W) ndarray of bool
+
+    Returns
+    -------
+    depth_filled : (H, W) ndarray of float64
+        A new array; background pixels that stay background hold 0.
+    valid_filled : (H, W) ndarray of bool
+
+    Examples
+    --------
+    >>> d = np.arange(9.0).reshape(3, 3); v = np.ones((3, 3), bool); v[1, 1] = False
+    >>> fill_gaps(d, v)[0][1, 1]
+    4.0
+    """
+    h, w = depth.shape
+    d = np.where(valid, depth, 0.0)
+    out_d = d.copy()
+    out_v = valid.copy()
+    if h < 3 or w < 3:
+        return out_d, out_v
+    inner_valid = np.ones((h - 2, w - 2), bool)
+    total = np.zeros((h - 2, w - 2))
+    for dr in (-1, 0, 1):
+        for dc in (-1, 0, 1):
+            if dr == 0 and dc == 0:
+                continue
+            sl = (slice(1 + dr, h - 1 + dr), slice(1 + dc, w - 1 + dc))
+            inner_valid &= valid[sl]
+            total += d[sl]
+    hole = inner_valid & ~valid[1:-1, 1:-1]
+    out_d[1:-1, 1:-1][hole] = total[hole] / 8.0
+    out_v[1:-1, 1:-1] |= hole
+    return out_d, out_v
+
+
+def _second_difference(d, v, axis, jump):
+    """|d[i-1] - 2 d[i] + d[i+1]| along `axis`, with the SPEC's rules at borders and jumps.
+
+    * the stencil leaves the image -> 0 (image borders make no curvature);
+    * all three pixels valid -> the absolute second difference;
+    * all three background -> 0;
+    * mixed valid and background -> `jump` (a silhouette: a jump edge whose
+      size does not depend on the background marker).
+    """
+    out = np.zeros(d.shape)
+    n = d.shape[axis]
+    if n < 3:
+        return out
+    lo = [slice(None)] * 2
+    mid = [slice(None)] * 2
+    hi = [slice(None)] * 2
+    lo[axis] = slice(0, n - 2)
+    mid[axis] = slice(1, n - 1)
+    hi[axis] = slice(2, n)
+    lo, mid, hi = tuple(lo), tuple(mid), tuple(hi)
+    dd = np.abs(d[lo] - 2.0 * d[mid] + d[hi])
+    count = v[lo].astype(np.int8) + v[mid] + v[hi]
+    inner = np.where(count == 3, dd, np.where(count == 0, 0.0, jump))
+    out[mid] = inner
+    return out
+
+
+def curvature(depth: np.ndarray, valid: np.ndarray, levels: int = 2) -> np.ndarray:
+    """Multiresolution curvature image ``K``, paper II.A.1 and SPEC 1.2-1.3.
+
+    ``K1 = |R(r-1,c) - 2R(r,c) + R(r+1,c)| + |R(r,c-1) - 2R(r,c) + R(r,c+1)|``;
+    level ``l`` applies the same operator to ``R[::2**l, ::2**l]`` and is added
+    back at full resolution as ``K_l[r >> l, c >> l]``.
+
+    Parameters
+    ----------
+    depth : (H, W) ndarray of float64
+    valid : (H, W) ndarray of bool
+    levels : int, default 2
+        Number of resolutions added (1 = full resolution only).
+
+    Returns
+    -------
+    K : (H, W) ndarray of float64
+        In depth units (not normalised). A stencil that leaves the image adds 0;
+        a stencil that mixes valid and background pixels adds the scene's
+        valid depth range (max - min), the size we give a silhouette jump.
+
+    Notes
+    -----
+    The jump size is the scene's depth range rather than a local one: after
+    normalisation (see `sampling_weights`) a silhouette then always weighs
+    ``log(255)``, the most any jump inside the scene can weigh, whatever the
+    background marker or the depth unit.
+    """
+    if valid.any():
+        jump = float(depth[valid].max() - depth[valid].min())
+    else:
+        jump = 0.0
+    d = np.where(valid, depth, 0.0)
+    h, w = d.shape
+    K = np.zeros((h, w))
+    for level in range(levels):
+        step = 1 << level
+        ds = d[::step, ::step]
+        vs = valid[::step, ::step]
+        if ds.shape[0] < 3 and ds.shape[1] < 3:
+            break
+        k = _second_difference(ds, vs, 0, jump) + _second_difference(ds, vs, 1, jump)
+        if step == 1:
+            K += k
+        else:
+            rows = np.arange(h) >> level
+            cols = np.arange(w) >> level
+            K += k[rows[:, None], cols[None, :]]
+    return K
+
+
+def sampling_weights(depth: np.ndarray, valid: np.ndarray, params: MeshParams) -> np.ndarray:
+    """Per-pixel weight ``f`` that stage one integrates (paper eq. 1, SPEC 1.4).
+
+    ``f = log(max(K * 255 / range, curvature_floor))`` for adaptive sampling,
+    ``f = 1`` for uniform sampling. ``range`` is the valid depth range, which
+    makes ``f`` independent of the depth unit. The paper's factor Gamma would
+    only scale ``f``; the inverse distribution is unchanged by it, so it is
+    not a parameter.
+
+    Parameters
+    ----------
+    depth : (H, W) ndarray of float64
+    valid : (H, W) ndarray of bool
+    params : MeshParams
+
+    Returns
+    -------
+    f : (H, W) ndarray of float64, strictly positive
+    """
+    if params.sampling == "uniform":
+        return np.ones(depth.shape)
+    K = curvature(depth, valid, params.levels)
+    span = float(depth[valid].max() - depth[valid].min()) if valid.any() else 0.0
+    if span > 0.0:
+        K = K * (_PAPER_SCALE / span)
+    else:
+        K = np.zeros_like(K)  # a constant scene has no curvature anywhere
+    return np.log(np.maximum(K, params.curvature_floor))
+
+
+def tile_bounds(n: int, tiles: int, *, name: str = "tiles") -> np.ndarray:
+    """Tile borders ``b_k = round(k*(n-1)/tiles)``, ``k = 0..tiles`` (SPEC 1.5).
+
+    Tile ``k`` covers ``b_k..b_{k+1}`` inclusive, so neighbours share one line.
+    Rounding is half up, in exact integer arithmetic.
+
+    Parameters
+    ----------
+    n : int
+        Image size along the axis (rows or columns).
+    tiles : int
+        Number of tiles along that axis.
+    name : str
+        Name used in the error message.
+
+    Returns
+    -------
+    bounds : (tiles + 1,) ndarray of int64
+
+    Raises
+    ------
+    ValueError
+        If a tile would be thinner than 2 pixels.
+
+    Examples
+    --------
+    >>> tile_bounds(9, 4)
+    array([0, 2, 4, 6, 8])
+    """
+    k = np.arange(tiles + 1, dtype=np.int64)
+    bounds = (2 * k * (n - 1) + tiles) // (2 * tiles)
+    if tiles > n - 1 or np.any(np.diff(bounds) < 1):
+        raise ValueError(
+            f"{name}={tiles} is too many for an image axis of {n} pixels: every tile must "
+            f"be at least 2 pixels thick, so at most {max(n - 1, 0)} tiles fit"
+        )
+    return bounds
+
+
+def sample_grid(depth: np.ndarray, valid: np.ndarray, params: MeshParams | None = None,
+                *, weights: np.ndarray | None = None) -> np.ndarray:
+    """The sample grid of stage one (paper II.A.2-3, SPEC 1.5-1.8).
+
+    Each tile's pixel rows are sampled at ``Z`` columns by inverting the
+    cumulative weight along the row; the resulting vertical curves are then
+    sampled at ``Rs`` rows the same way. The first and last samples of every
+    tile are its border lines, so tiles meet exactly.
+
+    Parameters
+    ----------
+    depth : (H, W) ndarray of float64
+        Depth after gap filling (background values are ignored).
+    valid : (H, W) ndarray of bool
+    params : MeshParams, optional
+        Tiles, samples, sampling mode, curvature settings.
+    weights : (H, W) ndarray of float64, optional
+        Precomputed ``sampling_weights`` (reused across budgets by callers that
+        try several grids).
+
+    Returns
+    -------
+    grid : (Gr, Gc, 2) ndarray of int32
+        ``(row, col)`` of every sample, ``Gr = (Rs-1)V + 1``, ``Gc = (Z-1)H + 1``.
+        Samples may repeat (more samples than pixels in a tile) and may be
+        background pixels; stage two drops both.
+
+    Notes
+    -----
+    The inversion interpolates linearly between the two pixels whose
+    cumulative weights bracket a target and rounds half up to a pixel.
+    """
+    params = params or MeshParams()
+    h, w = depth.shape
+    v_tiles, h_tiles = params.tiles
+    rb = tile_bounds(h, v_tiles, name="tiles (rows)")
+    cb = tile_bounds(w, h_tiles, name="tiles (columns)")
+    f = sampling_weights(depth, valid, params) if weights is None else weights
+    f = np.ascontiguousarray(f, dtype=np.float64)
+    rs, zs = params.samples
+    grid = np.zeros(params.grid_shape + (2,), np.int32)
+    _kernels.sample_tiles(f, rb, cb, rs, zs, grid)
+    return grid

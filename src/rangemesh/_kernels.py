@@ -22,6 +22,9 @@ import numpy as np
 from numba import njit
 
 NEG_INF = -np.inf
+# Angles closer than this (radians) are equal: flat spans give angles of 0 up
+# to rounding noise, and noise must not decide a test (SPEC P2, P6).
+ANGLE_TOL = 1e-9
 
 # --------------------------------------------------------------------------
 # camera
@@ -287,8 +290,9 @@ def line_pixel(r0, c0, r1, c1, k):
     """Pixel k (0-based, from the first endpoint) of the raster line r0,c0 -> r1,c1.
 
     Bresenham's line written in closed form: one pixel per step along the major
-    axis; on the minor axis the nearest pixel, halves rounded away from the
-    first endpoint. The line has ``max(|dr|, |dc|) + 1`` pixels.
+    axis; on the minor axis the nearest pixel, halves rounded toward the first
+    endpoint (what the textbook loop with ``if D > 0`` gives). The line has
+    ``max(|dr|, |dc|) + 1`` pixels.
     """
     dr = r1 - r0
     dc = c1 - c0
@@ -300,9 +304,9 @@ def line_pixel(r0, c0, r1, c1, k):
         n = adr
         if n == 0:
             return r0, c0
-        return r0 + sr * k, c0 + sc * ((2 * k * adc + n) // (2 * n))
+        return r0 + sr * k, c0 + sc * ((2 * k * adc + n - 1) // (2 * n))
     n = adc
-    return r0 + sr * ((2 * k * adr + n) // (2 * n)), c0 + sc * k
+    return r0 + sr * ((2 * k * adr + n - 1) // (2 * n)), c0 + sc * k
 
 
 @njit(cache=True)
@@ -492,8 +496,14 @@ def _pair_key(a, b, n_vertices):
 
 
 @njit(cache=True)
-def _gain(x, edge_he, triangles, halfedges, pixels, vertices, depth, valid, cam, err):
-    """G = E(A,B) - E(C,D) for an interior edge whose quad is strictly convex, else -inf."""
+def _gain(x, edge_he, triangles, halfedges, pixels, vertices, depth, valid, cam, err, quantum):
+    """G = E(A,B) - E(C,D) for an interior edge whose quad is strictly convex, else -inf.
+
+    The gain is rounded to a multiple of `quantum` (a power of two far below
+    the scene's size): gains equal up to rounding noise become exactly equal,
+    so a change of depth unit (SPEC P2) cannot reorder ties or turn a zero
+    gain positive.
+    """
     e0 = edge_he[x]
     e1 = halfedges[e0]
     if e1 == -1:
@@ -509,16 +519,20 @@ def _gain(x, edge_he, triangles, halfedges, pixels, vertices, depth, valid, cam,
     if orient(pixels[c, 0], pixels[c, 1], pixels[a, 0], pixels[a, 1],
               pixels[d, 0], pixels[d, 1]) <= 0:
         return NEG_INF
-    return err[x] - edge_error(c, d, pixels, vertices, depth, valid, cam)
+    g = err[x] - edge_error(c, d, pixels, vertices, depth, valid, cam)
+    return np.round(g / quantum) * quantum
 
 
 @njit(cache=True)
 def flip_edges_kernel(triangles, halfedges, pixels, vertices, depth, valid, cam,
-                      mode, threshold, delta, epsilon, max_angle, min_bend):
+                      mode, threshold, delta, epsilon, max_angle, min_bend, quantum,
+                      verdicts):
     """Stage three (SPEC 3.3-3.6); edits `triangles` and `halfedges` in place.
 
     mode 0: the paper's disparity tests; mode 1: error-based flips (gain > 0).
-    Angles in radians. Returns the number of flips taken.
+    Angles in radians. Returns the number of flips taken. `verdicts` (int64[7])
+    counts, in place, the edges rejected by T1..T5 and by the final test, and
+    the flips taken.
 
     Quad before and after a flip of AB (e0 in t0 = ABC, e1 in t1 = BAD)::
 
@@ -566,7 +580,7 @@ def flip_edges_kernel(triangles, halfedges, pixels, vertices, depth, valid, cam,
     gain = np.zeros(n_e)
     for x in range(n_e):
         gain[x] = _gain(x, edge_he, triangles, halfedges, pixels, vertices, depth, valid,
-                        cam, err)
+                        cam, err, quantum)
     heap = np.arange(n_e)
     slot = np.arange(n_e)
     for i in range(n_e):
@@ -602,6 +616,7 @@ def flip_edges_kernel(triangles, halfedges, pixels, vertices, depth, valid, cam,
         vc = triangles[c0]
         vd = triangles[c1]
         accept = _pair_key(vc, vd, n_v) not in former  # T1: deadlock
+        verdict = 0
         if accept and mode == 0:
             s = _span_normal(triangles, halfedges, normals, b1, t0, t1)  # A -> D leaves A
             ns_a[0], ns_a[1], ns_a[2] = s
@@ -623,17 +638,24 @@ def flip_edges_kernel(triangles, halfedges, pixels, vertices, depth, valid, cam,
             bend = _angle(n_dca[0], n_dca[1], n_dca[2], n_cdb[0], n_cdb[1], n_cdb[2])
             if abs(disp_ab - disp_cd) < epsilon:  # T2: no significant disparity change
                 accept = False
+                verdict = 1
             elif (_max_internal_angle(vertices, vd, vc, va) > max_angle
                   or _max_internal_angle(vertices, vc, vd, vb) > max_angle) and bend < delta:
                 accept = False  # T3: degenerate triangle on a smooth region
+                verdict = 2
             elif not bend > min_bend:  # T4: no noticeable change of shape
                 accept = False
+                verdict = 3
             elif (_angle(ns_c[0], ns_c[1], ns_c[2], ns_d[0], ns_d[1], ns_d[2])
-                  > 2.0 * _angle(ns_a[0], ns_a[1], ns_a[2], ns_b[0], ns_b[1], ns_b[2])):
+                  > 2.0 * _angle(ns_a[0], ns_a[1], ns_a[2], ns_b[0], ns_b[1], ns_b[2])
+                  + ANGLE_TOL):
                 accept = False  # T5: a crease along AB would be lost
+                verdict = 4
             else:
                 accept = disp_ab > disp_cd  # final test
+                verdict = 5
         if not accept:
+            verdicts[verdict] += 1
             gain[x] = NEG_INF
             _sift_down(heap, slot, gain, slot[x], n_e)
             continue
@@ -681,9 +703,10 @@ def flip_edges_kernel(triangles, halfedges, pixels, vertices, depth, valid, cam,
         normals[t1, 0], normals[t1, 1], normals[t1, 2] = s
         err[x] = edge_error(vc, vd, pixels, vertices, depth, valid, cam)
         flips += 1
+        verdicts[6] += 1
         for y in (x, eb0, ec0, eb1, ec1):
             gain[y] = _gain(y, edge_he, triangles, halfedges, pixels, vertices, depth, valid,
-                            cam, err)
+                            cam, err, quantum)
             _rekey(heap, slot, gain, y, n_e)
     return flips
 

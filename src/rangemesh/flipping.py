@@ -18,6 +18,22 @@ from .params import MeshParams
 __all__ = ["flip_edges"]
 
 _MODES = {"disparity": 0, "error": 1}
+# Order of the kernel's `verdicts` counters.
+_VERDICTS = ("t1_deadlock", "t2_disparity_change", "t3_degenerate", "t4_bend",
+             "t5_crease", "final_test", "flipped")
+
+
+def _gain_quantum(vertices: np.ndarray) -> float:
+    """A power of two about 2**-32 of the mesh's 3-D extent: the resolution of gains.
+
+    A power of two, taken from the extent's binary exponent, does not move when
+    the coordinates change by rounding noise, which keeps P2 (depth unit
+    invariance) bit-exact in practice.
+    """
+    extent = float(np.max(np.ptp(vertices, axis=0))) if len(vertices) else 0.0
+    if not np.isfinite(extent) or extent <= 0.0:
+        return 2.0**-32
+    return math.ldexp(1.0, math.frexp(extent)[1] - 32)
 
 
 def flip_edges(mesh: Mesh, depth: np.ndarray, valid: np.ndarray,
@@ -53,7 +69,9 @@ def flip_edges(mesh: Mesh, depth: np.ndarray, valid: np.ndarray,
     * The queue is an indexed binary max-heap over edge ids, ties broken by the
       smaller id, so the same input always flips the same edges. A flip keeps
       the edge id (AB becomes CD in place) and re-keys CD and the four outer
-      edges of the quad; a rejected edge is re-keyed to ``-inf``.
+      edges of the quad; a rejected edge is re-keyed to ``-inf``. Gains are
+      rounded to about 2**-32 of the mesh's extent so that rounding noise
+      (a change of depth unit, say) cannot reorder equal gains.
     * Test order for ``'disparity'``: T1 deadlock (C, D were neighbours before),
       T2 ``|disp(AB) - disp(CD)| < epsilon``, T3 degenerate new triangle on a
       smooth region, T4 bend not above ``min_bend``, T5
@@ -83,6 +101,7 @@ def flip_edges(mesh: Mesh, depth: np.ndarray, valid: np.ndarray,
     triangles, halfedges = _kernels.build_halfedges(mesh.faces.astype(np.int64), n_v)
     mode = _MODES[params.flips]
     threshold = -np.inf if params.gain_threshold is None else params.gain_threshold
+    verdicts = np.zeros(7, np.int64)
     flips = _kernels.flip_edges_kernel(
         triangles,
         halfedges,
@@ -97,7 +116,10 @@ def flip_edges(mesh: Mesh, depth: np.ndarray, valid: np.ndarray,
         math.radians(params.epsilon),
         math.radians(params.max_angle),
         math.radians(params.min_bend),
+        _gain_quantum(mesh.vertices),
+        verdicts,
     )
     faces = triangles.reshape(-1, 3).astype(np.int32)
-    stats = dataclasses.replace(mesh.stats, flipped_edges=int(flips))
+    tests = dict(zip(_VERDICTS, (int(x) for x in verdicts), strict=True))
+    stats = dataclasses.replace(mesh.stats, flipped_edges=int(flips), flip_tests=tests)
     return dataclasses.replace(mesh, faces=faces, stats=stats)

@@ -25,6 +25,9 @@ class Stats:
         Shape of the sample grid, ``((Rs-1)V+1, (Z-1)H+1)``.
     sampled_points : int
         Distinct valid pixels in the sample grid (the Delaunay input).
+    flip_tests : dict of str to int
+        How many edges each flip test rejected (``t1_deadlock`` ...
+        ``final_test``) and how many were ``flipped``; empty without flips.
     seconds : dict of str to float
         Wall time of each stage (``'prepare'``, ``'sampling'``,
         ``'triangulation'``, ``'flipping'``) and ``'total'``.
@@ -38,6 +41,7 @@ class Stats:
     flipped_edges: int = 0
     grid_shape: tuple[int, int] = (0, 0)
     sampled_points: int = 0
+    flip_tests: dict = field(default_factory=dict)
     seconds: dict = field(default_factory=dict)
     reason: str = ""
 

@@ -46,7 +46,7 @@ def fill_gaps(depth: np.ndarray, valid: np.ndarray) -> tuple[np.ndarray, np.ndar
     Examples
     --------
     >>> d = np.arange(9.0).reshape(3, 3); v = np.ones((3, 3), bool); v[1, 1] = False
-    >>> fill_gaps(d, v)[0][1, 1]
+    >>> float(fill_gaps(d, v)[0][1, 1])
     4.0
     """
     h, w = depth.shape

@@ -1,0 +1,42 @@
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, settings
+
+settings.register_profile(
+    "ci",
+    max_examples=25,
+    deadline=None,
+    derandomize=True,
+    suppress_health_check=[HealthCheck.too_slow],
+)
+settings.load_profile("ci")
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def data_dir() -> Path | None:
+    env = os.environ.get("RANGEMESH_DATA")
+    candidates = [Path(env)] if env else []
+    candidates += [ROOT.parent / "shared" / "data", ROOT / "shared" / "data"]
+    for c in candidates:
+        if (c / "README.md").exists():
+            return c
+    return None
+
+
+@pytest.fixture(scope="session")
+def shared_data():
+    d = data_dir()
+    if d is None:
+        if os.environ.get("RANGEMESH_REQUIRE_DATA"):
+            pytest.fail("../shared/data not found and RANGEMESH_REQUIRE_DATA is set")
+        pytest.skip("../shared/data not found (set RANGEMESH_DATA)")
+    return d
+
+
+@pytest.fixture
+def rng():
+    return np.random.default_rng(12345)

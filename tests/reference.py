@@ -1,0 +1,158 @@
+"""Slow, obviously-correct versions of the kernels, written independently of them."""
+
+import math
+from fractions import Fraction
+
+import numpy as np
+
+from rangemesh.camera import backproject
+
+
+def bresenham(a, b):
+    """Textbook incremental Bresenham (``if D > 0`` form), drawn from the smaller (r, c)."""
+    (r0, c0), (r1, c1) = sorted([tuple(map(int, a)), tuple(map(int, b))])
+    dr, dc = r1 - r0, c1 - c0
+    if abs(dr) >= abs(dc):  # step along rows
+        step_c = 1 if dc >= 0 else -1
+        adc = abs(dc)
+        D = 2 * adc - dr
+        c = c0
+        out = []
+        for r in range(r0, r1 + 1):
+            out.append((r, c))
+            if D > 0:
+                c += step_c
+                D -= 2 * dr
+            D += 2 * adc
+        return out
+    step_r = 1 if dr >= 0 else -1
+    step_c = 1 if dc >= 0 else -1
+    adr, adc = abs(dr), abs(dc)
+    D = 2 * adr - adc
+    r = r0
+    out = []
+    c = c0
+    for _ in range(adc + 1):
+        out.append((r, c))
+        if D > 0:
+            r += step_r
+            D -= 2 * adc
+        D += 2 * adr
+        c += step_c
+    return out
+
+
+def edge_error(a, b, depth, valid, camera):
+    """Sum of 3-D distances of the valid Bresenham pixels of AB to the 3-D segment AB."""
+    A = backproject([a[0]], [a[1]], [depth[a]], camera)[0]
+    B = backproject([b[0]], [b[1]], [depth[b]], camera)[0]
+    total = 0.0
+    for r, c in bresenham(a, b):
+        if not valid[r, c]:
+            continue
+        X = backproject([r], [c], [depth[r, c]], camera)[0]
+        ab = B - A
+        L = float(ab @ ab)
+        t = 0.0 if L == 0 else min(1.0, max(0.0, float((X - A) @ ab) / L))
+        total += float(np.linalg.norm(X - (A + t * ab)))
+    return total
+
+
+def fill_gaps(depth, valid):
+    d = np.where(valid, depth, 0.0).astype(float)
+    v = valid.copy()
+    h, w = depth.shape
+    out = d.copy()
+    for r in range(1, h - 1):
+        for c in range(1, w - 1):
+            if valid[r, c]:
+                continue
+            nb = [(r + i, c + j) for i in (-1, 0, 1) for j in (-1, 0, 1) if (i, j) != (0, 0)]
+            if all(valid[p] for p in nb):
+                out[r, c] = sum(d[p] for p in nb) / 8
+                v[r, c] = True
+    return out, v
+
+
+def curvature_one_level(d, v, jump):
+    h, w = d.shape
+    K = np.zeros((h, w))
+    for r in range(h):
+        for c in range(w):
+            for (p, q) in (((r - 1, c), (r + 1, c)), ((r, c - 1), (r, c + 1))):
+                if min(p + q) < 0 or p[0] >= h or q[0] >= h or p[1] >= w or q[1] >= w:
+                    continue
+                n_valid = int(v[p]) + int(v[r, c]) + int(v[q])
+                if n_valid == 3:
+                    K[r, c] += abs(d[p] - 2 * d[r, c] + d[q])
+                elif n_valid > 0:
+                    K[r, c] += jump
+    return K
+
+
+def invert(weights, count):
+    """Positions of `count` equally spaced targets of the cumulative weight (rounded half up)."""
+    cum = [0.0]
+    for x in weights[1:]:
+        cum.append(cum[-1] + x)
+    m = cum[-1]
+    out = []
+    for j in range(count):
+        if j == 0:
+            out.append(0)
+            continue
+        if j == count - 1:
+            out.append(len(weights) - 1)
+            continue
+        y = j * m / (count - 1)
+        k = next(i for i in range(len(cum) - 1) if cum[i + 1] >= y)
+        x = k + (y - cum[k]) / (cum[k + 1] - cum[k])
+        out.append(math.floor(x + 0.5))
+    return out
+
+
+def sample_grid(f, tiles, samples):
+    """Per-tile, per-row plain-Python version of stage one's grid."""
+    h, w = f.shape
+    V, H = tiles
+    Rs, Z = samples
+    rb = [round_half_up(k * (h - 1), V) for k in range(V + 1)]
+    cb = [round_half_up(k * (w - 1), H) for k in range(H + 1)]
+    grid = np.zeros(((Rs - 1) * V + 1, (Z - 1) * H + 1, 2), int)
+    for v in range(V):
+        for hh in range(H):
+            rows = range(rb[v], rb[v + 1] + 1)
+            cols = list(range(cb[hh], cb[hh + 1] + 1))
+            HS = {r: [cols[i] for i in invert([f[r, c] for c in cols], Z)] for r in rows}
+            for j in range(Z):
+                curve = [(r, HS[r][j]) for r in rows]
+                idx = invert([f[p] for p in curve], Rs)
+                for i, k in enumerate(idx):
+                    grid[v * (Rs - 1) + i, hh * (Z - 1) + j] = curve[k]
+    return grid
+
+
+def round_half_up(num, den):
+    return math.floor(Fraction(num, den) + Fraction(1, 2))
+
+
+def rendered_errors(mesh, depth, valid):
+    """Brute force: per valid pixel, the first face containing it; linear depth in (r, c)."""
+    p = mesh.pixels.astype(int)
+    z = mesh.vertices[:, 2] / mesh.camera.kz
+    errs = {}
+    for t, (a, b, c) in enumerate(mesh.faces.tolist()):
+        (ra, ca), (rb, cb), (rc, cc) = p[a], p[b], p[c]
+        area = (rb - ra) * (cc - ca) - (cb - ca) * (rc - ra)
+        for r in range(min(ra, rb, rc), max(ra, rb, rc) + 1):
+            for col in range(min(ca, cb, cc), max(ca, cb, cc) + 1):
+                if (r, col) in errs or not valid[r, col]:
+                    continue
+                wa = (rc - rb) * (col - cb) - (cc - cb) * (r - rb)
+                wb = (ra - rc) * (col - cc) - (ca - cc) * (r - rc)
+                wc = (rb - ra) * (col - ca) - (cb - ca) * (r - ra)
+                if min(wa, wb, wc) < 0:
+                    continue
+                zz = (wa * z[a] + wb * z[b] + wc * z[c]) / area
+                errs[(r, col)] = abs(zz - depth[r, col])
+    return errs

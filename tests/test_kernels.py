@@ -1,0 +1,102 @@
+"""Fast kernels against the slow references of tests/reference.py."""
+
+import numpy as np
+from hypothesis import given
+from hypothesis import strategies as st
+
+from rangemesh import _kernels
+from rangemesh.camera import Orthographic, Pinhole
+
+from . import reference as ref
+
+coord = st.integers(0, 40)
+
+
+@given(coord, coord, coord, coord)
+def test_line_pixels_match_textbook_bresenham(r0, c0, r1, c1):
+    a, b = sorted([(r0, c0), (r1, c1)])
+    n = max(abs(b[0] - a[0]), abs(b[1] - a[1]))
+    got = [tuple(_kernels.line_pixel(a[0], a[1], b[0], b[1], k)) for k in range(n + 1)]
+    assert got == ref.bresenham(a, b)
+
+
+@given(coord, coord, coord, coord)
+def test_line_is_8_connected_and_hits_endpoints(r0, c0, r1, c1):
+    line = ref.bresenham((r0, c0), (r1, c1))
+    assert set(line[:1] + line[-1:]) == {(r0, c0), (r1, c1)}
+    steps = np.abs(np.diff(np.array(line), axis=0))
+    assert (steps.max(axis=1) == 1).all() if len(line) > 1 else True
+
+
+def test_bresenham_by_hand():
+    # (0,0)->(2,5): column-major, exact rows 0, .4, .8, 1.2, 1.6, 2 -> 0 0 1 1 2 2
+    assert ref.bresenham((0, 0), (2, 5)) == [(0, 0), (0, 1), (1, 2), (1, 3), (2, 4), (2, 5)]
+    # (0,0)->(1,2): the middle pixel is a tie (row 0.5) and goes toward the start
+    assert ref.bresenham((0, 0), (1, 2)) == [(0, 0), (0, 1), (1, 2)]
+
+
+@given(st.integers(0, 100), st.data())
+def test_edge_error_matches_reference(seed, data):
+    rng = np.random.default_rng(seed)
+    depth = rng.uniform(0, 50, (30, 30))
+    valid = rng.random((30, 30)) > 0.2
+    cam = data.draw(st.sampled_from([Orthographic(1, 1, 1), Orthographic(0.5, 2.0, -1.5),
+                                     Pinhole(25.0, 30.0, 14.0, 15.0, 0.01)]))
+    a = tuple(rng.integers(0, 30, 2))
+    b = tuple(rng.integers(0, 30, 2))
+    pixels = np.array([a, b], np.int64)
+    from rangemesh.camera import backproject
+
+    verts = backproject(pixels[:, 0], pixels[:, 1], depth[pixels[:, 0], pixels[:, 1]], cam)
+    got = _kernels.edge_error(0, 1, pixels, verts, depth, valid, cam.as_array())
+    back = _kernels.edge_error(1, 0, pixels, verts, depth, valid, cam.as_array())
+    want = ref.edge_error(a, b, depth, valid, cam)
+    assert got == back  # symmetric, bit for bit
+    np.testing.assert_allclose(got, want, rtol=1e-9, atol=1e-9)
+
+
+def test_edge_error_by_hand():
+    # Step of height 3 at column 2; segment from (0,0) z=0 to (0,4) z=3.
+    depth = np.array([[0.0, 0.0, 3.0, 3.0, 3.0]])
+    valid = np.ones_like(depth, bool)
+    pixels = np.array([[0, 0], [0, 4]], np.int64)
+    verts = np.array([[0.0, 0.0, 0.0], [0.0, 4.0, 3.0]])
+    got = _kernels.edge_error(0, 1, pixels, verts, depth, valid, Orthographic().as_array())
+    # distance of (0,c,z) to the line z = 3c/4 in the (c, z) plane is |3c - 4z| / 5
+    want = sum(abs(3 * c - 4 * z) / 5 for c, z in zip(range(5), depth[0], strict=True))
+    assert np.isclose(got, want)
+
+
+def test_heap_pops_in_gain_order_with_id_ties():
+    gain = np.array([1.0, 5.0, 5.0, -np.inf, 2.0, 0.5])
+    n = gain.size
+    heap = np.arange(n)
+    slot = np.arange(n)
+    for i in range(n):
+        _kernels._sift_up(heap, slot, gain, i)
+    order = []
+    for _ in range(5):
+        x = heap[0]
+        order.append(int(x))
+        gain[x] = -np.inf  # retire it
+        _kernels._sift_down(heap, slot, gain, 0, n)
+    assert order == [1, 2, 4, 0, 5]  # 1 and 2 tie at 5.0: smaller id first
+    assert np.array_equal(heap[slot], np.arange(n))
+
+
+def test_heap_rekey_keeps_invariant(rng):
+    n = 200
+    gain = rng.normal(size=n)
+    heap = np.arange(n)
+    slot = np.arange(n)
+    for i in range(n):
+        _kernels._sift_up(heap, slot, gain, i)
+    for _ in range(500):
+        x = int(rng.integers(n))
+        gain[x] = rng.normal() if rng.random() > 0.2 else -np.inf
+        _kernels._rekey(heap, slot, gain, x, n)
+        g = gain[heap]
+        for i in range(1, n):
+            p = (i - 1) // 2
+            assert g[p] > g[i] or (g[p] == g[i] and heap[p] < heap[i])
+        assert np.array_equal(heap[slot], np.arange(n))

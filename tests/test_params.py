@@ -1,0 +1,40 @@
+import numpy as np
+import pytest
+
+from rangemesh import MeshParams, Orthographic, Pinhole, backproject, to_depth_and_mask
+
+
+def test_defaults_are_the_papers():
+    p = MeshParams()
+    assert p.tiles == (4, 4) and p.samples == (10, 10) and p.grid_shape == (37, 37)
+    assert (p.delta, p.epsilon, p.max_angle, p.min_bend) == (20.0, 0.3, 160.0, 5.0)
+    assert p.curvature_floor == 20.0 and p.levels == 2 and p.flips == "disparity"
+
+
+def test_params_are_frozen_and_checked():
+    p = MeshParams()
+    with pytest.raises(Exception):
+        p.delta = 3
+    with pytest.raises(TypeError, match="unknown"):
+        p.replace(gamma=500)
+    with pytest.raises(TypeError, match="tiles"):
+        MeshParams(tiles="4x4")
+    with pytest.raises(ValueError, match="levels"):
+        MeshParams(levels=0)
+
+
+def test_cameras():
+    with pytest.raises(ValueError, match="fx"):
+        Pinhole(0, 1, 0, 0)
+    with pytest.raises(ValueError, match="kx"):
+        Orthographic(-1, 1, 1)
+    p = backproject([10], [20], [3.0], Pinhole(2.0, 4.0, 10.0, 2.0, 2.0))
+    assert p.tolist() == [[30.0, 12.0, 6.0]]  # Z = 6, X = (20-10)*6/2, Y = (10-2)*6/4
+
+
+def test_mask_from_markers():
+    img = np.array([[0, 7], [65535, 3]], np.uint16)
+    d, v = to_depth_and_mask(img, background=65535)
+    assert v.tolist() == [[True, True], [False, True]] and d[1, 0] == 0.0
+    d, v = to_depth_and_mask(np.array([[np.nan, 1.0], [np.inf, -np.inf]]))
+    assert v.tolist() == [[False, True], [False, False]]

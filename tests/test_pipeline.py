@@ -1,0 +1,222 @@
+"""SPEC section 5, P1-P7, on synthetic scenes and on the real images of ../shared/data."""
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+import rangemesh
+from rangemesh import MeshParams, Orthographic, Pinhole, evaluate, scenes, triangulate
+from rangemesh.prepare import to_depth_and_mask
+
+from .helpers import assert_valid_mesh, canonical_faces
+from .images import REAL_IMAGES, load
+
+FLIPS = ["disparity", "error", None]
+
+
+def same_mesh(a, b):
+    assert np.array_equal(a.pixels, b.pixels)
+    assert np.array_equal(a.faces, b.faces)
+
+
+# ---------------------------------------------------------------- P1, P2, P6
+
+
+@pytest.mark.parametrize("flips", FLIPS)
+def test_p1_background_marker_invariance(flips):
+    sc = scenes.dome((90, 110))
+    base = np.where(np.isnan(sc.depth), 0.0, sc.depth)
+    as_zero = triangulate(base.astype(np.uint16), background=0, flips=flips)
+    as_max = triangulate(np.where(base == 0, 65535, base).astype(np.uint16), background=65535,
+                         flips=flips)
+    as_nan = triangulate(np.where(base == 0, np.nan, base.astype(np.uint16)), flips=flips)
+    for other in (as_max, as_nan):
+        same_mesh(as_zero, other)
+        np.testing.assert_array_equal(as_zero.vertices, other.vertices)
+    assert_valid_mesh(as_zero, ~np.isnan(sc.depth))
+
+
+@pytest.mark.parametrize("flips", FLIPS)
+@pytest.mark.parametrize("s", [4.0, 0.125, 1000.0])
+def test_p2_unit_invariance(flips, s):
+    sc = scenes.pyramid((80, 100))
+    a = triangulate(sc.depth, flips=flips, camera=Orthographic(1, 1, 1))
+    b = triangulate(sc.depth * s, flips=flips, camera=Orthographic(1, 1, 1 / s))
+    same_mesh(a, b)
+    np.testing.assert_allclose(a.vertices, b.vertices, rtol=1e-12)
+
+
+@given(st.integers(0, 2**31), st.integers(-3, 3))
+def test_p2_unit_invariance_random(seed, k):
+    rng = np.random.default_rng(seed)
+    d = np.cumsum(rng.normal(size=(30, 40)), axis=1) + 50
+    s = 2.0**k * 10  # not only powers of two
+    a = triangulate(d, tiles=2, samples=6)
+    b = triangulate(d * s, tiles=2, samples=6, camera=(1, 1, 1 / s))
+    same_mesh(a, b)
+
+
+def test_p6_determinism():
+    sc = scenes.box((100, 120), noise=0.5)
+    runs = [triangulate(sc.depth, tiles=4, samples=10) for _ in range(3)]
+    for r in runs[1:]:
+        same_mesh(runs[0], r)
+        assert runs[0].vertices.tobytes() == r.vertices.tobytes()
+        assert runs[0].stats.flipped_edges == r.stats.flipped_edges
+
+
+# ---------------------------------------------------------------- P3, P4, P5
+
+
+@given(st.integers(0, 2**31), st.integers(1, 4), st.integers(1, 4), st.integers(2, 8),
+       st.integers(2, 8), st.sampled_from(FLIPS), st.sampled_from(["adaptive", "uniform"]))
+def test_p3_p4_random_images(seed, tv, th, rs, zs, flips, sampling):
+    rng = np.random.default_rng(seed)
+    h, w = int(rng.integers(tv + 1, 40)), int(rng.integers(th + 1, 40))
+    d = rng.uniform(0, 100, (h, w))
+    d[rng.random((h, w)) < rng.uniform(0, 0.5)] = np.nan  # holes and speckle
+    p = MeshParams(tiles=(tv, th), samples=(rs, zs), flips=flips, sampling=sampling)
+    m = triangulate(d, p)
+    gr, gc = p.grid_shape
+    assert m.stats.grid_shape == (gr, gc)
+    assert m.stats.vertices <= m.stats.sampled_points <= gr * gc
+    _, valid = rangemesh.fill_gaps(*to_depth_and_mask(d))
+    assert_valid_mesh(m, valid)
+
+
+@pytest.mark.parametrize("name", sorted(scenes.SCENES))
+@pytest.mark.parametrize("flips", FLIPS)
+def test_p4_scenes(name, flips):
+    sc = scenes.make(name, (90, 120), noise=0.2)
+    m = triangulate(sc.depth, flips=flips)
+    _, valid = to_depth_and_mask(sc.depth)
+    assert_valid_mesh(m, valid)
+    assert m.stats.vertices <= 37 * 37
+
+
+def test_plane_is_exact_and_needs_no_flip():
+    sc = scenes.plane()
+    m = triangulate(sc.depth)
+    e = evaluate(m, sc.depth)
+    assert e.relative_error < 1e-9 and e.max_error < 1e-9 and e.uncovered == 0
+    assert m.stats.flipped_edges == 0
+
+
+@pytest.mark.parametrize("flips", ["disparity", "error"])
+@pytest.mark.parametrize("samples", [6, 8, 10])
+def test_p5_flips_lower_crease_band_error(flips, samples):
+    sc = scenes.crease((100, 130))
+    before = triangulate(sc.depth, samples=samples, flips=None)
+    after = triangulate(sc.depth, samples=samples, flips=flips)
+    assert after.stats.flipped_edges > 0
+    assert_valid_mesh(after)
+    eb = evaluate(before, sc.depth, discontinuities=sc.discontinuities).edge_band_error
+    ea = evaluate(after, sc.depth, discontinuities=sc.discontinuities).edge_band_error
+    assert ea < eb
+
+
+def test_box_jump_is_kept_where_samples_straddle_it():
+    # Box edges on tile borders: rows 36..83, cols 48..103 of 120x160 with 4x4 tiles.
+    # Away from the jump (3 px), every covered pixel is on the right level.
+    sc = scenes.box((120, 160))
+    m = triangulate(sc.depth, samples=10)
+    e = evaluate(m, sc.depth, discontinuities=sc.discontinuities, band=3)
+    assert_valid_mesh(m)
+    assert e.uncovered == 0
+    from rangemesh import render_depth
+    from scipy import ndimage
+
+    pred, _ = render_depth(m)
+    far = ~ndimage.binary_dilation(sc.discontinuities, iterations=8)
+    assert np.abs(pred - sc.depth)[far].max() < 30  # never the jump's full 60
+
+
+# ---------------------------------------------------------------- P7 bad input
+
+
+@pytest.mark.parametrize(
+    "image, kwargs, exc, match",
+    [
+        (np.zeros((4, 4, 3)), {}, ValueError, "2-D"),
+        (np.zeros(10), {}, ValueError, "2-D"),
+        (np.zeros((0, 5)), {}, ValueError, "empty"),
+        (np.array([["a"]]), {}, TypeError, "dtype"),
+        (np.ones((4, 4), bool), {}, TypeError, "dtype"),
+        (np.ones((1, 1)), {}, ValueError, "tiles"),
+        (np.ones((20, 20)), {"tiles": (30, 2)}, ValueError, "tiles"),
+        (np.ones((20, 20)), {"tiles": 0}, ValueError, "tiles"),
+        (np.ones((20, 20)), {"samples": 0}, ValueError, "samples"),
+        (np.ones((20, 20)), {"samples": (1, 5)}, ValueError, "samples"),
+        (np.ones((20, 20)), {"sampling": "random"}, ValueError, "sampling"),
+        (np.ones((20, 20)), {"flips": "yes"}, ValueError, "flips"),
+        (np.ones((20, 20)), {"delta": -1}, ValueError, "delta"),
+        (np.ones((20, 20)), {"curvature_floor": 0.5}, ValueError, "curvature_floor"),
+        (np.ones((20, 20)), {"colour": 1}, TypeError, "colour"),
+        (np.ones((20, 20)), {"background": "zero"}, TypeError, "background"),
+        (np.ones((20, 20)), {"camera": "pinhole"}, TypeError, "camera"),
+    ],
+)
+def test_p7_bad_input(image, kwargs, exc, match):
+    with pytest.raises(exc, match=match):
+        triangulate(image, **kwargs)
+
+
+@pytest.mark.parametrize(
+    "image",
+    [np.zeros((20, 20)), np.full((20, 20), np.nan), np.full((20, 20), np.inf)],
+)
+def test_p7_nothing_to_mesh_gives_empty_mesh(image):
+    m = triangulate(image, background=0)
+    assert m.is_empty and "background" in m.stats.reason
+    assert m.vertices.shape == (0, 3) and m.faces.shape == (0, 3)
+
+
+def test_p7_single_valid_row_is_collinear():
+    d = np.full((20, 20), np.nan)
+    d[7, :] = 5.0
+    m = triangulate(d, fill_gaps=False)
+    assert m.is_empty and m.stats.reason
+
+
+def test_pinhole_camera_mesh_is_valid_and_metric():
+    sc = scenes.box((120, 160))
+    cam = Pinhole(100.0, 100.0, 80.0, 60.0, 0.01)
+    m = triangulate(sc.depth, camera=cam)
+    assert_valid_mesh(m)
+    z = sc.depth[m.pixels[:, 0], m.pixels[:, 1]] * 0.01
+    np.testing.assert_allclose(m.vertices[:, 2], z)
+    np.testing.assert_allclose(m.vertices[:, 0], (m.pixels[:, 1] - 80.0) * z / 100.0)
+    e = evaluate(m, sc.depth)
+    assert e.relative_error < 2.0
+
+
+def test_stage_functions_compose_to_triangulate():
+    sc = scenes.pyramid((90, 100))
+    p = MeshParams(samples=8)
+    depth, valid = rangemesh.fill_gaps(*to_depth_and_mask(sc.depth))
+    grid = rangemesh.sample_grid(depth, valid, p)
+    tri = rangemesh.delaunay_mesh(grid, depth, valid)
+    flipped = rangemesh.flip_edges(tri, depth, valid, p)
+    whole = triangulate(sc.depth, p)
+    same_mesh(flipped, whole)
+    assert np.array_equal(canonical_faces(tri), canonical_faces(triangulate(sc.depth, p,
+                                                                            flips=None)))
+
+
+# ---------------------------------------------------------------- real images
+
+
+@pytest.mark.parametrize("rel, background", REAL_IMAGES, ids=[r for r, _ in REAL_IMAGES])
+def test_real_images(shared_data, rel, background):
+    img = load(shared_data, rel)
+    _, valid0 = to_depth_and_mask(img, background)
+    for flips in ("disparity", "error"):
+        m = triangulate(img, background=background, tiles=4, samples=10, flips=flips)
+        _, valid = rangemesh.fill_gaps(*to_depth_and_mask(img, background))
+        assert_valid_mesh(m, valid, check_overlap=flips == "disparity")
+        e = evaluate(m, img, background=background)
+        assert e.valid_pixels == valid0.sum()
+        assert 0 <= e.relative_error < 15, e  # sane: a coarse mesh, not garbage
+        assert e.uncovered < 50
+        assert m.stats.vertices > 100

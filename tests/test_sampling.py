@@ -1,0 +1,125 @@
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from rangemesh import MeshParams, curvature, fill_gaps, sample_grid, sampling_weights
+from rangemesh.sampling import tile_bounds
+
+from . import reference as ref
+
+
+def test_fill_gaps_by_hand():
+    d = np.arange(25.0).reshape(5, 5)
+    v = np.ones((5, 5), bool)
+    v[2, 2] = False  # surrounded: filled with the mean of 8 neighbours = 12
+    v[0, 4] = False  # on the border: never filled
+    v[3, 3] = v[3, 2] = False  # a 2-pixel hole stays
+    out, ov = fill_gaps(d, v)
+    assert not ov[0, 4] and not ov[3, 3] and not ov[3, 2]
+    # (2,2) has background neighbours (3,3),(3,2): not surrounded any more
+    assert not ov[2, 2]
+    v2 = np.ones((5, 5), bool)
+    v2[2, 2] = False
+    out, ov = fill_gaps(d, v2)
+    assert ov[2, 2] and out[2, 2] == 12.0
+
+
+@given(st.integers(0, 1000))
+def test_fill_gaps_matches_reference(seed):
+    rng = np.random.default_rng(seed)
+    d = rng.uniform(0, 9, (9, 11))
+    v = rng.random((9, 11)) > 0.15
+    a, av = fill_gaps(d, v)
+    b, bv = ref.fill_gaps(d, v)
+    assert np.array_equal(av, bv)
+    np.testing.assert_allclose(a[av], b[bv], rtol=1e-12)
+
+
+@given(st.integers(0, 1000), st.integers(1, 3))
+def test_curvature_matches_reference(seed, levels):
+    rng = np.random.default_rng(seed)
+    d = rng.uniform(0, 9, (13, 10))
+    v = rng.random((13, 10)) > 0.2
+    K = curvature(d, v, levels)
+    jump = d[v].max() - d[v].min()
+    want = np.zeros_like(d)
+    for level in range(levels):
+        s = 1 << level
+        k = ref.curvature_one_level(d[::s, ::s], v[::s, ::s], jump)
+        want += k[np.arange(13)[:, None] >> level, np.arange(10)[None, :] >> level]
+    np.testing.assert_allclose(K, want, rtol=1e-12, atol=1e-12)
+
+
+def test_curvature_by_hand():
+    # z = c^2 along a row: second difference 2 inside, 0 at the borders; rows add nothing.
+    d = np.tile(np.arange(6.0) ** 2, (3, 1))
+    K = curvature(d, np.ones_like(d, bool), levels=1)
+    assert np.array_equal(K, [[0, 2, 2, 2, 2, 0]] * 3)
+
+
+def test_curvature_ignores_background_value():
+    d = np.full((7, 7), 50.0)
+    v = np.ones_like(d, bool)
+    v[3, 3] = False
+    for marker in (0.0, 1e9, -5.0):
+        dd = d.copy()
+        dd[3, 3] = marker
+        assert np.array_equal(curvature(dd, v), curvature(d, v))
+
+
+def test_weights_uniform_and_floor():
+    d = np.add.outer(np.arange(20.0), np.arange(30.0))  # a plane: K = 0 everywhere
+    v = np.ones_like(d, bool)
+    f = sampling_weights(d, v, MeshParams())
+    assert np.allclose(f, np.log(20.0))
+    assert np.array_equal(sampling_weights(d, v, MeshParams(sampling="uniform")), np.ones_like(d))
+
+
+def test_tile_bounds_by_hand():
+    assert tile_bounds(9, 4).tolist() == [0, 2, 4, 6, 8]
+    assert tile_bounds(10, 4).tolist() == [0, 2, 5, 7, 9]  # 2.25, 4.5 -> 5 (half up), 6.75
+    with pytest.raises(ValueError, match="tiles"):
+        tile_bounds(4, 4)
+
+
+def test_uniform_grid_is_rounded_linspace():
+    d = np.zeros((41, 61))
+    v = np.ones_like(d, bool)
+    g = sample_grid(d, v, MeshParams(tiles=(2, 3), samples=(5, 6), sampling="uniform"))
+    assert g.shape == (9, 16, 2)
+    # rows: tiles 0..20, 20..40, five samples each -> every 5 rows
+    assert g[:, 0, 0].tolist() == list(range(0, 41, 5))
+    # cols: tiles 0..20, 20..40, 40..60, six samples -> every 4 columns
+    assert g[0, :, 1].tolist() == list(range(0, 61, 4))
+
+
+@given(st.integers(0, 10_000), st.integers(1, 3), st.integers(1, 3), st.integers(2, 6),
+       st.integers(2, 6))
+def test_sample_grid_matches_reference(seed, tv, th, rs, zs):
+    rng = np.random.default_rng(seed)
+    h, w = rng.integers(tv + 1, 25), rng.integers(th + 1, 25)
+    d = rng.uniform(0, 100, (h, w))
+    v = rng.random((h, w)) > 0.1
+    p = MeshParams(tiles=(tv, th), samples=(rs, zs))
+    f = sampling_weights(d, v, p)
+    got = sample_grid(d, v, p)
+    assert got.shape == p.grid_shape + (2,)
+    assert np.array_equal(got, ref.sample_grid(f, (tv, th), (rs, zs)))
+    # tile borders: the first and last grid rows/cols lie on the image border
+    assert (got[0, :, 0] == 0).all() and (got[-1, :, 0] == h - 1).all()
+    assert (got[:, 0, 1] == 0).all() and (got[:, -1, 1] == w - 1).all()
+
+
+def test_adaptive_samples_crowd_at_a_jump():
+    c = np.arange(101.0)
+    d = np.tile(np.where(c < 50, 0.0, 100.0), (21, 1))  # a step between columns 49 and 50
+    v = np.ones_like(d, bool)
+    near = {}
+    for mode in ("adaptive", "uniform"):
+        g = sample_grid(d, v, MeshParams(tiles=1, samples=(3, 41), sampling=mode))
+        near[mode] = int(np.sum(np.abs(g[1, :, 1] - 49.5) <= 4))
+    # uniform: round(2.5 k) = ..., 45, 48, 50, 53, 55 -> 3 within 4 px of 49.5; the log
+    # weights at the jump (about 6.2 against log 20 = 3.0) pull more columns in
+    assert near["uniform"] == 3
+    assert near["adaptive"] > near["uniform"]

@@ -60,7 +60,7 @@ def main(argv=None):
     print("| image | method | sampled | vertices | edges | triangles | flipped | sampling "
           "| triangulation | flipping | total | rel. error % | edge-band % |")
     print("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
-    for rel, bg, note in IMAGES:
+    for rel, bg, _note in IMAGES:
         path = args.data / rel
         if not path.exists():
             print(f"skipping {rel}: not found under {args.data}", file=sys.stderr)

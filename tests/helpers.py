@@ -50,7 +50,8 @@ def assert_valid_mesh(mesh, valid=None, *, check_overlap=True):
     n = len(v)
     dkey = directed[:, 0] * n + directed[:, 1]
     assert np.unique(dkey).size == dkey.size, "a directed edge appears twice"
-    ukey = np.minimum(directed[:, 0], directed[:, 1]) * n + np.maximum(directed[:, 0], directed[:, 1])
+    lo, hi = np.minimum(directed[:, 0], directed[:, 1]), np.maximum(directed[:, 0], directed[:, 1])
+    ukey = lo * n + hi
     _, counts = np.unique(ukey, return_counts=True)
     assert counts.max() <= 2, "an edge has more than two triangles"
     n_edges = counts.size
@@ -129,9 +130,11 @@ def assert_no_overlap(p, f, shape):
 
 
 def canonical_faces(mesh):
-    """Faces as pixel triples, rotation-normalised and sorted: compare meshes regardless of order."""
+    """Faces as pixel triples, rotation-normalised and sorted (order-free comparison)."""
     lin = mesh.pixels[:, 0].astype(np.int64) * mesh.image_shape[1] + mesh.pixels[:, 1]
     tri = lin[mesh.faces]
     k = np.argmin(tri, axis=1)
-    rolled = np.stack([np.roll(row, -s) for row, s in zip(tri, k, strict=True)]) if len(tri) else tri
+    if len(tri) == 0:
+        return tri
+    rolled = np.stack([np.roll(row, -s) for row, s in zip(tri, k, strict=True)])
     return rolled[np.lexsort(rolled.T[::-1])]

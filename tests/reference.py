@@ -141,7 +141,7 @@ def rendered_errors(mesh, depth, valid):
     p = mesh.pixels.astype(int)
     z = mesh.vertices[:, 2] / mesh.camera.kz
     errs = {}
-    for t, (a, b, c) in enumerate(mesh.faces.tolist()):
+    for a, b, c in mesh.faces.tolist():
         (ra, ca), (rb, cb), (rc, cc) = p[a], p[b], p[c]
         area = (rb - ra) * (cc - ca) - (cb - ca) * (rc - ra)
         for r in range(min(ra, rb, rc), max(ra, rb, rc) + 1):

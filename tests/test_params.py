@@ -1,3 +1,5 @@
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -13,7 +15,7 @@ def test_defaults_are_the_papers():
 
 def test_params_are_frozen_and_checked():
     p = MeshParams()
-    with pytest.raises(Exception):
+    with pytest.raises(dataclasses.FrozenInstanceError):
         p.delta = 3
     with pytest.raises(TypeError, match="unknown"):
         p.replace(gamma=500)

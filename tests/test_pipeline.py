@@ -124,8 +124,9 @@ def test_box_jump_is_kept_where_samples_straddle_it():
     e = evaluate(m, sc.depth, discontinuities=sc.discontinuities, band=3)
     assert_valid_mesh(m)
     assert e.uncovered == 0
-    from rangemesh import render_depth
     from scipy import ndimage
+
+    from rangemesh import render_depth
 
     pred, _ = render_depth(m)
     far = ~ndimage.binary_dilation(sc.discontinuities, iterations=8)

@@ -527,7 +527,7 @@ def _gain(x, edge_he, triangles, halfedges, pixels, vertices, depth, valid, cam,
 def flip_edges_kernel(triangles, halfedges, pixels, vertices, depth, valid, cam,
                       mode, threshold, delta, epsilon, max_angle, min_bend, quantum,
                       verdicts):
-    """Stage three (SPEC 3.3-3.6); edits `triangles` and `halfedges` in place.
+    r"""Stage three (SPEC 3.3-3.6); edits `triangles` and `halfedges` in place.
 
     mode 0: the paper's disparity tests; mode 1: error-based flips (gain > 0).
     Angles in radians. Returns the number of flips taken. `verdicts` (int64[7])
@@ -537,11 +537,11 @@ def flip_edges_kernel(triangles, halfedges, pixels, vertices, depth, valid, cam,
     Quad before and after a flip of AB (e0 in t0 = ABC, e1 in t1 = BAD)::
 
               C                      C
-            /   \\                  / | \\
-           /  t0 \\                /  |  \\
+            /   \                  / | \
+           /  t0 \                /  |  \
           A ----- B      ->       A t0|t1 B
-           \\  t1 /                \\  |  /
-            \\   /                  \\ | /
+           \  t1 /                \  |  /
+            \   /                  \ | /
               D                      D
 
     t0 becomes DCA and t1 becomes CDB; the new diagonal keeps the half-edge

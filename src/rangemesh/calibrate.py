@@ -55,7 +55,9 @@ def triangle_disparities(depth, labels, params=None, *, background=None, camera=
     params = resolve_params(params, overrides).replace(flips=None)
     labels = np.asarray(labels)
     if labels.shape != np.shape(depth):
-        raise ValueError(f"labels must have the shape of depth {np.shape(depth)}, got {labels.shape}")
+        raise ValueError(
+            f"labels must have the shape of depth {np.shape(depth)}, got {labels.shape}"
+        )
     if not np.issubdtype(labels.dtype, np.integer):
         raise TypeError(f"labels must be an integer array, got dtype {labels.dtype}")
     mesh = triangulate(depth, params, background=background, camera=camera)

@@ -155,4 +155,6 @@ def backproject(r, c, z, camera=None) -> np.ndarray:
     if isinstance(camera, Orthographic):
         return np.stack([camera.kx * r, camera.ky * c, camera.kz * z], axis=-1)
     zz = z * camera.depth_scale
-    return np.stack([(c - camera.cx) * zz / camera.fx, (r - camera.cy) * zz / camera.fy, zz], axis=-1)
+    x = (c - camera.cx) * zz / camera.fx
+    y = (r - camera.cy) * zz / camera.fy
+    return np.stack([x, y, zz], axis=-1)

@@ -184,7 +184,8 @@ def evaluate(mesh: Mesh, depth, *, background=None, discontinuities: np.ndarray 
         discontinuities = discontinuity_mask(d, valid)
     elif np.shape(discontinuities) != d.shape:
         raise ValueError(
-            f"discontinuities must have the image's shape {d.shape}, got {np.shape(discontinuities)}"
+            f"discontinuities must have the image's shape {d.shape}, "
+            f"got {np.shape(discontinuities)}"
         )
     if isinstance(band, bool) or not isinstance(band, (int, np.integer)) or band < 0:
         raise ValueError(f"band must be a whole number >= 0, got {band!r}")

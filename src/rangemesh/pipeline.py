@@ -5,8 +5,6 @@ from __future__ import annotations
 import dataclasses
 import time
 
-import numpy as np
-
 from .camera import as_camera
 from .flipping import flip_edges
 from .mesh import Mesh, Stats, empty_mesh
@@ -29,7 +27,9 @@ def resolve_params(params: MeshParams | None, overrides: dict) -> MeshParams:
     if params is None:
         params = MeshParams()
     elif not isinstance(params, MeshParams):
-        raise TypeError(f"params must be a rangemesh.MeshParams or None, got {type(params).__name__}")
+        raise TypeError(
+            f"params must be a rangemesh.MeshParams or None, got {type(params).__name__}"
+        )
     return params.replace(**overrides) if overrides else params
 
 
@@ -87,6 +87,7 @@ def triangulate(image, params: MeshParams | None = None, *, background=None, cam
 
     Examples
     --------
+    >>> import numpy as np
     >>> r, c = np.mgrid[0:40, 0:50]
     >>> depth = np.where(c < 25, 100.0 + c, 150.0 - c)        # a roof crease
     >>> mesh = triangulate(depth, tiles=2, samples=5)

@@ -1,30 +1,39 @@
-"""Command line: ``rangemesh demo`` and ``rangemesh mesh``.
+"""The ``rangemesh`` command: ``mesh``, ``info``, ``eval`` and ``demo``.
 
-User errors print one line on stderr and exit with status 2; no traceback.
+User errors print one line on stderr (``rangemesh: error: ...``) and exit
+with status 2; no traceback. Outputs are written atomically.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
-import os
+import math
 import sys
-import tempfile
+import time
 from pathlib import Path
 
 import numpy as np
 
 from . import __version__, scenes
 from .camera import Orthographic, Pinhole
+from .io import IMAGE_SUFFIXES, MESH_SUFFIXES, read_mesh, read_range_image, write_mesh
 from .metrics import evaluate
 from .params import MeshParams
 from .pipeline import triangulate
+from .prepare import to_depth_and_mask
+from .sampling import fill_gaps, sampling_weights
 
-__all__ = ["main"]
+__all__ = ["main", "build_parser", "guess_background"]
 
 
 class UserError(Exception):
     """A problem with the user's input, reported as one line."""
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message):  # one line, not the usage block
+        self.exit(2, f"{self.prog}: error: {message}\n")
 
 
 def _pair(text: str) -> tuple[int, int]:
@@ -32,11 +41,11 @@ def _pair(text: str) -> tuple[int, int]:
     try:
         vals = [int(p) for p in parts]
     except ValueError:
-        raise argparse.ArgumentTypeError(f"expected N or NxM, got {text!r}") from None
+        raise argparse.ArgumentTypeError(f"expected N or NxM with whole numbers, got {text!r}") from None
     if len(vals) == 1:
         vals = vals * 2
-    if len(vals) != 2:
-        raise argparse.ArgumentTypeError(f"expected N or NxM, got {text!r}")
+    if len(vals) != 2 or min(vals) < 1:
+        raise argparse.ArgumentTypeError(f"expected N or NxM with N, M >= 1, got {text!r}")
     return vals[0], vals[1]
 
 
@@ -45,7 +54,7 @@ def _floats(n):
         try:
             vals = [float(p) for p in text.split(",")]
         except ValueError:
-            raise argparse.ArgumentTypeError(f"expected {n} comma-separated numbers") from None
+            raise argparse.ArgumentTypeError(f"expected {n} comma-separated numbers, got {text!r}") from None
         if len(vals) != n:
             raise argparse.ArgumentTypeError(f"expected {n} comma-separated numbers, got {text!r}")
         return vals
@@ -53,180 +62,358 @@ def _floats(n):
     return parse
 
 
+def _background(text: str):
+    t = text.lower()
+    if t in ("auto", "none", "nan"):
+        return t
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"expected a number, 'auto', 'none' or 'nan', got {text!r}"
+        ) from None
+
+
 def _flips(text):
-    return None if text.lower() in ("none", "off") else text
+    t = text.lower()
+    if t in ("none", "off"):
+        return None
+    if t not in ("disparity", "error"):
+        raise argparse.ArgumentTypeError(f"expected disparity, error or none, got {text!r}")
+    return t
+
+
+def guess_background(image: np.ndarray):
+    """What marks missing depth, by the usual conventions.
+
+    Integer images: 0 (depth PNGs, disparity maps and most scanners use it).
+    Float images: only NaN and infinities.
+
+    Parameters
+    ----------
+    image : (H, W) ndarray
+
+    Returns
+    -------
+    float or None
+    """
+    return 0 if np.issubdtype(image.dtype, np.integer) else None
+
+
+def _resolve_background(spec, image):
+    if spec == "auto":
+        return guess_background(image)
+    if spec in ("none", "nan"):
+        return None
+    return spec
+
+
+def _add_image_options(p):
+    p.add_argument("--background", type=_background, default="auto",
+                   help="value that marks missing depth: a number, 'none', or 'auto' "
+                        "(default: 0 for integer images, none for float; NaN/inf always)")
+
+
+def _add_camera_options(p):
+    c = p.add_argument_group("camera (how pixels become 3-D points)")
+    c.add_argument("--scale", type=_floats(3), metavar="KX,KY,KZ", default=None,
+                   help="orthographic, the paper's eq. 4: X=kx*r, Y=ky*c, Z=kz*value (default 1,1,1)")
+    c.add_argument("--intrinsics", type=_floats(4), metavar="FX,FY,CX,CY", default=None,
+                   help="pinhole depth camera; vertices become camera-frame points "
+                        "((c-cx)Z/fx, (r-cy)Z/fy, Z)")
+    c.add_argument("--depth-scale", type=float, default=None,
+                   help="with --intrinsics: Z = stored value x this (0.001 for mm, 0.0002 for TUM)")
 
 
 def _add_mesh_options(p):
     g = p.add_argument_group("the paper's parameters")
-    g.add_argument("--tiles", type=_pair, default=(4, 4),
-                   help="tiles VxH (rows x columns); neighbours share one line (default 4x4)")
-    g.add_argument("--samples", type=_pair, default=(10, 10),
-                   help="samples per tile RxZ; grid is ((R-1)V+1) x ((Z-1)H+1) (default 10x10)")
+    g.add_argument("--tiles", type=_pair, default=(4, 4), metavar="VxH",
+                   help="tiles, rows x columns; neighbours share one line of pixels (default 4x4)")
+    g.add_argument("--samples", type=_pair, default=(10, 10), metavar="RxZ",
+                   help="samples per tile; the grid is ((R-1)V+1) x ((Z-1)H+1) points "
+                        "(default 10x10)")
     g.add_argument("--sampling", choices=["adaptive", "uniform"], default="adaptive",
-                   help="curvature-driven sampling (paper) or the uniform baseline")
-    g.add_argument("--flips", type=_flips, default="disparity",
-                   choices=["disparity", "error", None],
-                   help="flip rule: disparity (paper), error (gain > 0), or none")
+                   help="place samples by log-curvature (paper) or evenly (baseline)")
+    g.add_argument("--flips", type=_flips, default="disparity", metavar="{disparity,error,none}",
+                   help="edge flips: disparity tests (paper), error gain > 0, or none")
     g.add_argument("--delta", type=float, default=20.0,
-                   help="upper disparity threshold Delta, degrees (default 20)")
+                   help="upper disparity threshold Delta: above it a triangle is off its "
+                        "surroundings, degrees (default 20)")
     g.add_argument("--epsilon", type=float, default=0.3,
-                   help="test 2: minimum disparity change, degrees (default 0.3)")
+                   help="test 2: smallest disparity change worth a flip, degrees (default 0.3)")
     g.add_argument("--max-angle", type=float, default=160.0,
-                   help="test 3: internal angle of a degenerate triangle, degrees (default 160)")
+                   help="test 3: a triangle with an angle above this is degenerate, degrees "
+                        "(default 160)")
     g.add_argument("--min-bend", type=float, default=5.0,
-                   help="test 4: minimum bend between the new triangles, degrees (default 5)")
+                   help="test 4: new triangles must bend more than this, degrees (default 5)")
     g.add_argument("--curvature-floor", type=float, default=20.0,
-                   help="curvature floor on a 0..255 depth scale (default 20)")
+                   help="curvature floor on a 0..255 depth scale; flat areas still get points "
+                        "(default 20)")
     g.add_argument("--levels", type=int, default=2,
-                   help="resolutions added into the curvature image (default 2)")
-    c = p.add_argument_group("camera")
-    c.add_argument("--scale", type=_floats(3), metavar="KX,KY,KZ", default=None,
-                   help="orthographic mapping X=kx*r, Y=ky*c, Z=kz*depth (default 1,1,1)")
-    c.add_argument("--intrinsics", type=_floats(4), metavar="FX,FY,CX,CY", default=None,
-                   help="pinhole camera; vertices become metric camera-frame points")
-    c.add_argument("--depth-scale", type=float, default=1.0,
-                   help="with --intrinsics: stored value x this = Z (e.g. 0.001 for mm)")
+                   help="resolutions summed into the curvature image (default 2: full + half)")
+    g.add_argument("--no-fill-gaps", action="store_true",
+                   help="keep single-pixel holes instead of filling them with the 8-neighbour mean")
+    _add_camera_options(p)
+
+
+def _add_output_options(p):
+    p.add_argument("--quiet", action="store_true", help="print nothing on success")
+    p.add_argument("--json", action="store_true", help="print the figures as JSON on stdout")
 
 
 def _params(args) -> MeshParams:
     return MeshParams(tiles=args.tiles, samples=args.samples, sampling=args.sampling,
                       flips=args.flips, delta=args.delta, epsilon=args.epsilon,
                       max_angle=args.max_angle, min_bend=args.min_bend,
-                      curvature_floor=args.curvature_floor, levels=args.levels)
+                      curvature_floor=args.curvature_floor, levels=args.levels,
+                      fill_gaps=not args.no_fill_gaps)
 
 
 def _camera(args):
     if args.intrinsics is not None:
-        return Pinhole(*args.intrinsics, depth_scale=args.depth_scale)
+        if args.scale is not None:
+            raise UserError("--scale and --intrinsics exclude each other")
+        scale = 1.0 if args.depth_scale is None else args.depth_scale
+        return Pinhole(*args.intrinsics, depth_scale=scale)
+    if args.depth_scale is not None:
+        raise UserError("--depth-scale goes with --intrinsics (use --scale for orthographic)")
     if args.scale is not None:
         return Orthographic(*args.scale)
     return Orthographic()
 
 
-def _read(path: Path) -> np.ndarray:
-    if not path.exists():
-        raise UserError(f"{path}: no such file")
-    suffix = path.suffix.lower()
+def _read_image(path) -> np.ndarray:
     try:
-        if suffix == ".npy":
-            return np.load(path, allow_pickle=False)
-        if suffix in (".tif", ".tiff"):
-            import tifffile
-
-            return tifffile.imread(path)
-        import imageio.v3 as iio
-
-        return iio.imread(path)
-    except Exception as exc:  # readers raise many types; the user needs one line
-        raise UserError(f"{path}: cannot read it as an image ({exc})") from None
+        return read_range_image(path)
+    except (FileNotFoundError, ValueError) as exc:
+        raise UserError(str(exc)) from None
 
 
-def _write(mesh, path: Path):
-    """Write through trimesh into a temporary file, then rename: never a half-written file."""
-    known = (".ply", ".obj", ".off", ".stl", ".glb")
-    if path.suffix.lower() not in known:
-        raise UserError(f"{path}: unknown mesh format; use one of {', '.join(known)}")
-    if not path.parent.exists():
-        raise UserError(f"{path.parent}: folder does not exist")
-    data = mesh.to_trimesh().export(file_type=path.suffix.lower()[1:])
-    if isinstance(data, str):
-        data = data.encode()
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            fh.write(data)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+def _progress(args, total, desc):
+    from tqdm import tqdm
+
+    # Shown only when the work takes longer than a second (tqdm's delay).
+    return tqdm(total=total, desc=desc, file=sys.stderr, delay=1.0, leave=False,
+                disable=args.quiet or args.json or not sys.stderr.isatty(), unit="step")
 
 
-def _report(mesh, ev, args, out):
+def _clean(obj):
+    """JSON has no NaN: write null instead."""
+    if isinstance(obj, float) and not math.isfinite(obj):
+        return None
+    if isinstance(obj, dict):
+        return {k: _clean(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_clean(v) for v in obj]
+    return obj
+
+
+def _say(args, lines):
+    if not (args.quiet or args.json):
+        for line in lines:
+            print(line, file=sys.stderr)
+
+
+def _mesh_lines(mesh, ev, outputs):
     s = mesh.stats
-    if args.json:
-        print(json.dumps({"stats": s.to_dict(), "evaluation": ev.to_dict() if ev else None}))
-        return
-    if args.quiet:
-        return
-    t = s.seconds
-    print(f"vertices {s.vertices}  edges {s.edges}  triangles {s.triangles}  "
-          f"flipped {s.flipped_edges}", file=sys.stderr)
-    print("time " + "  ".join(f"{k} {1000 * v:.1f} ms" for k, v in t.items()), file=sys.stderr)
+    lines = [f"vertices {s.vertices}  edges {s.edges}  triangles {s.triangles}  "
+             f"flipped edges {s.flipped_edges}  (grid {s.grid_shape[0]}x{s.grid_shape[1]}, "
+             f"{s.sampled_points} valid samples)",
+             "time " + "  ".join(f"{k} {1000 * v:.1f} ms" for k, v in s.seconds.items())]
     if ev is not None:
-        print(f"relative error {ev.relative_error:.3f} %  rms {ev.rms_error:.3f} %  "
-              f"max {ev.max_error:.2f} %  uncovered {ev.uncovered:.2f} %", file=sys.stderr)
-    if s.reason:
-        print(f"empty mesh: {s.reason}", file=sys.stderr)
-    if out:
-        print(f"wrote {out}", file=sys.stderr)
+        lines.append(f"relative error {ev.relative_error:.4f} %  rms {ev.rms_error:.4f} %  "
+                     f"max {ev.max_error:.3f} %  edge band {ev.edge_band_error:.4f} %  "
+                     f"uncovered {ev.uncovered:.2f} %")
+    lines += [f"wrote {o}" for o in outputs]
+    return lines
 
 
-def _cmd_mesh(args):
-    img = _read(Path(args.image))
-    bg = args.background
-    try:
-        mesh = triangulate(img, _params(args), background=bg, camera=_camera(args))
-    except (ValueError, TypeError) as exc:
-        raise UserError(f"{args.image}: {exc}") from None
-    if mesh.is_empty:
-        raise UserError(f"{args.image}: nothing to mesh: {mesh.stats.reason}")
-    ev = evaluate(mesh, img, background=bg)
-    if args.output:
-        _write(mesh, Path(args.output))
-    _report(mesh, ev, args, args.output)
+def _run_mesh(args, image, name, bg, outputs_for):
+    params = _params(args)
+    camera = _camera(args)
+    with _progress(args, 4, f"meshing {name}") as bar:
+        try:
+            mesh = triangulate(image, params, background=bg, camera=camera)
+        except (ValueError, TypeError) as exc:
+            raise UserError(f"{name}: {exc}") from None
+        bar.update(1)
+        if mesh.is_empty:
+            raise UserError(f"{name}: nothing to mesh: {mesh.stats.reason}")
+        ev = evaluate(mesh, image, background=bg)
+        bar.update(1)
+        written = []
+        out, preview = outputs_for
+        if out:
+            try:
+                write_mesh(mesh, out, ascii=args.ascii, pixels=args.pixels)
+            except (ValueError, FileNotFoundError) as exc:
+                raise UserError(str(exc)) from None
+            written.append(out)
+        bar.update(1)
+        if preview:
+            from .preview import save_preview
+
+            depth, valid = to_depth_and_mask(image, bg)
+            if params.fill_gaps:
+                depth, valid = fill_gaps(depth, valid)
+            try:
+                save_preview(mesh, depth, valid, preview, evaluation=ev, title=Path(name).name,
+                             weights=sampling_weights(depth, valid, params))
+            except FileNotFoundError as exc:
+                raise UserError(str(exc)) from None
+            written.append(preview)
+        bar.update(1)
+    if args.json:
+        print(json.dumps(_clean({"input": name, "background": bg, "stats": mesh.stats.to_dict(),
+                                 "evaluation": ev.to_dict(),
+                                 "outputs": [str(w) for w in written]})))
+    _say(args, _mesh_lines(mesh, ev, written))
     return 0
 
 
+def _check_outputs(args):
+    for p in (args.output, getattr(args, "preview", None)):
+        if p and not Path(p).resolve().parent.is_dir():
+            raise UserError(f"{p}: folder {Path(p).parent} does not exist")
+    if args.output and Path(args.output).suffix.lower() not in MESH_SUFFIXES:
+        raise UserError(f"{args.output}: unknown mesh format; use one of {', '.join(MESH_SUFFIXES)}")
+    if args.output and Path(args.output).suffix.lower() != ".ply" and (args.ascii or args.pixels):
+        raise UserError("--ascii and --pixels apply to .ply output only")
+    if getattr(args, "preview", None) and Path(args.preview).suffix.lower() != ".png":
+        raise UserError(f"{args.preview}: the preview is a PNG file")
+
+
+def _cmd_mesh(args):
+    _check_outputs(args)
+    image = _read_image(args.image)
+    bg = _resolve_background(args.background, image)
+    return _run_mesh(args, image, args.image, bg, (args.output, args.preview))
+
+
 def _cmd_demo(args):
-    sc = scenes.pyramid((160, 200), noise=0.0)
-    box = scenes.box((160, 200))
-    depth = np.where(box.labels == 1, box.depth, sc.depth)
-    mesh = triangulate(depth, _params(args), camera=_camera(args))
-    ev = evaluate(mesh, depth)
-    out = Path(args.output)
-    _write(mesh, out)
-    _report(mesh, ev, args, out)
+    _check_outputs(args)
+    # A box standing on a plane in front of a four-sided pyramid: jump and crease edges.
+    shape = (160, 200)
+    pyr = scenes.pyramid(shape, height=70.0)
+    box = scenes.box(shape, height=40.0)
+    depth = np.where(box.labels == 1, box.depth + 50.0, pyr.depth)
+    return _run_mesh(args, depth, "demo scene", None, (args.output, args.preview))
+
+
+def _cmd_info(args):
+    image = _read_image(args.image)
+    bg = _resolve_background(args.background, image)
+    depth, valid = to_depth_and_mask(image, bg)
+    info = {
+        "file": args.image,
+        "shape": list(image.shape),
+        "dtype": str(image.dtype),
+        "background": bg if bg is not None else "NaN/inf only",
+        "background_guessed": args.background == "auto",
+        "valid_pixels": int(valid.sum()),
+        "valid_share_percent": 100.0 * float(valid.mean()),
+        "nan_or_inf_pixels": int((~np.isfinite(image)).sum()) if image.dtype.kind == "f" else 0,
+        "depth_min": float(depth[valid].min()) if valid.any() else None,
+        "depth_max": float(depth[valid].max()) if valid.any() else None,
+        "distinct_values": int(np.unique(depth[valid]).size) if valid.any() else 0,
+    }
+    if args.json:
+        print(json.dumps(_clean(info)))
+        return 0
+    how = "guessed" if info["background_guessed"] else "given"
+    print(f"{args.image}: {image.shape[0]} rows x {image.shape[1]} cols, {image.dtype}")
+    print(f"background ({how}): {info['background']}; valid pixels {info['valid_pixels']} "
+          f"({info['valid_share_percent']:.1f} %)")
+    if valid.any():
+        print(f"depth range {info['depth_min']:g} .. {info['depth_max']:g} "
+              f"({info['distinct_values']} distinct values)")
+    return 0
+
+
+def _cmd_eval(args):
+    image = _read_image(args.image)
+    bg = _resolve_background(args.background, image)
+    try:
+        mesh = read_mesh(args.mesh, camera=_camera(args), image_shape=image.shape)
+        ev = evaluate(mesh, image, background=bg)
+    except (FileNotFoundError, ValueError) as exc:
+        raise UserError(str(exc)) from None
+    if args.json:
+        print(json.dumps(_clean({"image": args.image, "mesh": args.mesh, "vertices": len(mesh.vertices),
+                                 "triangles": len(mesh.faces), **ev.to_dict()})))
+        return 0
+    print(f"{args.mesh}: {len(mesh.vertices)} vertices, {len(mesh.faces)} triangles "
+          f"against {args.image}")
+    print(f"relative error {ev.relative_error:.4f} %  rms {ev.rms_error:.4f} %  "
+          f"max {ev.max_error:.3f} %  edge band {ev.edge_band_error:.4f} %  "
+          f"uncovered {ev.uncovered:.2f} %")
     return 0
 
 
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of the ``rangemesh`` command."""
-    p = argparse.ArgumentParser(
+    p = _Parser(
         prog="rangemesh",
         description="Discontinuity-preserving adaptive triangle meshes from range images "
-                    "(Garcia & Sappa 2004).",
+                    "(Garcia & Sappa, IEEE SMC-B 2004).",
     )
     p.add_argument("--version", action="version", version=f"rangemesh {__version__}")
-    sub = p.add_subparsers(dest="command", required=True)
-    m = sub.add_parser("mesh", help="mesh one range image")
-    m.add_argument("image", help="range image: .npy, .png, .pgm/.ppm, .tif")
-    m.add_argument("-o", "--output", help="mesh file to write: .ply .obj .off .stl .glb")
-    m.add_argument("--background", type=float, default=None,
-                   help="value that marks missing depth (NaN always does)")
+    sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
+    m = sub.add_parser("mesh", help="mesh one range image",
+                       description="Mesh one range image; print the figures on stderr.")
+    m.add_argument("image", help=f"range image ({' '.join(IMAGE_SUFFIXES)})")
+    m.add_argument("-o", "--output", help=f"mesh file to write ({' '.join(MESH_SUFFIXES)})")
+    m.add_argument("--preview", help="PNG picture: wireframe, samples, shaded mesh")
+    m.add_argument("--ascii", action="store_true", help="PLY only: text instead of binary")
+    m.add_argument("--pixels", action="store_true",
+                   help="PLY only: keep each vertex's (row, col) as properties row, col")
+    _add_image_options(m)
     _add_mesh_options(m)
-    d = sub.add_parser("demo", help="mesh a built-in synthetic scene (no input needed)")
-    d.add_argument("-o", "--output", default="demo.ply", help="mesh file to write")
+    _add_output_options(m)
+
+    d = sub.add_parser("demo", help="mesh a built-in synthetic scene (no input needed)",
+                       description="Mesh a built-in scene (a box and a pyramid) and write the "
+                                   "mesh and a preview picture.")
+    d.add_argument("-o", "--output", default="demo.ply", help="mesh file (default demo.ply)")
+    d.add_argument("--preview", default="demo-preview.png",
+                   help="PNG picture (default demo-preview.png)")
+    d.add_argument("--ascii", action="store_true", help="PLY only: text instead of binary")
+    d.add_argument("--pixels", action="store_true", help="PLY only: keep (row, col) per vertex")
     _add_mesh_options(d)
-    for q in (m, d):
-        q.add_argument("--quiet", action="store_true", help="print nothing on success")
-        q.add_argument("--json", action="store_true", help="print statistics as JSON on stdout")
+    _add_output_options(d)
+
+    i = sub.add_parser("info", help="describe a range image",
+                       description="Size, dtype, valid share, depth range and what marks "
+                                   "missing depth.")
+    i.add_argument("image")
+    _add_image_options(i)
+    i.add_argument("--json", action="store_true", help="print as JSON on stdout")
+
+    e = sub.add_parser("eval", help="the paper's relative error of any mesh file",
+                       description="Compare a mesh file with its range image: relative error "
+                                   "(mean |depth - mesh| / depth range), RMS, max, edge band, "
+                                   "uncovered share. Give the camera the mesh was made with.")
+    e.add_argument("image")
+    e.add_argument("mesh", help=f"mesh file ({' '.join(MESH_SUFFIXES)})")
+    _add_image_options(e)
+    _add_camera_options(e)
+    e.add_argument("--json", action="store_true", help="print as JSON on stdout")
     return p
 
 
 def main(argv=None) -> int:
     """Entry point of the ``rangemesh`` command; returns the exit status."""
     args = build_parser().parse_args(argv)
+    commands = {"mesh": _cmd_mesh, "demo": _cmd_demo, "info": _cmd_info, "eval": _cmd_eval}
+    t0 = time.perf_counter()
     try:
-        if args.command == "mesh":
-            return _cmd_mesh(args)
-        return _cmd_demo(args)
+        return commands[args.command](args)
     except UserError as exc:
         print(f"rangemesh: error: {exc}", file=sys.stderr)
         return 2
-    except (ValueError, TypeError) as exc:
-        print(f"rangemesh: error: {exc}", file=sys.stderr)
-        return 2
+    except KeyboardInterrupt:
+        print(f"rangemesh: interrupted after {time.perf_counter() - t0:.1f} s", file=sys.stderr)
+        return 130
 
 
 if __name__ == "__main__":  # pragma: no cover

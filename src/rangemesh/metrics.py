@@ -62,9 +62,18 @@ def _image_coords(mesh: Mesh) -> tuple[np.ndarray, np.ndarray]:
     cam = mesh.camera
     v = mesh.vertices
     if isinstance(cam, Orthographic):
-        return v[:, 0] / cam.kx, v[:, 1] / cam.ky
-    with np.errstate(divide="ignore", invalid="ignore"):
-        return v[:, 1] * cam.fy / v[:, 2] + cam.cy, v[:, 0] * cam.fx / v[:, 2] + cam.cx
+        r, c = v[:, 0] / cam.kx, v[:, 1] / cam.ky
+    else:
+        with np.errstate(divide="ignore", invalid="ignore"):
+            r, c = v[:, 1] * cam.fy / v[:, 2] + cam.cy, v[:, 0] * cam.fx / v[:, 2] + cam.cx
+    # Vertices read back from float32 files project a hair off their pixel; snap them
+    # so that coverage along shared edges is decided exactly as for the original mesh.
+    return _snap(r), _snap(c)
+
+
+def _snap(x: np.ndarray, tol: float = 1e-3) -> np.ndarray:
+    near = np.round(x)
+    return np.where(np.abs(x - near) < tol, near, x)
 
 
 def render_depth(mesh: Mesh, shape: tuple[int, int] | None = None) -> tuple[np.ndarray, np.ndarray]:

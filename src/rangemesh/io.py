@@ -1,0 +1,273 @@
+"""Reading range images and reading/writing mesh files, through well-kept libraries.
+
+Range images: ``.npy`` (NumPy), PNG/PGM/PPM/PFM (imageio with Pillow: 8- and
+16-bit, ASCII and binary PNM), TIFF (tifffile: integer and float) and the
+``z`` channel of organised ``.pcd`` point clouds (pypcd4, an optional extra).
+
+Meshes: PLY through plyfile (binary by default, ASCII on request, optional
+per-vertex ``row``/``col``), OBJ, OFF, STL and GLB through trimesh. Every file
+is written to a temporary file in the target folder and renamed into place,
+so a failed run never leaves a half-written file.
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from contextlib import contextmanager
+from pathlib import Path
+
+import numpy as np
+
+from .camera import Orthographic
+from .mesh import Mesh, Stats, count_edges
+
+__all__ = [
+    "IMAGE_SUFFIXES",
+    "MESH_SUFFIXES",
+    "read_range_image",
+    "write_mesh",
+    "read_mesh",
+    "atomic_path",
+]
+
+IMAGE_SUFFIXES = (".npy", ".png", ".pgm", ".ppm", ".pnm", ".pfm", ".tif", ".tiff", ".pcd")
+MESH_SUFFIXES = (".ply", ".obj", ".off", ".stl", ".glb")
+
+
+def _suffix(path: Path) -> str:
+    return path.suffix.lower()
+
+
+def _read_pcd_z(path: Path) -> np.ndarray:
+    try:
+        from pypcd4 import PointCloud
+    except ImportError:  # an optional extra: say how to get it
+        raise ValueError(
+            f"{path}: reading .pcd files needs pypcd4 (pip install 'rangemesh[pcd]')"
+        ) from None
+    pc = PointCloud.from_path(path)
+    if "z" not in pc.fields:
+        raise ValueError(f"{path}: the point cloud has no 'z' field (fields: {pc.fields})")
+    h, w = int(pc.metadata.height), int(pc.metadata.width)
+    if h <= 1:
+        raise ValueError(f"{path}: the point cloud is not organised (height {h}); no image to mesh")
+    return pc.numpy(("z",)).reshape(h, w)
+
+
+def read_range_image(path: str | os.PathLike) -> np.ndarray:
+    """Read a range image as a 2-D array, values exactly as stored.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        ``.npy``, ``.png``, ``.pgm``/``.ppm``/``.pnm`` (ASCII or binary, 8 or
+        16 bit), ``.pfm``, ``.tif``/``.tiff`` (integer or float) or ``.pcd``
+        (organised cloud: its ``z`` field, NaN where there is no point).
+
+    Returns
+    -------
+    (H, W) ndarray
+        Integer or float values as stored in the file; no unit conversion.
+
+    Raises
+    ------
+    FileNotFoundError
+        If the file does not exist.
+    ValueError
+        If the suffix is unknown, the file cannot be decoded (truncated or
+        not an image), or it does not hold one 2-D channel.
+
+    Notes
+    -----
+    PGM files whose 16-bit payload is little-endian (against the format,
+    as NYU Depth v2's raw frames are) cannot be told apart from correct files;
+    they read byte-swapped, as in every standard reader.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"{path}: no such file")
+    suffix = _suffix(path)
+    if suffix not in IMAGE_SUFFIXES:
+        raise ValueError(f"{path}: unknown image type {suffix!r}; known: {', '.join(IMAGE_SUFFIXES)}")
+    try:
+        if suffix == ".npy":
+            arr = np.load(path, allow_pickle=False)
+        elif suffix in (".tif", ".tiff"):
+            import tifffile
+
+            arr = tifffile.imread(path)
+        elif suffix == ".pcd":
+            arr = _read_pcd_z(path)
+        else:
+            import imageio.v3 as iio
+
+            arr = iio.imread(path, plugin="pillow")  # no probing of other plugins
+    except ValueError as exc:
+        if str(exc).startswith(str(path)):
+            raise
+        raise ValueError(f"{path}: cannot read it as a range image ({exc})") from None
+    except Exception as exc:  # readers raise OSError, SyntaxError, struct.error...
+        raise ValueError(f"{path}: cannot read it as a range image ({type(exc).__name__}: {exc})") from None
+    arr = np.asarray(arr)
+    if arr.ndim == 3 and arr.shape[2] in (1,):
+        arr = arr[:, :, 0]
+    if arr.ndim != 2:
+        raise ValueError(f"{path}: a range image has one channel; this file holds an array of shape "
+                         f"{arr.shape}")
+    return arr
+
+
+@contextmanager
+def atomic_path(path: str | os.PathLike):
+    """Yield a temporary path beside `path`; rename it to `path` only on success.
+
+    Raises
+    ------
+    FileNotFoundError
+        If the target folder does not exist.
+    """
+    path = Path(path)
+    folder = path.parent if str(path.parent) else Path(".")
+    if not folder.is_dir():
+        raise FileNotFoundError(f"{folder}: folder does not exist")
+    fd, tmp = tempfile.mkstemp(dir=folder, prefix=f".{path.name}.", suffix=".part" + path.suffix)
+    os.close(fd)
+    try:
+        yield Path(tmp)
+        os.replace(tmp, path)
+    finally:
+        Path(tmp).unlink(missing_ok=True)
+
+
+def _write_ply(mesh: Mesh, tmp: Path, ascii: bool, pixels: bool):
+    from plyfile import PlyData, PlyElement
+
+    fields = [("x", "f4"), ("y", "f4"), ("z", "f4")]
+    if pixels:
+        fields += [("row", "i4"), ("col", "i4")]
+    vert = np.zeros(len(mesh.vertices), dtype=fields)
+    vert["x"], vert["y"], vert["z"] = mesh.vertices.T
+    if pixels:
+        vert["row"], vert["col"] = mesh.pixels.T
+    face = np.zeros(len(mesh.faces), dtype=[("vertex_indices", "i4", (3,))])
+    face["vertex_indices"] = mesh.faces
+    PlyData(
+        [PlyElement.describe(vert, "vertex"), PlyElement.describe(face, "face")],
+        text=ascii,
+        comments=[f"rangemesh image_shape {mesh.image_shape[0]} {mesh.image_shape[1]}"],
+    ).write(str(tmp))
+
+
+def write_mesh(mesh: Mesh, path: str | os.PathLike, *, ascii: bool = False,
+               pixels: bool = False) -> Path:
+    """Write a mesh file, chosen by suffix; atomically.
+
+    Parameters
+    ----------
+    mesh : Mesh
+    path : str or os.PathLike
+        ``.ply`` (plyfile), ``.obj``, ``.off``, ``.stl``, ``.glb`` (trimesh).
+    ascii : bool, default False
+        PLY only: write text instead of binary.
+    pixels : bool, default False
+        PLY only: add int32 vertex properties ``row`` and ``col``.
+
+    Returns
+    -------
+    Path
+        The path written.
+
+    Raises
+    ------
+    ValueError
+        For an unknown suffix, or ``ascii``/``pixels`` with another format.
+    FileNotFoundError
+        If the folder does not exist.
+
+    Notes
+    -----
+    Vertices are stored as float32 (what viewers expect). Faces keep the
+    mesh's orientation (counter-clockwise in the image plane). trimesh is
+    called with ``process=False`` so no vertex is merged or reordered.
+    """
+    path = Path(path)
+    suffix = _suffix(path)
+    if suffix not in MESH_SUFFIXES:
+        raise ValueError(f"{path}: unknown mesh format {suffix!r}; use one of "
+                         f"{', '.join(MESH_SUFFIXES)}")
+    if suffix != ".ply" and (ascii or pixels):
+        raise ValueError(f"{path}: ascii and pixels apply to PLY files only")
+    with atomic_path(path) as tmp:
+        if suffix == ".ply":
+            _write_ply(mesh, tmp, ascii, pixels)
+        else:
+            tm = mesh.to_trimesh()
+            data = tm.export(file_type=suffix[1:])
+            tmp.write_bytes(data.encode() if isinstance(data, str) else data)
+    return path
+
+
+def read_mesh(path: str | os.PathLike, *, camera=None, image_shape=None) -> Mesh:
+    """Read a mesh file into a `Mesh` (for `evaluate`).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Any of ``MESH_SUFFIXES``. PLY files written with ``pixels=True`` give
+        back their ``row``/``col``; otherwise pixels are empty and `evaluate`
+        projects the vertices with the camera.
+    camera : Orthographic or Pinhole, optional
+        The camera the mesh was made with (default orthographic 1, 1, 1).
+    image_shape : (int, int), optional
+        Shape of the range image; default from the PLY comment, else unknown
+        ``(0, 0)``.
+
+    Returns
+    -------
+    Mesh
+
+    Raises
+    ------
+    FileNotFoundError, ValueError
+        Missing or unreadable file.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"{path}: no such file")
+    suffix = _suffix(path)
+    if suffix not in MESH_SUFFIXES:
+        raise ValueError(f"{path}: unknown mesh format {suffix!r}; known: {', '.join(MESH_SUFFIXES)}")
+    pixels = np.zeros((0, 2), np.int32)
+    shape = (0, 0)
+    try:
+        if suffix == ".ply":
+            from plyfile import PlyData
+
+            ply = PlyData.read(str(path))
+            v = ply["vertex"].data
+            vertices = np.stack([v["x"], v["y"], v["z"]], axis=1).astype(np.float64)
+            faces = np.stack(ply["face"].data["vertex_indices"]).astype(np.int32) \
+                if len(ply["face"].data) else np.zeros((0, 3), np.int32)
+            if "row" in v.dtype.names and "col" in v.dtype.names:
+                pixels = np.stack([v["row"], v["col"]], axis=1).astype(np.int32)
+            for c in ply.comments:
+                parts = c.split()
+                if len(parts) == 4 and parts[:2] == ["rangemesh", "image_shape"]:
+                    shape = (int(parts[2]), int(parts[3]))
+        else:
+            import trimesh
+
+            tm = trimesh.load(path, process=False, force="mesh")
+            vertices = np.asarray(tm.vertices, np.float64)
+            faces = np.asarray(tm.faces, np.int32)
+    except Exception as exc:  # readers raise many kinds of errors on bad files
+        raise ValueError(f"{path}: cannot read it as a mesh ({type(exc).__name__}: {exc})") from None
+    if faces.ndim != 2 or (len(faces) and faces.shape[1] != 3):
+        raise ValueError(f"{path}: only triangle meshes are supported")
+    if image_shape is not None:
+        shape = tuple(int(x) for x in image_shape)
+    stats = Stats(vertices=len(vertices), triangles=len(faces), edges=count_edges(faces))
+    return Mesh(vertices=vertices, faces=faces, pixels=pixels,
+                camera=camera if camera is not None else Orthographic(),
+                image_shape=shape, stats=stats)

@@ -1,0 +1,106 @@
+"""A picture of a result: wireframe over the range image, samples, shaded mesh."""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+
+from .io import atomic_path
+from .mesh import Mesh
+from .metrics import Evaluation, render_depth
+
+__all__ = ["shade", "save_preview"]
+
+
+def shade(mesh: Mesh, shape=None) -> np.ndarray:
+    """Lambert shading of the mesh, seen from the camera, as an image.
+
+    Each pixel takes the shade of the face that covers it (flat shading, so
+    creases and jumps show as changes of tone); NaN where no face covers it.
+
+    Parameters
+    ----------
+    mesh : Mesh
+    shape : (int, int), optional
+        Default ``mesh.image_shape``.
+
+    Returns
+    -------
+    (H, W) ndarray of float64 in [0, 1]
+    """
+    _, face = render_depth(mesh, shape)
+    out = np.full(face.shape, np.nan)
+    if mesh.is_empty:
+        return out
+    p = mesh.vertices[mesh.faces]
+    n = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+    norm = np.linalg.norm(n, axis=1, keepdims=True)
+    n = np.divide(n, norm, out=np.zeros_like(n), where=norm > 0)
+    # Light from the viewer's side, a little from the top-left; the sign of the
+    # normal depends on the camera's handedness, so use |cos|.
+    light = np.array([-0.35, -0.35, 1.0])
+    light /= np.linalg.norm(light)
+    tone = 0.15 + 0.85 * np.abs(n @ light)
+    hit = face >= 0
+    out[hit] = tone[face[hit]]
+    return out
+
+
+def save_preview(mesh: Mesh, depth: np.ndarray, valid: np.ndarray, path: str | os.PathLike, *,
+                 evaluation: Evaluation | None = None, title: str = "",
+                 weights: np.ndarray | None = None) -> None:
+    """Save a three-panel PNG: wireframe on the range image, samples, shaded mesh.
+
+    Parameters
+    ----------
+    mesh : Mesh
+    depth : (H, W) ndarray of float64
+        Range image (background values are not shown).
+    valid : (H, W) ndarray of bool
+    path : str or os.PathLike
+        PNG file; written atomically.
+    evaluation : Evaluation, optional
+        Adds the relative error to the title.
+    title : str
+        Shown before the key figures.
+    weights : (H, W) ndarray, optional
+        Sampling weights shown under the sample points (default: the range image).
+    """
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    from matplotlib.figure import Figure
+
+    h, w = depth.shape
+    shown = np.where(valid, depth, np.nan)
+    s = mesh.stats
+    figs = [f"{s.vertices} vertices", f"{s.triangles} triangles", f"{s.flipped_edges} flips"]
+    if s.seconds.get("total"):
+        figs.append(f"{1000 * s.seconds['total']:.1f} ms")
+    if evaluation is not None:
+        figs.append(f"relative error {evaluation.relative_error:.3f} %")
+    aspect = h / max(w, 1)
+    fig = Figure(figsize=(15, max(3.0, 5.0 * aspect) + 0.6), dpi=100, layout="constrained")
+    axes = fig.subplots(1, 3)
+    cmap = matplotlib.colormaps["viridis"].with_extremes(bad="black")
+    axes[0].imshow(shown, cmap=cmap, interpolation="nearest")
+    if not mesh.is_empty:
+        axes[0].triplot(mesh.pixels[:, 1], mesh.pixels[:, 0], mesh.faces, lw=0.35,
+                        color="white", alpha=0.8)
+    axes[0].set_title("triangles over the range image")
+    under = shown if weights is None else np.where(valid, weights, np.nan)
+    grey = matplotlib.colormaps["Greys"].with_extremes(bad="white")
+    axes[1].imshow(under, cmap=grey, interpolation="nearest")
+    if not mesh.is_empty:
+        axes[1].scatter(mesh.pixels[:, 1], mesh.pixels[:, 0], s=2.0, c="tab:red", linewidths=0)
+    axes[1].set_title("sample points" + (" over the sampling weight" if weights is not None else ""))
+    gray = matplotlib.colormaps["gray"].with_extremes(bad="black")
+    axes[2].imshow(shade(mesh, (h, w)), cmap=gray, vmin=0, vmax=1, interpolation="nearest")
+    axes[2].set_title("shaded mesh (flat shading)")
+    for ax in axes:
+        ax.set_xticks([])
+        ax.set_yticks([])
+    fig.suptitle((title + ": " if title else "") + ", ".join(figs))
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, format="png")

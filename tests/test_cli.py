@@ -1,0 +1,277 @@
+"""End-to-end tests of the ``rangemesh`` command on real files, through its entry points."""
+
+import json
+import shutil
+import struct
+import subprocess
+import sys
+
+import meshio
+import numpy as np
+import pytest
+import trimesh
+
+import rangemesh
+from rangemesh.cli import main
+from rangemesh.io import read_range_image
+
+from .images import REAL_IMAGES, load
+
+
+def run(argv, capsys):
+    rc = main([str(a) for a in argv])
+    out, err = capsys.readouterr()
+    return rc, out, err
+
+
+def _glb_positions(path):
+    """Vertex positions and triangle indices of a GLB, decoded with pygltflib."""
+    import pygltflib
+
+    g = pygltflib.GLTF2().load(str(path))
+    blob = g.binary_blob()
+    prim = g.meshes[0].primitives[0]
+
+    def read(acc_id, dtype, width):
+        acc = g.accessors[acc_id]
+        view = g.bufferViews[acc.bufferView]
+        start = (view.byteOffset or 0) + (acc.byteOffset or 0)
+        n = acc.count * width
+        return np.frombuffer(blob, dtype=dtype, count=n, offset=start).reshape(acc.count, width)
+
+    pos = read(prim.attributes.POSITION, np.float32, 3)
+    comp = {5125: np.uint32, 5123: np.uint16}[g.accessors[prim.indices].componentType]
+    idx = read(prim.indices, comp, 1).reshape(-1, 3)
+    return pos, idx
+
+
+# ---------------------------------------------------------------- the issue's commands
+
+
+def test_mesh_png_to_ply_with_preview(shared_data, tmp_path, capsys):
+    src = shared_data / "middlebury/cones_disp2.png"
+    out, prev = tmp_path / "scan.ply", tmp_path / "scan-preview.png"
+    rc, _, err = run(["mesh", src, "-o", out, "--background", "0", "--tiles", "4x4",
+                      "--samples", "10x10", "--preview", prev], capsys)
+    assert rc == 0, err
+    assert "relative error" in err and f"wrote {out}" in err
+    want = rangemesh.triangulate(load(shared_data, "middlebury/cones_disp2.png"), background=0)
+    back = meshio.read(out)  # another library than plyfile, which wrote it
+    np.testing.assert_allclose(back.points, want.vertices, rtol=1e-6)
+    assert np.array_equal(back.cells_dict["triangle"], want.faces)
+    import imageio.v3 as iio
+
+    img = iio.imread(prev)
+    assert img.ndim == 3 and img.shape[1] > 1000 and img.std() > 10  # a real picture
+
+
+def test_mesh_pinhole_to_glb(shared_data, tmp_path, capsys):
+    src = shared_data / "rgbd/slambook2_ch7_1_depth.png"
+    out = tmp_path / "frame.glb"
+    rc, _, err = run(["mesh", src, "--depth-scale", "0.0002", "--intrinsics",
+                      "525,525,319.5,239.5", "-o", out], capsys)
+    assert rc == 0, err
+    img = load(shared_data, "rgbd/slambook2_ch7_1_depth.png")
+    want = rangemesh.triangulate(img, background=0,
+                                 camera=rangemesh.Pinhole(525, 525, 319.5, 239.5, 0.0002))
+    pos, idx = _glb_positions(out)
+    np.testing.assert_allclose(pos, want.vertices, rtol=1e-6, atol=1e-7)
+    assert np.array_equal(idx, want.faces)
+    # metric: depth in metres is value / 5000, between 0.97 and 8.56 m for this frame
+    assert 0.9 < pos[:, 2].min() and pos[:, 2].max() < 8.6
+
+
+def test_mesh_ascii_pgm_to_obj_with_error_flips(shared_data, tmp_path, capsys):
+    out = tmp_path / "venus.obj"
+    rc, _, err = run(["mesh", shared_data / "middlebury/venus_disp2.pgm", "-o", out,
+                      "--flips", "error", "--quiet"], capsys)
+    assert rc == 0 and err == ""
+    want = rangemesh.triangulate(np.load(shared_data / "middlebury/venus_disp2.npy"),
+                                 background=0, flips="error")
+    back = meshio.read(out)
+    np.testing.assert_allclose(back.points, want.vertices, rtol=1e-6)
+    assert np.array_equal(back.cells_dict["triangle"], want.faces)
+
+
+@pytest.mark.parametrize("suffix", [".off", ".stl"])
+def test_other_formats_read_back(shared_data, tmp_path, capsys, suffix):
+    out = tmp_path / f"chair{suffix}"
+    rc, _, _ = run(["mesh", shared_data / "odetics/chair-range.ppm", "-o", out, "--quiet"], capsys)
+    assert rc == 0
+    want = rangemesh.triangulate(np.load(shared_data / "odetics/chair-range.npy"), background=0)
+    back = meshio.read(out)
+    tri = back.cells_dict["triangle"]
+    assert len(tri) == len(want.faces)
+    # STL repeats vertices per face: compare the triangles' corner coordinates
+    np.testing.assert_allclose(back.points[tri], want.vertices[want.faces], rtol=1e-6)
+
+
+def test_ascii_ply_with_pixels_and_eval(shared_data, tmp_path, capsys):
+    src = shared_data / "rgbd/pcl_grabber_frame_20121214T142255.814212_depth.tiff"
+    out = tmp_path / "boxes.ply"
+    rc, _, _ = run(["mesh", src, "-o", out, "--ascii", "--pixels", "--quiet"], capsys)
+    assert rc == 0
+    assert out.read_bytes().startswith(b"ply\nformat ascii")
+    tm = trimesh.load(out, process=False)
+    img = read_range_image(src)
+    want = rangemesh.triangulate(img, background=0)
+    np.testing.assert_allclose(tm.vertices, want.vertices, rtol=1e-6)
+    rc, stdout, _ = run(["eval", src, out, "--json"], capsys)
+    got = json.loads(stdout)
+    ev = rangemesh.evaluate(want, img, background=0)
+    assert got["relative_error"] == pytest.approx(ev.relative_error, rel=1e-5)
+    assert got["covered_pixels"] == ev.covered_pixels
+
+
+def test_eval_projects_meshes_without_pixels(shared_data, tmp_path, capsys):
+    src = shared_data / "rgbd/open3d_TUM_depth.png"
+    cam = ["--depth-scale", "0.0002", "--intrinsics", "525,525,319.5,239.5"]
+    out = tmp_path / "f.glb"
+    assert run(["mesh", src, "-o", out, "--quiet", *cam], capsys)[0] == 0
+    rc, stdout, _ = run(["eval", src, out, "--json", *cam], capsys)
+    img = read_range_image(src)
+    want = rangemesh.evaluate(
+        rangemesh.triangulate(img, background=0,
+                              camera=rangemesh.Pinhole(525, 525, 319.5, 239.5, 0.0002)),
+        img, background=0)
+    got = json.loads(stdout)
+    assert got["covered_pixels"] == want.covered_pixels
+    assert got["relative_error"] == pytest.approx(want.relative_error, rel=1e-4)
+
+
+def test_info(shared_data, capsys):
+    rc, out, _ = run(["info", shared_data / "rgbd/open3d_TUM_depth.png", "--json"], capsys)
+    info = json.loads(out)
+    assert rc == 0 and info["shape"] == [480, 640] and info["dtype"] == "uint16"
+    assert info["background"] == 0 and info["background_guessed"]
+    # README: 0 marks 19.2 % of this frame; 1.46-9.33 m at 1/5000 m per unit
+    assert info["valid_share_percent"] == pytest.approx(80.8, abs=0.1)
+    assert info["depth_min"] / 5000 == pytest.approx(1.46, abs=0.01)
+    assert info["depth_max"] / 5000 == pytest.approx(9.33, abs=0.01)
+    rc, out, _ = run(["info", shared_data / "rgbd/pcl_table_scene_mug_stereo_textured.pcd"], capsys)
+    assert rc == 0 and "NaN" in out and "68.1 %" in out  # README: NaN on 31.9 %
+
+
+def test_demo_writes_mesh_and_preview(tmp_path, capsys):
+    out, prev = tmp_path / "d.ply", tmp_path / "d.png"
+    rc, stdout, err = run(["demo", "-o", out, "--preview", prev, "--json"], capsys)
+    assert rc == 0 and out.stat().st_size > 0 and prev.stat().st_size > 0
+    doc = json.loads(stdout)
+    assert doc["stats"]["vertices"] > 1000 and doc["evaluation"]["relative_error"] < 2
+
+
+def test_console_script_and_module_entry_points(tmp_path):
+    exe = shutil.which("rangemesh")
+    assert exe, "the console script is installed with the package"
+    for cmd in ([exe], [sys.executable, "-m", "rangemesh"]):
+        p = subprocess.run([*cmd, "demo", "-o", str(tmp_path / "e.obj"), "--preview",
+                            str(tmp_path / "e.png"), "--quiet"], capture_output=True, text=True)
+        assert p.returncode == 0, p.stderr
+        assert (tmp_path / "e.obj").exists()
+    p = subprocess.run([exe, "mesh", "--help"], capture_output=True, text=True)
+    assert "--max-angle" in p.stdout and "degenerate" in p.stdout
+
+
+@pytest.mark.parametrize("rel, background", REAL_IMAGES + [
+    ("rgbd/pcl_milk_cartoon_all_small_clorox.pcd", None),
+    ("rgbd/pcl_table_scene_mug_stereo_textured.pcd", None),
+    ("rgbd/slambook2_ch5_depth_1.pgm", 0), ("odetics/chair-range.ppm", 0),
+    ("middlebury/tsukuba_disp3.pgm", 0), ("middlebury/venus_disp2.pgm", None),
+    ("rgbd/open3d_SUN_depth.png", 0), ("rgbd/open3d_NYU_depth.pgm", 0),
+], ids=lambda x: str(x))
+def test_every_shared_file_loads(shared_data, rel, background):
+    arr = read_range_image(shared_data / rel)
+    assert arr.ndim == 2 and arr.size > 0
+    npy = {".pcd": ".z.npy", ".pgm": ".npy", ".ppm": ".npy"}.get((shared_data / rel).suffix)
+    if npy and rel != "rgbd/open3d_NYU_depth.pgm":  # NYU's PGM is byte-swapped on purpose
+        ref = np.load((shared_data / rel).with_suffix(npy))
+        assert np.array_equal(arr, ref, equal_nan=True)
+
+
+# ---------------------------------------------------------------- bad input
+
+
+def _one_line_error(rc, out, err):
+    assert rc != 0
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("rangemesh") and "error:" in lines[0], err
+    assert "Traceback" not in err
+
+
+def test_bad_inputs(shared_data, tmp_path, capsys):
+    good = shared_data / "middlebury/cones_disp2.png"
+    truncated = tmp_path / "cut.png"
+    truncated.write_bytes(good.read_bytes()[:5000])
+    rgb = tmp_path / "rgb.npy"
+    np.save(rgb, np.zeros((10, 10, 3)))
+    empty = tmp_path / "empty.npy"
+    np.save(empty, np.zeros((30, 30), np.uint16))
+    junk = tmp_path / "junk.pgm"
+    junk.write_bytes(b"not an image at all")
+    out = tmp_path / "x.ply"
+    cases = [
+        ["mesh", tmp_path / "missing.png", "-o", out],
+        ["mesh", truncated, "-o", out],
+        ["mesh", junk, "-o", out],
+        ["mesh", rgb, "-o", out],
+        ["mesh", empty, "-o", out],
+        ["mesh", good, "--tiles", "4y4", "-o", out],
+        ["mesh", good, "--tiles", "0", "-o", out],
+        ["mesh", good, "--tiles", "400x4", "-o", out],
+        ["mesh", good, "-o", tmp_path / "no" / "such" / "dir.ply"],
+        ["mesh", good, "-o", tmp_path / "x.xyz"],
+        ["mesh", good, "-o", tmp_path / "x.obj", "--ascii"],
+        ["mesh", good, "--intrinsics", "1,2,3"],
+        ["eval", good, tmp_path / "missing.ply"],
+        ["info", tmp_path / "missing.png"],
+    ]
+    for argv in cases:
+        try:
+            rc = main([str(a) for a in argv])
+        except SystemExit as exc:  # argparse's own errors
+            rc = exc.code
+        o, e = capsys.readouterr()
+        _one_line_error(rc, o, e)
+    assert list(tmp_path.glob("*.ply")) == [] and list(tmp_path.glob(".*")) == []
+
+
+def test_failed_write_leaves_nothing(shared_data, tmp_path, monkeypatch, capsys):
+    import rangemesh.io as rio
+
+    def boom(*a, **k):
+        raise OSError("disk full")
+
+    monkeypatch.setattr(rio, "_write_ply", boom)
+    with pytest.raises(OSError):
+        main(["mesh", str(shared_data / "odetics/chair-range.npy"), "-o", str(tmp_path / "c.ply")])
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_pfm_and_float_tiff(tmp_path, capsys):
+    d = rangemesh.scenes.pyramid((60, 80)).depth.astype(np.float32)
+    d[10:12, 10:40] = np.inf
+    pfm = tmp_path / "d.pfm"
+    with open(pfm, "wb") as fh:  # PFM: bottom row first, little-endian floats
+        fh.write(b"Pf\n80 60\n-1.0\n")
+        fh.write(d[::-1].astype("<f4").tobytes())
+    import tifffile
+
+    tif = tmp_path / "d.tif"
+    tifffile.imwrite(tif, np.where(np.isinf(d), np.nan, d))
+    for f in (pfm, tif):
+        arr = read_range_image(f)
+        assert np.array_equal(np.isfinite(arr), np.isfinite(d))
+        assert np.array_equal(arr[np.isfinite(arr)], d[np.isfinite(d)])
+        rc, _, err = run(["mesh", f, "-o", tmp_path / "p.ply"], capsys)
+        assert rc == 0, err
+
+
+def test_16bit_binary_and_ascii_pgm(tmp_path):
+    a = np.array([[0, 1000, 70], [65535, 300, 2]], np.uint16)
+    b = tmp_path / "b.pgm"
+    b.write_bytes(b"P5\n3 2\n65535\n" + a.astype(">u2").tobytes())
+    t = tmp_path / "t.pgm"
+    t.write_text("P2\n3 2\n65535\n" + " ".join(map(str, a.ravel())) + "\n")
+    for f in (b, t):
+        assert np.array_equal(read_range_image(f), a)
+    assert struct.calcsize(">H") == 2

@@ -526,13 +526,14 @@ def _gain(x, edge_he, triangles, halfedges, pixels, vertices, depth, valid, cam,
 @njit(cache=True)
 def flip_edges_kernel(triangles, halfedges, pixels, vertices, depth, valid, cam,
                       mode, threshold, delta, epsilon, max_angle, min_bend, quantum,
-                      verdicts):
+                      max_edge2, verdicts):
     r"""Stage three (SPEC 3.3-3.6); edits `triangles` and `halfedges` in place.
 
     mode 0: the paper's disparity tests; mode 1: error-based flips (gain > 0).
-    Angles in radians. Returns the number of flips taken. `verdicts` (int64[7])
-    counts, in place, the edges rejected by T1..T5 and by the final test, and
-    the flips taken.
+    Angles in radians. Returns the number of flips taken. `verdicts` (int64[8])
+    counts, in place, the edges rejected by T1..T5 and by the final test, the
+    flips taken, and the flips refused because CD would be longer than
+    ``sqrt(max_edge2)`` pixels in the image plane (checked before T1).
 
     Quad before and after a flip of AB (e0 in t0 = ABC, e1 in t1 = BAD)::
 
@@ -617,6 +618,11 @@ def flip_edges_kernel(triangles, halfedges, pixels, vertices, depth, valid, cam,
         vd = triangles[c1]
         accept = _pair_key(vc, vd, n_v) not in former  # T1: deadlock
         verdict = 0
+        dr_cd = pixels[vc, 0] - pixels[vd, 0]
+        dc_cd = pixels[vc, 1] - pixels[vd, 1]
+        if dr_cd * dr_cd + dc_cd * dc_cd > max_edge2:  # the user's edge-length bound
+            accept = False
+            verdict = 7
         if accept and mode == 0:
             s = _span_normal(triangles, halfedges, normals, b1, t0, t1)  # A -> D leaves A
             ns_a[0], ns_a[1], ns_a[2] = s

@@ -127,11 +127,19 @@ def _add_camera_options(p):
 
 def _add_mesh_options(p):
     g = p.add_argument_group("the paper's parameters")
-    g.add_argument("--tiles", type=_pair, default=(4, 4), metavar="VxH",
-                   help="tiles, rows x columns; neighbours share one line of pixels (default 4x4)")
-    g.add_argument("--samples", type=_pair, default=(10, 10), metavar="RxZ",
+    g.add_argument("--tiles", type=_pair, default=None, metavar="VxH",
+                   help="tiles, rows x columns; neighbours share one line of pixels (default 4x4; "
+                        "chosen for the image with --vertices/--max-error)")
+    g.add_argument("--samples", type=_pair, default=None, metavar="RxZ",
                    help="samples per tile; the grid is ((R-1)V+1) x ((Z-1)H+1) points "
                         "(default 10x10)")
+    t = p.add_argument_group("ask for the result instead of the grid (instead of --samples)")
+    t.add_argument("--vertices", type=int, default=None,
+                   help="about this many vertices (within 2 %%); tiles and samples are chosen")
+    t.add_argument("--max-error", type=float, default=None,
+                   help="smallest mesh whose relative error is at most this, percent")
+    t.add_argument("--max-edge", type=float, default=None,
+                   help="no triangle edge longer than this in the image, pixels")
     g.add_argument("--sampling", choices=["adaptive", "uniform"], default="adaptive",
                    help="place samples by log-curvature (paper) or evenly (baseline)")
     g.add_argument("--flips", type=_flips, default="disparity", metavar="{disparity,error,none}",
@@ -162,7 +170,8 @@ def _add_output_options(p):
 
 
 def _params(args) -> MeshParams:
-    return MeshParams(tiles=args.tiles, samples=args.samples, sampling=args.sampling,
+    return MeshParams(tiles=args.tiles or (4, 4), samples=args.samples or (10, 10),
+                      sampling=args.sampling,
                       flips=args.flips, delta=args.delta, epsilon=args.epsilon,
                       max_angle=args.max_angle, min_bend=args.min_bend,
                       curvature_floor=args.curvature_floor, levels=args.levels,
@@ -220,6 +229,13 @@ def _mesh_lines(mesh, ev, outputs):
              f"flipped edges {s.flipped_edges}  (grid {s.grid_shape[0]}x{s.grid_shape[1]}, "
              f"{s.sampled_points} valid samples)",
              "time " + "  ".join(f"{k} {1000 * v:.1f} ms" for k, v in s.seconds.items())]
+    if s.search:
+        q = s.search
+        ach = q["achieved"]
+        ach = f"{ach:.4f}" if isinstance(ach, float) else ach
+        lines.append(f"target {q['target']} {q['requested']}: achieved {ach} with tiles "
+                     f"{q['tiles'][0]}x{q['tiles'][1]}, samples {q['samples'][0]}x{q['samples'][1]} "
+                     f"({q['meshings']} meshing(s)){'' if q['met'] else ' -- not met: ' + q.get('note', '')}")
     if ev is not None:
         lines.append(f"relative error {ev.relative_error:.4f} %  rms {ev.rms_error:.4f} %  "
                      f"max {ev.max_error:.3f} %  edge band {ev.edge_band_error:.4f} %  "
@@ -232,8 +248,15 @@ def _run_mesh(args, image, name, bg, outputs_for):
     params = _params(args)
     camera = _camera(args)
     with _progress(args, 4, f"meshing {name}") as bar:
+        targets = {"vertices": args.vertices, "max_error": args.max_error,
+                   "max_edge": args.max_edge}
+        given = [k for k, v in targets.items() if v is not None]
+        if given and args.samples is not None:
+            raise UserError(f"--samples and --{given[0].replace('_', '-')} exclude each other: "
+                            "the target chooses the samples")
+        extra = {"tiles": args.tiles} if (given and args.tiles is not None) else {}
         try:
-            mesh = triangulate(image, params, background=bg, camera=camera)
+            mesh = triangulate(image, params, background=bg, camera=camera, **targets, **extra)
         except (ValueError, TypeError) as exc:
             raise UserError(f"{name}: {exc}") from None
         bar.update(1)

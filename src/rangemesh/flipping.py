@@ -20,7 +20,7 @@ __all__ = ["flip_edges"]
 _MODES = {"disparity": 0, "error": 1}
 # Order of the kernel's `verdicts` counters.
 _VERDICTS = ("t1_deadlock", "t2_disparity_change", "t3_degenerate", "t4_bend",
-             "t5_crease", "final_test", "flipped")
+             "t5_crease", "final_test", "flipped", "max_edge")
 
 
 def _gain_quantum(vertices: np.ndarray) -> float:
@@ -37,7 +37,7 @@ def _gain_quantum(vertices: np.ndarray) -> float:
 
 
 def flip_edges(mesh: Mesh, depth: np.ndarray, valid: np.ndarray,
-               params: MeshParams | None = None) -> Mesh:
+               params: MeshParams | None = None, *, max_edge: float | None = None) -> Mesh:
     """Flip edges of a mesh to follow jump and crease edges.
 
     Parameters
@@ -52,6 +52,9 @@ def flip_edges(mesh: Mesh, depth: np.ndarray, valid: np.ndarray,
         (flip every edge of positive gain) or ``None`` (return `mesh` as is).
         Thresholds ``delta``, ``epsilon``, ``max_angle``, ``min_bend`` (degrees)
         and ``gain_threshold``.
+    max_edge : float, optional
+        Refuse any flip whose new edge CD is longer than this, in pixels of
+        the image plane (counted as ``max_edge`` in ``stats.flip_tests``).
 
     Returns
     -------
@@ -101,7 +104,8 @@ def flip_edges(mesh: Mesh, depth: np.ndarray, valid: np.ndarray,
     triangles, halfedges = _kernels.build_halfedges(mesh.faces.astype(np.int64), n_v)
     mode = _MODES[params.flips]
     threshold = -np.inf if params.gain_threshold is None else params.gain_threshold
-    verdicts = np.zeros(7, np.int64)
+    verdicts = np.zeros(8, np.int64)
+    max_edge2 = np.inf if max_edge is None else float(max_edge) ** 2
     flips = _kernels.flip_edges_kernel(
         triangles,
         halfedges,
@@ -117,6 +121,7 @@ def flip_edges(mesh: Mesh, depth: np.ndarray, valid: np.ndarray,
         math.radians(params.max_angle),
         math.radians(params.min_bend),
         _gain_quantum(mesh.vertices),
+        max_edge2,
         verdicts,
     )
     faces = triangles.reshape(-1, 3).astype(np.int32)

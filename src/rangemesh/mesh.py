@@ -30,7 +30,13 @@ class Stats:
         ``final_test``) and how many were ``flipped``; empty without flips.
     seconds : dict of str to float
         Wall time of each stage (``'prepare'``, ``'sampling'``,
-        ``'triangulation'``, ``'flipping'``) and ``'total'``.
+        ``'triangulation'``, ``'flipping'``), of a target search
+        (``'search'``: the tries before the final meshing) and ``'total'``.
+    search : dict
+        Empty unless a target (``vertices``, ``max_error``, ``max_edge``) was
+        given: what was asked, what was achieved, the grid chosen, how many
+        meshings the search took, and a ``note`` when the target could not be
+        met.
     reason : str
         Empty for a normal mesh; for an empty mesh, why it is empty.
     """
@@ -43,6 +49,7 @@ class Stats:
     sampled_points: int = 0
     flip_tests: dict = field(default_factory=dict)
     seconds: dict = field(default_factory=dict)
+    search: dict = field(default_factory=dict)
     reason: str = ""
 
     def to_dict(self) -> dict:

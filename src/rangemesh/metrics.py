@@ -13,7 +13,7 @@ from .mesh import Mesh
 from .prepare import to_depth_and_mask
 from .sampling import curvature
 
-__all__ = ["Evaluation", "evaluate", "render_depth", "discontinuity_mask"]
+__all__ = ["Evaluation", "evaluate", "render_depth", "discontinuity_mask", "relative_error"]
 
 
 @dataclass(frozen=True)
@@ -147,6 +147,30 @@ def discontinuity_mask(depth: np.ndarray, valid: np.ndarray, threshold: float = 
     if span > 0:
         K = K * (255.0 / span)
     return valid & (K >= threshold)
+
+
+def relative_error(mesh: Mesh, depth: np.ndarray, valid: np.ndarray) -> float:
+    """The paper's relative error alone, in percent (the first figure of `evaluate`).
+
+    Parameters
+    ----------
+    mesh : Mesh
+    depth : (H, W) ndarray of float64
+        Original depth (background values are ignored).
+    valid : (H, W) ndarray of bool
+
+    Returns
+    -------
+    float
+        NaN when no valid pixel is covered.
+    """
+    pred, _ = render_depth(mesh, depth.shape)
+    covered = valid & np.isfinite(pred)
+    if not covered.any():
+        return float("nan")
+    span = float(depth[valid].max() - depth[valid].min())
+    scale = 100.0 / span if span > 0 else 0.0
+    return float(np.mean(np.abs(pred[covered] - depth[covered]))) * scale
 
 
 def evaluate(mesh: Mesh, depth, *, background=None, discontinuities: np.ndarray | None = None,

@@ -12,34 +12,7 @@ from . import _kernels
 from .camera import as_camera, backproject
 from .mesh import Mesh, Stats, count_edges, empty_mesh
 
-__all__ = ["delaunay_mesh", "orient_faces"]
-
-
-def orient_faces(pixels: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Make every face counter-clockwise in the image plane and drop zero-area ones.
-
-    Parameters
-    ----------
-    pixels : (V, 2) ndarray of int
-    faces : (F, 3) ndarray of int
-
-    Returns
-    -------
-    faces : (F', 3) ndarray of int32
-        Counter-clockwise faces (positive signed area in (r, c)).
-    kept : (F,) ndarray of bool
-        Which input faces were kept.
-    """
-    p = pixels.astype(np.int64)
-    f = faces.astype(np.int64)
-    r = p[f, 0]
-    c = p[f, 1]
-    area = (r[:, 1] - r[:, 0]) * (c[:, 2] - c[:, 0]) - (c[:, 1] - c[:, 0]) * (r[:, 2] - r[:, 0])
-    f = f.copy()
-    neg = area < 0
-    f[neg] = f[neg][:, [0, 2, 1]]
-    kept = area != 0
-    return f[kept].astype(np.int32), kept
+__all__ = ["delaunay_mesh"]
 
 
 def _empty(camera, shape, grid_shape, n_points, reason):
@@ -47,7 +20,8 @@ def _empty(camera, shape, grid_shape, n_points, reason):
                                            reason=reason))
 
 
-def delaunay_mesh(grid: np.ndarray, depth: np.ndarray, valid: np.ndarray, camera=None) -> Mesh:
+def delaunay_mesh(grid: np.ndarray, depth: np.ndarray, valid: np.ndarray, camera=None, *,
+                  max_edge: float | None = None) -> Mesh:
     """Triangulate the valid samples and lift them to 3-D (SPEC 2.1-2.4).
 
     Parameters
@@ -59,6 +33,9 @@ def delaunay_mesh(grid: np.ndarray, depth: np.ndarray, valid: np.ndarray, camera
     valid : (H, W) ndarray of bool
     camera : Orthographic or Pinhole, optional
         Default ``Orthographic(1, 1, 1)``.
+    max_edge : float, optional
+        Drop every triangle with an edge longer than this, in pixels of the
+        image plane, before pruning (the hole it leaves stays uncovered).
 
     Returns
     -------
@@ -118,6 +95,10 @@ def delaunay_mesh(grid: np.ndarray, depth: np.ndarray, valid: np.ndarray, camera
     bary_r = (sr + 1) // 3
     bary_c = (sc + 1) // 3
     alive &= valid[bary_r, bary_c]
+    if max_edge is not None:
+        corner = pts[simplices]  # (F, 3, 2)
+        d2 = ((corner - np.roll(corner, 1, axis=1)) ** 2).sum(axis=2)
+        alive &= (d2 <= float(max_edge) ** 2).all(axis=1)
     if alive.any():
         _kernels.prune_dangling(simplices, neighbors, alive, n_points)
     if not alive.any():

@@ -1,0 +1,124 @@
+"""Issue 5: ask for a vertex count, an error bound or an edge length."""
+
+import numpy as np
+import pytest
+
+import rangemesh
+from rangemesh import evaluate, scenes, triangulate
+from rangemesh.budget import auto_tiles
+
+from .helpers import assert_valid_mesh
+from .images import REAL_IMAGES, load
+
+
+def _edges(mesh):
+    p = mesh.pixels[mesh.faces].astype(float)
+    return np.sqrt(((p - np.roll(p, 1, axis=1)) ** 2).sum(axis=2))
+
+
+@pytest.mark.parametrize("rel, background", REAL_IMAGES, ids=[r for r, _ in REAL_IMAGES])
+def test_vertex_count_within_2_percent(shared_data, rel, background):
+    img = load(shared_data, rel)
+    n_valid = rangemesh.fill_gaps(*rangemesh.to_depth_and_mask(img, background))[1].sum()
+    for n in (1000, 5000, 20000):
+        m = triangulate(img, background=background, vertices=n)
+        s = m.stats.search
+        assert s["requested"] == n and s["achieved"] == m.stats.vertices
+        if abs(m.stats.vertices - n) <= 0.02 * n:
+            assert s["met"]
+        else:  # only allowed when the image cannot give that many
+            assert not s["met"] and n > n_valid and "valid pixels" in s["note"]
+            assert m.stats.vertices >= 0.99 * n_valid
+        assert s["meshings"] <= 4
+
+
+def test_vertex_count_properties():
+    sc = scenes.box((90, 200))
+    m = triangulate(sc.depth, vertices=2000)
+    assert_valid_mesh(m)
+    gr, gc = m.stats.grid_shape
+    assert gc > 1.5 * gr  # a wide image gets a wide grid
+    assert abs(m.stats.vertices - 2000) <= 40
+    # tiles given as a keyword are kept
+    m = triangulate(sc.depth, vertices=2000, tiles=(2, 2))
+    assert m.stats.search["tiles"] == [2, 2]
+
+
+def test_auto_tiles_by_hand():
+    assert auto_tiles((188, 208), (37, 37)) == (4, 4)  # the paper's example
+    assert auto_tiles((480, 640), (61, 82)) == (7, 9)  # (61-1)/9 = 6.7, (82-1)/9 = 9
+    assert auto_tiles((5, 500), (3, 300)) == (1, 33)
+
+
+@pytest.mark.parametrize("rel, background", REAL_IMAGES[:8], ids=[r for r, _ in REAL_IMAGES[:8]])
+@pytest.mark.parametrize("bound", [1.0, 0.5])
+def test_error_bound_holds(shared_data, rel, background, bound):
+    img = load(shared_data, rel)
+    m = triangulate(img, background=background, max_error=bound)
+    e = evaluate(m, img, background=background)  # the same code as evaluate, measured again
+    assert e.relative_error <= bound
+    assert m.stats.search["achieved"] == pytest.approx(e.relative_error)
+    assert m.stats.search["met"] and m.stats.search["meshings"] <= 7  # 6 tries + full resolution
+    # the smallest: the paper's default grid is coarser or finer in the right direction
+    if m.stats.vertices > 1400:
+        assert evaluate(triangulate(img, background=background), img,
+                        background=background).relative_error > 0.9 * bound
+
+
+def test_error_bound_on_a_scene_is_near_minimal():
+    sc = scenes.dome((120, 160))
+    m = triangulate(sc.depth, max_error=0.3)
+    e = evaluate(m, sc.depth).relative_error
+    assert e <= 0.3
+    # 15 % fewer vertices must not meet the bound as well (the search stops within 5 %)
+    fewer = triangulate(sc.depth, vertices=int(0.85 * m.stats.vertices))
+    assert evaluate(fewer, sc.depth).relative_error > 0.3
+
+
+@pytest.mark.parametrize("rel, background", [REAL_IMAGES[0], REAL_IMAGES[2], REAL_IMAGES[6]],
+                         ids=["chair", "cones", "tum"])
+@pytest.mark.parametrize("L", [6, 15, 40])
+def test_max_edge_holds_on_every_edge(shared_data, rel, background, L):
+    img = load(shared_data, rel)
+    m = triangulate(img, background=background, max_edge=L)
+    assert_valid_mesh(m, check_overlap=False)
+    assert _edges(m).max() <= L
+    assert m.stats.search["met"]
+
+
+def test_max_edge_with_a_vertex_target_and_flips():
+    sc = scenes.pyramid((100, 140))
+    m = triangulate(sc.depth, vertices=800, max_edge=12)
+    assert _edges(m).max() <= 12
+    assert_valid_mesh(m)
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    ({"vertices": 100, "samples": 5}, "samples"),
+    ({"max_error": 1.0, "samples": 5}, "samples"),
+    ({"max_edge": 10, "samples": 5}, "samples"),
+    ({"vertices": 100, "max_error": 1.0}, "exclude"),
+    ({"vertices": 2}, "vertices"),
+    ({"vertices": 10.5}, "vertices"),
+    ({"max_error": 0}, "max_error"),
+    ({"max_edge": 1.0}, "max_edge"),
+])
+def test_target_errors(kwargs, match):
+    with pytest.raises(ValueError, match=match):
+        triangulate(np.add.outer(np.arange(30.0), np.arange(40.0)), **kwargs)
+
+
+def test_cli_targets(shared_data, tmp_path, capsys):
+    from rangemesh.cli import main
+
+    src = str(shared_data / "middlebury/teddy_disp2.png")
+    assert main(["mesh", src, "-o", str(tmp_path / "t.ply"), "--vertices", "3000", "--json"]) == 0
+    import json
+
+    doc = json.loads(capsys.readouterr().out)
+    assert abs(doc["stats"]["vertices"] - 3000) <= 60
+    assert main(["mesh", src, "--max-error", "0.8", "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["evaluation"]["relative_error"] <= 0.8
+    assert main(["mesh", src, "--max-edge", "10", "--samples", "4x4"]) == 2
+    assert "exclude" in capsys.readouterr().err

@@ -4,6 +4,9 @@ import math
 from fractions import Fraction
 
 import numpy as np
+from numba import njit
+
+from rangemesh._kernels import lift, line_pixel
 
 from rangemesh.camera import backproject
 
@@ -156,3 +159,159 @@ def rendered_errors(mesh, depth, valid):
                 zz = (wa * z[a] + wb * z[b] + wc * z[c]) / area
                 errs[(r, col)] = abs(zz - depth[r, col])
     return errs
+
+
+# ---------------------------------------------------------------------------
+# The NumPy versions of stage one's pixel work, as they were before the Numba
+# kernels replaced them (issue 7): the kernels must agree with them bit for bit.
+
+
+def fill_gaps_numpy(depth, valid):
+    """Fill single-pixel holes: one pass, paper II.A.1, SPEC 1.1.
+
+    A background pixel whose 8 neighbours all exist and are valid becomes valid
+    with the mean of those 8 depths. Pixels on the image border have fewer
+    than 8 neighbours and are never filled. Larger holes stay holes.
+
+    Parameters
+    ----------
+    depth : (H, W) ndarray of float64
+    valid : (H, W) ndarray of bool
+
+    Returns
+    -------
+    depth_filled : (H, W) ndarray of float64
+        A new array; background pixels that stay background hold 0.
+    valid_filled : (H, W) ndarray of bool
+
+    """
+    h, w = depth.shape
+    d = np.where(valid, depth, 0.0)
+    out_d = d.copy()
+    out_v = valid.copy()
+    if h < 3 or w < 3:
+        return out_d, out_v
+    inner_valid = np.ones((h - 2, w - 2), bool)
+    total = np.zeros((h - 2, w - 2))
+    for dr in (-1, 0, 1):
+        for dc in (-1, 0, 1):
+            if dr == 0 and dc == 0:
+                continue
+            sl = (slice(1 + dr, h - 1 + dr), slice(1 + dc, w - 1 + dc))
+            inner_valid &= valid[sl]
+            total += d[sl]
+    hole = inner_valid & ~valid[1:-1, 1:-1]
+    out_d[1:-1, 1:-1][hole] = total[hole] / 8.0
+    out_v[1:-1, 1:-1] |= hole
+    return out_d, out_v
+
+
+
+def _second_difference(d, v, axis, jump):
+    """|d[i-1] - 2 d[i] + d[i+1]| along `axis`, with the SPEC's rules at borders and jumps.
+
+    * the stencil leaves the image -> 0 (image borders make no curvature);
+    * all three pixels valid -> the absolute second difference;
+    * all three background -> 0;
+    * mixed valid and background -> `jump` (a silhouette: a jump edge whose
+      size does not depend on the background marker).
+    """
+    out = np.zeros(d.shape)
+    n = d.shape[axis]
+    if n < 3:
+        return out
+    lo = [slice(None)] * 2
+    mid = [slice(None)] * 2
+    hi = [slice(None)] * 2
+    lo[axis] = slice(0, n - 2)
+    mid[axis] = slice(1, n - 1)
+    hi[axis] = slice(2, n)
+    lo, mid, hi = tuple(lo), tuple(mid), tuple(hi)
+    dd = np.abs(d[lo] - 2.0 * d[mid] + d[hi])
+    count = v[lo].astype(np.int8) + v[mid] + v[hi]
+    inner = np.where(count == 3, dd, np.where(count == 0, 0.0, jump))
+    out[mid] = inner
+    return out
+
+
+def curvature_numpy(depth, valid, levels=2):
+    """Multiresolution curvature image ``K``, paper II.A.1 and SPEC 1.2-1.3.
+
+    ``K1 = |R(r-1,c) - 2R(r,c) + R(r+1,c)| + |R(r,c-1) - 2R(r,c) + R(r,c+1)|``;
+    level ``l`` applies the same operator to ``R[::2**l, ::2**l]`` and is added
+    back at full resolution as ``K_l[r >> l, c >> l]``.
+
+    Parameters
+    ----------
+    depth : (H, W) ndarray of float64
+    valid : (H, W) ndarray of bool
+    levels : int, default 2
+        Number of resolutions added (1 = full resolution only).
+
+    Returns
+    -------
+    K : (H, W) ndarray of float64
+        In depth units (not normalised). A stencil that leaves the image adds 0;
+        a stencil that mixes valid and background pixels adds the scene's
+        valid depth range (max - min), the size we give a silhouette jump.
+
+    Notes
+    -----
+    The jump size is the scene's depth range rather than a local one: after
+    normalisation (see `sampling_weights`) a silhouette then always weighs
+    ``log(255)``, the most any jump inside the scene can weigh, whatever the
+    background marker or the depth unit.
+    """
+    if valid.any():
+        jump = float(depth[valid].max() - depth[valid].min())
+    else:
+        jump = 0.0
+    d = np.where(valid, depth, 0.0)
+    h, w = d.shape
+    K = np.zeros((h, w))
+    for level in range(levels):
+        step = 1 << level
+        ds = d[::step, ::step]
+        vs = valid[::step, ::step]
+        if ds.shape[0] < 3 and ds.shape[1] < 3:
+            break
+        k = _second_difference(ds, vs, 0, jump) + _second_difference(ds, vs, 1, jump)
+        if step == 1:
+            K += k
+        else:
+            rows = np.arange(h) >> level
+            cols = np.arange(w) >> level
+            K += k[rows[:, None], cols[None, :]]
+    return K
+
+
+
+
+@njit(cache=False)
+def edge_error_closed_form(va, vb, pixels, vertices, depth, valid, cam):
+    """The edge error as first written: one closed-form `line_pixel` call per pixel."""
+    ra, ca = pixels[va, 0], pixels[va, 1]
+    rb, cb = pixels[vb, 0], pixels[vb, 1]
+    if rb < ra or (rb == ra and cb < ca):
+        va, vb = vb, va
+        ra, ca, rb, cb = rb, cb, ra, ca
+    px, py, pz = vertices[va, 0], vertices[va, 1], vertices[va, 2]
+    dx = vertices[vb, 0] - px
+    dy = vertices[vb, 1] - py
+    dz = vertices[vb, 2] - pz
+    dd = dx * dx + dy * dy + dz * dz
+    n = max(abs(rb - ra), abs(cb - ca))
+    total = 0.0
+    for k in range(n + 1):
+        r, c = line_pixel(ra, ca, rb, cb, k)
+        if not valid[r, c]:
+            continue
+        x, y, z = lift(r, c, depth[r, c], cam)
+        qx, qy, qz = x - px, y - py, z - pz
+        t = 0.0
+        if dd > 0.0:
+            t = (qx * dx + qy * dy + qz * dz) / dd
+            t = min(max(t, 0.0), 1.0)
+        ex, ey, ez = qx - t * dx, qy - t * dy, qz - t * dz
+        total += math.sqrt(ex * ex + ey * ey + ez * ez)
+    return total

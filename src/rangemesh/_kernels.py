@@ -46,6 +46,118 @@ def lift(r, c, d, cam):
 
 
 @njit(cache=True)
+def mask_image(arr, has_background, background, depth, valid):
+    """Float depth and validity of a raw image: NaN, inf and `background` are invalid.
+
+    Background pixels get depth 0.0, a value no later stage reads. Integers are
+    compared as float64, exactly as NumPy compares them with a float marker.
+    """
+    h, w = arr.shape
+    for r in range(h):
+        for c in range(w):
+            x = np.float64(arr[r, c])
+            ok = math.isfinite(x)
+            if ok and has_background and x == background:
+                ok = False
+            valid[r, c] = ok
+            depth[r, c] = x if ok else 0.0
+
+
+@njit(cache=True)
+def valid_range(depth, valid):
+    """(min, max, count) of the valid depths; (0, 0, 0) when there is none."""
+    lo = np.inf
+    hi = -np.inf
+    n = 0
+    h, w = depth.shape
+    for r in range(h):
+        for c in range(w):
+            if valid[r, c]:
+                x = depth[r, c]
+                n += 1
+                if x < lo:
+                    lo = x
+                if x > hi:
+                    hi = x
+    if n == 0:
+        return 0.0, 0.0, 0
+    return lo, hi, n
+
+
+@njit(cache=True)
+def fill_gaps_kernel(depth, valid, out_depth, out_valid):
+    """SPEC 1.1 in one pass: a background pixel with 8 valid neighbours gets their mean.
+
+    `depth` holds 0.0 on background. The 8 neighbours are added in row-major
+    order, the order of `sampling.fill_gaps`' reference, so results agree bit
+    for bit.
+    """
+    h, w = depth.shape
+    out_depth[:, :] = depth
+    out_valid[:, :] = valid
+    for r in range(1, h - 1):
+        for c in range(1, w - 1):
+            if valid[r, c]:
+                continue
+            ok = True
+            for dr in range(-1, 2):
+                for dc in range(-1, 2):
+                    if (dr != 0 or dc != 0) and not valid[r + dr, c + dc]:
+                        ok = False
+            if not ok:
+                continue
+            total = 0.0
+            for dr in range(-1, 2):
+                for dc in range(-1, 2):
+                    if dr != 0 or dc != 0:
+                        total += depth[r + dr, c + dc]
+            out_depth[r, c] = total / 8.0
+            out_valid[r, c] = True
+
+
+@njit(cache=True)
+def _second_diff(d, v, r0, c0, r1, c1, r2, c2, jump):
+    n_valid = int(v[r0, c0]) + int(v[r1, c1]) + int(v[r2, c2])
+    if n_valid == 3:
+        return abs(d[r0, c0] - 2.0 * d[r1, c1] + d[r2, c2])
+    if n_valid == 0:
+        return 0.0
+    return jump
+
+
+@njit(cache=True)
+def curvature_kernel(d, v, jump, levels, K):
+    """SPEC 1.2-1.3 in loops: K += K_l[r >> l, c >> l] for each level l (K starts at 0).
+
+    Level l reads the image one pixel in 2**l; a stencil leaving the (sub-sampled)
+    image adds 0, one mixing valid and background pixels adds `jump`. The sums
+    run in the same order as the NumPy reference, so results agree bit for bit.
+    """
+    h, w = d.shape
+    for level in range(levels):
+        step = 1 << level
+        hs = (h + step - 1) // step
+        ws = (w + step - 1) // step
+        if hs < 3 and ws < 3:
+            break
+        k = np.zeros((hs, ws))
+        for i in range(hs):
+            for j in range(ws):
+                kr = 0.0
+                kc = 0.0
+                if 1 <= i <= hs - 2:
+                    kr = _second_diff(d, v, (i - 1) * step, j * step, i * step, j * step,
+                                      (i + 1) * step, j * step, jump)
+                if 1 <= j <= ws - 2:
+                    kc = _second_diff(d, v, i * step, (j - 1) * step, i * step, j * step,
+                                      i * step, (j + 1) * step, jump)
+                k[i, j] = kr + kc
+        for r in range(h):
+            for c in range(w):
+                K[r, c] += k[r >> level, c >> level]
+
+
+@njit(cache=True)
 def _invert_cdf(cum, n, count, out):
     """Invert a strictly increasing cumulative weight at `count` equally spaced targets.
 
@@ -330,10 +442,37 @@ def edge_error(va, vb, pixels, vertices, depth, valid, cam):
     dy = vertices[vb, 1] - py
     dz = vertices[vb, 2] - pz
     dd = dx * dx + dy * dy + dz * dz
-    n = max(abs(rb - ra), abs(cb - ca))
+    # Bresenham, incremental form (the same pixels as `line_pixel`, without a division
+    # per pixel): one step along the major axis, a minor step when the error says so.
+    dr = rb - ra
+    dc = cb - ca
+    adr = abs(dr)
+    adc = abs(dc)
+    sr = 1 if dr >= 0 else -1
+    sc = 1 if dc >= 0 else -1
+    if adr >= adc:
+        n, dmin = adr, adc
+    else:
+        n, dmin = adc, adr
+    # minor offset at step k is floor((2 k dmin + n - 1) / (2 n)); track its remainder
+    acc = n - 1
     total = 0.0
+    r = ra
+    c = ca
     for k in range(n + 1):
-        r, c = line_pixel(ra, ca, rb, cb, k)
+        if k > 0:
+            acc += 2 * dmin
+            bump = acc >= 2 * n
+            if bump:
+                acc -= 2 * n
+            if adr >= adc:
+                r += sr
+                if bump:
+                    c += sc
+            else:
+                c += sc
+                if bump:
+                    r += sr
         if not valid[r, c]:
             continue
         x, y, z = lift(r, c, depth[r, c], cam)
@@ -417,23 +556,37 @@ def _rekey(heap, slot, gain, x, n):
 
 @njit(cache=True)
 def build_halfedges(faces, n_vertices):
-    """Flat triangles/halfedges arrays from an oriented, edge-manifold face list."""
+    """Flat triangles/halfedges arrays from an oriented, edge-manifold face list.
+
+    The twin of a -> b is found among the half-edges leaving b (a CSR table by
+    start vertex), which costs O(F * degree) instead of a sort.
+    """
     n_t = faces.shape[0]
-    triangles = np.zeros(3 * n_t, np.int64)
-    halfedges = np.full(3 * n_t, -1, np.int64)
+    n_he = 3 * n_t
+    triangles = np.zeros(n_he, np.int64)
+    halfedges = np.full(n_he, -1, np.int64)
     for t in range(n_t):
         for k in range(3):
             triangles[3 * t + k] = faces[t, k]
-    keys = np.zeros(3 * n_t, np.int64)
-    for e in range(3 * n_t):
-        keys[e] = triangles[e] * n_vertices + triangles[_next(e)]
-    order = np.argsort(keys)
-    sorted_keys = keys[order]
-    for e in range(3 * n_t):
-        twin_key = triangles[_next(e)] * n_vertices + triangles[e]
-        j = np.searchsorted(sorted_keys, twin_key)
-        if j < sorted_keys.size and sorted_keys[j] == twin_key:
-            halfedges[e] = order[j]
+    start = np.zeros(n_vertices + 1, np.int64)
+    for e in range(n_he):
+        start[triangles[e] + 1] += 1
+    for v in range(n_vertices):
+        start[v + 1] += start[v]
+    fill = start[:-1].copy()
+    out_he = np.zeros(n_he, np.int64)
+    for e in range(n_he):
+        a = triangles[e]
+        out_he[fill[a]] = e
+        fill[a] += 1
+    for e in range(n_he):
+        a = triangles[e]
+        b = triangles[_next(e)]
+        for j in range(start[b], start[b + 1]):
+            f = out_he[j]
+            if triangles[_next(f)] == a:
+                halfedges[e] = f
+                break
     return triangles, halfedges
 
 
@@ -493,6 +646,29 @@ def _pair_key(a, b, n_vertices):
     if a > b:
         a, b = b, a
     return a * n_vertices + b
+
+
+@njit(cache=True)
+def _set_slot(keys, key):
+    """Slot of `key` in an open-addressing table (linear probing), or of the empty slot."""
+    mask = keys.size - 1
+    i = (key ^ (key >> 17) ^ (key >> 31)) & mask
+    while keys[i] != -1 and keys[i] != key:
+        i = (i + 1) & mask
+    return i
+
+
+@njit(cache=True)
+def _set_add(keys, key, count):
+    """Insert `key`; returns the (possibly regrown) table. `count` is the size before."""
+    if 2 * (count + 1) > keys.size:
+        bigger = np.full(2 * keys.size, -1, np.int64)
+        for k in keys:
+            if k != -1:
+                bigger[_set_slot(bigger, k)] = k
+        keys = bigger
+    keys[_set_slot(keys, key)] = key
+    return keys
 
 
 @njit(cache=True)
@@ -586,8 +762,9 @@ def flip_edges_kernel(triangles, halfedges, pixels, vertices, depth, valid, cam,
     slot = np.arange(n_e)
     for i in range(n_e):
         _sift_up(heap, slot, gain, i)
-    former = {np.int64(0): True}  # typed dict used as a set of vertex pairs
-    former.clear()
+    # former neighbours: an open-addressing set of vertex-pair keys (faster than a typed dict)
+    former = np.full(1024, -1, np.int64)
+    n_former = 0
     ns_a = np.zeros(3)
     ns_b = np.zeros(3)
     ns_c = np.zeros(3)
@@ -616,7 +793,8 @@ def flip_edges_kernel(triangles, halfedges, pixels, vertices, depth, valid, cam,
         vb = triangles[b0]
         vc = triangles[c0]
         vd = triangles[c1]
-        accept = _pair_key(vc, vd, n_v) not in former  # T1: deadlock
+        key_cd = _pair_key(vc, vd, n_v)
+        accept = former[_set_slot(former, key_cd)] != key_cd  # T1: deadlock
         verdict = 0
         dr_cd = pixels[vc, 0] - pixels[vd, 0]
         dc_cd = pixels[vc, 1] - pixels[vd, 1]
@@ -666,7 +844,8 @@ def flip_edges_kernel(triangles, halfedges, pixels, vertices, depth, valid, cam,
             _sift_down(heap, slot, gain, slot[x], n_e)
             continue
         # --- flip AB -> CD -------------------------------------------------
-        former[_pair_key(va, vb, n_v)] = True
+        former = _set_add(former, _pair_key(va, vb, n_v), n_former)
+        n_former += 1
         tb0 = halfedges[b0]
         tc0 = halfedges[c0]
         tb1 = halfedges[b1]

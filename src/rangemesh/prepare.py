@@ -11,6 +11,8 @@ import numbers
 
 import numpy as np
 
+from . import _kernels
+
 __all__ = ["to_depth_and_mask"]
 
 
@@ -64,12 +66,8 @@ def to_depth_and_mask(image, background=None) -> tuple[np.ndarray, np.ndarray]:
             raise TypeError(f"background must be a number, NaN or None, got {background!r}")
         if math.isnan(float(background)):
             background = None
-    depth = arr.astype(np.float64, order="C", copy=True)
-    valid = np.isfinite(depth)
-    if background is not None:
-        if np.issubdtype(arr.dtype, np.integer):
-            valid &= arr != background
-        else:
-            valid &= depth != float(background)
-    depth[~valid] = 0.0
+    depth = np.zeros(arr.shape, np.float64)
+    valid = np.zeros(arr.shape, np.bool_)
+    bg = 0.0 if background is None else float(background)
+    _kernels.mask_image(np.ascontiguousarray(arr), background is not None, bg, depth, valid)
     return depth, valid

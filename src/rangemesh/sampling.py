@@ -16,6 +16,7 @@ from .params import MeshParams
 __all__ = [
     "fill_gaps",
     "curvature",
+    "valid_span",
     "sampling_weights",
     "tile_bounds",
     "sample_grid",
@@ -49,52 +50,19 @@ def fill_gaps(depth: np.ndarray, valid: np.ndarray) -> tuple[np.ndarray, np.ndar
     >>> float(fill_gaps(d, v)[0][1, 1])
     4.0
     """
-    h, w = depth.shape
-    d = np.where(valid, depth, 0.0)
-    out_d = d.copy()
-    out_v = valid.copy()
-    if h < 3 or w < 3:
-        return out_d, out_v
-    inner_valid = np.ones((h - 2, w - 2), bool)
-    total = np.zeros((h - 2, w - 2))
-    for dr in (-1, 0, 1):
-        for dc in (-1, 0, 1):
-            if dr == 0 and dc == 0:
-                continue
-            sl = (slice(1 + dr, h - 1 + dr), slice(1 + dc, w - 1 + dc))
-            inner_valid &= valid[sl]
-            total += d[sl]
-    hole = inner_valid & ~valid[1:-1, 1:-1]
-    out_d[1:-1, 1:-1][hole] = total[hole] / 8.0
-    out_v[1:-1, 1:-1] |= hole
+    d = np.ascontiguousarray(np.where(valid, depth, 0.0), dtype=np.float64)
+    v = np.ascontiguousarray(valid, dtype=np.bool_)
+    out_d = np.zeros_like(d)
+    out_v = np.zeros_like(v)
+    _kernels.fill_gaps_kernel(d, v, out_d, out_v)
     return out_d, out_v
 
 
-def _second_difference(d, v, axis, jump):
-    """|d[i-1] - 2 d[i] + d[i+1]| along `axis`, with the SPEC's rules at borders and jumps.
-
-    * the stencil leaves the image -> 0 (image borders make no curvature);
-    * all three pixels valid -> the absolute second difference;
-    * all three background -> 0;
-    * mixed valid and background -> `jump` (a silhouette: a jump edge whose
-      size does not depend on the background marker).
-    """
-    out = np.zeros(d.shape)
-    n = d.shape[axis]
-    if n < 3:
-        return out
-    lo = [slice(None)] * 2
-    mid = [slice(None)] * 2
-    hi = [slice(None)] * 2
-    lo[axis] = slice(0, n - 2)
-    mid[axis] = slice(1, n - 1)
-    hi[axis] = slice(2, n)
-    lo, mid, hi = tuple(lo), tuple(mid), tuple(hi)
-    dd = np.abs(d[lo] - 2.0 * d[mid] + d[hi])
-    count = v[lo].astype(np.int8) + v[mid] + v[hi]
-    inner = np.where(count == 3, dd, np.where(count == 0, 0.0, jump))
-    out[mid] = inner
-    return out
+def valid_span(depth: np.ndarray, valid: np.ndarray) -> float:
+    """Max - min of the valid depths (0 when there is none)."""
+    lo, hi, n = _kernels.valid_range(np.ascontiguousarray(depth, dtype=np.float64),
+                                     np.ascontiguousarray(valid, dtype=np.bool_))
+    return float(hi - lo) if n else 0.0
 
 
 def curvature(depth: np.ndarray, valid: np.ndarray, levels: int = 2) -> np.ndarray:
@@ -125,26 +93,10 @@ def curvature(depth: np.ndarray, valid: np.ndarray, levels: int = 2) -> np.ndarr
     ``log(255)``, the most any jump inside the scene can weigh, whatever the
     background marker or the depth unit.
     """
-    if valid.any():
-        jump = float(depth[valid].max() - depth[valid].min())
-    else:
-        jump = 0.0
-    d = np.where(valid, depth, 0.0)
-    h, w = d.shape
-    K = np.zeros((h, w))
-    for level in range(levels):
-        step = 1 << level
-        ds = d[::step, ::step]
-        vs = valid[::step, ::step]
-        if ds.shape[0] < 3 and ds.shape[1] < 3:
-            break
-        k = _second_difference(ds, vs, 0, jump) + _second_difference(ds, vs, 1, jump)
-        if step == 1:
-            K += k
-        else:
-            rows = np.arange(h) >> level
-            cols = np.arange(w) >> level
-            K += k[rows[:, None], cols[None, :]]
+    d = np.ascontiguousarray(np.where(valid, depth, 0.0), dtype=np.float64)
+    v = np.ascontiguousarray(valid, dtype=np.bool_)
+    K = np.zeros(d.shape)
+    _kernels.curvature_kernel(d, v, valid_span(d, v), int(levels), K)
     return K
 
 
@@ -170,7 +122,7 @@ def sampling_weights(depth: np.ndarray, valid: np.ndarray, params: MeshParams) -
     if params.sampling == "uniform":
         return np.ones(depth.shape)
     K = curvature(depth, valid, params.levels)
-    span = float(depth[valid].max() - depth[valid].min()) if valid.any() else 0.0
+    span = valid_span(depth, valid)
     if span > 0.0:
         K = K * (_PAPER_SCALE / span)
     else:

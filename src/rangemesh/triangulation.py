@@ -8,11 +8,11 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import Delaunay, QhullError
 
-from . import _kernels
+from . import _delaunay, _kernels
 from .camera import as_camera, backproject
 from .mesh import Mesh, Stats, count_edges, empty_mesh
 
-__all__ = ["delaunay_mesh"]
+__all__ = ["delaunay_mesh", "triangulate_points"]
 
 
 def _empty(camera, shape, grid_shape, n_points, reason):
@@ -20,8 +20,76 @@ def _empty(camera, shape, grid_shape, n_points, reason):
                                            reason=reason))
 
 
+def triangulate_points(pts: np.ndarray, engine: str = "sweep") -> tuple[np.ndarray, np.ndarray]:
+    """The canonical Delaunay triangulation of distinct integer points.
+
+    Parameters
+    ----------
+    pts : (N, 2) ndarray of int
+        Distinct ``(row, col)`` points; their order defines the tie-break.
+    engine : {'sweep', 'qhull'}, default 'sweep'
+        ``'sweep'``: our Numba sweep-hull with exact integer predicates.
+        ``'qhull'``: ``scipy.spatial.Delaunay``; kept as an independent
+        reference. Both end in the same triangulation.
+
+    Returns
+    -------
+    simplices : (F, 3) ndarray of int64
+        Counter-clockwise in (r, c), in canonical order: each face starts at
+        its smallest vertex, faces sorted lexicographically.
+    neighbors : (F, 3) ndarray of int64
+        Face across the edge opposite corner k, or -1.
+
+    Notes
+    -----
+    Co-circular points make Delaunay triangulations non-unique; both engines
+    are followed by Lawson flips under Simulation of Simplicity (lifted
+    heights perturbed by ``eps**i``, smaller index dominant), which lead to
+    the one triangulation that is Delaunay for the perturbed points. So the
+    result depends only on the point set and its order, never on the engine
+    or on floating-point luck.
+    """
+    pr = np.ascontiguousarray(pts[:, 0], dtype=np.int64)
+    pc = np.ascontiguousarray(pts[:, 1], dtype=np.int64)
+    n = len(pr)
+    empty = np.zeros((0, 3), np.int64)
+    if n < 3:
+        return empty, empty
+    if engine == "sweep":
+        triangles, halfedges, n_t = _delaunay.delaunay_sweep(pr, pc)
+        if n_t == 0:
+            return empty, empty
+        triangles = triangles.copy()
+        halfedges = halfedges.copy()
+    elif engine == "qhull":
+        try:
+            simplices = Delaunay(np.stack([pr, pc], axis=1).astype(np.float64)).simplices
+        except QhullError:
+            return empty, empty
+        simplices = simplices.astype(np.int64)
+        r, c = pr[simplices], pc[simplices]
+        area = (r[:, 1] - r[:, 0]) * (c[:, 2] - c[:, 0]) - (c[:, 1] - c[:, 0]) * (r[:, 2] - r[:, 0])
+        simplices[area < 0] = simplices[area < 0][:, [0, 2, 1]]
+        simplices = simplices[area != 0]
+        if len(simplices) == 0:
+            return empty, empty
+        triangles, halfedges = _kernels.build_halfedges(simplices, n)
+    else:
+        raise ValueError(f"engine must be 'sweep' or 'qhull', got {engine!r}")
+    _delaunay.legalize_all(triangles, halfedges, pr, pc)
+    faces = triangles.reshape(-1, 3)
+    # canonical order: start each face at its smallest vertex (keeping its turn), then sort
+    k = np.argmin(faces, axis=1)
+    idx = (k[:, None] + np.arange(3)[None, :]) % 3
+    faces = np.take_along_axis(faces, idx, axis=1)
+    faces = faces[np.lexsort((faces[:, 2], faces[:, 1], faces[:, 0]))]
+    faces = np.ascontiguousarray(faces)
+    _, halfedges = _kernels.build_halfedges(faces, n)
+    return faces, _delaunay.neighbors_from_halfedges(halfedges)
+
+
 def delaunay_mesh(grid: np.ndarray, depth: np.ndarray, valid: np.ndarray, camera=None, *,
-                  max_edge: float | None = None) -> Mesh:
+                  max_edge: float | None = None, engine: str = "sweep") -> Mesh:
     """Triangulate the valid samples and lift them to 3-D (SPEC 2.1-2.4).
 
     Parameters
@@ -36,6 +104,9 @@ def delaunay_mesh(grid: np.ndarray, depth: np.ndarray, valid: np.ndarray, camera
     max_edge : float, optional
         Drop every triangle with an edge longer than this, in pixels of the
         image plane, before pruning (the hole it leaves stays uncovered).
+    engine : {'sweep', 'qhull'}, default 'sweep'
+        Delaunay implementation; both give the same canonical triangulation
+        (see `triangulate_points`).
 
     Returns
     -------
@@ -48,11 +119,10 @@ def delaunay_mesh(grid: np.ndarray, depth: np.ndarray, valid: np.ndarray, camera
 
     Notes
     -----
-    * 2-D Delaunay runs on integer pixel coordinates through Qhull
-      (``scipy.spatial.Delaunay``). Pixel grids are full of co-circular points,
-      so the triangulation is one of several valid Delaunay triangulations;
-      Qhull's choice is deterministic for the same input. Points Qhull leaves
-      out (``coplanar``) are dropped, and any zero-area triangle is removed.
+    * 2-D Delaunay runs on integer pixel coordinates with exact predicates.
+      Pixel grids are full of co-circular points; ties are broken by
+      Simulation of Simplicity so that the triangulation is unique (see
+      `triangulate_points`), whichever engine computes it.
     * A triangle is background when the pixel at its rounded barycentre is
       background. The barycentre ``(r0+r1+r2)/3`` never falls on a half, so
       rounding needs no tie rule.
@@ -74,21 +144,11 @@ def delaunay_mesh(grid: np.ndarray, depth: np.ndarray, valid: np.ndarray, camera
         return _empty(camera, (h, w), grid_shape, n_points,
                       f"only {n_points} valid sample(s); a triangle needs 3")
     pts = np.stack([lin // w, lin % w], axis=1)
-    try:
-        tri = Delaunay(pts.astype(np.float64))
-    except QhullError:
+    simplices, neighbors = triangulate_points(pts, engine=engine)
+    if len(simplices) == 0:
         return _empty(camera, (h, w), grid_shape, n_points,
                       "all valid samples are collinear; no triangle can be formed")
-    simplices = tri.simplices.astype(np.int64)
-    neighbors = tri.neighbors.astype(np.int64)
-    # Orient CCW in (r, c); a swap of two corners must swap the matching neighbours.
-    r = pts[simplices, 0]
-    c = pts[simplices, 1]
-    area = (r[:, 1] - r[:, 0]) * (c[:, 2] - c[:, 0]) - (c[:, 1] - c[:, 0]) * (r[:, 2] - r[:, 0])
-    neg = area < 0
-    simplices[neg] = simplices[neg][:, [0, 2, 1]]
-    neighbors[neg] = neighbors[neg][:, [0, 2, 1]]
-    alive = area != 0
+    alive = np.ones(len(simplices), bool)
     # Background triangles: the pixel at the rounded barycentre is background.
     sr = pts[simplices, 0].sum(axis=1)
     sc = pts[simplices, 1].sum(axis=1)

@@ -1,0 +1,418 @@
+"""Numba kernels of stage two: a canonical 2-D Delaunay triangulation of pixel positions.
+
+Pixel grids are full of co-circular points, so "the" Delaunay triangulation
+is not unique. We make it unique by Simulation of Simplicity: the lifted
+heights ``r^2 + c^2`` get infinitesimal perturbations ``eps^i``, the lowest
+vertex index the largest. The triangulation is then the regular
+triangulation of the perturbed lifting, which exists, is unique, and is a
+Delaunay triangulation of the unperturbed points. Two implementations must
+agree on it: the sweep below and Qhull followed by `legalize_all`; the
+tests check that they do.
+
+All predicates run on int64 pixel coordinates and are exact: |incircle| stays
+below 2**57 for images up to 16384 pixels on a side.
+
+The sweep follows the idea of Delaunator (V. Agafonkin, after Sinclair's
+s-hull): insert points by distance from a seed circumcentre, keep the convex
+hull in a linked list with an angular hash, add a fan of triangles to the
+visible hull edges, legalise by flips. Written here for exact predicates,
+our counter-clockwise (r, c) convention and our half-edge layout.
+"""
+
+import math
+
+import numpy as np
+from numba import njit
+
+# --------------------------------------------------------------------------
+# exact predicates
+# --------------------------------------------------------------------------
+
+
+@njit(cache=True)
+def orient_i(pr, pc, a, b, c):
+    """Twice the signed area of (a, b, c) in (r, c); > 0 is counter-clockwise. Exact."""
+    return (pr[b] - pr[a]) * (pc[c] - pc[a]) - (pc[b] - pc[a]) * (pr[c] - pr[a])
+
+
+@njit(cache=True)
+def incircle_i(pr, pc, a, b, c, d):
+    """> 0 when d is strictly inside the circle through counter-clockwise (a, b, c). Exact."""
+    adx = pr[a] - pr[d]
+    ady = pc[a] - pc[d]
+    bdx = pr[b] - pr[d]
+    bdy = pc[b] - pc[d]
+    cdx = pr[c] - pr[d]
+    cdy = pc[c] - pc[d]
+    alift = adx * adx + ady * ady
+    blift = bdx * bdx + bdy * bdy
+    clift = cdx * cdx + cdy * cdy
+    return (adx * (bdy * clift - cdy * blift) - ady * (bdx * clift - cdx * blift)
+            + alift * (bdx * cdy - cdx * bdy))
+
+
+@njit(cache=True)
+def illegal(pr, pc, u, v, w, x):
+    """Edge uv of counter-clockwise (u, v, w), with x across it, must be flipped.
+
+    Strictly inside -> flip. On the circle -> Simulation of Simplicity: with
+    perturbations eps^i (smallest vertex id dominant), x is inside iff the
+    barycentric weight of the dominant vertex among u, v, w is positive, and
+    never when x itself dominates. Three distinct points of a circle are never
+    collinear, so the orientations below are never 0.
+    """
+    det = incircle_i(pr, pc, u, v, w, x)
+    if det != 0:
+        return det > 0
+    m = min(min(u, v), min(w, x))
+    if m == x:
+        return False
+    if m == u:
+        return orient_i(pr, pc, x, v, w) > 0
+    if m == v:
+        return orient_i(pr, pc, u, x, w) > 0
+    return orient_i(pr, pc, u, v, x) > 0
+
+
+# --------------------------------------------------------------------------
+# half-edge helpers
+# --------------------------------------------------------------------------
+
+
+@njit(cache=True)
+def _nxt(e):
+    return e - 2 if e % 3 == 2 else e + 1
+
+
+@njit(cache=True)
+def _prv(e):
+    return e + 2 if e % 3 == 0 else e - 1
+
+
+@njit(cache=True)
+def flip_quad(triangles, halfedges, e0):
+    """Flip the edge of half-edge e0 (A->B in ABC, twin in BAD) to CD, in place.
+
+    Afterwards e0's triangle is DCA and its twin's is CDB; the diagonal keeps
+    the slots e0 and its twin. The outer half-edges move: CA to next(e0), AD
+    to prev(e0), DB to next(e1), BC to prev(e1).
+    """
+    e1 = halfedges[e0]
+    b0 = _nxt(e0)
+    c0 = _prv(e0)
+    b1 = _nxt(e1)
+    c1 = _prv(e1)
+    va = triangles[e0]
+    vb = triangles[b0]
+    vc = triangles[c0]
+    vd = triangles[c1]
+    tb0 = halfedges[b0]
+    tc0 = halfedges[c0]
+    tb1 = halfedges[b1]
+    tc1 = halfedges[c1]
+    triangles[e0] = vd
+    triangles[b0] = vc
+    triangles[c0] = va
+    triangles[e1] = vc
+    triangles[b1] = vd
+    triangles[c1] = vb
+    halfedges[b0] = tc0
+    if tc0 != -1:
+        halfedges[tc0] = b0
+    halfedges[c0] = tb1
+    if tb1 != -1:
+        halfedges[tb1] = c0
+    halfedges[b1] = tc1
+    if tc1 != -1:
+        halfedges[tc1] = b1
+    halfedges[c1] = tb0
+    if tb0 != -1:
+        halfedges[tb0] = c1
+
+
+@njit(cache=True)
+def legalize_all(triangles, halfedges, pr, pc):
+    """Lawson flips until every edge is legal under `illegal`; returns the flips made.
+
+    On a Delaunay triangulation only co-circular quads can be illegal, and
+    four distinct co-circular points always form a strictly convex quad, so
+    every flip is possible; the perturbed lifted surface falls with each flip,
+    so the loop ends, at the unique canonical triangulation.
+    """
+    n = triangles.size
+    stack = np.zeros(max(n, 16), np.int64)
+    top = 0
+    for e in range(n):
+        if halfedges[e] > e:
+            stack[top] = e
+            top += 1
+    flips = 0
+    while top > 0:
+        top -= 1
+        e = stack[top]
+        t = halfedges[e]
+        if t == -1:
+            continue
+        u = triangles[e]
+        v = triangles[_nxt(e)]
+        w = triangles[_prv(e)]
+        x = triangles[_prv(t)]
+        if not illegal(pr, pc, u, v, w, x):
+            continue
+        flip_quad(triangles, halfedges, e)
+        flips += 1
+        if top + 4 > stack.size:
+            bigger = np.zeros(2 * stack.size, np.int64)
+            bigger[:top] = stack[:top]
+            stack = bigger
+        for s in (_nxt(e), _prv(e), _nxt(t), _prv(t)):
+            stack[top] = s
+            top += 1
+    return flips
+
+
+# --------------------------------------------------------------------------
+# the sweep
+# --------------------------------------------------------------------------
+
+
+@njit(cache=True)
+def _pseudo_angle(dx, dy):
+    p = dx / (abs(dx) + abs(dy))
+    return (3.0 - p if dy > 0 else 1.0 + p) / 4.0  # in [0, 1)
+
+
+@njit(cache=True)
+def _hash_key(r, c, cr, cc, size):
+    dx = r - cr
+    dy = c - cc
+    if dx == 0.0 and dy == 0.0:
+        return 0
+    return int(math.floor(_pseudo_angle(dx, dy) * size)) % size
+
+
+@njit(cache=True)
+def _add_triangle(triangles, halfedges, n_t, i0, i1, i2, a, b, c):
+    t = 3 * n_t
+    triangles[t] = i0
+    triangles[t + 1] = i1
+    triangles[t + 2] = i2
+    halfedges[t] = a
+    if a != -1:
+        halfedges[a] = t
+    halfedges[t + 1] = b
+    if b != -1:
+        halfedges[b] = t + 1
+    halfedges[t + 2] = c
+    if c != -1:
+        halfedges[c] = t + 2
+    return t
+
+
+@njit(cache=True)
+def _legalize(triangles, halfedges, pr, pc, hull_tri, a, stack):
+    """Flip edges opposite the new point until legal; keep hull_tri pointing at hull edges."""
+    top = 0
+    while True:
+        b = halfedges[a]
+        flipped = False
+        if b != -1:
+            u = triangles[a]
+            v = triangles[_nxt(a)]
+            w = triangles[_prv(a)]
+            x = triangles[_prv(b)]
+            if illegal(pr, pc, u, v, w, x):
+                flip_quad(triangles, halfedges, a)
+                # hull edges among the moved outer half-edges: re-point hull_tri
+                for s in (_nxt(a), _prv(a), _nxt(b), _prv(b)):
+                    if halfedges[s] == -1:
+                        hull_tri[triangles[s]] = s
+                # w is the new point; the edges now opposite it are prev(a) (u->x)
+                # and next(b) (x->v)
+                if top + 1 >= stack.size:
+                    return -1  # cannot happen: the stack is sized to the triangle count
+                stack[top] = _nxt(b)
+                top += 1
+                a = _prv(a)
+                flipped = True
+        if not flipped:
+            if top == 0:
+                return 0
+            top -= 1
+            a = stack[top]
+
+
+@njit(cache=True)
+def delaunay_sweep(pr, pc):
+    """Delaunay triangulation of distinct integer points (pr, pc).
+
+    Returns ``(triangles, halfedges, n_triangles)``; ``n_triangles == 0``
+    when the points are all collinear (or fewer than 3). Triangles are
+    counter-clockwise in (r, c); every point is a vertex.
+    """
+    n = pr.size
+    max_t = max(2 * n - 5, 1)
+    triangles = np.full(3 * max_t, -1, np.int64)
+    halfedges = np.full(3 * max_t, -1, np.int64)
+    if n < 3:
+        return triangles[:0], halfedges[:0], 0
+    fr = pr.astype(np.float64)
+    fc = pc.astype(np.float64)
+    # seed: the point nearest the bounding-box centre, its nearest neighbour, and the
+    # point making the smallest circumcircle with them
+    mr = 0.5 * (fr.min() + fr.max())
+    mc = 0.5 * (fc.min() + fc.max())
+    i0 = 0
+    best = np.inf
+    for i in range(n):
+        d = (fr[i] - mr) ** 2 + (fc[i] - mc) ** 2
+        if d < best:
+            best = d
+            i0 = i
+    i1 = -1
+    best = np.inf
+    for i in range(n):
+        if i == i0:
+            continue
+        d = (fr[i] - fr[i0]) ** 2 + (fc[i] - fc[i0]) ** 2
+        if d < best:
+            best = d
+            i1 = i
+    i2 = -1
+    best = np.inf
+    for i in range(n):
+        if i == i0 or i == i1:
+            continue
+        o = orient_i(pr, pc, i0, i1, i)
+        if o == 0:
+            continue
+        # circumradius^2 of (i0, i1, i)
+        ar = fr[i1] - fr[i0]
+        ac = fc[i1] - fc[i0]
+        br = fr[i] - fr[i0]
+        bc = fc[i] - fc[i0]
+        bl = ar * ar + ac * ac
+        cl = br * br + bc * bc
+        den = 0.5 / (ar * bc - ac * br)
+        x = (bc * bl - ac * cl) * den
+        y = (ar * cl - br * bl) * den
+        rr = x * x + y * y
+        if rr < best:
+            best = rr
+            i2 = i
+    if i2 == -1:
+        return triangles[:0], halfedges[:0], 0  # all collinear
+    if orient_i(pr, pc, i0, i1, i2) < 0:
+        i1, i2 = i2, i1
+    # circumcentre of the seed
+    ar = fr[i1] - fr[i0]
+    ac = fc[i1] - fc[i0]
+    br = fr[i2] - fr[i0]
+    bc = fc[i2] - fc[i0]
+    bl = ar * ar + ac * ac
+    cl = br * br + bc * bc
+    den = 0.5 / (ar * bc - ac * br)
+    cr = fr[i0] + (bc * bl - ac * cl) * den
+    cc = fc[i0] + (ar * cl - br * bl) * den
+    dist = np.zeros(n)
+    for i in range(n):
+        dist[i] = (fr[i] - cr) ** 2 + (fc[i] - cc) ** 2
+    order = np.argsort(dist, kind="mergesort")
+    hash_size = max(int(math.ceil(math.sqrt(n))), 1)
+    hull_hash = np.full(hash_size, -1, np.int64)
+    hull_next = np.full(n, -1, np.int64)
+    hull_prev = np.full(n, -1, np.int64)
+    hull_tri = np.full(n, -1, np.int64)
+    stack = np.zeros(3 * max_t + 16, np.int64)
+    # hull, counter-clockwise: i0 -> i1 -> i2 -> i0
+    hull_next[i0] = i1
+    hull_next[i1] = i2
+    hull_next[i2] = i0
+    hull_prev[i0] = i2
+    hull_prev[i1] = i0
+    hull_prev[i2] = i1
+    hull_start = i0
+    t = _add_triangle(triangles, halfedges, 0, i0, i1, i2, -1, -1, -1)
+    n_t = 1
+    hull_tri[i0] = t
+    hull_tri[i1] = t + 1
+    hull_tri[i2] = t + 2
+    hull_hash[_hash_key(fr[i0], fc[i0], cr, cc, hash_size)] = i0
+    hull_hash[_hash_key(fr[i1], fc[i1], cr, cc, hash_size)] = i1
+    hull_hash[_hash_key(fr[i2], fc[i2], cr, cc, hash_size)] = i2
+    for k in range(n):
+        p = order[k]
+        if p == i0 or p == i1 or p == i2:
+            continue
+        # a hull vertex near p's angle to start the search from
+        key = _hash_key(fr[p], fc[p], cr, cc, hash_size)
+        start = -1
+        for j in range(hash_size):
+            s = hull_hash[(key + j) % hash_size]
+            if s != -1 and hull_next[s] != s:
+                start = s
+                break
+        start = hull_prev[start]
+        e = start
+        # edge e -> next(e) is visible when p is strictly on its right (outside)
+        while orient_i(pr, pc, e, hull_next[e], p) >= 0:
+            e = hull_next[e]
+            if e == start:
+                e = -1
+                break
+        if e == -1:
+            continue  # cannot happen for distinct points swept in distance order
+        nxt = hull_next[e]
+        # first triangle on the visible edge e -> nxt: (nxt, e, p)
+        t = _add_triangle(triangles, halfedges, n_t, nxt, e, p, hull_tri[e], -1, -1)
+        n_t += 1
+        hull_tri[e] = t + 1   # e -> p
+        hull_tri[p] = t + 2   # p -> nxt
+        _legalize(triangles, halfedges, pr, pc, hull_tri, t, stack)
+        # walk forward: nxt -> q visible too?
+        while True:
+            q = hull_next[nxt]
+            if orient_i(pr, pc, nxt, q, p) >= 0:
+                break
+            # triangle (q, nxt, p): q->nxt twins the hull edge nxt->q; nxt->p twins p->nxt
+            t = _add_triangle(triangles, halfedges, n_t, q, nxt, p, hull_tri[nxt], hull_tri[p], -1)
+            n_t += 1
+            hull_tri[p] = t + 2   # p -> q
+            _legalize(triangles, halfedges, pr, pc, hull_tri, t, stack)
+            hull_next[nxt] = nxt  # off the hull
+            nxt = q
+        # walk backward: q -> e visible?
+        if e == start:
+            while True:
+                q = hull_prev[e]
+                if orient_i(pr, pc, q, e, p) >= 0:
+                    break
+                # triangle (e, q, p): e->q twins q->e; p->e twins e->p
+                t = _add_triangle(triangles, halfedges, n_t, e, q, p, hull_tri[q], -1, hull_tri[e])
+                n_t += 1
+                hull_tri[q] = t + 1   # q -> p
+                _legalize(triangles, halfedges, pr, pc, hull_tri, t, stack)
+                hull_next[e] = e
+                e = q
+        hull_start = e
+        hull_prev[p] = e
+        hull_next[e] = p
+        hull_prev[nxt] = p
+        hull_next[p] = nxt
+        hull_hash[_hash_key(fr[p], fc[p], cr, cc, hash_size)] = p
+        hull_hash[_hash_key(fr[e], fc[e], cr, cc, hash_size)] = e
+    _ = hull_start
+    return triangles[: 3 * n_t], halfedges[: 3 * n_t], n_t
+
+
+@njit(cache=True)
+def neighbors_from_halfedges(halfedges):
+    """SciPy-style neighbours: entry (t, k) is the triangle across the edge opposite corner k."""
+    n_t = halfedges.size // 3
+    out = np.full((n_t, 3), -1, np.int64)
+    for t in range(n_t):
+        for k in range(3):
+            tw = halfedges[3 * t + (k + 1) % 3]  # the edge from corner k+1 to corner k+2
+            if tw != -1:
+                out[t, k] = tw // 3
+    return out

@@ -7,7 +7,6 @@ import numpy as np
 from numba import njit
 
 from rangemesh._kernels import lift, line_pixel
-
 from rangemesh.camera import backproject
 
 

@@ -591,6 +591,45 @@ def build_halfedges(faces, n_vertices):
 
 
 @njit(cache=True)
+def count_edges_kernel(faces, n_vertices):
+    """Distinct undirected edges of a face list (any orientation, manifold or not).
+
+    Each edge is counted at its smaller endpoint, by scanning the few edges
+    that vertex starts (a CSR table by smaller endpoint).
+    """
+    n_t = faces.shape[0]
+    lo = np.zeros(3 * n_t, np.int64)
+    hi = np.zeros(3 * n_t, np.int64)
+    for t in range(n_t):
+        for k in range(3):
+            a = faces[t, k]
+            b = faces[t, (k + 1) % 3]
+            lo[3 * t + k] = min(a, b)
+            hi[3 * t + k] = max(a, b)
+    start = np.zeros(n_vertices + 1, np.int64)
+    for e in range(3 * n_t):
+        start[lo[e] + 1] += 1
+    for v in range(n_vertices):
+        start[v + 1] += start[v]
+    fill = start[:-1].copy()
+    other = np.zeros(3 * n_t, np.int64)
+    for e in range(3 * n_t):
+        other[fill[lo[e]]] = hi[e]
+        fill[lo[e]] += 1
+    count = 0
+    for v in range(n_vertices):
+        for j in range(start[v], start[v + 1]):
+            seen = False
+            for i in range(start[v], j):
+                if other[i] == other[j]:
+                    seen = True
+                    break
+            if not seen:
+                count += 1
+    return count
+
+
+@njit(cache=True)
 def _span_normal(triangles, halfedges, normals, start, t0, t1):
     """NS_V: sum of unit normals of the triangles around V = triangles[start], but t0, t1.
 

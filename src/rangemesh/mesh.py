@@ -75,13 +75,12 @@ def count_edges(faces: np.ndarray) -> int:
     >>> count_edges(np.array([[0, 1, 2], [2, 1, 3]]))
     5
     """
-    faces = np.asarray(faces, dtype=np.int64)
+    faces = np.ascontiguousarray(faces, dtype=np.int64)
     if len(faces) == 0:
         return 0
-    e = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
-    e.sort(axis=1)
-    key = e[:, 0] * (int(faces.max()) + 1) + e[:, 1]
-    return int(np.unique(key).size)
+    from ._kernels import count_edges_kernel
+
+    return int(count_edges_kernel(faces, int(faces.max()) + 1))
 
 
 @dataclass(frozen=True, eq=False)

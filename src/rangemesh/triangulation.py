@@ -82,7 +82,11 @@ def triangulate_points(pts: np.ndarray, engine: str = "sweep") -> tuple[np.ndarr
     k = np.argmin(faces, axis=1)
     idx = (k[:, None] + np.arange(3)[None, :]) % 3
     faces = np.take_along_axis(faces, idx, axis=1)
-    faces = faces[np.lexsort((faces[:, 2], faces[:, 1], faces[:, 0]))]
+    if n < 2**20:  # one int64 key per face: an argsort instead of a lexsort
+        key = (faces[:, 0] * n + faces[:, 1]) * n + faces[:, 2]
+        faces = faces[np.argsort(key, kind="stable")]
+    else:
+        faces = faces[np.lexsort((faces[:, 2], faces[:, 1], faces[:, 0]))]
     faces = np.ascontiguousarray(faces)
     _, halfedges = _kernels.build_halfedges(faces, n)
     return faces, _delaunay.neighbors_from_halfedges(halfedges)
@@ -137,8 +141,11 @@ def delaunay_mesh(grid: np.ndarray, depth: np.ndarray, valid: np.ndarray, camera
     g = np.asarray(grid, dtype=np.int64).reshape(-1, 2)
     inside = (g[:, 0] >= 0) & (g[:, 0] < h) & (g[:, 1] >= 0) & (g[:, 1] < w)
     g = g[inside]
-    lin = np.unique(g[:, 0] * w + g[:, 1])
-    lin = lin[valid.ravel()[lin]]
+    # distinct valid samples in linear-index order (a mark per pixel: cheaper than a sort)
+    mark = np.zeros(h * w, bool)
+    mark[g[:, 0] * w + g[:, 1]] = True
+    mark &= valid.ravel()
+    lin = np.flatnonzero(mark)
     n_points = int(lin.size)
     if n_points < 3:
         return _empty(camera, (h, w), grid_shape, n_points,
@@ -165,7 +172,9 @@ def delaunay_mesh(grid: np.ndarray, depth: np.ndarray, valid: np.ndarray, camera
         return _empty(camera, (h, w), grid_shape, n_points,
                       "no triangle is left after removing background and dangling triangles")
     faces = simplices[alive]
-    used = np.unique(faces)
+    in_use = np.zeros(n_points, bool)
+    in_use[faces.ravel()] = True
+    used = np.flatnonzero(in_use)
     remap = np.full(n_points, -1, np.int64)
     remap[used] = np.arange(used.size)
     faces = remap[faces].astype(np.int32)

@@ -19,7 +19,7 @@ No ``fastmath``: predicates, angles and errors must be reproducible bit for bit.
 import math
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 NEG_INF = -np.inf
 # Angles closer than this (radians) are equal: flat spans give angles of 0 up
@@ -115,11 +115,11 @@ def fill_gaps_kernel(depth, valid, out_depth, out_valid):
             out_valid[r, c] = True
 
 
-@njit(cache=True)
-def _second_diff(d, v, r0, c0, r1, c1, r2, c2, jump):
-    n_valid = int(v[r0, c0]) + int(v[r1, c1]) + int(v[r2, c2])
+@njit(cache=True, inline="always")
+def _second_diff(a, b, c, va, vb, vc, jump):
+    n_valid = int(va) + int(vb) + int(vc)
     if n_valid == 3:
-        return abs(d[r0, c0] - 2.0 * d[r1, c1] + d[r2, c2])
+        return abs(a - 2.0 * b + c)
     if n_valid == 0:
         return 0.0
     return jump
@@ -130,8 +130,9 @@ def curvature_kernel(d, v, jump, levels, K):
     """SPEC 1.2-1.3 in loops: K += K_l[r >> l, c >> l] for each level l (K starts at 0).
 
     Level l reads the image one pixel in 2**l; a stencil leaving the (sub-sampled)
-    image adds 0, one mixing valid and background pixels adds `jump`. The sums
-    run in the same order as the NumPy reference, so results agree bit for bit.
+    image adds 0, one mixing valid and background pixels adds `jump`. Per level
+    the row term is added before the column term, as in the NumPy reference,
+    so results agree bit for bit.
     """
     h, w = d.shape
     for level in range(levels):
@@ -141,20 +142,31 @@ def curvature_kernel(d, v, jump, levels, K):
         if hs < 3 and ws < 3:
             break
         k = np.zeros((hs, ws))
-        for i in range(hs):
+        for i in range(1, hs - 1):  # along rows (axis 0)
+            r0 = (i - 1) * step
+            r1 = i * step
+            r2 = (i + 1) * step
             for j in range(ws):
-                kr = 0.0
-                kc = 0.0
-                if 1 <= i <= hs - 2:
-                    kr = _second_diff(d, v, (i - 1) * step, j * step, i * step, j * step,
-                                      (i + 1) * step, j * step, jump)
-                if 1 <= j <= ws - 2:
-                    kc = _second_diff(d, v, i * step, (j - 1) * step, i * step, j * step,
-                                      i * step, (j + 1) * step, jump)
-                k[i, j] = kr + kc
-        for r in range(h):
-            for c in range(w):
-                K[r, c] += k[r >> level, c >> level]
+                c = j * step
+                k[i, j] = _second_diff(d[r0, c], d[r1, c], d[r2, c], v[r0, c], v[r1, c],
+                                       v[r2, c], jump)
+        for i in range(hs):  # along columns (axis 1)
+            r = i * step
+            for j in range(1, ws - 1):
+                c0 = (j - 1) * step
+                c1 = j * step
+                c2 = (j + 1) * step
+                k[i, j] += _second_diff(d[r, c0], d[r, c1], d[r, c2], v[r, c0], v[r, c1],
+                                        v[r, c2], jump)
+        if level == 0:
+            for r in range(h):
+                for c in range(w):
+                    K[r, c] += k[r, c]
+        else:
+            for r in range(h):
+                kr = r >> level
+                for c in range(w):
+                    K[r, c] += k[kr, c >> level]
 
 
 @njit(cache=True)
@@ -229,6 +241,46 @@ def sample_tiles(f, row_bounds, col_bounds, rs, zs, grid):
                     gj = h * (zs - 1) + j
                     grid[gi, gj, 0] = r0 + pos_r[i]
                     grid[gi, gj, 1] = hs[pos_r[i], j]
+
+
+@njit(cache=True, parallel=True)
+def sample_tiles_parallel(f, row_bounds, col_bounds, rs, zs, grid):
+    """`sample_tiles` with the tiles shared among threads (paper: "inherently parallel").
+
+    Each tile writes only its own part of the grid (neighbours write the same
+    values on shared borders), so the result is the same as the serial one.
+    """
+    n_v = row_bounds.size - 1
+    n_h = col_bounds.size - 1
+    for tile in prange(n_v * n_h):
+        v = tile // n_h
+        h = tile % n_h
+        r0 = row_bounds[v]
+        nr = row_bounds[v + 1] - r0 + 1
+        c0 = col_bounds[h]
+        nc = col_bounds[h + 1] - c0 + 1
+        cum = np.zeros(max(nr, nc))
+        pos_c = np.zeros(zs, np.int64)
+        pos_r = np.zeros(rs, np.int64)
+        hs = np.zeros((nr, zs), np.int64)
+        for i in range(nr):
+            r = r0 + i
+            cum[0] = 0.0
+            for k in range(1, nc):
+                cum[k] = cum[k - 1] + f[r, c0 + k]
+            _invert_cdf(cum, nc, zs, pos_c)
+            for j in range(zs):
+                hs[i, j] = c0 + pos_c[j]
+        for j in range(zs):
+            cum[0] = 0.0
+            for k in range(1, nr):
+                cum[k] = cum[k - 1] + f[r0 + k, hs[k, j]]
+            _invert_cdf(cum, nr, rs, pos_r)
+            for i in range(rs):
+                gi = v * (rs - 1) + i
+                gj = h * (zs - 1) + j
+                grid[gi, gj, 0] = r0 + pos_r[i]
+                grid[gi, gj, 1] = hs[pos_r[i], j]
 
 
 # --------------------------------------------------------------------------
@@ -841,10 +893,8 @@ def flip_edges_kernel(triangles, halfedges, pixels, vertices, depth, valid, cam,
             accept = False
             verdict = 7
         if accept and mode == 0:
-            s = _span_normal(triangles, halfedges, normals, b1, t0, t1)  # A -> D leaves A
-            ns_a[0], ns_a[1], ns_a[2] = s
-            s = _span_normal(triangles, halfedges, normals, b0, t0, t1)  # B -> C leaves B
-            ns_b[0], ns_b[1], ns_b[2] = s
+            # Spans and normals are computed as late as the tests allow: a value a test
+            # does not need is never computed (results are the same as computing all).
             s = _span_normal(triangles, halfedges, normals, c0, t0, t1)  # C -> A leaves C
             ns_c[0], ns_c[1], ns_c[2] = s
             s = _span_normal(triangles, halfedges, normals, c1, t0, t1)  # D -> B leaves D
@@ -857,26 +907,38 @@ def flip_edges_kernel(triangles, halfedges, pixels, vertices, depth, valid, cam,
             s = _unit_normal(vertices, vc, vd, vb)
             n_cdb[0], n_cdb[1], n_cdb[2] = s
             disp_ab = max(_disparity(ns_c, n_abc, delta), _disparity(ns_d, n_bad, delta))
-            disp_cd = max(_disparity(ns_a, n_dca, delta), _disparity(ns_b, n_cdb, delta))
+            s = _span_normal(triangles, halfedges, normals, b1, t0, t1)  # A -> D leaves A
+            ns_a[0], ns_a[1], ns_a[2] = s
+            disp_cd = _disparity(ns_a, n_dca, delta)
+            have_b = False
+            if disp_cd < math.pi:  # else max(...) is pi whatever NS_B is
+                s = _span_normal(triangles, halfedges, normals, b0, t0, t1)  # B -> C leaves B
+                ns_b[0], ns_b[1], ns_b[2] = s
+                have_b = True
+                disp_cd = max(disp_cd, _disparity(ns_b, n_cdb, delta))
             bend = _angle(n_dca[0], n_dca[1], n_dca[2], n_cdb[0], n_cdb[1], n_cdb[2])
             if abs(disp_ab - disp_cd) < epsilon:  # T2: no significant disparity change
                 accept = False
                 verdict = 1
-            elif (_max_internal_angle(vertices, vd, vc, va) > max_angle
-                  or _max_internal_angle(vertices, vc, vd, vb) > max_angle) and bend < delta:
+            elif bend < delta and (_max_internal_angle(vertices, vd, vc, va) > max_angle
+                                   or _max_internal_angle(vertices, vc, vd, vb) > max_angle):
                 accept = False  # T3: degenerate triangle on a smooth region
                 verdict = 2
             elif not bend > min_bend:  # T4: no noticeable change of shape
                 accept = False
                 verdict = 3
-            elif (_angle(ns_c[0], ns_c[1], ns_c[2], ns_d[0], ns_d[1], ns_d[2])
-                  > 2.0 * _angle(ns_a[0], ns_a[1], ns_a[2], ns_b[0], ns_b[1], ns_b[2])
-                  + ANGLE_TOL):
-                accept = False  # T5: a crease along AB would be lost
-                verdict = 4
             else:
-                accept = disp_ab > disp_cd  # final test
-                verdict = 5
+                if not have_b:
+                    s = _span_normal(triangles, halfedges, normals, b0, t0, t1)
+                    ns_b[0], ns_b[1], ns_b[2] = s
+                if (_angle(ns_c[0], ns_c[1], ns_c[2], ns_d[0], ns_d[1], ns_d[2])
+                        > 2.0 * _angle(ns_a[0], ns_a[1], ns_a[2], ns_b[0], ns_b[1], ns_b[2])
+                        + ANGLE_TOL):
+                    accept = False  # T5: a crease along AB would be lost
+                    verdict = 4
+                else:
+                    accept = disp_ab > disp_cd  # final test
+                    verdict = 5
         if not accept:
             verdicts[verdict] += 1
             gain[x] = NEG_INF

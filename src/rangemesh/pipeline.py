@@ -59,7 +59,8 @@ def prepare(image, params: MeshParams, background=None) -> tuple[np.ndarray, np.
 
 
 def mesh_prepared(depth: np.ndarray, valid: np.ndarray, params: MeshParams, camera, *,
-                  weights: np.ndarray | None = None, max_edge: float | None = None) -> Mesh:
+                  weights: np.ndarray | None = None, max_edge: float | None = None,
+                  workers: int = 1) -> Mesh:
     """Stages one to three on an already prepared image (see `prepare`).
 
     Parameters
@@ -72,6 +73,8 @@ def mesh_prepared(depth: np.ndarray, valid: np.ndarray, params: MeshParams, came
         Precomputed `sampling_weights` for `params` (reused across tries).
     max_edge : float, optional
         Longest triangle edge allowed in the image plane, pixels.
+    workers : int, default 1
+        Threads for stage one's tiles.
 
     Returns
     -------
@@ -79,7 +82,7 @@ def mesh_prepared(depth: np.ndarray, valid: np.ndarray, params: MeshParams, came
         With ``stats.seconds`` for ``sampling``, ``triangulation``, ``flipping``.
     """
     t1 = time.perf_counter()
-    grid = sample_grid(depth, valid, params, weights=weights)
+    grid = sample_grid(depth, valid, params, weights=weights, workers=workers)
     t2 = time.perf_counter()
     mesh = delaunay_mesh(grid, depth, valid, camera, max_edge=max_edge)
     t3 = time.perf_counter()
@@ -115,7 +118,7 @@ def _check_budget(vertices, max_error, max_edge, overrides):
 
 def triangulate(image, params: MeshParams | None = None, *, background=None, camera=None,
                 vertices: int | None = None, max_error: float | None = None,
-                max_edge: float | None = None, **overrides) -> Mesh:
+                max_edge: float | None = None, workers: int = 1, **overrides) -> Mesh:
     """Mesh a range image: adaptive sampling, 2.5-D Delaunay, discontinuity-preserving flips.
 
     Parameters
@@ -140,6 +143,9 @@ def triangulate(image, params: MeshParams | None = None, *, background=None, cam
     max_edge : float, optional
         No triangle edge longer than this in the image plane, in pixels. Alone,
         it also chooses the samples per tile (see `rangemesh.budget.fit_edge`).
+    workers : int, default 1
+        Threads sharing stage one's tiles (the paper's parallel stage). The
+        mesh is the same for any number.
     **overrides
         Any field of `MeshParams`: ``tiles``, ``samples``, ``sampling``,
         ``flips``, ``levels``, ``curvature_floor``, ``fill_gaps``, ``delta``,
@@ -202,8 +208,10 @@ def triangulate(image, params: MeshParams | None = None, *, background=None, cam
         stats = Stats(grid_shape=params.grid_shape, seconds={"prepare": t1 - t0, "total": t1 - t0},
                       reason="the image has no valid pixel (all background)")
         return empty_mesh(camera, depth.shape, stats)
+    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
+        raise ValueError(f"workers must be a whole number >= 1, got {workers!r}")
     if not targets:
-        mesh = mesh_prepared(depth, valid, params, camera)
+        mesh = mesh_prepared(depth, valid, params, camera, workers=workers)
         search = {}
     else:
         from . import budget

@@ -93,8 +93,9 @@ def curvature(depth: np.ndarray, valid: np.ndarray, levels: int = 2) -> np.ndarr
     ``log(255)``, the most any jump inside the scene can weigh, whatever the
     background marker or the depth unit.
     """
-    d = np.ascontiguousarray(np.where(valid, depth, 0.0), dtype=np.float64)
     v = np.ascontiguousarray(valid, dtype=np.bool_)
+    d = np.ascontiguousarray(depth, dtype=np.float64)
+    # The kernel never reads a background depth, so no masked copy is needed.
     K = np.zeros(d.shape)
     _kernels.curvature_kernel(d, v, valid_span(d, v), int(levels), K)
     return K
@@ -124,10 +125,12 @@ def sampling_weights(depth: np.ndarray, valid: np.ndarray, params: MeshParams) -
     K = curvature(depth, valid, params.levels)
     span = valid_span(depth, valid)
     if span > 0.0:
-        K = K * (_PAPER_SCALE / span)
+        np.multiply(K, _PAPER_SCALE / span, out=K)
     else:
-        K = np.zeros_like(K)  # a constant scene has no curvature anywhere
-    return np.log(np.maximum(K, params.curvature_floor))
+        K[:] = 0.0  # a constant scene has no curvature anywhere
+    # in place: this runs on every pixel, and each temporary is a full image
+    np.maximum(K, params.curvature_floor, out=K)
+    return np.log(K, out=K)
 
 
 def tile_bounds(n: int, tiles: int, *, name: str = "tiles") -> np.ndarray:
@@ -170,7 +173,7 @@ def tile_bounds(n: int, tiles: int, *, name: str = "tiles") -> np.ndarray:
 
 
 def sample_grid(depth: np.ndarray, valid: np.ndarray, params: MeshParams | None = None,
-                *, weights: np.ndarray | None = None) -> np.ndarray:
+                *, weights: np.ndarray | None = None, workers: int = 1) -> np.ndarray:
     """The sample grid of stage one (paper II.A.2-3, SPEC 1.5-1.8).
 
     Each tile's pixel rows are sampled at ``Z`` columns by inverting the
@@ -188,6 +191,9 @@ def sample_grid(depth: np.ndarray, valid: np.ndarray, params: MeshParams | None 
     weights : (H, W) ndarray of float64, optional
         Precomputed ``sampling_weights`` (reused across budgets by callers that
         try several grids).
+    workers : int, default 1
+        Threads sharing the tiles (Numba ``prange``); the grid is the same for
+        any number.
 
     Returns
     -------
@@ -210,5 +216,15 @@ def sample_grid(depth: np.ndarray, valid: np.ndarray, params: MeshParams | None 
     f = np.ascontiguousarray(f, dtype=np.float64)
     rs, zs = params.samples
     grid = np.zeros(params.grid_shape + (2,), np.int32)
-    _kernels.sample_tiles(f, rb, cb, rs, zs, grid)
+    if workers > 1:
+        import numba
+
+        before = numba.get_num_threads()
+        numba.set_num_threads(min(int(workers), numba.config.NUMBA_NUM_THREADS))
+        try:
+            _kernels.sample_tiles_parallel(f, rb, cb, rs, zs, grid)
+        finally:
+            numba.set_num_threads(before)
+    else:
+        _kernels.sample_tiles(f, rb, cb, rs, zs, grid)
     return grid

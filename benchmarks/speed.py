@@ -214,7 +214,8 @@ def main(argv=None):
     print("memory before; the image is float32 and the search for `vertices=n` is included.\n")
     print("| image | float32 bytes | peak RSS increase | ratio | vertices |")
     print("|---|---:|---:|---:|---:|")
-    for shape, n in (((480, 640), 5000), ((720, 1280), 20000)) + (() if args.quick else (((2048, 2048), 20000),)):
+    cases = (((480, 640), 5000), ((720, 1280), 20000)) + (() if args.quick else (((2048, 2048), 20000),))
+    for shape, n in cases:
         nbytes, inc, nv = memory(shape, n)
         print(f"| {shape[0]}x{shape[1]} | {nbytes / 1e6:.1f} MB | {inc / 1e6:.1f} MB | "
               f"{inc / nbytes:.1f}x | {nv} |")

@@ -85,16 +85,19 @@ def valid_range(depth, valid):
 
 
 @njit(cache=True)
-def fill_gaps_kernel(depth, valid, out_depth, out_valid):
-    """SPEC 1.1 in one pass: a background pixel with 8 valid neighbours gets their mean.
+def fill_gaps_inplace(depth, valid):
+    """SPEC 1.1 in one pass, in place: a background pixel with 8 valid neighbours gets their mean.
 
-    `depth` holds 0.0 on background. The 8 neighbours are added in row-major
-    order, the order of `sampling.fill_gaps`' reference, so results agree bit
-    for bit.
+    `depth` holds 0.0 on background. Holes are found first and filled after,
+    so a pixel filled in this pass never counts as a valid neighbour of
+    another. The 8 neighbours are added in row-major order, the order of the
+    NumPy reference, so results agree bit for bit. Returns the number filled.
     """
     h, w = depth.shape
-    out_depth[:, :] = depth
-    out_valid[:, :] = valid
+    rows = np.zeros(16, np.int64)
+    cols = np.zeros(16, np.int64)
+    vals = np.zeros(16)
+    n = 0
     for r in range(1, h - 1):
         for c in range(1, w - 1):
             if valid[r, c]:
@@ -111,8 +114,18 @@ def fill_gaps_kernel(depth, valid, out_depth, out_valid):
                 for dc in range(-1, 2):
                     if dr != 0 or dc != 0:
                         total += depth[r + dr, c + dc]
-            out_depth[r, c] = total / 8.0
-            out_valid[r, c] = True
+            if n == rows.size:
+                rows = np.concatenate((rows, np.zeros(n, np.int64)))
+                cols = np.concatenate((cols, np.zeros(n, np.int64)))
+                vals = np.concatenate((vals, np.zeros(n)))
+            rows[n] = r
+            cols[n] = c
+            vals[n] = total / 8.0
+            n += 1
+    for k in range(n):
+        depth[rows[k], cols[k]] = vals[k]
+        valid[rows[k], cols[k]] = True
+    return n
 
 
 @njit(cache=True, inline="always")
@@ -141,15 +154,16 @@ def curvature_kernel(d, v, jump, levels, K):
         ws = (w + step - 1) // step
         if hs < 3 and ws < 3:
             break
-        k = np.zeros((hs, ws))
+        # level 0 accumulates straight into K (0.0 + x == x, so the sums are unchanged)
+        k = K if level == 0 else np.zeros((hs, ws))
         for i in range(1, hs - 1):  # along rows (axis 0)
             r0 = (i - 1) * step
             r1 = i * step
             r2 = (i + 1) * step
             for j in range(ws):
                 c = j * step
-                k[i, j] = _second_diff(d[r0, c], d[r1, c], d[r2, c], v[r0, c], v[r1, c],
-                                       v[r2, c], jump)
+                k[i, j] += _second_diff(d[r0, c], d[r1, c], d[r2, c], v[r0, c], v[r1, c],
+                                        v[r2, c], jump)
         for i in range(hs):  # along columns (axis 1)
             r = i * step
             for j in range(1, ws - 1):
@@ -158,11 +172,7 @@ def curvature_kernel(d, v, jump, levels, K):
                 c2 = (j + 1) * step
                 k[i, j] += _second_diff(d[r, c0], d[r, c1], d[r, c2], v[r, c0], v[r, c1],
                                         v[r, c2], jump)
-        if level == 0:
-            for r in range(h):
-                for c in range(w):
-                    K[r, c] += k[r, c]
-        else:
+        if level > 0:
             for r in range(h):
                 kr = r >> level
                 for c in range(w):

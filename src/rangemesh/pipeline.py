@@ -7,12 +7,13 @@ import time
 
 import numpy as np
 
+from . import _kernels
 from .camera import as_camera
 from .flipping import flip_edges
 from .mesh import Mesh, Stats, empty_mesh
 from .params import MeshParams
 from .prepare import to_depth_and_mask
-from .sampling import fill_gaps, sample_grid
+from .sampling import sample_grid
 from .triangulation import delaunay_mesh
 
 _BUDGET_KEYS = ("vertices", "max_error", "max_edge")
@@ -54,7 +55,8 @@ def prepare(image, params: MeshParams, background=None) -> tuple[np.ndarray, np.
     """
     depth, valid = to_depth_and_mask(image, background)
     if params.fill_gaps:
-        depth, valid = fill_gaps(depth, valid)
+        # the arrays are ours and hold 0.0 on background: fill in place, no copies
+        _kernels.fill_gaps_inplace(depth, valid)
     return depth, valid
 
 

@@ -50,11 +50,9 @@ def fill_gaps(depth: np.ndarray, valid: np.ndarray) -> tuple[np.ndarray, np.ndar
     >>> float(fill_gaps(d, v)[0][1, 1])
     4.0
     """
-    d = np.ascontiguousarray(np.where(valid, depth, 0.0), dtype=np.float64)
-    v = np.ascontiguousarray(valid, dtype=np.bool_)
-    out_d = np.zeros_like(d)
-    out_v = np.zeros_like(v)
-    _kernels.fill_gaps_kernel(d, v, out_d, out_v)
+    out_d = np.where(valid, depth, 0.0).astype(np.float64, order="C", copy=False)
+    out_v = np.array(valid, dtype=np.bool_, order="C", copy=True)
+    _kernels.fill_gaps_inplace(out_d, out_v)
     return out_d, out_v
 
 

@@ -11,6 +11,7 @@ edge flips.
 """
 
 from ._version import __version__
+from .batch import mesh_many, mesh_stream
 from .calibrate import calibrate_delta, triangle_disparities
 from .camera import Orthographic, Pinhole, backproject
 from .flipping import flip_edges
@@ -36,6 +37,8 @@ __all__ = [
     "delaunay_mesh",
     "discontinuity_mask",
     "evaluate",
+    "mesh_many",
+    "mesh_stream",
     "fill_gaps",
     "flip_edges",
     "render_depth",

@@ -373,6 +373,45 @@ def _cmd_eval(args):
     return 0
 
 
+def _cmd_batch(args):
+    from .batch import mesh_many, summarize
+
+    params = _params(args)
+    targets = {"vertices": args.vertices, "max_error": args.max_error, "max_edge": args.max_edge}
+    given = [k for k, v in targets.items() if v is not None]
+    if given and args.samples is not None:
+        raise UserError(f"--samples and --{given[0].replace('_', '-')} exclude each other")
+    if args.workers is not None and args.workers < 1:
+        raise UserError(f"--workers must be >= 1, got {args.workers}")
+    bg = args.background
+    bg = None if bg in ("none", "nan") else bg  # 'auto' is resolved image by image
+    t0 = time.perf_counter()
+    try:
+        results = mesh_many(args.inputs, args.output_dir, params, background=bg,
+                            camera=_camera(args), scheduler=args.scheduler, workers=args.workers,
+                            overwrite=args.overwrite, fmt="." + args.format,
+                            progress=not (args.quiet or args.json) and sys.stderr.isatty(),
+                            **targets)
+    except (FileNotFoundError, ValueError, TypeError, OSError) as exc:
+        raise UserError(str(exc)) from None
+    summary = summarize(results, time.perf_counter() - t0)
+    failed = [r for r in results if r.status == "failed"]
+    if args.json:
+        from dataclasses import asdict
+
+        print(json.dumps(_clean({"summary": summary, "results": [asdict(r) for r in results]})))
+    elif not args.quiet:
+        for r in failed:
+            print(f"failed: {r.input}: {r.error}", file=sys.stderr)
+        med = summary["median_seconds_per_image"]
+        print(f"meshed {summary['meshed']}, skipped {summary['skipped']} (already there), failed "
+              f"{summary['failed']} of {summary['inputs']} in {summary['wall_seconds']:.1f} s "
+              f"({summary['images_per_second']:.2f} images/s"
+              + (f", median {med:.3f} s per image" if med is not None else "") + ")", file=sys.stderr)
+        print(f"per-image figures: {Path(args.output_dir) / 'rangemesh-batch.csv'}", file=sys.stderr)
+    return 1 if failed else 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of the ``rangemesh`` command."""
     p = _Parser(
@@ -405,6 +444,24 @@ def build_parser() -> argparse.ArgumentParser:
     _add_mesh_options(d)
     _add_output_options(d)
 
+    b = sub.add_parser("batch", help="mesh many images (files, folders, globs) in parallel",
+                       description="Mesh many range images into a folder, in parallel through Dask: "
+                                   "a local cluster of worker processes, or an existing cluster "
+                                   "(--scheduler). Bad files are reported and the rest go on; "
+                                   "outputs already there are skipped unless --overwrite.")
+    b.add_argument("inputs", nargs="+", help="image files, folders or quoted glob patterns")
+    b.add_argument("-o", "--output-dir", required=True, help="folder for the meshes and the report")
+    b.add_argument("--format", default="ply", choices=[s[1:] for s in MESH_SUFFIXES],
+                   help="mesh format (default ply)")
+    b.add_argument("--workers", type=int, default=None,
+                   help="worker processes of the local cluster (default: all cores)")
+    b.add_argument("--scheduler", default=None,
+                   help="address of a running Dask scheduler, e.g. tcp://head:8786")
+    b.add_argument("--overwrite", action="store_true", help="mesh again images already meshed")
+    _add_image_options(b)
+    _add_mesh_options(b)
+    _add_output_options(b)
+
     i = sub.add_parser("info", help="describe a range image",
                        description="Size, dtype, valid share, depth range and what marks "
                                    "missing depth.")
@@ -427,7 +484,8 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv=None) -> int:
     """Entry point of the ``rangemesh`` command; returns the exit status."""
     args = build_parser().parse_args(argv)
-    commands = {"mesh": _cmd_mesh, "demo": _cmd_demo, "info": _cmd_info, "eval": _cmd_eval}
+    commands = {"mesh": _cmd_mesh, "demo": _cmd_demo, "info": _cmd_info, "eval": _cmd_eval,
+                "batch": _cmd_batch}
     t0 = time.perf_counter()
     try:
         return commands[args.command](args)

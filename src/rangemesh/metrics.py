@@ -5,7 +5,6 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass
 
 import numpy as np
-from scipy import ndimage
 
 from . import _kernels
 from .camera import Orthographic
@@ -223,7 +222,9 @@ def evaluate(mesh: Mesh, depth, *, background=None, discontinuities: np.ndarray 
     if isinstance(band, bool) or not isinstance(band, (int, np.integer)) or band < 0:
         raise ValueError(f"band must be a whole number >= 0, got {band!r}")
     near = np.asarray(discontinuities, bool)
-    if band > 0:  # iterations=0 would mean "until nothing changes" to SciPy
+    if band > 0:
+        from scipy import ndimage  # imported here: start-up time of the command line matters
+  # iterations=0 would mean "until nothing changes" to SciPy
         near = ndimage.binary_dilation(near, structure=np.ones((3, 3), bool), iterations=band)
     in_band = near[covered]
     return Evaluation(

@@ -18,6 +18,7 @@ __all__ = [
     "curvature",
     "valid_span",
     "sampling_weights",
+    "sampling_weights_into",
     "tile_bounds",
     "sample_grid",
 ]
@@ -129,6 +130,29 @@ def sampling_weights(depth: np.ndarray, valid: np.ndarray, params: MeshParams) -
     # in place: this runs on every pixel, and each temporary is a full image
     np.maximum(K, params.curvature_floor, out=K)
     return np.log(K, out=K)
+
+
+def sampling_weights_into(depth: np.ndarray, valid: np.ndarray, params: MeshParams,
+                          out: np.ndarray) -> np.ndarray:
+    """`sampling_weights` written into `out` (a float64 buffer of the image's shape), reused.
+
+    Same values as `sampling_weights`, bit for bit; for callers that mesh many
+    frames of one size (see `rangemesh.batch.mesh_stream`).
+    """
+    if params.sampling == "uniform":
+        out[:] = 1.0
+        return out
+    out[:] = 0.0
+    v = np.ascontiguousarray(valid, dtype=np.bool_)
+    d = np.ascontiguousarray(depth, dtype=np.float64)
+    span = valid_span(d, v)
+    _kernels.curvature_kernel(d, v, span, int(params.levels), out)
+    if span > 0.0:
+        np.multiply(out, _PAPER_SCALE / span, out=out)
+    else:
+        out[:] = 0.0
+    np.maximum(out, params.curvature_floor, out=out)
+    return np.log(out, out=out)
 
 
 def tile_bounds(n: int, tiles: int, *, name: str = "tiles") -> np.ndarray:

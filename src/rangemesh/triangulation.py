@@ -6,7 +6,6 @@ Paper II.B.1; SPEC.md section 2.
 from __future__ import annotations
 
 import numpy as np
-from scipy.spatial import Delaunay, QhullError
 
 from . import _delaunay, _kernels
 from .camera import as_camera, backproject
@@ -62,6 +61,8 @@ def triangulate_points(pts: np.ndarray, engine: str = "sweep") -> tuple[np.ndarr
         triangles = triangles.copy()
         halfedges = halfedges.copy()
     elif engine == "qhull":
+        from scipy.spatial import Delaunay, QhullError  # the reference engine only
+
         try:
             simplices = Delaunay(np.stack([pr, pc], axis=1).astype(np.float64)).simplices
         except QhullError:

@@ -1,0 +1,133 @@
+"""Issue 6: streams, batches, and a real local Dask cluster."""
+
+import json
+import os
+import shutil
+
+import numpy as np
+import pytest
+
+import rangemesh
+from rangemesh import scenes
+from rangemesh.batch import expand_inputs, mesh_many, mesh_stream
+from rangemesh.cli import main
+
+from .images import REAL_IMAGES
+
+
+def test_stream_equals_triangulate_frame_by_frame():
+    frames = [scenes.box((90, 120), noise=0.3, seed=s).depth for s in range(3)]
+    frames += [scenes.dome((70, 80)).depth, scenes.pyramid((90, 120)).depth]
+    got = list(mesh_stream(iter(frames), samples=8))
+    assert len(got) == len(frames)
+    for frame, mesh in zip(frames, got, strict=True):
+        want = rangemesh.triangulate(frame, samples=8)
+        assert np.array_equal(mesh.faces, want.faces)
+        assert np.array_equal(mesh.pixels, want.pixels)
+        assert mesh.vertices.tobytes() == want.vertices.tobytes()
+        assert mesh.stats.seconds["total"] > 0
+
+
+def test_stream_reports_bad_frames_clearly():
+    with pytest.raises(ValueError, match="2-D"):
+        list(mesh_stream([np.zeros((4, 4, 3))]))
+    empty = list(mesh_stream([np.zeros((20, 20))], background=0))
+    assert empty[0].is_empty and empty[0].stats.reason
+
+
+def _inputs(shared_data, tmp_path):
+    src = tmp_path / "in"
+    src.mkdir()
+    for rel, _ in REAL_IMAGES:
+        if rel.endswith((".png", ".tiff")):
+            shutil.copy(shared_data / rel, src / os.path.basename(rel))
+    (src / "corrupt.png").write_bytes(b"\x89PNG\r\n\x1a\n this is no image")
+    os.symlink(tmp_path / "nowhere.png", src / "unreadable.png")
+    return src
+
+
+@pytest.fixture(scope="module")
+def batch_run(shared_data, tmp_path_factory):
+    tmp = tmp_path_factory.mktemp("batch")
+    src = _inputs(shared_data, tmp)
+    out = tmp / "out"
+    out.mkdir()
+    (out / ".teddy_disp2.ply.abc.part.ply").write_bytes(b"half a mesh")  # left by a killed run
+    results = mesh_many([src], out, workers=2, background="auto")
+    return src, out, results
+
+
+def test_batch_meshes_good_files_and_reports_bad_ones(batch_run):
+    src, out, results = batch_run
+    by_name = {os.path.basename(r.input): r for r in results}
+    assert by_name["corrupt.png"].status == "failed" and by_name["corrupt.png"].error
+    assert by_name["unreadable.png"].status == "failed" and "no such file" in by_name["unreadable.png"].error
+    good = [r for r in results if r.status == "meshed"]
+    assert len(good) == len(results) - 2
+    for r in good:
+        assert r.vertices > 100 and np.isfinite(r.relative_error)
+        assert os.path.getsize(r.output) > 0
+    # nothing half-written, stale temporaries cleaned
+    assert not list(out.glob(".*part*")) and not (out / "corrupt.ply").exists()
+    doc = json.loads((out / "rangemesh-batch.json").read_text())
+    assert doc["summary"]["failed"] == 2 and doc["summary"]["meshed"] == len(good)
+    assert (out / "rangemesh-batch.csv").read_text().count("\n") == len(results) + 1
+
+
+def test_batch_output_equals_single_meshing(batch_run, shared_data):
+    src, out, results = batch_run
+    import meshio
+
+    img = rangemesh.io.read_range_image(src / "cones_disp2.png")
+    want = rangemesh.triangulate(img, background=0)
+    back = meshio.read(out / "cones_disp2.ply")
+    assert np.array_equal(back.cells_dict["triangle"], want.faces)
+
+
+def test_rerun_skips_and_overwrite_redoes(batch_run, capsys):
+    src, out, results = batch_run
+    rc = main(["batch", str(src / "cones_disp2.png"), str(src / "teddy_disp2.png"), "-o", str(out),
+               "--workers", "1", "--json"])
+    doc = json.loads(capsys.readouterr().out)
+    assert rc == 0 and doc["summary"]["skipped"] == 2 and doc["summary"]["meshed"] == 0
+    before = (out / "cones_disp2.ply").stat().st_mtime_ns
+    rc = main(["batch", str(src / "cones_disp2.png"), "-o", str(out), "--workers", "1",
+               "--overwrite", "--quiet"])
+    assert rc == 0 and (out / "cones_disp2.ply").stat().st_mtime_ns != before
+
+
+def test_cli_batch_exit_code_and_summary(batch_run, tmp_path, capsys):
+    src, _, _ = batch_run
+    rc = main(["batch", str(src / "*.png"), "-o", str(tmp_path / "o"), "--workers", "2",
+               "--format", "obj"])
+    err = capsys.readouterr().err
+    assert rc == 1  # something failed
+    assert "failed: " in err and "corrupt.png" in err and "images/s" in err
+    assert (tmp_path / "o" / "teddy_disp2.obj").exists()
+    rc = main(["batch", str(tmp_path / "nothing-*.png"), "-o", str(tmp_path / "p")])
+    assert rc == 2 and "no file matches" in capsys.readouterr().err
+
+
+def test_real_local_dask_cluster_gives_the_same_outputs(batch_run, tmp_path):
+    from dask.distributed import LocalCluster
+
+    src, out_local, _ = batch_run
+    files = sorted(p for p in src.iterdir() if p.name not in ("corrupt.png", "unreadable.png"))[:4]
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
+                      dashboard_address=None, silence_logs=40) as cluster:
+        results = mesh_many(files, tmp_path, scheduler=cluster.scheduler_address,
+                            background="auto")
+    assert all(r.status == "meshed" for r in results)
+    for f in files:
+        name = f.stem + ".ply"
+        assert (tmp_path / name).read_bytes() == (out_local / name).read_bytes()
+
+
+def test_expand_inputs(tmp_path):
+    (tmp_path / "a.png").write_bytes(b"")
+    (tmp_path / "b.npy").write_bytes(b"")
+    (tmp_path / "c.txt").write_bytes(b"")
+    assert [p.name for p in expand_inputs([tmp_path])] == ["a.png", "b.npy"]
+    assert [p.name for p in expand_inputs([str(tmp_path / "*.png"), tmp_path / "a.png"])] == ["a.png"]
+    with pytest.raises(FileNotFoundError):
+        expand_inputs([tmp_path / "zzz.png"])

@@ -1,0 +1,53 @@
+"""Smoke test of `python -m rangemesh.bench --quick`: it runs and its numbers are finite."""
+
+import json
+import math
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from rangemesh import bench
+
+
+def test_quick_benchmark_runs(shared_data, tmp_path):
+    p = subprocess.run([sys.executable, "-m", "rangemesh.bench", "--quick", "--data", str(shared_data),
+                        "--out", str(tmp_path)], capture_output=True, text=True, timeout=600)
+    assert p.returncode == 0, p.stderr[-2000:]
+    doc = json.loads((tmp_path / "results.json").read_text())
+    rows = doc["rows"]
+    methods = {r["method"] for r in rows}
+    assert {m for m, _ in bench.OURS} <= methods
+    for r in rows:
+        for key in ("relative_error", "rms_error", "max_error", "uncovered", "ms"):
+            assert math.isfinite(r[key]), r
+        assert r["vertices"] > 0
+    images = {r["image"] for r in rows}
+    assert len(images) == 5  # 3 real images + 2 synthetic scenes
+    assert (tmp_path / "results.csv").exists() and (tmp_path / "figure.png").exists()
+    assert "### summary" in (tmp_path / "results.md").read_text()
+
+
+def test_peers_meet_the_vertex_count():
+    pytest.importorskip("pydelatin")
+    pytest.importorskip("pymartini")
+    sc = bench.scenes.make("pyramid", (120, 150))
+    d = sc.depth
+    valid = np.isfinite(d)
+    for fn, tol in ((bench.peer_delatin, 0.0), (bench.peer_martini, 0.1)):
+        mesh, ms = fn(d, valid, 700, 1)
+        n = bench._valid_vertex_count(mesh, valid)
+        assert abs(n - 700) <= tol * 700 + 1 and ms > 0
+        # a pyramid is exactly piecewise planar; its apex is at the centre
+        e = bench.evaluate(mesh, d)
+        assert e.relative_error < 1.0
+
+
+def test_peer_delatin_orientation_by_hand():
+    pytest.importorskip("pydelatin")
+    d = np.zeros((5, 7))
+    d[1, 5] = 10.0  # a spike: greedy insertion must put a vertex exactly there
+    mesh, _ = bench.peer_delatin(d, np.ones_like(d, bool), 7, 1)
+    spike = mesh.vertices[np.argmax(mesh.vertices[:, 2])]
+    assert spike.tolist() == [1.0, 5.0, 10.0]

@@ -166,24 +166,7 @@ def rendered_errors(mesh, depth, valid):
 
 
 def fill_gaps_numpy(depth, valid):
-    """Fill single-pixel holes: one pass, paper II.A.1, SPEC 1.1.
-
-    A background pixel whose 8 neighbours all exist and are valid becomes valid
-    with the mean of those 8 depths. Pixels on the image border have fewer
-    than 8 neighbours and are never filled. Larger holes stay holes.
-
-    Parameters
-    ----------
-    depth : (H, W) ndarray of float64
-    valid : (H, W) ndarray of bool
-
-    Returns
-    -------
-    depth_filled : (H, W) ndarray of float64
-        A new array; background pixels that stay background hold 0.
-    valid_filled : (H, W) ndarray of bool
-
-    """
+    """`sampling.fill_gaps` as first written in NumPy."""
     h, w = depth.shape
     d = np.where(valid, depth, 0.0)
     out_d = d.copy()
@@ -207,14 +190,7 @@ def fill_gaps_numpy(depth, valid):
 
 
 def _second_difference(d, v, axis, jump):
-    """|d[i-1] - 2 d[i] + d[i+1]| along `axis`, with the SPEC's rules at borders and jumps.
-
-    * the stencil leaves the image -> 0 (image borders make no curvature);
-    * all three pixels valid -> the absolute second difference;
-    * all three background -> 0;
-    * mixed valid and background -> `jump` (a silhouette: a jump edge whose
-      size does not depend on the background marker).
-    """
+    """The NumPy second difference along `axis` (SPEC rules at borders and jumps)."""
     out = np.zeros(d.shape)
     n = d.shape[axis]
     if n < 3:
@@ -234,33 +210,7 @@ def _second_difference(d, v, axis, jump):
 
 
 def curvature_numpy(depth, valid, levels=2):
-    """Multiresolution curvature image ``K``, paper II.A.1 and SPEC 1.2-1.3.
-
-    ``K1 = |R(r-1,c) - 2R(r,c) + R(r+1,c)| + |R(r,c-1) - 2R(r,c) + R(r,c+1)|``;
-    level ``l`` applies the same operator to ``R[::2**l, ::2**l]`` and is added
-    back at full resolution as ``K_l[r >> l, c >> l]``.
-
-    Parameters
-    ----------
-    depth : (H, W) ndarray of float64
-    valid : (H, W) ndarray of bool
-    levels : int, default 2
-        Number of resolutions added (1 = full resolution only).
-
-    Returns
-    -------
-    K : (H, W) ndarray of float64
-        In depth units (not normalised). A stencil that leaves the image adds 0;
-        a stencil that mixes valid and background pixels adds the scene's
-        valid depth range (max - min), the size we give a silhouette jump.
-
-    Notes
-    -----
-    The jump size is the scene's depth range rather than a local one: after
-    normalisation (see `sampling_weights`) a silhouette then always weighs
-    ``log(255)``, the most any jump inside the scene can weigh, whatever the
-    background marker or the depth unit.
-    """
+    """`sampling.curvature` as first written in NumPy."""
     if valid.any():
         jump = float(depth[valid].max() - depth[valid].min())
     else:

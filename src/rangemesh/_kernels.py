@@ -21,6 +21,8 @@ import math
 import numpy as np
 from numba import njit, prange
 
+from ._delaunay import flip_quad
+
 NEG_INF = -np.inf
 # Angles closer than this (radians) are equal: flat spans give angles of 0 up
 # to rounding noise, and noise must not decide a test (SPEC P2, P6).
@@ -203,6 +205,31 @@ def _invert_cdf(cum, n, count, out):
 
 
 @njit(cache=True)
+def _sample_tile(f, v, h, r0, nr, c0, nc, rs, zs, grid, cum, pos_c, pos_r, hs):
+    """One tile of stage one: rows sampled at zs columns, then the curves at rs rows."""
+    # Horizontal pass: each pixel row of the tile sampled at zs columns.
+    for i in range(nr):
+        r = r0 + i
+        cum[0] = 0.0
+        for k in range(1, nc):
+            cum[k] = cum[k - 1] + f[r, c0 + k]
+        _invert_cdf(cum, nc, zs, pos_c)
+        for j in range(zs):
+            hs[i, j] = c0 + pos_c[j]
+    # Vertical pass: each curve (r, HS(r, j)) sampled at rs rows.
+    for j in range(zs):
+        cum[0] = 0.0
+        for k in range(1, nr):
+            cum[k] = cum[k - 1] + f[r0 + k, hs[k, j]]
+        _invert_cdf(cum, nr, rs, pos_r)
+        for i in range(rs):
+            gi = v * (rs - 1) + i
+            gj = h * (zs - 1) + j
+            grid[gi, gj, 0] = r0 + pos_r[i]
+            grid[gi, gj, 1] = hs[pos_r[i], j]
+
+
+@njit(cache=True)
 def sample_tiles(f, row_bounds, col_bounds, rs, zs, grid):
     """Fill the sample grid tile by tile (paper II.A.3, SPEC 1.6-1.8).
 
@@ -226,31 +253,11 @@ def sample_tiles(f, row_bounds, col_bounds, rs, zs, grid):
     pos_r = np.zeros(rs, np.int64)
     hs = np.zeros((max_rows, zs), np.int64)
     for v in range(n_v):
-        r0 = row_bounds[v]
-        nr = row_bounds[v + 1] - r0 + 1
         for h in range(n_h):
+            r0 = row_bounds[v]
             c0 = col_bounds[h]
-            nc = col_bounds[h + 1] - c0 + 1
-            # Horizontal pass: each pixel row of the tile sampled at zs columns.
-            for i in range(nr):
-                r = r0 + i
-                cum[0] = 0.0
-                for k in range(1, nc):
-                    cum[k] = cum[k - 1] + f[r, c0 + k]
-                _invert_cdf(cum, nc, zs, pos_c)
-                for j in range(zs):
-                    hs[i, j] = c0 + pos_c[j]
-            # Vertical pass: each curve (r, HS(r, j)) sampled at rs rows.
-            for j in range(zs):
-                cum[0] = 0.0
-                for k in range(1, nr):
-                    cum[k] = cum[k - 1] + f[r0 + k, hs[k, j]]
-                _invert_cdf(cum, nr, rs, pos_r)
-                for i in range(rs):
-                    gi = v * (rs - 1) + i
-                    gj = h * (zs - 1) + j
-                    grid[gi, gj, 0] = r0 + pos_r[i]
-                    grid[gi, gj, 1] = hs[pos_r[i], j]
+            _sample_tile(f, v, h, r0, row_bounds[v + 1] - r0 + 1, c0, col_bounds[h + 1] - c0 + 1,
+                         rs, zs, grid, cum, pos_c, pos_r, hs)
 
 
 @njit(cache=True, parallel=True)
@@ -269,28 +276,8 @@ def sample_tiles_parallel(f, row_bounds, col_bounds, rs, zs, grid):
         nr = row_bounds[v + 1] - r0 + 1
         c0 = col_bounds[h]
         nc = col_bounds[h + 1] - c0 + 1
-        cum = np.zeros(max(nr, nc))
-        pos_c = np.zeros(zs, np.int64)
-        pos_r = np.zeros(rs, np.int64)
-        hs = np.zeros((nr, zs), np.int64)
-        for i in range(nr):
-            r = r0 + i
-            cum[0] = 0.0
-            for k in range(1, nc):
-                cum[k] = cum[k - 1] + f[r, c0 + k]
-            _invert_cdf(cum, nc, zs, pos_c)
-            for j in range(zs):
-                hs[i, j] = c0 + pos_c[j]
-        for j in range(zs):
-            cum[0] = 0.0
-            for k in range(1, nr):
-                cum[k] = cum[k - 1] + f[r0 + k, hs[k, j]]
-            _invert_cdf(cum, nr, rs, pos_r)
-            for i in range(rs):
-                gi = v * (rs - 1) + i
-                gj = h * (zs - 1) + j
-                grid[gi, gj, 0] = r0 + pos_r[i]
-                grid[gi, gj, 1] = hs[pos_r[i], j]
+        _sample_tile(f, v, h, r0, nr, c0, nc, rs, zs, grid, np.zeros(max(nr, nc)),
+                     np.zeros(zs, np.int64), np.zeros(rs, np.int64), np.zeros((nr, zs), np.int64))
 
 
 # --------------------------------------------------------------------------
@@ -887,7 +874,6 @@ def flip_edges_kernel(triangles, halfedges, pixels, vertices, depth, valid, cam,
         a0 = e0
         b0 = _next(e0)
         c0 = _prev(e0)
-        a1 = e1
         b1 = _next(e1)
         c1 = _prev(e1)
         va = triangles[a0]
@@ -957,33 +943,12 @@ def flip_edges_kernel(triangles, halfedges, pixels, vertices, depth, valid, cam,
         # --- flip AB -> CD -------------------------------------------------
         former = _set_add(former, _pair_key(va, vb, n_v), n_former)
         n_former += 1
-        tb0 = halfedges[b0]
-        tc0 = halfedges[c0]
-        tb1 = halfedges[b1]
-        tc1 = halfedges[c1]
         eb0 = he_edge[b0]  # BC
         ec0 = he_edge[c0]  # CA
         eb1 = he_edge[b1]  # AD
         ec1 = he_edge[c1]  # DB
-        triangles[a0] = vd
-        triangles[b0] = vc
-        triangles[c0] = va
-        triangles[a1] = vc
-        triangles[b1] = vd
-        triangles[c1] = vb
         # outer half-edges move: CA -> b0, AD -> c0, DB -> b1, BC -> c1
-        halfedges[b0] = tc0
-        if tc0 != -1:
-            halfedges[tc0] = b0
-        halfedges[c0] = tb1
-        if tb1 != -1:
-            halfedges[tb1] = c0
-        halfedges[b1] = tc1
-        if tc1 != -1:
-            halfedges[tc1] = b1
-        halfedges[c1] = tb0
-        if tb0 != -1:
-            halfedges[tb0] = c1
+        flip_quad(triangles, halfedges, e0)
         he_edge[b0] = ec0
         he_edge[c0] = eb1
         he_edge[b1] = ec1

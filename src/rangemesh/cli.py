@@ -244,16 +244,22 @@ def _mesh_lines(mesh, ev, outputs):
     return lines
 
 
+def _targets(args) -> dict:
+    """The result targets given on the command line, checked against --samples."""
+    targets = {"vertices": args.vertices, "max_error": args.max_error, "max_edge": args.max_edge}
+    given = [k for k, v in targets.items() if v is not None]
+    if given and args.samples is not None:
+        raise UserError(f"--samples and --{given[0].replace('_', '-')} exclude each other: "
+                        "the target chooses the samples")
+    return targets
+
+
 def _run_mesh(args, image, name, bg, outputs_for):
     params = _params(args)
     camera = _camera(args)
     with _progress(args, 4, f"meshing {name}") as bar:
-        targets = {"vertices": args.vertices, "max_error": args.max_error,
-                   "max_edge": args.max_edge}
+        targets = _targets(args)
         given = [k for k, v in targets.items() if v is not None]
-        if given and args.samples is not None:
-            raise UserError(f"--samples and --{given[0].replace('_', '-')} exclude each other: "
-                            "the target chooses the samples")
         extra = {"tiles": args.tiles} if (given and args.tiles is not None) else {}
         try:
             mesh = triangulate(image, params, background=bg, camera=camera, **targets, **extra)
@@ -377,10 +383,7 @@ def _cmd_batch(args):
     from .batch import mesh_many, summarize
 
     params = _params(args)
-    targets = {"vertices": args.vertices, "max_error": args.max_error, "max_edge": args.max_edge}
-    given = [k for k, v in targets.items() if v is not None]
-    if given and args.samples is not None:
-        raise UserError(f"--samples and --{given[0].replace('_', '-')} exclude each other")
+    targets = _targets(args)
     if args.workers is not None and args.workers < 1:
         raise UserError(f"--workers must be >= 1, got {args.workers}")
     bg = args.background

@@ -223,12 +223,28 @@ def _say(args, lines):
             print(line, file=sys.stderr)
 
 
+def _compiled_now() -> bool:
+    """True when Numba compiled (rather than loaded from its cache) a kernel in this process."""
+    from numba.core.registry import CPUDispatcher
+
+    from . import _delaunay, _kernels
+
+    for mod in (_kernels, _delaunay):
+        for obj in vars(mod).values():
+            if isinstance(obj, CPUDispatcher) and sum(obj.stats.cache_misses.values()) > 0:
+                return True
+    return False
+
+
 def _mesh_lines(mesh, ev, outputs):
     s = mesh.stats
     lines = [f"vertices {s.vertices}  edges {s.edges}  triangles {s.triangles}  "
              f"flipped edges {s.flipped_edges}  (grid {s.grid_shape[0]}x{s.grid_shape[1]}, "
              f"{s.sampled_points} valid samples)",
              "time " + "  ".join(f"{k} {1000 * v:.1f} ms" for k, v in s.seconds.items())]
+    if _compiled_now():
+        lines.append("(first run: Numba compiled the kernels, which is in the times above; later "
+                     "runs load them from its cache)")
     if s.search:
         q = s.search
         ach = q["achieved"]

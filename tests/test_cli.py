@@ -161,7 +161,11 @@ def test_demo_writes_mesh_and_preview(tmp_path, capsys):
 
 
 def test_console_script_and_module_entry_points(tmp_path):
-    exe = shutil.which("rangemesh")
+    from pathlib import Path
+
+    # the console script sits beside the interpreter that installed the package
+    beside = Path(sys.executable).parent / "rangemesh"
+    exe = str(beside) if beside.exists() else shutil.which("rangemesh")
     assert exe, "the console script is installed with the package"
     for cmd in ([exe], [sys.executable, "-m", "rangemesh"]):
         p = subprocess.run([*cmd, "demo", "-o", str(tmp_path / "e.obj"), "--preview",

@@ -31,6 +31,11 @@ def test_stream_equals_triangulate_frame_by_frame():
 def test_stream_reports_bad_frames_clearly():
     with pytest.raises(ValueError, match="2-D"):
         list(mesh_stream([np.zeros((4, 4, 3))]))
+    good = scenes.plane((20, 30)).depth
+    stream = mesh_stream([good, good > 100])  # a boolean frame after a good one of the same shape
+    assert not next(stream).is_empty
+    with pytest.raises(TypeError, match="dtype"):
+        next(stream)
     empty = list(mesh_stream([np.zeros((20, 20))], background=0))
     assert empty[0].is_empty and empty[0].stats.reason
 

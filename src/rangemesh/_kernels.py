@@ -21,6 +21,8 @@ import math
 import numpy as np
 from numba import njit, prange
 
+from ._delaunay import _nxt as _next
+from ._delaunay import _prv as _prev
 from ._delaunay import flip_quad
 
 NEG_INF = -np.inf
@@ -542,16 +544,6 @@ def edge_error(va, vb, pixels, vertices, depth, valid, cam):
 # --------------------------------------------------------------------------
 # stage three: half-edges, indexed max-heap, flips
 # --------------------------------------------------------------------------
-
-
-@njit(cache=True)
-def _next(e):
-    return e - 2 if e % 3 == 2 else e + 1
-
-
-@njit(cache=True)
-def _prev(e):
-    return e + 2 if e % 3 == 0 else e - 1
 
 
 @njit(cache=True)

@@ -36,7 +36,7 @@ from .mesh import Mesh
 from .metrics import evaluate
 from .params import MeshParams
 from .pipeline import mesh_prepared, resolve_params
-from .prepare import to_depth_and_mask
+from .prepare import check_image, mask_into
 
 __all__ = ["mesh_stream", "mesh_many", "expand_inputs", "BatchResult", "summarize"]
 
@@ -81,12 +81,13 @@ def mesh_stream(frames: Iterable, params: MeshParams | None = None, *, backgroun
     from .sampling import sampling_weights_into
 
     for frame in frames:
-        arr = np.asarray(frame)
         t0 = time.perf_counter()
+        arr, bg = check_image(frame, background)  # every frame: clear errors, no copy
         if ws is None or ws.shape != arr.shape:
-            to_depth_and_mask(arr, background)  # the checks, with clear errors
             ws = _Workspace(arr.shape)
-        _fill_workspace(arr, background, params, ws)
+        mask_into(arr, bg, ws.depth, ws.valid)
+        if params.fill_gaps:
+            _kernels.fill_gaps_inplace(ws.depth, ws.valid)
         t1 = time.perf_counter()
         if not ws.valid.any():
             from .pipeline import triangulate
@@ -101,16 +102,6 @@ def mesh_stream(frames: Iterable, params: MeshParams | None = None, *, backgroun
         seconds["sampling"] += t2 - t1  # the weights belong to stage one
         seconds["total"] = t3 - t0
         yield dataclasses.replace(mesh, stats=dataclasses.replace(mesh.stats, seconds=seconds))
-
-
-def _fill_workspace(arr, background, params, ws):
-    arr = np.ascontiguousarray(arr)
-    bg = 0.0 if background is None or (isinstance(background, float) and np.isnan(background)) \
-        else float(background)
-    has_bg = not (background is None or (isinstance(background, float) and np.isnan(background)))
-    _kernels.mask_image(arr, has_bg, bg, ws.depth, ws.valid)
-    if params.fill_gaps:
-        _kernels.fill_gaps_inplace(ws.depth, ws.valid)
 
 
 # ---------------------------------------------------------------- files

@@ -164,6 +164,12 @@ def _add_mesh_options(p):
     _add_camera_options(p)
 
 
+def _add_ply_options(p):
+    p.add_argument("--ascii", action="store_true", help="PLY only: text instead of binary")
+    p.add_argument("--pixels", action="store_true",
+                   help="PLY only: keep each vertex's (row, col) as properties row, col")
+
+
 def _add_output_options(p):
     p.add_argument("--quiet", action="store_true", help="print nothing on success")
     p.add_argument("--json", action="store_true", help="print the figures as JSON on stdout")
@@ -445,9 +451,7 @@ def build_parser() -> argparse.ArgumentParser:
     m.add_argument("image", help=f"range image ({' '.join(IMAGE_SUFFIXES)})")
     m.add_argument("-o", "--output", help=f"mesh file to write ({' '.join(MESH_SUFFIXES)})")
     m.add_argument("--preview", help="PNG picture: wireframe, samples, shaded mesh")
-    m.add_argument("--ascii", action="store_true", help="PLY only: text instead of binary")
-    m.add_argument("--pixels", action="store_true",
-                   help="PLY only: keep each vertex's (row, col) as properties row, col")
+    _add_ply_options(m)
     _add_image_options(m)
     _add_mesh_options(m)
     _add_output_options(m)
@@ -458,8 +462,7 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("-o", "--output", default="demo.ply", help="mesh file (default demo.ply)")
     d.add_argument("--preview", default="demo-preview.png",
                    help="PNG picture (default demo-preview.png)")
-    d.add_argument("--ascii", action="store_true", help="PLY only: text instead of binary")
-    d.add_argument("--pixels", action="store_true", help="PLY only: keep (row, col) per vertex")
+    _add_ply_options(d)
     _add_mesh_options(d)
     _add_output_options(d)
 

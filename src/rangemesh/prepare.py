@@ -13,7 +13,7 @@ import numpy as np
 
 from . import _kernels
 
-__all__ = ["to_depth_and_mask"]
+__all__ = ["to_depth_and_mask", "check_image", "mask_into"]
 
 
 def to_depth_and_mask(image, background=None) -> tuple[np.ndarray, np.ndarray]:
@@ -49,6 +49,33 @@ def to_depth_and_mask(image, background=None) -> tuple[np.ndarray, np.ndarray]:
     array([[False,  True],
            [ True, False]])
     """
+    arr, background = check_image(image, background)
+    depth = np.zeros(arr.shape, np.float64)
+    valid = np.zeros(arr.shape, np.bool_)
+    mask_into(arr, background, depth, valid)
+    return depth, valid
+
+
+def check_image(image, background=None):
+    """Check a range image and its background marker; no copy is made.
+
+    Parameters
+    ----------
+    image : (H, W) array_like of int or float
+    background : float, optional
+
+    Returns
+    -------
+    arr : (H, W) ndarray
+        ``np.asarray(image)``.
+    background : float or None
+        None when only NaN/inf mark missing depth (``NaN`` is folded into None).
+
+    Raises
+    ------
+    TypeError, ValueError
+        As `to_depth_and_mask`.
+    """
     arr = np.asarray(image)
     if arr.dtype == object or not (
         np.issubdtype(arr.dtype, np.integer) or np.issubdtype(arr.dtype, np.floating)
@@ -66,8 +93,10 @@ def to_depth_and_mask(image, background=None) -> tuple[np.ndarray, np.ndarray]:
             raise TypeError(f"background must be a number, NaN or None, got {background!r}")
         if math.isnan(float(background)):
             background = None
-    depth = np.zeros(arr.shape, np.float64)
-    valid = np.zeros(arr.shape, np.bool_)
+    return arr, background
+
+
+def mask_into(arr: np.ndarray, background, depth: np.ndarray, valid: np.ndarray) -> None:
+    """Write float depth (0.0 on background) and validity of a checked image into buffers."""
     bg = 0.0 if background is None else float(background)
     _kernels.mask_image(np.ascontiguousarray(arr), background is not None, bg, depth, valid)
-    return depth, valid

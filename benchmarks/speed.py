@@ -193,7 +193,7 @@ def main(argv=None):
     print("| image | tiles, samples | workers=1 | workers=2 | speed-up |")
     print("|---|---|---:|---:|---:|")
     from rangemesh.pipeline import prepare
-    from rangemesh.sampling import sample_grid, sampling_weights
+    from rangemesh.paper.sampling import sample_grid, sampling_weights
 
     for shape, p in (((480, 640), rangemesh.MeshParams(tiles=8)),
                      ((720, 1280), rangemesh.MeshParams(tiles=16, samples=20))):

@@ -69,7 +69,7 @@ def main(argv=None):
         for kw in targets:
             t, m = timed(lambda img=img, bg=bg, kw=kw: rangemesh.triangulate(img, background=bg, **kw),
                          args.repeat)
-            s = m.stats.search
+            s = m.stats.target
             ach = s["achieved"]
             ach = f"{ach:.3f} %" if isinstance(ach, float) else f"{ach}"
             (k, v), = kw.items()

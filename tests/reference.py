@@ -6,7 +6,8 @@ from fractions import Fraction
 import numpy as np
 from numba import njit
 
-from rangemesh._kernels import lift, line_pixel
+from rangemesh.geometry.raster import line_pixel
+from rangemesh.geometry.vectors import lift
 from rangemesh.camera import backproject
 
 

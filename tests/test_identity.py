@@ -6,10 +6,11 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 import rangemesh
-from rangemesh import _kernels, scenes
+from rangemesh import scenes
+from rangemesh.geometry import raster
 from rangemesh.camera import Orthographic, Pinhole, backproject
-from rangemesh.sampling import curvature, fill_gaps
-from rangemesh.triangulation import delaunay_mesh, triangulate_points
+from rangemesh.paper.sampling import curvature, fill_gaps
+from rangemesh.paper.triangulation import delaunay_mesh, triangulate_points
 
 from . import reference as ref
 from .images import REAL_IMAGES, load
@@ -103,7 +104,7 @@ def test_incremental_bresenham_edge_error_equals_closed_form(seed, cam_kind):
     cam = [Orthographic(), Orthographic(0.5, 2.0, -1.5), Pinhole(25.0, 30.0, 14.0, 15.0, 0.01)][cam_kind]
     pix = rng.integers(0, 40, (2, 2)).astype(np.int64)
     verts = backproject(pix[:, 0], pix[:, 1], depth[pix[:, 0], pix[:, 1]], cam)
-    a = _kernels.edge_error(0, 1, pix, verts, depth, valid, cam.as_array())
+    a = raster.edge_error(0, 1, pix, verts, depth, valid, cam.as_array())
     b = ref.edge_error_closed_form(0, 1, pix, verts, depth, valid, cam.as_array())
     assert a == b
 

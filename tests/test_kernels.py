@@ -4,7 +4,8 @@ import numpy as np
 from hypothesis import given
 from hypothesis import strategies as st
 
-from rangemesh import _kernels
+from rangemesh.geometry import heap as heapq_nb
+from rangemesh.geometry import raster
 from rangemesh.camera import Orthographic, Pinhole
 
 from . import reference as ref
@@ -16,7 +17,7 @@ coord = st.integers(0, 40)
 def test_line_pixels_match_textbook_bresenham(r0, c0, r1, c1):
     a, b = sorted([(r0, c0), (r1, c1)])
     n = max(abs(b[0] - a[0]), abs(b[1] - a[1]))
-    got = [tuple(_kernels.line_pixel(a[0], a[1], b[0], b[1], k)) for k in range(n + 1)]
+    got = [tuple(raster.line_pixel(a[0], a[1], b[0], b[1], k)) for k in range(n + 1)]
     assert got == ref.bresenham(a, b)
 
 
@@ -48,8 +49,8 @@ def test_edge_error_matches_reference(seed, data):
     from rangemesh.camera import backproject
 
     verts = backproject(pixels[:, 0], pixels[:, 1], depth[pixels[:, 0], pixels[:, 1]], cam)
-    got = _kernels.edge_error(0, 1, pixels, verts, depth, valid, cam.as_array())
-    back = _kernels.edge_error(1, 0, pixels, verts, depth, valid, cam.as_array())
+    got = raster.edge_error(0, 1, pixels, verts, depth, valid, cam.as_array())
+    back = raster.edge_error(1, 0, pixels, verts, depth, valid, cam.as_array())
     want = ref.edge_error(a, b, depth, valid, cam)
     assert got == back  # symmetric, bit for bit
     np.testing.assert_allclose(got, want, rtol=1e-9, atol=1e-9)
@@ -61,7 +62,7 @@ def test_edge_error_by_hand():
     valid = np.ones_like(depth, bool)
     pixels = np.array([[0, 0], [0, 4]], np.int64)
     verts = np.array([[0.0, 0.0, 0.0], [0.0, 4.0, 3.0]])
-    got = _kernels.edge_error(0, 1, pixels, verts, depth, valid, Orthographic().as_array())
+    got = raster.edge_error(0, 1, pixels, verts, depth, valid, Orthographic().as_array())
     # distance of (0,c,z) to the line z = 3c/4 in the (c, z) plane is |3c - 4z| / 5
     want = sum(abs(3 * c - 4 * z) / 5 for c, z in zip(range(5), depth[0], strict=True))
     assert np.isclose(got, want)
@@ -73,13 +74,13 @@ def test_heap_pops_in_gain_order_with_id_ties():
     heap = np.arange(n)
     slot = np.arange(n)
     for i in range(n):
-        _kernels._sift_up(heap, slot, gain, i)
+        heapq_nb.sift_up(heap, slot, gain, i)
     order = []
     for _ in range(5):
         x = heap[0]
         order.append(int(x))
         gain[x] = -np.inf  # retire it
-        _kernels._sift_down(heap, slot, gain, 0, n)
+        heapq_nb.sift_down(heap, slot, gain, 0, n)
     assert order == [1, 2, 4, 0, 5]  # 1 and 2 tie at 5.0: smaller id first
     assert np.array_equal(heap[slot], np.arange(n))
 
@@ -90,11 +91,11 @@ def test_heap_rekey_keeps_invariant(rng):
     heap = np.arange(n)
     slot = np.arange(n)
     for i in range(n):
-        _kernels._sift_up(heap, slot, gain, i)
+        heapq_nb.sift_up(heap, slot, gain, i)
     for _ in range(500):
         x = int(rng.integers(n))
         gain[x] = rng.normal() if rng.random() > 0.2 else -np.inf
-        _kernels._rekey(heap, slot, gain, x, n)
+        heapq_nb.rekey(heap, slot, gain, x, n)
         g = gain[heap]
         for i in range(1, n):
             p = (i - 1) // 2

@@ -4,7 +4,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from rangemesh import MeshParams, curvature, fill_gaps, sample_grid, sampling_weights
-from rangemesh.sampling import tile_bounds
+from rangemesh.paper.sampling import tile_bounds
 
 from . import reference as ref
 

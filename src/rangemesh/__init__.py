@@ -8,20 +8,31 @@ edge flips.
 >>> mesh = rangemesh.triangulate(np.add.outer(np.arange(30.0), np.arange(40.0)))
 >>> mesh.vertices.shape[1], mesh.faces.shape[1]
 (3, 3)
+
+The library is layered (see the README's Development section): applications
+(`cli`, `batch`, `preview`, `calibrate`) -> `pipeline` -> methods (`paper`)
+-> shared geometry kernels. The applications are imported here lazily, on
+first use, so that ``import rangemesh`` does not load Dask or matplotlib.
 """
 
 from ._version import __version__
-from .batch import mesh_many, mesh_stream
-from .calibrate import calibrate_delta, triangle_disparities
 from .camera import Orthographic, Pinhole, backproject
-from .flipping import flip_edges
+from .io import read_range_image, write_mesh
 from .mesh import Mesh, Stats
-from .metrics import Evaluation, discontinuity_mask, evaluate, render_depth
+from .metrics import Evaluation, discontinuity_mask, evaluate
+from .paper import curvature, delaunay_mesh, fill_gaps, flip_edges, sample_grid, sampling_weights
 from .params import MeshParams
 from .pipeline import triangulate
 from .prepare import to_depth_and_mask
-from .sampling import curvature, fill_gaps, sample_grid, sampling_weights
-from .triangulation import delaunay_mesh
+from .render import render_depth
+
+# name -> module, imported on first use (PEP 562)
+_LAZY = {
+    "mesh_many": "batch",
+    "mesh_stream": "batch",
+    "calibrate_delta": "calibrate",
+    "triangle_disparities": "calibrate",
+}
 
 __all__ = [
     "__version__",
@@ -37,14 +48,30 @@ __all__ = [
     "delaunay_mesh",
     "discontinuity_mask",
     "evaluate",
-    "mesh_many",
-    "mesh_stream",
     "fill_gaps",
     "flip_edges",
+    "mesh_many",
+    "mesh_stream",
+    "read_range_image",
     "render_depth",
     "sample_grid",
     "sampling_weights",
     "to_depth_and_mask",
     "triangle_disparities",
     "triangulate",
+    "write_mesh",
 ]
+
+
+def __getattr__(name):
+    if name in _LAZY:
+        import importlib
+
+        value = getattr(importlib.import_module(f".{_LAZY[name]}", __name__), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_LAZY))

@@ -17,7 +17,6 @@ that are already there (unless ``overwrite``).
 from __future__ import annotations
 
 import csv
-import dataclasses
 import glob
 import json
 import os
@@ -27,28 +26,15 @@ from collections.abc import Iterable, Iterator
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
-import numpy as np
-
-from . import _kernels
 from .camera import as_camera
 from .io import IMAGE_SUFFIXES, MESH_SUFFIXES, read_range_image, write_mesh
 from .mesh import Mesh
 from .metrics import evaluate
 from .params import MeshParams
-from .pipeline import mesh_prepared, resolve_params
-from .prepare import check_image, mask_into
+from .pipeline import Workspace, resolve_params, run
+from .prepare import check_image, guess_background
 
 __all__ = ["mesh_stream", "mesh_many", "expand_inputs", "BatchResult", "summarize"]
-
-
-class _Workspace:
-    """Buffers for one frame size, reused from frame to frame."""
-
-    def __init__(self, shape):
-        self.shape = shape
-        self.depth = np.zeros(shape)
-        self.valid = np.zeros(shape, np.bool_)
-        self.weights = np.zeros(shape)
 
 
 def mesh_stream(frames: Iterable, params: MeshParams | None = None, *, background=None,
@@ -78,30 +64,11 @@ def mesh_stream(frames: Iterable, params: MeshParams | None = None, *, backgroun
     params = resolve_params(params, overrides)
     camera = as_camera(camera)
     ws = None
-    from .sampling import sampling_weights_into
-
     for frame in frames:
-        t0 = time.perf_counter()
         arr, bg = check_image(frame, background)  # every frame: clear errors, no copy
         if ws is None or ws.shape != arr.shape:
-            ws = _Workspace(arr.shape)
-        mask_into(arr, bg, ws.depth, ws.valid)
-        if params.fill_gaps:
-            _kernels.fill_gaps_inplace(ws.depth, ws.valid)
-        t1 = time.perf_counter()
-        if not ws.valid.any():
-            from .pipeline import triangulate
-
-            yield triangulate(arr, params, background=background, camera=camera)
-            continue
-        sampling_weights_into(ws.depth, ws.valid, params, ws.weights)
-        t2 = time.perf_counter()
-        mesh = mesh_prepared(ws.depth, ws.valid, params, camera, weights=ws.weights)
-        t3 = time.perf_counter()
-        seconds = {"prepare": t1 - t0, **mesh.stats.seconds}
-        seconds["sampling"] += t2 - t1  # the weights belong to stage one
-        seconds["total"] = t3 - t0
-        yield dataclasses.replace(mesh, stats=dataclasses.replace(mesh.stats, seconds=seconds))
+            ws = Workspace(arr.shape)
+        yield run(arr, params, background=bg, camera=camera, workspace=ws)
 
 
 # ---------------------------------------------------------------- files
@@ -168,8 +135,6 @@ def _one(path: str, out: str, params: MeshParams, background, camera, overwrite:
     try:
         img = read_range_image(path)
         if isinstance(background, str):  # 'auto': by the image's dtype, as `rangemesh mesh` does
-            from .cli import guess_background
-
             background = guess_background(img)
         mesh = triangulate(img, params, background=background, camera=camera, **targets)
         if mesh.is_empty:

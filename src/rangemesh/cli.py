@@ -15,16 +15,20 @@ from pathlib import Path
 
 import numpy as np
 
-from . import __version__, scenes
+from . import scenes
+from ._version import __version__
 from .camera import Orthographic, Pinhole
 from .io import IMAGE_SUFFIXES, MESH_SUFFIXES, read_mesh, read_range_image, write_mesh
 from .metrics import evaluate
+from .paper.sampling import fill_gaps, sampling_weights
 from .params import MeshParams
 from .pipeline import triangulate
-from .prepare import to_depth_and_mask
-from .sampling import fill_gaps, sampling_weights
+from .prepare import guess_background, to_depth_and_mask
 
-__all__ = ["main", "build_parser", "guess_background"]
+__all__ = ["main", "build_parser"]
+
+_DEFAULTS = MeshParams()
+_UNSET = object()  # --flips none means None, so 'not given' needs its own marker
 
 
 class UserError(Exception):
@@ -83,23 +87,6 @@ def _flips(text):
     return t
 
 
-def guess_background(image: np.ndarray):
-    """What marks missing depth, by the usual conventions.
-
-    Integer images: 0 (depth PNGs, disparity maps and most scanners use it).
-    Float images: only NaN and infinities.
-
-    Parameters
-    ----------
-    image : (H, W) ndarray
-
-    Returns
-    -------
-    float or None
-    """
-    return 0 if np.issubdtype(image.dtype, np.integer) else None
-
-
 def _resolve_background(spec, image):
     if spec == "auto":
         return guess_background(image)
@@ -125,14 +112,25 @@ def _add_camera_options(p):
                    help="with --intrinsics: Z = stored value x this (0.001 for mm, 0.0002 for TUM)")
 
 
+def _default(name):
+    """A MeshParams default as the command line writes it."""
+    value = getattr(_DEFAULTS, name)
+    if isinstance(value, tuple):
+        return "x".join(str(v) for v in value)
+    if isinstance(value, float) and value.is_integer():
+        return str(int(value))
+    return str(value).lower() if value is None else str(value)
+
+
 def _add_mesh_options(p):
-    g = p.add_argument_group("the paper's parameters")
+    d = _default
+    g = p.add_argument_group("the paper's parameters (defaults: rangemesh.MeshParams)")
     g.add_argument("--tiles", type=_pair, default=None, metavar="VxH",
-                   help="tiles, rows x columns; neighbours share one line of pixels (default 4x4; "
-                        "chosen for the image with --vertices/--max-error)")
+                   help=f"tiles, rows x columns; neighbours share one line of pixels (default "
+                        f"{d('tiles')}; chosen for the image with --vertices/--max-error)")
     g.add_argument("--samples", type=_pair, default=None, metavar="RxZ",
-                   help="samples per tile; the grid is ((R-1)V+1) x ((Z-1)H+1) points "
-                        "(default 10x10)")
+                   help=f"samples per tile; the grid is ((R-1)V+1) x ((Z-1)H+1) points "
+                        f"(default {d('samples')})")
     t = p.add_argument_group("ask for the result instead of the grid (instead of --samples)")
     t.add_argument("--vertices", type=int, default=None,
                    help="about this many vertices (within 2 %%); tiles and samples are chosen")
@@ -140,27 +138,38 @@ def _add_mesh_options(p):
                    help="smallest mesh whose relative error is at most this, percent")
     t.add_argument("--max-edge", type=float, default=None,
                    help="no triangle edge longer than this in the image, pixels")
-    g.add_argument("--sampling", choices=["adaptive", "uniform"], default="adaptive",
-                   help="place samples by log-curvature (paper) or evenly (baseline)")
-    g.add_argument("--flips", type=_flips, default="disparity", metavar="{disparity,error,none}",
-                   help="edge flips: disparity tests (paper), error gain > 0, or none")
-    g.add_argument("--delta", type=float, default=20.0,
-                   help="upper disparity threshold Delta: above it a triangle is off its "
-                        "surroundings, degrees (default 20)")
-    g.add_argument("--epsilon", type=float, default=0.3,
-                   help="test 2: smallest disparity change worth a flip, degrees (default 0.3)")
-    g.add_argument("--max-angle", type=float, default=160.0,
-                   help="test 3: a triangle with an angle above this is degenerate, degrees "
-                        "(default 160)")
-    g.add_argument("--min-bend", type=float, default=5.0,
-                   help="test 4: new triangles must bend more than this, degrees (default 5)")
-    g.add_argument("--curvature-floor", type=float, default=20.0,
-                   help="curvature floor on a 0..255 depth scale; flat areas still get points "
-                        "(default 20)")
-    g.add_argument("--levels", type=int, default=2,
-                   help="resolutions summed into the curvature image (default 2: full + half)")
+    g.add_argument("--sampling", choices=["adaptive", "uniform"], default=None,
+                   help=f"place samples by log-curvature (paper) or evenly (baseline) "
+                        f"(default {d('sampling')})")
+    g.add_argument("--flips", type=_flips, default=_UNSET, metavar="{disparity,error,none}",
+                   help=f"edge flips: disparity tests (paper), error gain > 0, or none "
+                        f"(default {d('flips')})")
+    g.add_argument("--delta", type=float, default=None,
+                   help=f"upper disparity threshold Delta: above it a triangle is off its "
+                        f"surroundings, degrees (default {d('delta')})")
+    g.add_argument("--epsilon", type=float, default=None,
+                   help=f"test 2: smallest disparity change worth a flip, degrees "
+                        f"(default {d('epsilon')})")
+    g.add_argument("--max-angle", type=float, default=None,
+                   help=f"test 3: a triangle with an angle above this is degenerate, degrees "
+                        f"(default {d('max_angle')})")
+    g.add_argument("--min-bend", type=float, default=None,
+                   help=f"test 4: new triangles must bend more than this, degrees "
+                        f"(default {d('min_bend')})")
+    g.add_argument("--gain-threshold", type=float, default=None,
+                   help="stop flipping when the best gain left is below this (default: none, "
+                        "every edge with a finite gain is tried)")
+    g.add_argument("--curvature-floor", type=float, default=None,
+                   help=f"curvature floor on a 0..255 depth scale; flat areas still get points "
+                        f"(default {d('curvature_floor')})")
+    g.add_argument("--levels", type=int, default=None,
+                   help=f"resolutions summed into the curvature image (default {d('levels')}: "
+                        f"full + half)")
     g.add_argument("--no-fill-gaps", action="store_true",
                    help="keep single-pixel holes instead of filling them with the 8-neighbour mean")
+    g.add_argument("--threads", type=int, default=None,
+                   help=f"threads sharing stage one's tiles; the mesh is the same for any number "
+                        f"(default {d('workers')})")
     _add_camera_options(p)
 
 
@@ -175,13 +184,25 @@ def _add_output_options(p):
     p.add_argument("--json", action="store_true", help="print the figures as JSON on stdout")
 
 
+# command-line option -> MeshParams field, for the options whose default is MeshParams'
+_FIELDS = {"tiles": "tiles", "samples": "samples", "sampling": "sampling", "delta": "delta",
+           "epsilon": "epsilon", "max_angle": "max_angle", "min_bend": "min_bend",
+           "gain_threshold": "gain_threshold", "curvature_floor": "curvature_floor",
+           "levels": "levels", "max_edge": "max_edge", "threads": "workers"}
+
+
 def _params(args) -> MeshParams:
-    return MeshParams(tiles=args.tiles or (4, 4), samples=args.samples or (10, 10),
-                      sampling=args.sampling,
-                      flips=args.flips, delta=args.delta, epsilon=args.epsilon,
-                      max_angle=args.max_angle, min_bend=args.min_bend,
-                      curvature_floor=args.curvature_floor, levels=args.levels,
-                      fill_gaps=not args.no_fill_gaps)
+    """MeshParams from the options given; everything not given keeps MeshParams' default."""
+    given = {field: getattr(args, opt) for opt, field in _FIELDS.items()
+             if getattr(args, opt, None) is not None}
+    if args.flips is not _UNSET:
+        given["flips"] = args.flips
+    if args.no_fill_gaps:
+        given["fill_gaps"] = False
+    try:
+        return MeshParams(**given)
+    except (ValueError, TypeError) as exc:
+        raise UserError(str(exc)) from None
 
 
 def _camera(args):
@@ -229,13 +250,20 @@ def _say(args, lines):
             print(line, file=sys.stderr)
 
 
+def _kernel_modules():
+    """Every module that holds Numba kernels."""
+    from .geometry import delaunay, halfedges, heap, pixels, raster, vectors
+    from .paper import flipping_kernels, sampling_kernels, triangulation_kernels
+
+    return (vectors, pixels, raster, heap, halfedges, delaunay, sampling_kernels,
+            triangulation_kernels, flipping_kernels)
+
+
 def _compiled_now() -> bool:
     """True when Numba compiled (rather than loaded from its cache) a kernel in this process."""
     from numba.core.registry import CPUDispatcher
 
-    from . import _delaunay, _kernels
-
-    for mod in (_kernels, _delaunay):
+    for mod in _kernel_modules():
         for obj in vars(mod).values():
             if isinstance(obj, CPUDispatcher) and sum(obj.stats.cache_misses.values()) > 0:
                 return True
@@ -251,8 +279,8 @@ def _mesh_lines(mesh, ev, outputs):
     if _compiled_now():
         lines.append("(first run: Numba compiled the kernels, which is in the times above; later "
                      "runs load them from its cache)")
-    if s.search:
-        q = s.search
+    if s.target:
+        q = s.target
         ach = q["achieved"]
         ach = f"{ach:.4f}" if isinstance(ach, float) else ach
         lines.append(f"target {q['target']} {q['requested']}: achieved {ach} with tiles "
@@ -268,8 +296,8 @@ def _mesh_lines(mesh, ev, outputs):
 
 def _targets(args) -> dict:
     """The result targets given on the command line, checked against --samples."""
-    targets = {"vertices": args.vertices, "max_error": args.max_error, "max_edge": args.max_edge}
-    given = [k for k, v in targets.items() if v is not None]
+    targets = {"vertices": args.vertices, "max_error": args.max_error}
+    given = [k for k, v in {**targets, "max_edge": args.max_edge}.items() if v is not None]
     if given and args.samples is not None:
         raise UserError(f"--samples and --{given[0].replace('_', '-')} exclude each other: "
                         "the target chooses the samples")

@@ -32,7 +32,7 @@ class Stats:
         Wall time of each stage (``'prepare'``, ``'sampling'``,
         ``'triangulation'``, ``'flipping'``), of a target search
         (``'search'``: the tries before the final meshing) and ``'total'``.
-    search : dict
+    target : dict
         Empty unless a target (``vertices``, ``max_error``, ``max_edge``) was
         given: what was asked, what was achieved, the grid chosen, how many
         meshings the search took, and a ``note`` when the target could not be
@@ -49,7 +49,7 @@ class Stats:
     sampled_points: int = 0
     flip_tests: dict = field(default_factory=dict)
     seconds: dict = field(default_factory=dict)
-    search: dict = field(default_factory=dict)
+    target: dict = field(default_factory=dict)
     reason: str = ""
 
     def to_dict(self) -> dict:
@@ -78,7 +78,7 @@ def count_edges(faces: np.ndarray) -> int:
     faces = np.ascontiguousarray(faces, dtype=np.int64)
     if len(faces) == 0:
         return 0
-    from ._kernels import count_edges_kernel
+    from .geometry.halfedges import count_edges_kernel
 
     return int(count_edges_kernel(faces, int(faces.max()) + 1))
 

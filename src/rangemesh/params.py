@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import numbers
 from dataclasses import dataclass
 
 __all__ = ["MeshParams", "SAMPLING_CHOICES", "FLIP_CHOICES"]
@@ -76,6 +77,14 @@ class MeshParams:
         means minus infinity: every edge with a finite gain is considered, which
         the paper found works best. Ignored by ``flips='error'``, which always
         stops at the first non-positive gain.
+    max_edge : float or None, default None
+        Longest triangle edge allowed in the image plane, pixels (at least 1.5,
+        a pixel's diagonal is 1.41). ``None``: no bound. Given without a vertex
+        or error target, it also chooses the samples per tile (see
+        `rangemesh.paper.targets.fit_edge`).
+    workers : int, default 1
+        Threads sharing stage one's tiles (the paper's parallel stage). The
+        mesh is the same for any number.
 
     Raises
     ------
@@ -103,6 +112,8 @@ class MeshParams:
     max_angle: float = 160.0
     min_bend: float = 5.0
     gain_threshold: float | None = None
+    max_edge: float | None = None
+    workers: int = 1
 
     def __post_init__(self):
         tiles = _pair("tiles", self.tiles)
@@ -149,6 +160,19 @@ class MeshParams:
                 raise ValueError(f"gain_threshold must be a number or None, got {g!r}")
             object.__setattr__(self, "gain_threshold", float(g))
         object.__setattr__(self, "fill_gaps", bool(self.fill_gaps))
+        if self.max_edge is not None:
+            e = self.max_edge
+            if isinstance(e, bool) or not isinstance(e, (int, float)):
+                raise TypeError(f"max_edge must be a number of pixels or None, got {e!r}")
+            if not math.isfinite(e) or e < 1.5:
+                raise ValueError(
+                    f"max_edge must be at least 1.5 pixels (a pixel's diagonal is 1.41), got {e!r}"
+                )
+            object.__setattr__(self, "max_edge", float(e))
+        w = self.workers
+        if isinstance(w, bool) or not isinstance(w, numbers.Integral) or w < 1:
+            raise ValueError(f"workers must be a whole number >= 1, got {w!r}")
+        object.__setattr__(self, "workers", int(w))
 
     @property
     def grid_shape(self) -> tuple[int, int]:

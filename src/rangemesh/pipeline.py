@@ -1,4 +1,9 @@
-"""The whole method in one call: `triangulate`."""
+"""The one path from a range image to a mesh: check, prepare, mesh, assemble.
+
+Every caller goes through `run`: `triangulate` for one image,
+`rangemesh.batch.mesh_stream` for frames (with reused buffers), the command
+line through `triangulate`. The method itself lives in `rangemesh.paper`.
+"""
 
 from __future__ import annotations
 
@@ -7,18 +12,15 @@ import time
 
 import numpy as np
 
-from . import _kernels
 from .camera import as_camera
-from .flipping import flip_edges
 from .mesh import Mesh, Stats, empty_mesh
+from .paper import targets
+from .paper.sampling import fill_gaps_inplace, sample_grid, sampling_weights
+from .paper.stages import mesh_grid
 from .params import MeshParams
-from .prepare import to_depth_and_mask
-from .sampling import sample_grid
-from .triangulation import delaunay_mesh
+from .prepare import check_image, mask_into, to_depth_and_mask
 
-_BUDGET_KEYS = ("vertices", "max_error", "max_edge")
-
-__all__ = ["triangulate", "resolve_params", "prepare", "mesh_prepared"]
+__all__ = ["triangulate", "resolve_params", "prepare", "run", "Workspace"]
 
 
 def resolve_params(params: MeshParams | None, overrides: dict) -> MeshParams:
@@ -38,7 +40,23 @@ def resolve_params(params: MeshParams | None, overrides: dict) -> MeshParams:
     return params.replace(**overrides) if overrides else params
 
 
-def prepare(image, params: MeshParams, background=None) -> tuple[np.ndarray, np.ndarray]:
+class Workspace:
+    """Buffers for one frame size, reused from frame to frame by `run`.
+
+    Parameters
+    ----------
+    shape : (int, int)
+    """
+
+    def __init__(self, shape):
+        self.shape = tuple(shape)
+        self.depth = np.zeros(shape)
+        self.valid = np.zeros(shape, np.bool_)
+        self.weights = np.zeros(shape)
+
+
+def prepare(image, params: MeshParams, background=None, *,
+            workspace: Workspace | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Depth and validity mask as stage one sees them: checked, masked, gap-filled.
 
     Parameters
@@ -47,58 +65,32 @@ def prepare(image, params: MeshParams, background=None) -> tuple[np.ndarray, np.
     params : MeshParams
         Only ``fill_gaps`` is read.
     background : float, optional
+    workspace : Workspace, optional
+        Write into its buffers (same shape as the image) instead of new arrays.
 
     Returns
     -------
     depth : (H, W) ndarray of float64
     valid : (H, W) ndarray of bool
     """
-    depth, valid = to_depth_and_mask(image, background)
+    arr, background = check_image(image, background)
+    if workspace is None:
+        depth = np.zeros(arr.shape, np.float64)
+        valid = np.zeros(arr.shape, np.bool_)
+    else:
+        depth, valid = workspace.depth, workspace.valid
+    mask_into(arr, background, depth, valid)
     if params.fill_gaps:
         # the arrays are ours and hold 0.0 on background: fill in place, no copies
-        _kernels.fill_gaps_inplace(depth, valid)
+        fill_gaps_inplace(depth, valid)
     return depth, valid
 
 
-def mesh_prepared(depth: np.ndarray, valid: np.ndarray, params: MeshParams, camera, *,
-                  weights: np.ndarray | None = None, max_edge: float | None = None,
-                  workers: int = 1) -> Mesh:
-    """Stages one to three on an already prepared image (see `prepare`).
-
-    Parameters
-    ----------
-    depth, valid : (H, W) ndarrays
-        From `prepare`.
-    params : MeshParams
-    camera : Orthographic or Pinhole
-    weights : (H, W) ndarray, optional
-        Precomputed `sampling_weights` for `params` (reused across tries).
-    max_edge : float, optional
-        Longest triangle edge allowed in the image plane, pixels.
-    workers : int, default 1
-        Threads for stage one's tiles.
-
-    Returns
-    -------
-    Mesh
-        With ``stats.seconds`` for ``sampling``, ``triangulation``, ``flipping``.
-    """
-    t1 = time.perf_counter()
-    grid = sample_grid(depth, valid, params, weights=weights, workers=workers)
-    t2 = time.perf_counter()
-    mesh = delaunay_mesh(grid, depth, valid, camera, max_edge=max_edge)
-    t3 = time.perf_counter()
-    mesh = flip_edges(mesh, depth, valid, params, max_edge=max_edge)
-    t4 = time.perf_counter()
-    seconds = {"sampling": t2 - t1, "triangulation": t3 - t2, "flipping": t4 - t3}
-    return dataclasses.replace(mesh, stats=dataclasses.replace(mesh.stats, seconds=seconds))
-
-
-def _check_budget(vertices, max_error, max_edge, overrides):
+def _targets_given(params: MeshParams, vertices, max_error, overrides) -> list[str]:
     if vertices is not None and max_error is not None:
         raise ValueError("vertices and max_error exclude each other: give one target")
     given = [k for k, v in (("vertices", vertices), ("max_error", max_error),
-                            ("max_edge", max_edge)) if v is not None]
+                            ("max_edge", params.max_edge)) if v is not None]
     if given and "samples" in overrides:
         raise ValueError(
             f"{' and '.join(given)} choose the samples per tile themselves; "
@@ -110,17 +102,63 @@ def _check_budget(vertices, max_error, max_edge, overrides):
     if max_error is not None:
         if isinstance(max_error, bool) or not np.isfinite(max_error) or max_error <= 0:
             raise ValueError(f"max_error must be a positive number of percent, got {max_error!r}")
-    if max_edge is not None:
-        if isinstance(max_edge, bool) or not np.isfinite(max_edge) or max_edge < 1.5:
-            raise ValueError(
-                f"max_edge must be at least 1.5 pixels (a pixel's diagonal is 1.41), got {max_edge!r}"
-            )
     return given
+
+
+def run(image, params: MeshParams, *, background=None, camera=None, vertices=None,
+        max_error=None, tiles_given: bool = True, workspace: Workspace | None = None) -> Mesh:
+    """Prepare `image`, mesh it with the paper's method (or a target search), assemble stats.
+
+    The arguments are those of `triangulate`, already resolved: `params`
+    holds every setting, `tiles_given` says whether the tiles of `params` are
+    the user's (a target search then keeps them) or the defaults (the search
+    chooses them). With a `workspace`, the image's buffers are reused.
+
+    Returns
+    -------
+    Mesh
+        ``stats.seconds`` holds ``prepare``, each stage, ``search`` (target
+        searches only) and ``total``.
+    """
+    camera = as_camera(camera)
+    t0 = time.perf_counter()
+    depth, valid = prepare(image, params, background, workspace=workspace)
+    t1 = time.perf_counter()
+    if not valid.any():
+        # Still check the tiling so that bad parameters fail the same way on any image.
+        sample_grid(depth, valid, params.replace(sampling="uniform"))
+        stats = Stats(grid_shape=params.grid_shape, seconds={"prepare": t1 - t0, "total": t1 - t0},
+                      reason="the image has no valid pixel (all background)")
+        return empty_mesh(camera, depth.shape, stats)
+    target = {}
+    tiles = params.tiles if tiles_given else None
+    if vertices is not None:
+        mesh, target = targets.fit_vertices(depth, valid, params, camera, int(vertices), tiles=tiles)
+    elif max_error is not None:
+        ref_depth, ref_valid = to_depth_and_mask(image, background)
+        mesh, target = targets.fit_error(depth, valid, params, camera, float(max_error),
+                                         ref_depth, ref_valid, tiles=tiles)
+    elif params.max_edge is not None:
+        mesh, target = targets.fit_edge(depth, valid, params, camera, tiles=tiles)
+    else:
+        weights = None
+        if workspace is not None:
+            weights = sampling_weights(depth, valid, params, out=workspace.weights)
+        t2 = time.perf_counter()
+        mesh = mesh_grid(depth, valid, params, camera, weights=weights)
+        mesh.stats.seconds["sampling"] += t2 - t1  # the weights belong to stage one
+    t4 = time.perf_counter()
+    seconds = {"prepare": t1 - t0, **mesh.stats.seconds}
+    if target:
+        seconds["search"] = t4 - t1 - sum(mesh.stats.seconds.values())
+    seconds["total"] = t4 - t0
+    stats = dataclasses.replace(mesh.stats, seconds=seconds, target=target)
+    return dataclasses.replace(mesh, stats=stats)
 
 
 def triangulate(image, params: MeshParams | None = None, *, background=None, camera=None,
                 vertices: int | None = None, max_error: float | None = None,
-                max_edge: float | None = None, workers: int = 1, **overrides) -> Mesh:
+                **overrides) -> Mesh:
     """Mesh a range image: adaptive sampling, 2.5-D Delaunay, discontinuity-preserving flips.
 
     Parameters
@@ -138,20 +176,18 @@ def triangulate(image, params: MeshParams | None = None, *, background=None, cam
     vertices : int, optional
         Ask for about this many vertices instead of giving ``samples``: the
         grid (tiles unless given, then samples per tile) is searched so that
-        the final count is within 2 % (see `rangemesh.budget.fit_vertices`).
+        the final count is within 2 % (see `rangemesh.paper.targets.fit_vertices`).
     max_error : float, optional
         Ask for the smallest grid whose relative error (percent, as
-        `evaluate`) is at most this (see `rangemesh.budget.fit_error`).
-    max_edge : float, optional
-        No triangle edge longer than this in the image plane, in pixels. Alone,
-        it also chooses the samples per tile (see `rangemesh.budget.fit_edge`).
-    workers : int, default 1
-        Threads sharing stage one's tiles (the paper's parallel stage). The
-        mesh is the same for any number.
+        `evaluate`) is at most this (see `rangemesh.paper.targets.fit_error`).
     **overrides
         Any field of `MeshParams`: ``tiles``, ``samples``, ``sampling``,
         ``flips``, ``levels``, ``curvature_floor``, ``fill_gaps``, ``delta``,
-        ``epsilon``, ``max_angle``, ``min_bend``, ``gain_threshold``.
+        ``epsilon``, ``max_angle``, ``min_bend``, ``gain_threshold``, and
+        ``max_edge`` (no triangle edge longer than this in the image plane,
+        pixels; alone, it also chooses the samples per tile, see
+        `rangemesh.paper.targets.fit_edge`) and ``workers`` (threads for stage
+        one's tiles; the mesh is the same for any number).
 
     Returns
     -------
@@ -159,7 +195,7 @@ def triangulate(image, params: MeshParams | None = None, *, background=None, cam
         ``vertices (V, 3)``, ``faces (F, 3)`` counter-clockwise in the image
         plane, ``pixels (V, 2)``, and ``stats``. When nothing can be meshed (no
         valid pixel, fewer than 3 valid samples, all collinear) the mesh is
-        empty and ``stats.reason`` says why. With a target, ``stats.search``
+        empty and ``stats.reason`` says why. With a target, ``stats.target``
         tells what was asked, what was achieved and which grid was chosen.
 
     Raises
@@ -197,42 +233,7 @@ def triangulate(image, params: MeshParams | None = None, *, background=None, cam
     >>> mesh.stats.vertices, mesh.faces.shape[1]
     (81, 3)
     """
-    targets = _check_budget(vertices, max_error, max_edge, overrides)
-    tiles_given = "tiles" in overrides
     params = resolve_params(params, overrides)
-    camera = as_camera(camera)
-    t0 = time.perf_counter()
-    depth, valid = prepare(image, params, background)
-    t1 = time.perf_counter()
-    if not valid.any():
-        # Still check the tiling so that bad parameters fail the same way on any image.
-        sample_grid(depth, valid, params.replace(sampling="uniform"))
-        stats = Stats(grid_shape=params.grid_shape, seconds={"prepare": t1 - t0, "total": t1 - t0},
-                      reason="the image has no valid pixel (all background)")
-        return empty_mesh(camera, depth.shape, stats)
-    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
-        raise ValueError(f"workers must be a whole number >= 1, got {workers!r}")
-    if not targets:
-        mesh = mesh_prepared(depth, valid, params, camera, workers=workers)
-        search = {}
-    else:
-        from . import budget
-
-        tiles = params.tiles if tiles_given else None
-        if vertices is not None:
-            mesh, search = budget.fit_vertices(depth, valid, params, camera, int(vertices),
-                                               tiles=tiles, max_edge=max_edge)
-        elif max_error is not None:
-            ref_depth, ref_valid = to_depth_and_mask(image, background)
-            mesh, search = budget.fit_error(depth, valid, params, camera, float(max_error),
-                                            ref_depth, ref_valid, tiles=tiles, max_edge=max_edge)
-        else:
-            mesh, search = budget.fit_edge(depth, valid, params, camera, float(max_edge),
-                                           tiles=tiles)
-    t4 = time.perf_counter()
-    seconds = {"prepare": t1 - t0, **mesh.stats.seconds}
-    if search:
-        seconds["search"] = t4 - t1 - sum(mesh.stats.seconds.values())
-    seconds["total"] = t4 - t0
-    stats = dataclasses.replace(mesh.stats, seconds=seconds, search=search)
-    return dataclasses.replace(mesh, stats=stats)
+    _targets_given(params, vertices, max_error, overrides)
+    return run(image, params, background=background, camera=camera, vertices=vertices,
+               max_error=max_error, tiles_given="tiles" in overrides)

@@ -11,9 +11,9 @@ import numbers
 
 import numpy as np
 
-from . import _kernels
+from .geometry.pixels import mask_image
 
-__all__ = ["to_depth_and_mask", "check_image", "mask_into"]
+__all__ = ["to_depth_and_mask", "check_image", "mask_into", "guess_background"]
 
 
 def to_depth_and_mask(image, background=None) -> tuple[np.ndarray, np.ndarray]:
@@ -99,4 +99,26 @@ def check_image(image, background=None):
 def mask_into(arr: np.ndarray, background, depth: np.ndarray, valid: np.ndarray) -> None:
     """Write float depth (0.0 on background) and validity of a checked image into buffers."""
     bg = 0.0 if background is None else float(background)
-    _kernels.mask_image(np.ascontiguousarray(arr), background is not None, bg, depth, valid)
+    mask_image(np.ascontiguousarray(arr), background is not None, bg, depth, valid)
+
+
+def guess_background(image: np.ndarray):
+    """What marks missing depth, by the usual conventions.
+
+    Integer images: 0 (depth PNGs, disparity maps and most scanners use it).
+    Float images: only NaN and infinities.
+
+    Parameters
+    ----------
+    image : (H, W) ndarray
+
+    Returns
+    -------
+    float or None
+
+    Examples
+    --------
+    >>> guess_background(np.zeros((2, 2), np.uint16)), guess_background(np.zeros((2, 2)))
+    (0, None)
+    """
+    return 0 if np.issubdtype(image.dtype, np.integer) else None

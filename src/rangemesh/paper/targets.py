@@ -10,15 +10,19 @@ millisecond), so most candidates are judged without meshing.
 
 from __future__ import annotations
 
+import dataclasses
 import math
+import time
 
 import numpy as np
 
-from .mesh import Mesh
-from .metrics import relative_error
-from .params import MeshParams
-from .pipeline import mesh_prepared
+from ..mesh import Mesh
+from ..params import MeshParams
+from ..render import relative_error
+from .flipping import flip_edges
 from .sampling import sample_grid, sampling_weights
+from .stages import mesh_grid
+from .triangulation import delaunay_mesh
 
 __all__ = ["auto_tiles", "fit_vertices", "fit_error", "fit_edge", "count_samples"]
 
@@ -118,13 +122,13 @@ def _choose_grid(depth, valid, params, weights, target, tiles, frac):
     return best[1][0], best[1][1], best[2]
 
 
-def _full_resolution(depth, valid, params, camera, weights, max_edge):
+def _full_resolution(depth, valid, params, camera):
     h, w = depth.shape
     p = params.replace(tiles=(1, 1), samples=(h, w), sampling="uniform")
-    return mesh_prepared(depth, valid, p, camera, max_edge=max_edge), p
+    return mesh_grid(depth, valid, p, camera), p
 
 
-def _search_record(kind, requested, achieved, p, meshings, ok, note="", **extra):
+def _target_record(kind, requested, achieved, p, meshings, ok, note="", **extra):
     rec = {"target": kind, "requested": requested, "achieved": achieved,
            "tiles": list(p.tiles), "samples": list(p.samples), "meshings": meshings,
            "met": bool(ok)}
@@ -134,8 +138,8 @@ def _search_record(kind, requested, achieved, p, meshings, ok, note="", **extra)
     return rec
 
 
-def fit_vertices(depth, valid, params: MeshParams, camera, n: int, *, tiles=None,
-                 max_edge=None) -> tuple[Mesh, dict]:
+def fit_vertices(depth, valid, params: MeshParams, camera, n: int, *,
+                 tiles=None) -> tuple[Mesh, dict]:
     """Mesh with a grid chosen so that the final vertex count is within 2 % of `n`.
 
     Parameters
@@ -143,20 +147,18 @@ def fit_vertices(depth, valid, params: MeshParams, camera, n: int, *, tiles=None
     depth, valid : (H, W) ndarrays
         Prepared image (`rangemesh.pipeline.prepare`).
     params : MeshParams
-        Everything but tiles and samples is kept.
+        Everything but tiles and samples is kept (``max_edge`` bounds every try).
     camera : Orthographic or Pinhole
     n : int
         Vertices wanted.
     tiles : (int, int), optional
         Keep these tiles; default: about 10 samples per tile side, tiles
         following the image's aspect (non-square images get non-square grids).
-    max_edge : float, optional
-        Passed on to the meshing (edge-length bound).
 
     Returns
     -------
     mesh : Mesh
-    search : dict
+    target : dict
         ``requested``, ``achieved``, ``met`` (within 2 %), ``tiles``,
         ``samples``, ``meshings`` and a ``note`` when 2 % was out of reach.
 
@@ -174,12 +176,12 @@ def fit_vertices(depth, valid, params: MeshParams, camera, n: int, *, tiles=None
     n_valid = int(valid.sum())
     weights = sampling_weights(depth, valid, params)
     if n >= n_valid:
-        mesh, p = _full_resolution(depth, valid, params, camera, weights, max_edge)
+        mesh, p = _full_resolution(depth, valid, params, camera)
         got = mesh.stats.vertices
         ok = abs(got - n) <= _TOLERANCE * n
         note = "" if ok else (f"the image has only {n_valid} valid pixels: meshed at full "
                               f"resolution, every valid pixel a vertex")
-        return mesh, _search_record("vertices", n, got, p, 1, ok, note)
+        return mesh, _target_record("vertices", n, got, p, 1, ok, note)
     frac = n_valid / valid.size
     target = float(n)
     best = None
@@ -191,7 +193,7 @@ def fit_vertices(depth, valid, params: MeshParams, camera, n: int, *, tiles=None
             break
         seen.add((t, s))
         p = params.replace(tiles=t, samples=s)
-        mesh = mesh_prepared(depth, valid, p, camera, weights=weights, max_edge=max_edge)
+        mesh = mesh_grid(depth, valid, p, camera, weights=weights)
         meshings += 1
         got = mesh.stats.vertices
         if best is None or abs(got - n) < abs(best[0].stats.vertices - n):
@@ -204,11 +206,11 @@ def fit_vertices(depth, valid, params: MeshParams, camera, n: int, *, tiles=None
     ok = abs(got - n) <= _TOLERANCE * n
     note = "" if ok else (f"closest grid gives {got} vertices; the grid's steps are coarser than "
                           f"2 % of {n} on this image")
-    return mesh, _search_record("vertices", n, got, p, meshings, ok, note)
+    return mesh, _target_record("vertices", n, got, p, meshings, ok, note)
 
 
 def fit_error(depth, valid, params: MeshParams, camera, max_error: float, ref_depth, ref_valid,
-              *, tiles=None, max_edge=None, max_meshings: int = 6) -> tuple[Mesh, dict]:
+              *, tiles=None, max_meshings: int = 6) -> tuple[Mesh, dict]:
     """The smallest grid whose mesh has a relative error of at most `max_error` percent.
 
     Parameters
@@ -221,7 +223,7 @@ def fit_error(depth, valid, params: MeshParams, camera, max_error: float, ref_de
         Bound on the paper's relative error, percent (as `evaluate` computes it).
     ref_depth, ref_valid : (H, W) ndarrays
         The original image the error is measured against (not gap-filled).
-    tiles, max_edge
+    tiles
         As for `fit_vertices`.
     max_meshings : int, default 6
         Most full meshings the search may spend.
@@ -229,7 +231,7 @@ def fit_error(depth, valid, params: MeshParams, camera, max_error: float, ref_de
     Returns
     -------
     mesh : Mesh
-    search : dict
+    target : dict
         ``requested``, ``achieved`` (the error), ``vertices``, ``met``,
         ``tiles``, ``samples``, ``meshings``.
 
@@ -253,12 +255,12 @@ def fit_error(depth, valid, params: MeshParams, camera, max_error: float, ref_de
     def attempt(target):
         target = min(max(target, 9.0), float(n_valid))
         if target >= n_valid:
-            mesh, p = _full_resolution(depth, valid, params, camera, weights, max_edge)
+            mesh, p = _full_resolution(depth, valid, params, camera)
             count = n_valid
         else:
             t, s, count = _choose_grid(depth, valid, params, weights, target, tiles, frac)
             p = params.replace(tiles=t, samples=s)
-            mesh = mesh_prepared(depth, valid, p, camera, weights=weights, max_edge=max_edge)
+            mesh = mesh_grid(depth, valid, p, camera, weights=weights)
         err = relative_error(mesh, ref_depth, ref_valid) if not mesh.is_empty else math.inf
         tries.append((count, err, mesh, p))
         return count, err
@@ -311,12 +313,12 @@ def fit_error(depth, valid, params: MeshParams, camera, max_error: float, ref_de
     if good:
         count, err, mesh, p = min(good, key=lambda x: (x[0], x[1]))
     else:
-        mesh, p = _full_resolution(depth, valid, params, camera, weights, max_edge)
+        mesh, p = _full_resolution(depth, valid, params, camera)
         err = relative_error(mesh, ref_depth, ref_valid)
         tries.append((n_valid, err, mesh, p))
         note = "no grid tried met the bound; meshed at full resolution"
     met = err <= max_error
-    return mesh, _search_record("max_error", max_error, err, p, len(tries), met, note,
+    return mesh, _target_record("max_error", max_error, err, p, len(tries), met, note,
                                 vertices=mesh.stats.vertices)
 
 
@@ -356,8 +358,7 @@ def _split_points(mesh: Mesh, valid: np.ndarray, max_edge: float) -> np.ndarray:
     return pts
 
 
-def fit_edge(depth, valid, params: MeshParams, camera, max_edge: float, *,
-             tiles=None) -> tuple[Mesh, dict]:
+def fit_edge(depth, valid, params: MeshParams, camera, *, tiles=None) -> tuple[Mesh, dict]:
     """Mesh so that no triangle edge is longer than `max_edge` pixels in the image plane.
 
     Parameters
@@ -365,16 +366,15 @@ def fit_edge(depth, valid, params: MeshParams, camera, max_edge: float, *,
     depth, valid : (H, W) ndarrays
         Prepared image.
     params : MeshParams
+        ``max_edge`` is the longest edge allowed in the image plane, pixels.
     camera : Orthographic or Pinhole
-    max_edge : float
-        Longest edge allowed in the image plane, pixels (at least 1.5).
     tiles : (int, int), optional
         Default: the tiles of `params`.
 
     Returns
     -------
     mesh : Mesh
-    search : dict
+    target : dict
 
     Notes
     -----
@@ -396,11 +396,9 @@ def fit_edge(depth, valid, params: MeshParams, camera, max_edge: float, *,
     The bound therefore holds for every edge of the result, and vertices are
     added only where the adaptive grid was too sparse for it.
     """
-    import time
-
-    from .flipping import flip_edges
-    from .triangulation import delaunay_mesh
-
+    max_edge = params.max_edge
+    if max_edge is None:
+        raise ValueError("fit_edge needs params.max_edge")
     h, w = depth.shape
     tiles = tuple(tiles) if tiles is not None else params.tiles
     t0 = time.perf_counter()
@@ -422,10 +420,8 @@ def fit_edge(depth, valid, params: MeshParams, camera, max_edge: float, *,
         points = np.concatenate([points, extra])
     mesh = delaunay_mesh(points.reshape(-1, 1, 2), depth, valid, camera, max_edge=max_edge)
     t2 = time.perf_counter()
-    mesh = flip_edges(mesh, depth, valid, params, max_edge=max_edge)
+    mesh = flip_edges(mesh, depth, valid, params)
     t3 = time.perf_counter()
-    import dataclasses
-
     added = len(np.unique(points[:, 0] * w + points[:, 1])) - len(
         np.unique(grid[..., 0].astype(np.int64) * w + grid[..., 1]))
     stats = dataclasses.replace(
@@ -433,7 +429,7 @@ def fit_edge(depth, valid, params: MeshParams, camera, max_edge: float, *,
         seconds={"sampling": t1 - t0, "triangulation": t2 - t1, "flipping": t3 - t2})
     mesh = dataclasses.replace(mesh, stats=stats)
     longest = _longest_edge(mesh)
-    return mesh, _search_record("max_edge", max_edge, longest, p, rounds, longest <= max_edge,
+    return mesh, _target_record("max_edge", max_edge, longest, p, rounds, longest <= max_edge,
                                 added_samples=int(added), vertices=mesh.stats.vertices)
 
 

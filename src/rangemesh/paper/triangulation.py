@@ -7,9 +7,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import _delaunay, _kernels
-from .camera import as_camera, backproject
-from .mesh import Mesh, Stats, count_edges, empty_mesh
+from ..camera import as_camera, backproject
+from ..geometry.delaunay import delaunay_sweep, legalize_all
+from ..geometry.halfedges import build_halfedges, neighbors_from_halfedges
+from ..mesh import Mesh, Stats, count_edges, empty_mesh
+from .triangulation_kernels import prune_dangling
 
 __all__ = ["delaunay_mesh", "triangulate_points"]
 
@@ -55,7 +57,7 @@ def triangulate_points(pts: np.ndarray, engine: str = "sweep") -> tuple[np.ndarr
     if n < 3:
         return empty, empty
     if engine == "sweep":
-        triangles, halfedges, n_t = _delaunay.delaunay_sweep(pr, pc)
+        triangles, halfedges, n_t = delaunay_sweep(pr, pc)
         if n_t == 0:
             return empty, empty
         triangles = triangles.copy()
@@ -74,10 +76,10 @@ def triangulate_points(pts: np.ndarray, engine: str = "sweep") -> tuple[np.ndarr
         simplices = simplices[area != 0]
         if len(simplices) == 0:
             return empty, empty
-        triangles, halfedges = _kernels.build_halfedges(simplices, n)
+        triangles, halfedges = build_halfedges(simplices, n)
     else:
         raise ValueError(f"engine must be 'sweep' or 'qhull', got {engine!r}")
-    _delaunay.legalize_all(triangles, halfedges, pr, pc)
+    legalize_all(triangles, halfedges, pr, pc)
     faces = triangles.reshape(-1, 3)
     # canonical order: start each face at its smallest vertex (keeping its turn), then sort
     k = np.argmin(faces, axis=1)
@@ -89,8 +91,8 @@ def triangulate_points(pts: np.ndarray, engine: str = "sweep") -> tuple[np.ndarr
     else:
         faces = faces[np.lexsort((faces[:, 2], faces[:, 1], faces[:, 0]))]
     faces = np.ascontiguousarray(faces)
-    _, halfedges = _kernels.build_halfedges(faces, n)
-    return faces, _delaunay.neighbors_from_halfedges(halfedges)
+    _, halfedges = build_halfedges(faces, n)
+    return faces, neighbors_from_halfedges(halfedges)
 
 
 def delaunay_mesh(grid: np.ndarray, depth: np.ndarray, valid: np.ndarray, camera=None, *,
@@ -168,7 +170,7 @@ def delaunay_mesh(grid: np.ndarray, depth: np.ndarray, valid: np.ndarray, camera
         d2 = ((corner - np.roll(corner, 1, axis=1)) ** 2).sum(axis=2)
         alive &= (d2 <= float(max_edge) ** 2).all(axis=1)
     if alive.any():
-        _kernels.prune_dangling(simplices, neighbors, alive, n_points)
+        prune_dangling(simplices, neighbors, alive, n_points)
     if not alive.any():
         return _empty(camera, (h, w), grid_shape, n_points,
                       "no triangle is left after removing background and dangling triangles")

@@ -5,7 +5,7 @@ import pytest
 
 import rangemesh
 from rangemesh import evaluate, scenes, triangulate
-from rangemesh.budget import auto_tiles
+from rangemesh.paper.targets import auto_tiles
 
 from .helpers import assert_valid_mesh
 from .images import REAL_IMAGES, load
@@ -22,7 +22,7 @@ def test_vertex_count_within_2_percent(shared_data, rel, background):
     n_valid = rangemesh.fill_gaps(*rangemesh.to_depth_and_mask(img, background))[1].sum()
     for n in (1000, 5000, 20000):
         m = triangulate(img, background=background, vertices=n)
-        s = m.stats.search
+        s = m.stats.target
         assert s["requested"] == n and s["achieved"] == m.stats.vertices
         if abs(m.stats.vertices - n) <= 0.02 * n:
             assert s["met"]
@@ -41,7 +41,7 @@ def test_vertex_count_properties():
     assert abs(m.stats.vertices - 2000) <= 40
     # tiles given as a keyword are kept
     m = triangulate(sc.depth, vertices=2000, tiles=(2, 2))
-    assert m.stats.search["tiles"] == [2, 2]
+    assert m.stats.target["tiles"] == [2, 2]
 
 
 def test_auto_tiles_by_hand():
@@ -57,8 +57,8 @@ def test_error_bound_holds(shared_data, rel, background, bound):
     m = triangulate(img, background=background, max_error=bound)
     e = evaluate(m, img, background=background)  # the same code as evaluate, measured again
     assert e.relative_error <= bound
-    assert m.stats.search["achieved"] == pytest.approx(e.relative_error)
-    assert m.stats.search["met"] and m.stats.search["meshings"] <= 7  # 6 tries + full resolution
+    assert m.stats.target["achieved"] == pytest.approx(e.relative_error)
+    assert m.stats.target["met"] and m.stats.target["meshings"] <= 7  # 6 tries + full resolution
     # the smallest: the paper's default grid is coarser or finer in the right direction
     if m.stats.vertices > 1400:
         assert evaluate(triangulate(img, background=background), img,
@@ -83,7 +83,7 @@ def test_max_edge_holds_on_every_edge(shared_data, rel, background, L):
     m = triangulate(img, background=background, max_edge=L)
     assert_valid_mesh(m, check_overlap=False)
     assert _edges(m).max() <= L
-    assert m.stats.search["met"]
+    assert m.stats.target["met"]
 
 
 def test_max_edge_with_a_vertex_target_and_flips():

@@ -1,6 +1,6 @@
 """The paper's experiments and today's peers, on the same images, at the same vertex counts.
 
-Run ``python -m rangemesh.bench`` (``--quick`` for a short run, ``--help`` for
+Run ``python benchmarks/peers.py`` (``--quick`` for a short run, ``--help`` for
 options). For every image and budget it meshes with
 
 * rangemesh: adaptive + disparity flips (the paper), adaptive + error flips,
@@ -18,7 +18,9 @@ options). For every image and budget it meshes with
 and evaluates every mesh with the same code (`rangemesh.evaluate`): the paper's
 relative error over valid pixels, RMS, max, uncovered share, and the error
 within 2 px of a discontinuity. Peers are optional (``pip install
-"rangemesh[bench]"``); a missing one is skipped and the report says so.
+"rangemesh[bench]"``); a missing one is skipped and the report says so. The
+peers are never a dependency of rangemesh itself: this script lives outside
+the package.
 
 What is timed (median of ``--repeat`` calls in this process, after one
 warm-up call; 2 calls when one takes over half a second), once the request
@@ -47,13 +49,13 @@ from pathlib import Path
 import numpy as np
 from scipy import ndimage
 
-from . import scenes
-from .camera import Orthographic
-from .io import read_range_image
-from .mesh import Mesh, Stats, count_edges
-from .metrics import discontinuity_mask, evaluate
-from .pipeline import triangulate
-from .prepare import to_depth_and_mask
+from rangemesh import scenes
+from rangemesh.camera import Orthographic
+from rangemesh.io import read_range_image
+from rangemesh.mesh import Mesh, Stats, count_edges
+from rangemesh.metrics import discontinuity_mask, evaluate
+from rangemesh.pipeline import triangulate
+from rangemesh.prepare import to_depth_and_mask
 
 __all__ = ["main", "run", "IMAGES"]
 
@@ -422,7 +424,7 @@ def figure(images, out_png, n=1500):
     matplotlib.use("Agg", force=False)
     from matplotlib.figure import Figure
 
-    from .preview import shade
+    from rangemesh.preview import shade
 
     fig = Figure(figsize=(16, 4.3 * len(images)), dpi=90, layout="constrained")
     axes = fig.subplots(len(images), 4, squeeze=False)
@@ -433,8 +435,8 @@ def figure(images, out_png, n=1500):
         cands = [("rangemesh (paper)", ours),
                  ("uniform + error flips", triangulate(
                      image.depth, background=image.background, sampling="uniform", flips="error",
-                     tiles=tuple(ours.stats.search["tiles"]),
-                     samples=tuple(ours.stats.search["samples"])))]
+                     tiles=tuple(ours.stats.target["tiles"]),
+                     samples=tuple(ours.stats.target["samples"])))]
         for label, module, fn in PEERS[:2]:
             try:
                 __import__(module)
@@ -464,10 +466,10 @@ def figure(images, out_png, n=1500):
 
 def main(argv=None) -> int:
     """Command line of the benchmark; returns the exit status."""
-    ap = argparse.ArgumentParser(prog="python -m rangemesh.bench",
+    ap = argparse.ArgumentParser(prog="python benchmarks/peers.py",
                                  description="rangemesh against the paper's baselines and today's peers.")
     ap.add_argument("--data", type=Path, default=None,
-                    help="folder of the shared images (default: ../shared/data from here or the repo)")
+                    help="folder of the shared images (default: shared/data beside the repository)")
     ap.add_argument("--out", type=Path, default=Path("bench-results"),
                     help="folder for results.csv, results.json, results.md, figure.png")
     ap.add_argument("--quick", action="store_true",
@@ -478,8 +480,9 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     data = args.data
     if data is None:
-        for cand in (Path.cwd().parent / "shared" / "data", Path.cwd() / "shared" / "data",
-                     Path(__file__).resolve().parents[3] / "shared" / "data"):
+        repo = Path(__file__).resolve().parents[1]
+        for cand in (repo.parent / "shared" / "data", repo / "shared" / "data",
+                     Path.cwd().parent / "shared" / "data"):
             if cand.is_dir():
                 data = cand
                 break

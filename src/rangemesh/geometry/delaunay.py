@@ -24,6 +24,8 @@ import math
 import numpy as np
 from numba import njit
 
+from .halfedges import flip_quad, nxt, prv
+
 # --------------------------------------------------------------------------
 # exact predicates
 # --------------------------------------------------------------------------
@@ -80,57 +82,6 @@ def illegal(pr, pc, u, v, w, x):
 
 
 @njit(cache=True)
-def _nxt(e):
-    return e - 2 if e % 3 == 2 else e + 1
-
-
-@njit(cache=True)
-def _prv(e):
-    return e + 2 if e % 3 == 0 else e - 1
-
-
-@njit(cache=True)
-def flip_quad(triangles, halfedges, e0):
-    """Flip the edge of half-edge e0 (A->B in ABC, twin in BAD) to CD, in place.
-
-    Afterwards e0's triangle is DCA and its twin's is CDB; the diagonal keeps
-    the slots e0 and its twin. The outer half-edges move: CA to next(e0), AD
-    to prev(e0), DB to next(e1), BC to prev(e1).
-    """
-    e1 = halfedges[e0]
-    b0 = _nxt(e0)
-    c0 = _prv(e0)
-    b1 = _nxt(e1)
-    c1 = _prv(e1)
-    va = triangles[e0]
-    vb = triangles[b0]
-    vc = triangles[c0]
-    vd = triangles[c1]
-    tb0 = halfedges[b0]
-    tc0 = halfedges[c0]
-    tb1 = halfedges[b1]
-    tc1 = halfedges[c1]
-    triangles[e0] = vd
-    triangles[b0] = vc
-    triangles[c0] = va
-    triangles[e1] = vc
-    triangles[b1] = vd
-    triangles[c1] = vb
-    halfedges[b0] = tc0
-    if tc0 != -1:
-        halfedges[tc0] = b0
-    halfedges[c0] = tb1
-    if tb1 != -1:
-        halfedges[tb1] = c0
-    halfedges[b1] = tc1
-    if tc1 != -1:
-        halfedges[tc1] = b1
-    halfedges[c1] = tb0
-    if tb0 != -1:
-        halfedges[tb0] = c1
-
-
-@njit(cache=True)
 def legalize_all(triangles, halfedges, pr, pc):
     """Lawson flips until every edge is legal under `illegal`; returns the flips made.
 
@@ -154,9 +105,9 @@ def legalize_all(triangles, halfedges, pr, pc):
         if t == -1:
             continue
         u = triangles[e]
-        v = triangles[_nxt(e)]
-        w = triangles[_prv(e)]
-        x = triangles[_prv(t)]
+        v = triangles[nxt(e)]
+        w = triangles[prv(e)]
+        x = triangles[prv(t)]
         if not illegal(pr, pc, u, v, w, x):
             continue
         flip_quad(triangles, halfedges, e)
@@ -165,7 +116,7 @@ def legalize_all(triangles, halfedges, pr, pc):
             bigger = np.zeros(2 * stack.size, np.int64)
             bigger[:top] = stack[:top]
             stack = bigger
-        for s in (_nxt(e), _prv(e), _nxt(t), _prv(t)):
+        for s in (nxt(e), prv(e), nxt(t), prv(t)):
             stack[top] = s
             top += 1
     return flips
@@ -218,22 +169,23 @@ def _legalize(triangles, halfedges, pr, pc, hull_tri, a, stack):
         flipped = False
         if b != -1:
             u = triangles[a]
-            v = triangles[_nxt(a)]
-            w = triangles[_prv(a)]
-            x = triangles[_prv(b)]
+            v = triangles[nxt(a)]
+            w = triangles[prv(a)]
+            x = triangles[prv(b)]
             if illegal(pr, pc, u, v, w, x):
                 flip_quad(triangles, halfedges, a)
                 # hull edges among the moved outer half-edges: re-point hull_tri
-                for s in (_nxt(a), _prv(a), _nxt(b), _prv(b)):
+                for s in (nxt(a), prv(a), nxt(b), prv(b)):
                     if halfedges[s] == -1:
                         hull_tri[triangles[s]] = s
                 # w is the new point; the edges now opposite it are prev(a) (u->x)
                 # and next(b) (x->v)
                 if top + 1 >= stack.size:
-                    return -1  # cannot happen: the stack is sized to the triangle count
-                stack[top] = _nxt(b)
+                    # the stack is sized to the triangle count: overflowing it means a bug
+                    raise RuntimeError("delaunay _legalize: flip stack overflow")
+                stack[top] = nxt(b)
                 top += 1
-                a = _prv(a)
+                a = prv(a)
                 flipped = True
         if not flipped:
             if top == 0:
@@ -331,7 +283,6 @@ def delaunay_sweep(pr, pc):
     hull_prev[i0] = i2
     hull_prev[i1] = i0
     hull_prev[i2] = i1
-    hull_start = i0
     t = _add_triangle(triangles, halfedges, 0, i0, i1, i2, -1, -1, -1)
     n_t = 1
     hull_tri[i0] = t
@@ -361,26 +312,27 @@ def delaunay_sweep(pr, pc):
                 e = -1
                 break
         if e == -1:
-            continue  # cannot happen for distinct points swept in distance order
-        nxt = hull_next[e]
-        # first triangle on the visible edge e -> nxt: (nxt, e, p)
-        t = _add_triangle(triangles, halfedges, n_t, nxt, e, p, hull_tri[e], -1, -1)
+            # distinct points swept in distance order always see a hull edge
+            raise RuntimeError("delaunay_sweep: a point sees no hull edge (duplicate points?)")
+        after = hull_next[e]
+        # first triangle on the visible edge e -> after: (after, e, p)
+        t = _add_triangle(triangles, halfedges, n_t, after, e, p, hull_tri[e], -1, -1)
         n_t += 1
         hull_tri[e] = t + 1   # e -> p
-        hull_tri[p] = t + 2   # p -> nxt
+        hull_tri[p] = t + 2   # p -> after
         _legalize(triangles, halfedges, pr, pc, hull_tri, t, stack)
-        # walk forward: nxt -> q visible too?
+        # walk forward: after -> q visible too?
         while True:
-            q = hull_next[nxt]
-            if orient_i(pr, pc, nxt, q, p) >= 0:
+            q = hull_next[after]
+            if orient_i(pr, pc, after, q, p) >= 0:
                 break
-            # triangle (q, nxt, p): q->nxt twins the hull edge nxt->q; nxt->p twins p->nxt
-            t = _add_triangle(triangles, halfedges, n_t, q, nxt, p, hull_tri[nxt], hull_tri[p], -1)
+            # triangle (q, after, p): q->after twins the hull edge after->q; after->p twins p->after
+            t = _add_triangle(triangles, halfedges, n_t, q, after, p, hull_tri[after], hull_tri[p], -1)
             n_t += 1
             hull_tri[p] = t + 2   # p -> q
             _legalize(triangles, halfedges, pr, pc, hull_tri, t, stack)
-            hull_next[nxt] = nxt  # off the hull
-            nxt = q
+            hull_next[after] = after  # off the hull
+            after = q
         # walk backward: q -> e visible?
         if e == start:
             while True:
@@ -394,25 +346,12 @@ def delaunay_sweep(pr, pc):
                 _legalize(triangles, halfedges, pr, pc, hull_tri, t, stack)
                 hull_next[e] = e
                 e = q
-        hull_start = e
         hull_prev[p] = e
         hull_next[e] = p
-        hull_prev[nxt] = p
-        hull_next[p] = nxt
+        hull_prev[after] = p
+        hull_next[p] = after
         hull_hash[_hash_key(fr[p], fc[p], cr, cc, hash_size)] = p
         hull_hash[_hash_key(fr[e], fc[e], cr, cc, hash_size)] = e
-    _ = hull_start
     return triangles[: 3 * n_t], halfedges[: 3 * n_t], n_t
 
 
-@njit(cache=True)
-def neighbors_from_halfedges(halfedges):
-    """SciPy-style neighbours: entry (t, k) is the triangle across the edge opposite corner k."""
-    n_t = halfedges.size // 3
-    out = np.full((n_t, 3), -1, np.int64)
-    for t in range(n_t):
-        for k in range(3):
-            tw = halfedges[3 * t + (k + 1) % 3]  # the edge from corner k+1 to corner k+2
-            if tw != -1:
-                out[t, k] = tw // 3
-    return out

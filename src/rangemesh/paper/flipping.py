@@ -1,26 +1,49 @@
 """Stage three: discontinuity-preserving edge flips (paper II.B.2-3, SPEC 3).
 
 The Python side converts the mesh to half-edges and the thresholds to
-radians; the work runs in ``_kernels.flip_edges_kernel``.
+radians; the work runs in `rangemesh.paper.flipping_kernels.flip_loop`.
+Each edge popped from the queue gets one `Verdict`; ``stats.flip_tests``
+counts them.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import enum
 import math
 
 import numpy as np
 
-from . import _kernels
-from .mesh import Mesh
-from .params import MeshParams
+from ..geometry.halfedges import build_halfedges
+from ..mesh import Mesh
+from ..params import MeshParams
+from . import flipping_kernels as _k
 
-__all__ = ["flip_edges"]
+__all__ = ["flip_edges", "Verdict"]
 
-_MODES = {"disparity": 0, "error": 1}
-# Order of the kernel's `verdicts` counters.
-_VERDICTS = ("t1_deadlock", "t2_disparity_change", "t3_degenerate", "t4_bend",
-             "t5_crease", "final_test", "flipped", "max_edge")
+_MODES = {"disparity": _k.MODE_DISPARITY, "error": _k.MODE_ERROR}
+
+
+class Verdict(enum.IntEnum):
+    """What the flip stage decided for an edge popped from its queue.
+
+    The values are the kernel's constants (`rangemesh.paper.flipping_kernels`)
+    and the indices of its counters; the names are the keys of
+    ``stats.flip_tests``.
+    """
+
+    T1_DEADLOCK = _k.T1_DEADLOCK  #: C and D were neighbours before: flipping could cycle
+    T2_DISPARITY_CHANGE = _k.T2_DISPARITY_CHANGE  #: |disp(AB) - disp(CD)| < epsilon
+    T3_DEGENERATE = _k.T3_DEGENERATE  #: a new triangle is degenerate on a smooth region
+    T4_BEND = _k.T4_BEND  #: the new triangles bend by no more than min_bend
+    T5_CREASE = _k.T5_CREASE  #: a crease along AB would be lost
+    FINAL_TEST = _k.FINAL_TEST  #: disp(AB) <= disp(CD): the final test keeps AB
+    FLIPPED = _k.FLIPPED  #: the edge was flipped
+    MAX_EDGE = _k.MAX_EDGE  #: CD would be longer than max_edge
+
+
+if len(Verdict) != _k.N_VERDICTS:  # pragma: no cover - an import-time invariant
+    raise RuntimeError("Verdict and the flip kernel's verdict constants disagree")
 
 
 def _gain_quantum(vertices: np.ndarray) -> float:
@@ -37,7 +60,7 @@ def _gain_quantum(vertices: np.ndarray) -> float:
 
 
 def flip_edges(mesh: Mesh, depth: np.ndarray, valid: np.ndarray,
-               params: MeshParams | None = None, *, max_edge: float | None = None) -> Mesh:
+               params: MeshParams | None = None) -> Mesh:
     """Flip edges of a mesh to follow jump and crease edges.
 
     Parameters
@@ -51,10 +74,9 @@ def flip_edges(mesh: Mesh, depth: np.ndarray, valid: np.ndarray,
         ``flips`` chooses the rule: ``'disparity'`` (the paper), ``'error'``
         (flip every edge of positive gain) or ``None`` (return `mesh` as is).
         Thresholds ``delta``, ``epsilon``, ``max_angle``, ``min_bend`` (degrees)
-        and ``gain_threshold``.
-    max_edge : float, optional
-        Refuse any flip whose new edge CD is longer than this, in pixels of
-        the image plane (counted as ``max_edge`` in ``stats.flip_tests``).
+        and ``gain_threshold``. With ``max_edge``, any flip whose new edge CD
+        would be longer (pixels of the image plane) is refused (counted as
+        ``max_edge`` in ``stats.flip_tests``).
 
     Returns
     -------
@@ -101,12 +123,12 @@ def flip_edges(mesh: Mesh, depth: np.ndarray, valid: np.ndarray,
             f"got {depth.shape} and {valid.shape}"
         )
     n_v = len(mesh.vertices)
-    triangles, halfedges = _kernels.build_halfedges(mesh.faces.astype(np.int64), n_v)
+    triangles, halfedges = build_halfedges(mesh.faces.astype(np.int64), n_v)
     mode = _MODES[params.flips]
     threshold = -np.inf if params.gain_threshold is None else params.gain_threshold
-    verdicts = np.zeros(8, np.int64)
-    max_edge2 = np.inf if max_edge is None else float(max_edge) ** 2
-    flips = _kernels.flip_edges_kernel(
+    verdicts = np.zeros(len(Verdict), np.int64)
+    max_edge2 = np.inf if params.max_edge is None else params.max_edge ** 2
+    flips = _k.flip_loop(
         triangles,
         halfedges,
         mesh.pixels.astype(np.int64),
@@ -125,6 +147,6 @@ def flip_edges(mesh: Mesh, depth: np.ndarray, valid: np.ndarray,
         verdicts,
     )
     faces = triangles.reshape(-1, 3).astype(np.int32)
-    tests = dict(zip(_VERDICTS, (int(x) for x in verdicts), strict=True))
+    tests = {v.name.lower(): int(verdicts[v]) for v in Verdict}
     stats = dataclasses.replace(mesh.stats, flipped_edges=int(flips), flip_tests=tests)
     return dataclasses.replace(mesh, faces=faces, stats=stats)

@@ -10,15 +10,16 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import _kernels
-from .params import MeshParams
+from ..geometry.pixels import valid_range
+from ..params import MeshParams
+from . import sampling_kernels as _k
 
 __all__ = [
     "fill_gaps",
     "curvature",
     "valid_span",
     "sampling_weights",
-    "sampling_weights_into",
+    "fill_gaps_inplace",
     "tile_bounds",
     "sample_grid",
 ]
@@ -53,13 +54,13 @@ def fill_gaps(depth: np.ndarray, valid: np.ndarray) -> tuple[np.ndarray, np.ndar
     """
     out_d = np.where(valid, depth, 0.0).astype(np.float64, order="C", copy=False)
     out_v = np.array(valid, dtype=np.bool_, order="C", copy=True)
-    _kernels.fill_gaps_inplace(out_d, out_v)
+    _k.fill_gaps_inplace(out_d, out_v)
     return out_d, out_v
 
 
 def valid_span(depth: np.ndarray, valid: np.ndarray) -> float:
     """Max - min of the valid depths (0 when there is none)."""
-    lo, hi, n = _kernels.valid_range(np.ascontiguousarray(depth, dtype=np.float64),
+    lo, hi, n = valid_range(np.ascontiguousarray(depth, dtype=np.float64),
                                      np.ascontiguousarray(valid, dtype=np.bool_))
     return float(hi - lo) if n else 0.0
 
@@ -96,11 +97,12 @@ def curvature(depth: np.ndarray, valid: np.ndarray, levels: int = 2) -> np.ndarr
     d = np.ascontiguousarray(depth, dtype=np.float64)
     # The kernel never reads a background depth, so no masked copy is needed.
     K = np.zeros(d.shape)
-    _kernels.curvature_kernel(d, v, valid_span(d, v), int(levels), K)
+    _k.curvature_kernel(d, v, valid_span(d, v), int(levels), K)
     return K
 
 
-def sampling_weights(depth: np.ndarray, valid: np.ndarray, params: MeshParams) -> np.ndarray:
+def sampling_weights(depth: np.ndarray, valid: np.ndarray, params: MeshParams, *,
+                     out: np.ndarray | None = None) -> np.ndarray:
     """Per-pixel weight ``f`` that stage one integrates (paper eq. 1, SPEC 1.4).
 
     ``f = log(max(K * 255 / range, curvature_floor))`` for adaptive sampling,
@@ -114,31 +116,16 @@ def sampling_weights(depth: np.ndarray, valid: np.ndarray, params: MeshParams) -
     depth : (H, W) ndarray of float64
     valid : (H, W) ndarray of bool
     params : MeshParams
+    out : (H, W) ndarray of float64, optional
+        Write the weights here (a buffer reused from frame to frame) instead
+        of a new array.
 
     Returns
     -------
     f : (H, W) ndarray of float64, strictly positive
     """
-    if params.sampling == "uniform":
-        return np.ones(depth.shape)
-    K = curvature(depth, valid, params.levels)
-    span = valid_span(depth, valid)
-    if span > 0.0:
-        np.multiply(K, _PAPER_SCALE / span, out=K)
-    else:
-        K[:] = 0.0  # a constant scene has no curvature anywhere
-    # in place: this runs on every pixel, and each temporary is a full image
-    np.maximum(K, params.curvature_floor, out=K)
-    return np.log(K, out=K)
-
-
-def sampling_weights_into(depth: np.ndarray, valid: np.ndarray, params: MeshParams,
-                          out: np.ndarray) -> np.ndarray:
-    """`sampling_weights` written into `out` (a float64 buffer of the image's shape), reused.
-
-    Same values as `sampling_weights`, bit for bit; for callers that mesh many
-    frames of one size (see `rangemesh.batch.mesh_stream`).
-    """
+    if out is None:
+        out = np.zeros(depth.shape)
     if params.sampling == "uniform":
         out[:] = 1.0
         return out
@@ -146,13 +133,19 @@ def sampling_weights_into(depth: np.ndarray, valid: np.ndarray, params: MeshPara
     v = np.ascontiguousarray(valid, dtype=np.bool_)
     d = np.ascontiguousarray(depth, dtype=np.float64)
     span = valid_span(d, v)
-    _kernels.curvature_kernel(d, v, span, int(params.levels), out)
+    _k.curvature_kernel(d, v, span, int(params.levels), out)
     if span > 0.0:
         np.multiply(out, _PAPER_SCALE / span, out=out)
     else:
-        out[:] = 0.0
+        out[:] = 0.0  # a constant scene has no curvature anywhere
+    # in place: this runs on every pixel, and each temporary is a full image
     np.maximum(out, params.curvature_floor, out=out)
     return np.log(out, out=out)
+
+
+def fill_gaps_inplace(depth: np.ndarray, valid: np.ndarray) -> None:
+    """`fill_gaps` on our own C-contiguous float64/bool buffers, in place (no copies)."""
+    _k.fill_gaps_inplace(depth, valid)
 
 
 def tile_bounds(n: int, tiles: int, *, name: str = "tiles") -> np.ndarray:
@@ -239,14 +232,14 @@ def sample_grid(depth: np.ndarray, valid: np.ndarray, params: MeshParams | None 
     rs, zs = params.samples
     grid = np.zeros(params.grid_shape + (2,), np.int32)
     if workers > 1:
-        import numba
+        import numba  # only here: the parallel kernel is compiled only when asked for
 
         before = numba.get_num_threads()
         numba.set_num_threads(min(int(workers), numba.config.NUMBA_NUM_THREADS))
         try:
-            _kernels.sample_tiles_parallel(f, rb, cb, rs, zs, grid)
+            _k.sample_tiles_parallel(f, rb, cb, rs, zs, grid)
         finally:
             numba.set_num_threads(before)
     else:
-        _kernels.sample_tiles(f, rb, cb, rs, zs, grid)
+        _k.sample_tiles(f, rb, cb, rs, zs, grid)
     return grid

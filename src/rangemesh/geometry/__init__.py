@@ -1,0 +1,6 @@
+"""Shared geometry kernels (Numba): vectors, half-edges, the heap, raster lines, Delaunay.
+
+Every method of rangemesh builds on these; nothing here knows about a method.
+Kernels trust their inputs: the public functions that call them check shapes,
+dtypes and values and allocate the outputs.
+"""

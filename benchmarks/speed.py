@@ -192,8 +192,8 @@ def main(argv=None):
     print("\n## 4. stage one alone, workers=1 vs 2 (ms)\n")
     print("| image | tiles, samples | workers=1 | workers=2 | speed-up |")
     print("|---|---|---:|---:|---:|")
-    from rangemesh.pipeline import prepare
     from rangemesh.paper.sampling import sample_grid, sampling_weights
+    from rangemesh.pipeline import prepare
 
     for shape, p in (((480, 640), rangemesh.MeshParams(tiles=8)),
                      ((720, 1280), rangemesh.MeshParams(tiles=16, samples=20))):

@@ -6,9 +6,9 @@ from fractions import Fraction
 import numpy as np
 from numba import njit
 
+from rangemesh.camera import backproject
 from rangemesh.geometry.raster import line_pixel
 from rangemesh.geometry.vectors import lift
-from rangemesh.camera import backproject
 
 
 def bresenham(a, b):

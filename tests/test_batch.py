@@ -62,6 +62,7 @@ def batch_run(shared_data, tmp_path_factory):
     return src, out, results
 
 
+@pytest.mark.slow
 def test_batch_meshes_good_files_and_reports_bad_ones(batch_run):
     src, out, results = batch_run
     by_name = {os.path.basename(r.input): r for r in results}
@@ -79,6 +80,7 @@ def test_batch_meshes_good_files_and_reports_bad_ones(batch_run):
     assert (out / "rangemesh-batch.csv").read_text().count("\n") == len(results) + 1
 
 
+@pytest.mark.slow
 def test_batch_output_equals_single_meshing(batch_run, shared_data):
     src, out, results = batch_run
     import meshio
@@ -89,6 +91,7 @@ def test_batch_output_equals_single_meshing(batch_run, shared_data):
     assert np.array_equal(back.cells_dict["triangle"], want.faces)
 
 
+@pytest.mark.slow
 def test_rerun_skips_and_overwrite_redoes(batch_run, capsys):
     src, out, results = batch_run
     rc = main(["batch", str(src / "cones_disp2.png"), str(src / "teddy_disp2.png"), "-o", str(out),
@@ -101,6 +104,7 @@ def test_rerun_skips_and_overwrite_redoes(batch_run, capsys):
     assert rc == 0 and (out / "cones_disp2.ply").stat().st_mtime_ns != before
 
 
+@pytest.mark.slow
 def test_cli_batch_exit_code_and_summary(batch_run, tmp_path, capsys):
     src, _, _ = batch_run
     rc = main(["batch", str(src / "*.png"), "-o", str(tmp_path / "o"), "--workers", "2",
@@ -113,6 +117,7 @@ def test_cli_batch_exit_code_and_summary(batch_run, tmp_path, capsys):
     assert rc == 2 and "no file matches" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_real_local_dask_cluster_gives_the_same_outputs(batch_run, tmp_path):
     from dask.distributed import LocalCluster
 

@@ -160,6 +160,7 @@ def test_demo_writes_mesh_and_preview(tmp_path, capsys):
     assert doc["stats"]["vertices"] > 1000 and doc["evaluation"]["relative_error"] < 2
 
 
+@pytest.mark.slow
 def test_console_script_and_module_entry_points(tmp_path):
     from pathlib import Path
 

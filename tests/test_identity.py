@@ -7,8 +7,8 @@ from hypothesis import strategies as st
 
 import rangemesh
 from rangemesh import scenes
-from rangemesh.geometry import raster
 from rangemesh.camera import Orthographic, Pinhole, backproject
+from rangemesh.geometry import raster
 from rangemesh.paper.sampling import curvature, fill_gaps
 from rangemesh.paper.triangulation import delaunay_mesh, triangulate_points
 

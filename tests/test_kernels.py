@@ -4,9 +4,9 @@ import numpy as np
 from hypothesis import given
 from hypothesis import strategies as st
 
+from rangemesh.camera import Orthographic, Pinhole
 from rangemesh.geometry import heap as heapq_nb
 from rangemesh.geometry import raster
-from rangemesh.camera import Orthographic, Pinhole
 
 from . import reference as ref
 

@@ -1,11 +1,10 @@
 """Smoke test of `python benchmarks/peers.py --quick`: it runs and its numbers are finite."""
 
+import importlib.util
 import json
 import math
 import subprocess
 import sys
-
-import importlib.util
 from pathlib import Path
 
 import numpy as np

@@ -199,7 +199,10 @@ def mesh_many(paths, out_dir, params: MeshParams | None = None, *, background=No
     FileNotFoundError
         When an input argument matches nothing.
     """
-    from dask.distributed import Client, LocalCluster, as_completed
+    from ._optional import require
+
+    dd = require("dask.distributed", "rangemesh batch / mesh_many")
+    Client, LocalCluster, as_completed = dd.Client, dd.LocalCluster, dd.as_completed  # noqa: N806
 
     if fmt not in MESH_SUFFIXES:
         raise ValueError(f"fmt must be one of {MESH_SUFFIXES}, got {fmt!r}")

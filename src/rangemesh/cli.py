@@ -539,7 +539,7 @@ def main(argv=None) -> int:
     t0 = time.perf_counter()
     try:
         return commands[args.command](args)
-    except UserError as exc:
+    except (UserError, ImportError) as exc:  # ImportError: an optional extra is missing
         print(f"rangemesh: error: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:

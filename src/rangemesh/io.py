@@ -19,6 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ._optional import require
 from .camera import Orthographic
 from .mesh import Mesh, Stats, count_edges
 
@@ -240,6 +241,8 @@ def read_mesh(path: str | os.PathLike, *, camera=None, image_shape=None) -> Mesh
         raise ValueError(f"{path}: unknown mesh format {suffix!r}; known: {', '.join(MESH_SUFFIXES)}")
     pixels = np.zeros((0, 2), np.int32)
     shape = (0, 0)
+    if suffix != ".ply":
+        trimesh = require("trimesh", f"reading {suffix} meshes")
     try:
         if suffix == ".ply":
             from plyfile import PlyData
@@ -256,8 +259,6 @@ def read_mesh(path: str | os.PathLike, *, camera=None, image_shape=None) -> Mesh
                 if len(parts) == 4 and parts[:2] == ["rangemesh", "image_shape"]:
                     shape = (int(parts[2]), int(parts[3]))
         else:
-            import trimesh
-
             tm = trimesh.load(path, process=False, force="mesh")
             vertices = np.asarray(tm.vertices, np.float64)
             faces = np.asarray(tm.faces, np.int32)

@@ -124,8 +124,9 @@ class Mesh:
         -------
         trimesh.Trimesh
         """
-        import trimesh
+        from ._optional import require
 
+        trimesh = require("trimesh", "Mesh.to_trimesh")
         return trimesh.Trimesh(self.vertices, self.faces, process=False)
 
     def __repr__(self) -> str:

@@ -67,10 +67,11 @@ def save_preview(mesh: Mesh, depth: np.ndarray, valid: np.ndarray, path: str | o
     weights : (H, W) ndarray, optional
         Sampling weights shown under the sample points (default: the range image).
     """
-    import matplotlib
+    from ._optional import require
 
+    matplotlib = require("matplotlib", "the preview picture")
     matplotlib.use("Agg", force=False)
-    from matplotlib.figure import Figure
+    Figure = require("matplotlib.figure", "the preview picture").Figure  # noqa: N806
 
     h, w = depth.shape
     shown = np.where(valid, depth, np.nan)

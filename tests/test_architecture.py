@@ -1,0 +1,38 @@
+"""The package's layers hold (import-linter contracts in pyproject.toml) and the verdicts agree."""
+
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from rangemesh.paper import flipping_kernels
+from rangemesh.paper.flipping import Verdict
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def test_import_contracts_hold():
+    exe = shutil.which("lint-imports") or str(Path(sys.executable).with_name("lint-imports"))
+    if not Path(exe).exists():
+        pytest.fail("lint-imports (import-linter) is not installed; it is in the test extra")
+    p = subprocess.run([exe, "--config", str(ROOT / "pyproject.toml"), "--no-cache"],
+                       capture_output=True, text=True, cwd=ROOT, timeout=120)
+    assert p.returncode == 0, p.stdout[-3000:] + p.stderr[-2000:]
+    assert "0 broken" in p.stdout and "3 kept" in p.stdout
+
+
+def test_verdict_enum_mirrors_the_kernel_constants():
+    for v in Verdict:
+        assert getattr(flipping_kernels, v.name) == v.value
+    assert sorted(v.value for v in Verdict) == list(range(flipping_kernels.N_VERDICTS))
+
+
+def test_import_rangemesh_loads_no_application_dependency():
+    code = ("import sys, rangemesh; "
+            "print(' '.join(m for m in ('dask', 'distributed', 'matplotlib', 'trimesh', "
+            "'rangemesh.cli', 'rangemesh.batch') if m in sys.modules))")
+    p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert p.returncode == 0, p.stderr
+    assert p.stdout.strip() == ""

@@ -145,6 +145,7 @@ def flip_edges(mesh: Mesh, depth: np.ndarray, valid: np.ndarray,
         _gain_quantum(mesh.vertices),
         max_edge2,
         verdicts,
+        np.zeros((0, 3), np.int64),  # no decision log
     )
     faces = triangles.reshape(-1, 3).astype(np.int32)
     tests = {v.name.lower(): int(verdicts[v]) for v in Verdict}

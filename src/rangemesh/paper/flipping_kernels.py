@@ -334,14 +334,16 @@ def apply_flip(x, he_edge, edge_he, triangles, halfedges, pixels, vertices, dept
 
 @njit(cache=True)
 def flip_loop(triangles, halfedges, pixels, vertices, depth, valid, cam, mode, threshold,
-              delta, epsilon, max_angle, min_bend, quantum, max_edge2, verdicts):
+              delta, epsilon, max_angle, min_bend, quantum, max_edge2, verdicts, log):
     """Stage three (SPEC 3.3-3.6); edits `triangles` and `halfedges` in place.
 
     `mode` is `MODE_DISPARITY` (the paper's tests) or `MODE_ERROR` (flip
     while the gain is positive). Angles in radians. Returns the number of
     flips taken; `verdicts` (int64[N_VERDICTS]) counts, in place, each
     verdict given. The edge-length bound (``sqrt(max_edge2)`` pixels in the
-    image plane) is checked before T1.
+    image plane) is checked before T1. The first ``len(log)`` decisions are
+    written to `log` (int64, (n, 3)): the edge's endpoints (smaller first) and
+    the verdict; pass a (0, 3) array to keep no log.
     """
     he_edge, edge_he, normals, err, gain, heap, slot = init_queue(
         triangles, halfedges, pixels, vertices, depth, valid, cam, quantum)
@@ -351,6 +353,7 @@ def flip_loop(triangles, halfedges, pixels, vertices, depth, valid, cam, mode, t
     former = np.full(1024, -1, np.int64)
     n_former = 0
     flips = 0
+    n_logged = 0
     while n_e > 0:
         x = heap[0]
         g = gain[x]
@@ -358,6 +361,14 @@ def flip_loop(triangles, halfedges, pixels, vertices, depth, valid, cam, mode, t
             break
         verdict = decide(x, edge_he, triangles, halfedges, pixels, vertices, normals, former,
                          mode, delta, epsilon, max_angle, min_bend, max_edge2)
+        if n_logged < log.shape[0]:
+            e0 = edge_he[x]
+            a = triangles[e0]
+            b = triangles[nxt(e0)]
+            log[n_logged, 0] = min(a, b)
+            log[n_logged, 1] = max(a, b)
+            log[n_logged, 2] = verdict
+            n_logged += 1
         verdicts[verdict] += 1
         if verdict != FLIPPED:
             gain[x] = NEG_INF

@@ -35,7 +35,7 @@ def _kernel_run(mesh, depth, valid, mode, p):
     n = int(verdicts.sum())
     assert n < len(log)
     names = [Verdict(v).name.lower() for v in log[:n, 2]]
-    return tri.reshape(-1, 3), [(int(a), int(b), v) for (a, b, _), v in zip(log[:n], names)]
+    return tri.reshape(-1, 3), [(int(a), int(b), v) for (a, b, _), v in zip(log[:n], names, strict=True)]
 
 
 @pytest.mark.parametrize("name", ["chair", "venus", "boxes", "cones", "mug"])
@@ -53,7 +53,7 @@ def test_flip_loop_matches_the_reference_decision_by_decision(name, mode):
                         quantum=_gain_quantum(mesh.vertices))
     ref_faces, ref_log = ref.run()
     assert len(log) > 20  # the cascade did run
-    for i, (got, want) in enumerate(zip(log, ref_log)):
+    for i, (got, want) in enumerate(zip(log, ref_log, strict=False)):
         assert got == want, f"decision {i}: kernel {got}, reference {want}"
     assert len(log) == len(ref_log)
     assert _canonical(faces) == _canonical(ref_faces)

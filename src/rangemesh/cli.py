@@ -259,6 +259,27 @@ def _kernel_modules():
             triangulation_kernels, flipping_kernels)
 
 
+def _cold_cache() -> bool:
+    """True when the main kernels have no entry in Numba's on-disk cache: this run compiles them."""
+    import os
+
+    from .geometry.delaunay import delaunay_sweep
+    from .paper.flipping_kernels import flip_loop
+    from .paper.sampling_kernels import sample_tiles
+
+    try:
+        return not all(os.path.exists(k._cache._cache_file._index_path)
+                       for k in (flip_loop, delaunay_sweep, sample_tiles))
+    except AttributeError:  # another Numba's internals: say nothing rather than guess
+        return False
+
+
+def _first_run_notice(args):
+    if not (args.quiet or args.json) and _cold_cache():
+        print("rangemesh: first run: compiling the Numba kernels once (about 15-20 s); "
+              "later runs load them from the cache", file=sys.stderr)
+
+
 def _compiled_now() -> bool:
     """True when Numba compiled (rather than loaded from its cache) a kernel in this process."""
     from numba.core.registry import CPUDispatcher
@@ -307,6 +328,7 @@ def _targets(args) -> dict:
 def _run_mesh(args, image, name, bg, outputs_for):
     params = _params(args)
     camera = _camera(args)
+    _first_run_notice(args)
     with _progress(args, 4, f"meshing {name}") as bar:
         targets = _targets(args)
         given = [k for k, v in targets.items() if v is not None]

@@ -22,6 +22,17 @@ def prv(e):
 
 
 @njit(cache=True)
+def quad_halfedges(halfedges, e0):
+    """The half-edges of the quad around e0's edge: ``(e1, b0, c0, b1, c1)``.
+
+    With e0 = A->B in triangle ABC and its twin e1 = B->A in BAD: b0 = B->C,
+    c0 = C->A, b1 = A->D, c1 = D->B.
+    """
+    e1 = halfedges[e0]
+    return e1, nxt(e0), prv(e0), nxt(e1), prv(e1)
+
+
+@njit(cache=True)
 def flip_quad(triangles, halfedges, e0):
     """Flip the edge of half-edge e0 (A->B in ABC, twin in BAD) to CD, in place.
 
@@ -29,11 +40,7 @@ def flip_quad(triangles, halfedges, e0):
     the slots e0 and its twin. The outer half-edges move: CA to next(e0), AD
     to prev(e0), DB to next(e1), BC to prev(e1).
     """
-    e1 = halfedges[e0]
-    b0 = nxt(e0)
-    c0 = prv(e0)
-    b1 = nxt(e1)
-    c1 = prv(e1)
+    e1, b0, c0, b1, c1 = quad_halfedges(halfedges, e0)
     va = triangles[e0]
     vb = triangles[b0]
     vc = triangles[c0]

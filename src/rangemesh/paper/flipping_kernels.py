@@ -32,7 +32,7 @@ import math
 import numpy as np
 from numba import njit
 
-from ..geometry.halfedges import flip_quad, nxt, prv
+from ..geometry.halfedges import flip_quad, nxt, prv, quad_halfedges
 from ..geometry.heap import rekey, sift_down, sift_up
 from ..geometry.raster import edge_error
 from ..geometry.vectors import angle, max_internal_angle, orient, unit_normal
@@ -223,13 +223,9 @@ def disparity_verdict(triangles, halfedges, normals, vertices, e0, delta, epsilo
     as the tests allow: a value a test does not need is never computed (the
     verdict is the same as computing all).
     """
-    e1 = halfedges[e0]
+    e1, b0, c0, b1, c1 = quad_halfedges(halfedges, e0)
     t0 = e0 // 3
     t1 = e1 // 3
-    b0 = nxt(e0)
-    c0 = prv(e0)
-    b1 = nxt(e1)
-    c1 = prv(e1)
     va = triangles[e0]
     vb = triangles[b0]
     vc = triangles[c0]
@@ -295,13 +291,9 @@ def apply_flip(x, he_edge, edge_he, triangles, halfedges, pixels, vertices, dept
     """Flip edge `x` (AB -> CD) and re-key CD and the four outer edges of its quad."""
     n_e = edge_he.size
     e0 = edge_he[x]
-    e1 = halfedges[e0]
+    e1, b0, c0, b1, c1 = quad_halfedges(halfedges, e0)
     t0 = e0 // 3
     t1 = e1 // 3
-    b0 = nxt(e0)
-    c0 = prv(e0)
-    b1 = nxt(e1)
-    c1 = prv(e1)
     va = triangles[e0]
     vb = triangles[b0]
     vc = triangles[c0]

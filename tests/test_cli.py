@@ -1,5 +1,6 @@
 """End-to-end tests of the ``rangemesh`` command on real files, through its entry points."""
 
+import errno
 import json
 import shutil
 import struct
@@ -244,11 +245,13 @@ def test_failed_write_leaves_nothing(shared_data, tmp_path, monkeypatch, capsys)
     import rangemesh.io as rio
 
     def boom(*a, **k):
-        raise OSError("disk full")
+        raise OSError(errno.ENOSPC, "No space left on device")
 
     monkeypatch.setattr(rio, "_write_ply", boom)
-    with pytest.raises(OSError):
-        main(["mesh", str(shared_data / "odetics/chair-range.npy"), "-o", str(tmp_path / "c.ply")])
+    code = main(["mesh", str(shared_data / "odetics/chair-range.npy"), "-o", str(tmp_path / "c.ply")])
+    err = capsys.readouterr().err
+    assert code == 2
+    assert err == f"rangemesh: error: {tmp_path / 'c.ply'}: No space left on device\n"
     assert list(tmp_path.iterdir()) == []
 
 

@@ -27,6 +27,7 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 
 from .camera import as_camera
+from .checks import whole_number
 from .io import IMAGE_SUFFIXES, MESH_SUFFIXES, read_range_image, write_mesh
 from .mesh import Mesh
 from .metrics import evaluate
@@ -124,6 +125,66 @@ def output_path(path: Path, out_dir: Path, fmt: str) -> Path:
     return out_dir / (path.stem + fmt)
 
 
+def output_paths(files: list[Path], out_dir: Path, fmt: str) -> list[Path | None]:
+    """Where each input's mesh goes; None for inputs whose output another input takes.
+
+    An input's mesh is named after its stem (``scan.png`` -> ``scan.ply``).
+    Inputs that share a stem (``x.png`` and ``x.npy``) are named after their
+    whole file name instead (``x.png.ply``, ``x.npy.ply``). Inputs that
+    still share a name (``a/x.png`` and ``b/x.png``) get None: the first of
+    them would be overwritten, so none of them is meshed, and the rest of the
+    batch goes on.
+    """
+    stems = [output_path(f, out_dir, fmt) for f in files]
+    outs = [o if stems.count(o) == 1 else out_dir / (f.name + fmt) for f, o in zip(files, stems, strict=True)]
+    return [o if outs.count(o) == 1 else None for o in outs]
+
+
+def _workers(workers) -> int:
+    """Worker processes of a local cluster: at least 1, at most the cores this process may use."""
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    cores = cores or 1
+    if workers is None:
+        return cores
+    n = whole_number("workers", workers, minimum=1)
+    if n > cores:
+        # each worker is single-threaded and CPU-bound: more processes than cores
+        # only add start-up time and memory (100 on 2 cores: 3 minutes, 6.7 GB)
+        raise ValueError(f"workers={n} is more than the {cores} CPU cores this process may use; "
+                         f"give at most {cores}")
+    return n
+
+
+async def _identity(address: str):
+    from distributed.core import rpc
+
+    async with rpc(address) as scheduler:
+        return await scheduler.identity()
+
+
+def _connect(client_cls, scheduler: str, timeout: float):
+    """A client of the Dask scheduler at `scheduler`, or a ValueError saying why not.
+
+    The address is first asked for its identity under a deadline: a port that
+    accepts connections but does not speak Dask's protocol (a web server, a
+    silent listener) would otherwise hold the client's handshake forever, and
+    one that answers with other bytes can make it allocate whatever length
+    those bytes spell.
+    """
+    import asyncio
+
+    try:
+        who = asyncio.run(asyncio.wait_for(_identity(scheduler), timeout))
+        if not isinstance(who, dict) or who.get("type") != "Scheduler":
+            raise ValueError(f"it answers as {who.get('type') if isinstance(who, dict) else who!r}")
+        return client_cls(scheduler, timeout=timeout)
+    except Exception as exc:  # anything a wrong address can cause: timeouts, garbage, refusals
+        text = str(exc).strip().splitlines()
+        raise ValueError(f"cannot connect to a Dask scheduler at {scheduler!r} within "
+                         f"{timeout:g} s ({type(exc).__name__}"
+                         + (f": {text[0]}" if text else "") + ")") from None
+
+
 def _one(path: str, out: str, params: MeshParams, background, camera, overwrite: bool,
          targets: dict) -> BatchResult:
     """The task every worker runs: read, mesh, evaluate, write. Never raises."""
@@ -161,7 +222,7 @@ def _clean_stale_parts(out_dir: Path):
 def mesh_many(paths, out_dir, params: MeshParams | None = None, *, background=None, camera=None,
               scheduler: str | None = None, workers: int | None = None, overwrite: bool = False,
               fmt: str = ".ply", progress: bool = False, vertices=None, max_error=None,
-              max_edge=None, **overrides) -> list[BatchResult]:
+              max_edge=None, connect_timeout: float = 10.0, **overrides) -> list[BatchResult]:
     """Mesh many range images into `out_dir`, in parallel, through Dask.
 
     Parameters
@@ -179,23 +240,28 @@ def mesh_many(paths, out_dir, params: MeshParams | None = None, *, background=No
         Address of a running Dask scheduler (``tcp://head:8786``). Default: a
         local cluster of `workers` processes started for this batch.
     workers : int, optional
-        Worker processes of the local cluster (default: the CPU count).
+        Worker processes of the local cluster (default: the CPU cores this
+        process may use; more are refused, as they only cost memory).
     overwrite : bool, default False
         Mesh again files whose output already exists.
     fmt : str, default '.ply'
         Output format, one of ``MESH_SUFFIXES``.
     progress : bool, default False
         Show a progress bar (images done, images per second, failures) on stderr.
+    connect_timeout : float, default 10
+        Seconds to wait for the scheduler given by `scheduler` to answer.
 
     Returns
     -------
     list of BatchResult
-        In input order.
+        In input order. Inputs that share a stem are written under their
+        whole file name (``x.png.ply``); see `output_paths`.
 
     Raises
     ------
     ValueError
-        For an unknown format or bad parameters (checked before any work).
+        For an unknown format, bad parameters or too many workers (checked
+        before any work), or a scheduler that does not answer as one.
     FileNotFoundError
         When an input argument matches nothing.
     """
@@ -216,26 +282,27 @@ def mesh_many(paths, out_dir, params: MeshParams | None = None, *, background=No
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     _clean_stale_parts(out_dir)
-    outs = [output_path(f, out_dir, fmt) for f in files]
-    clashes = {o for o in outs if outs.count(o) > 1}
-    if clashes:
-        raise ValueError(f"several inputs would write the same output: {sorted(map(str, clashes))[:3]}")
+    outs = output_paths(files, out_dir, fmt)
+    n_workers = _workers(workers) if scheduler is None else None
     t0 = time.perf_counter()
-    results: dict[int, BatchResult] = {}
+    results: dict[int, BatchResult] = {
+        i: BatchResult(str(f), str(output_path(f, out_dir, fmt)), "failed",
+                       error="another input has the same file name: no unique output name")
+        for i, (f, o) in enumerate(zip(files, outs, strict=True)) if o is None}
+    todo = [i for i, o in enumerate(outs) if o is not None]
     cluster = None
     if scheduler is None:
-        n = workers or os.cpu_count() or 1
-        cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
+        cluster = LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True,
                                dashboard_address=None, silence_logs=40)
         client = Client(cluster)
     else:
-        client = Client(scheduler)
+        client = _connect(Client, scheduler, timeout=connect_timeout)
     bar = None
     try:
-        futures = client.map(_one, [str(f) for f in files], [str(o) for o in outs],
+        futures = client.map(_one, [str(files[i]) for i in todo], [str(outs[i]) for i in todo],
                              params=params, background=background, camera=camera,
                              overwrite=overwrite, targets=targets, pure=False)
-        index = {f.key: i for i, f in enumerate(futures)}
+        index = {f.key: i for i, f in zip(todo, futures, strict=True)}
         if progress:
             from tqdm import tqdm
 

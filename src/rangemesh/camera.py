@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Orthographic", "Pinhole", "backproject", "as_camera"]
+__all__ = ["Orthographic", "Pinhole", "backproject", "as_camera", "check_reach"]
 
 # Kind codes shared with the kernels (first slot of ``Camera.as_array()``).
 ORTHOGRAPHIC = 0.0
@@ -158,3 +158,39 @@ def backproject(r, c, z, camera=None) -> np.ndarray:
     x = (c - camera.cx) * zz / camera.fx
     y = (r - camera.cy) * zz / camera.fy
     return np.stack([x, y, zz], axis=-1)
+
+
+def check_reach(camera, image_shape, depth_lo: float, depth_hi: float) -> None:
+    """Refuse a camera that maps some pixel of the image beyond the float range.
+
+    Every coordinate of `backproject` is monotonic in row, column and depth
+    taken one at a time, and is computed in the same order here, so its
+    largest magnitude (intermediate products included) is reached at a corner
+    of the image with the smallest or largest valid depth: checking those
+    eight points checks every vertex the image can give.
+
+    Parameters
+    ----------
+    camera : Orthographic or Pinhole
+    image_shape : (int, int)
+    depth_lo, depth_hi : float
+        The smallest and largest valid depth values.
+
+    Raises
+    ------
+    ValueError
+        If a vertex would be infinite or NaN.
+    """
+    if isinstance(camera, Orthographic) and max(camera.kx, camera.ky, abs(camera.kz)) <= 1.0:
+        return  # no coordinate can grow: the image's own values are finite
+    h, w = image_shape
+    r, c, z = (np.array(a, np.float64).ravel()
+               for a in np.meshgrid([0, h - 1], [0, w - 1], [depth_lo, depth_hi]))
+    with np.errstate(over="ignore", invalid="ignore"):
+        pts = backproject(r, c, z, camera)
+    if not np.isfinite(pts).all():
+        raise ValueError(
+            f"camera {camera} maps depth values up to {max(abs(depth_lo), abs(depth_hi)):g} "
+            f"beyond the floating-point range (infinite vertices); check its parameters "
+            f"and depth_scale"
+        )

@@ -7,9 +7,12 @@ with status 2; no traceback. Outputs are written atomically.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import math
+import signal
 import sys
+import threading
 import time
 from pathlib import Path
 
@@ -20,9 +23,9 @@ from ._version import __version__
 from .camera import Orthographic, Pinhole
 from .io import IMAGE_SUFFIXES, MESH_SUFFIXES, read_mesh, read_range_image, write_mesh
 from .metrics import evaluate
-from .paper.sampling import fill_gaps, sampling_weights
+from .paper.sampling import sampling_weights
 from .params import MeshParams
-from .pipeline import triangulate
+from .pipeline import prepare, triangulate
 from .prepare import guess_background, to_depth_and_mask
 
 __all__ = ["main", "build_parser"]
@@ -206,6 +209,13 @@ def _params(args) -> MeshParams:
 
 
 def _camera(args):
+    try:
+        return _make_camera(args)
+    except (ValueError, TypeError) as exc:
+        raise UserError(str(exc)) from None
+
+
+def _make_camera(args):
     if args.intrinsics is not None:
         if args.scale is not None:
             raise UserError("--scale and --intrinsics exclude each other")
@@ -335,8 +345,8 @@ def _run_mesh(args, image, name, bg, outputs_for):
         extra = {"tiles": args.tiles} if (given and args.tiles is not None) else {}
         try:
             mesh = triangulate(image, params, background=bg, camera=camera, **targets, **extra)
-        except (ValueError, TypeError) as exc:
-            raise UserError(f"{name}: {exc}") from None
+        except (ValueError, TypeError, MemoryError) as exc:
+            raise UserError(f"{name}: {_one_line(exc)}") from None
         bar.update(1)
         if mesh.is_empty:
             raise UserError(f"{name}: nothing to mesh: {mesh.stats.reason}")
@@ -345,23 +355,15 @@ def _run_mesh(args, image, name, bg, outputs_for):
         written = []
         out, preview = outputs_for
         if out:
-            try:
-                write_mesh(mesh, out, ascii=args.ascii, pixels=args.pixels)
-            except (ValueError, FileNotFoundError) as exc:
-                raise UserError(str(exc)) from None
+            write_mesh(mesh, out, ascii=args.ascii, pixels=args.pixels)
             written.append(out)
         bar.update(1)
         if preview:
             from .preview import save_preview
 
-            depth, valid = to_depth_and_mask(image, bg)
-            if params.fill_gaps:
-                depth, valid = fill_gaps(depth, valid)
-            try:
-                save_preview(mesh, depth, valid, preview, evaluation=ev, title=Path(name).name,
-                             weights=sampling_weights(depth, valid, params))
-            except FileNotFoundError as exc:
-                raise UserError(str(exc)) from None
+            depth, valid = prepare(image, params, bg)  # gap-filled in place: no second copy
+            save_preview(mesh, depth, valid, preview, evaluation=ev, title=Path(name).name,
+                         weights=sampling_weights(depth, valid, params))
             written.append(preview)
         bar.update(1)
     if args.json:
@@ -372,10 +374,26 @@ def _run_mesh(args, image, name, bg, outputs_for):
     return 0
 
 
-def _check_outputs(args):
-    for p in (args.output, getattr(args, "preview", None)):
-        if p and not Path(p).resolve().parent.is_dir():
-            raise UserError(f"{p}: folder {Path(p).parent} does not exist")
+def _same_file(a: Path, b: Path) -> bool:
+    try:
+        return a.resolve() == b.resolve() or (a.exists() and b.exists() and a.samefile(b))
+    except OSError:
+        return False
+
+
+def _check_outputs(args, inputs=()):
+    """Refuse outputs that cannot be written, or that would replace an input or each other."""
+    outputs = [Path(p) for p in (args.output, getattr(args, "preview", None)) if p]
+    for p in outputs:
+        if p.is_dir():
+            raise UserError(f"{p}: is a folder, not a file to write")
+        if not p.resolve().parent.is_dir():
+            raise UserError(f"{p}: folder {p.parent} does not exist")
+        for i in inputs:
+            if _same_file(p, Path(i)):
+                raise UserError(f"{p}: is the input {i}; an output never replaces an input")
+    if len(outputs) == 2 and _same_file(*outputs):
+        raise UserError(f"--output and --preview are the same file {outputs[0]}")
     if args.output and Path(args.output).suffix.lower() not in MESH_SUFFIXES:
         raise UserError(f"{args.output}: unknown mesh format; use one of {', '.join(MESH_SUFFIXES)}")
     if args.output and Path(args.output).suffix.lower() != ".ply" and (args.ascii or args.pixels):
@@ -385,7 +403,7 @@ def _check_outputs(args):
 
 
 def _cmd_mesh(args):
-    _check_outputs(args)
+    _check_outputs(args, [args.image])
     image = _read_image(args.image)
     bg = _resolve_background(args.background, image)
     return _run_mesh(args, image, args.image, bg, (args.output, args.preview))
@@ -434,8 +452,9 @@ def _cmd_info(args):
 def _cmd_eval(args):
     image = _read_image(args.image)
     bg = _resolve_background(args.background, image)
+    camera = _camera(args)
     try:
-        mesh = read_mesh(args.mesh, camera=_camera(args), image_shape=image.shape)
+        mesh = read_mesh(args.mesh, camera=camera, image_shape=image.shape)
         ev = evaluate(mesh, image, background=bg)
     except (FileNotFoundError, ValueError) as exc:
         raise UserError(str(exc)) from None
@@ -456,19 +475,18 @@ def _cmd_batch(args):
 
     params = _params(args)
     targets = _targets(args)
-    if args.workers is not None and args.workers < 1:
-        raise UserError(f"--workers must be >= 1, got {args.workers}")
+    camera = _camera(args)
     bg = args.background
     bg = None if bg in ("none", "nan") else bg  # 'auto' is resolved image by image
     t0 = time.perf_counter()
     try:
         results = mesh_many(args.inputs, args.output_dir, params, background=bg,
-                            camera=_camera(args), scheduler=args.scheduler, workers=args.workers,
+                            camera=camera, scheduler=args.scheduler, workers=args.workers,
                             overwrite=args.overwrite, fmt="." + args.format,
                             progress=not (args.quiet or args.json) and sys.stderr.isatty(),
                             **targets)
-    except (FileNotFoundError, ValueError, TypeError, OSError) as exc:
-        raise UserError(str(exc)) from None
+    except (ValueError, TypeError) as exc:
+        raise UserError(_one_line(exc)) from None
     summary = summarize(results, time.perf_counter() - t0)
     failed = [r for r in results if r.status == "failed"]
     if args.json:
@@ -553,20 +571,76 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
+def _one_line(exc: BaseException) -> str:
+    """An exception as one line: its first line, or its type when it says nothing."""
+    text = str(exc).strip()
+    return text.splitlines()[0] if text else type(exc).__name__
+
+
+def _os_message(exc: OSError) -> str:
+    """``path: reason`` for a failed file operation (permission, full disk, a folder...)."""
+    reason = exc.strerror or _one_line(exc)
+    return f"{exc.filename}: {reason}" if exc.filename else reason
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM or SIGHUP, raised like Ctrl-C so that ``finally`` blocks run and clean up."""
+
+    def __init__(self, signum: int):
+        super().__init__(signum)
+        self.signum = signum
+
+
+def _terminate(signum, frame):
+    raise Terminated(signum)
+
+
+@contextlib.contextmanager
+def _signals_raise():
+    """SIGTERM and SIGHUP raise `Terminated` inside the block (main thread only)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    names = [n for n in ("SIGTERM", "SIGHUP") if hasattr(signal, n)]
+    old = {n: signal.signal(getattr(signal, n), _terminate) for n in names}
+    try:
+        yield
+    finally:
+        for n, handler in old.items():
+            signal.signal(getattr(signal, n), handler)
+
+
 def main(argv=None) -> int:
-    """Entry point of the ``rangemesh`` command; returns the exit status."""
+    """Entry point of the ``rangemesh`` command; returns the exit status.
+
+    Every expected failure ends here as one line on stderr: bad input, bad
+    options, unreadable or unwritable files, a missing optional extra, not
+    enough memory for what was asked: exit status 2. ``batch`` returns 1
+    when some inputs failed. Ctrl-C, SIGTERM and SIGHUP end the command with
+    128 + the signal number (130, 143, 129) after temporary files are removed.
+    """
     args = build_parser().parse_args(argv)
     commands = {"mesh": _cmd_mesh, "demo": _cmd_demo, "info": _cmd_info, "eval": _cmd_eval,
                 "batch": _cmd_batch}
     t0 = time.perf_counter()
     try:
-        return commands[args.command](args)
+        with _signals_raise():
+            return commands[args.command](args)
+    except KeyboardInterrupt as exc:
+        signum = getattr(exc, "signum", signal.SIGINT)
+        print(f"rangemesh: interrupted ({signal.Signals(signum).name}) after "
+              f"{time.perf_counter() - t0:.1f} s", file=sys.stderr)
+        return 128 + int(signum)
     except (UserError, ImportError) as exc:  # ImportError: an optional extra is missing
-        print(f"rangemesh: error: {exc}", file=sys.stderr)
-        return 2
-    except KeyboardInterrupt:
-        print(f"rangemesh: interrupted after {time.perf_counter() - t0:.1f} s", file=sys.stderr)
-        return 130
+        message = _one_line(exc)
+    except OSError as exc:
+        message = _os_message(exc)
+    except MemoryError as exc:
+        message = f"not enough memory ({_one_line(exc)})"
+    except (ValueError, TypeError) as exc:
+        message = _one_line(exc)
+    print(f"rangemesh: error: {message}", file=sys.stderr)
+    return 2
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -12,6 +12,8 @@ so a failed run never leaves a half-written file.
 
 from __future__ import annotations
 
+import errno
+import logging
 import os
 import tempfile
 from contextlib import contextmanager
@@ -21,7 +23,7 @@ import numpy as np
 
 from ._optional import require
 from .camera import Orthographic
-from .mesh import Mesh, Stats, count_edges
+from .mesh import Mesh, Stats, check_arrays, count_edges
 
 __all__ = [
     "IMAGE_SUFFIXES",
@@ -54,6 +56,11 @@ def _read_pcd_z(path: Path) -> np.ndarray:
     if h <= 1:
         raise ValueError(f"{path}: the point cloud is not organised (height {h}); no image to mesh")
     return pc.numpy(("z",)).reshape(h, w)
+
+
+def _first_line(exc: BaseException) -> str:
+    text = str(exc).strip()
+    return text.splitlines()[0] if text else type(exc).__name__
 
 
 def read_range_image(path: str | os.PathLike) -> np.ndarray:
@@ -97,7 +104,14 @@ def read_range_image(path: str | os.PathLike) -> np.ndarray:
         elif suffix in (".tif", ".tiff"):
             import tifffile
 
-            arr = tifffile.imread(path)
+            # tifffile logs damage (a truncated file) before failing; the error says it once
+            log = logging.getLogger("tifffile")
+            level = log.level
+            log.setLevel(logging.CRITICAL)
+            try:
+                arr = tifffile.imread(path)
+            finally:
+                log.setLevel(level)
         elif suffix == ".pcd":
             arr = _read_pcd_z(path)
         else:
@@ -107,10 +121,13 @@ def read_range_image(path: str | os.PathLike) -> np.ndarray:
     except ValueError as exc:
         if str(exc).startswith(str(path)):
             raise
-        raise ValueError(f"{path}: cannot read it as a range image ({exc})") from None
-    except Exception as exc:  # readers raise OSError, SyntaxError, struct.error...
-        raise ValueError(f"{path}: cannot read it as a range image ({type(exc).__name__}: {exc})") from None
+        raise ValueError(f"{path}: cannot read it as a range image ({_first_line(exc)})") from None
+    except Exception as exc:  # readers raise OSError, SyntaxError, struct.error, pydantic's...
+        raise ValueError(f"{path}: cannot read it as a range image "
+                         f"({type(exc).__name__}: {_first_line(exc)})") from None
     arr = np.asarray(arr)
+    if arr.size == 0:
+        raise ValueError(f"{path}: the file holds no pixel (empty or truncated)")
     if arr.ndim == 3 and arr.shape[2] in (1,):
         arr = arr[:, :, 0]
     if arr.ndim != 2:
@@ -119,26 +136,64 @@ def read_range_image(path: str | os.PathLike) -> np.ndarray:
     return arr
 
 
+def _umask() -> int:
+    """The process's umask, read without changing it where Linux allows."""
+    try:
+        with open("/proc/self/status") as fh:
+            for line in fh:
+                if line.startswith("Umask:"):
+                    return int(line.split()[1], 8)
+    except (OSError, ValueError):
+        pass
+    old = os.umask(0o022)  # elsewhere: the only portable way, set and put back at once
+    os.umask(old)
+    return old
+
+
+def _new_file_mode(path: Path) -> int:
+    """The mode a plain ``open(path, 'w')`` would give: the old file's, else 0666 less the umask."""
+    try:
+        return path.stat().st_mode & 0o7777
+    except OSError:
+        return 0o666 & ~_umask()
+
+
 @contextmanager
 def atomic_path(path: str | os.PathLike):
     """Yield a temporary path beside `path`; rename it to `path` only on success.
+
+    The file gets the mode a plain write would give it: an existing file's
+    mode is kept, a new file follows the umask (0644 under umask 022). The
+    temporary file is removed whatever happens, Ctrl-C included.
 
     Raises
     ------
     FileNotFoundError
         If the target folder does not exist.
+    OSError
+        If the file cannot be written (permissions, a full disk, a folder in
+        the way); its ``filename`` is `path`, not the temporary name.
     """
     path = Path(path)
     folder = path.parent if str(path.parent) else Path(".")
     if not folder.is_dir():
         raise FileNotFoundError(f"{folder}: folder does not exist")
-    fd, tmp = tempfile.mkstemp(dir=folder, prefix=f".{path.name}.", suffix=".part" + path.suffix)
-    os.close(fd)
+    if path.is_dir():
+        raise IsADirectoryError(errno.EISDIR, "is a folder, not a file to write", str(path))
+    tmp = None
     try:
+        fd, tmp = tempfile.mkstemp(dir=folder, prefix=f".{path.name}.", suffix=".part" + path.suffix)
+        os.close(fd)
+        os.chmod(tmp, _new_file_mode(path))  # mkstemp makes it 0600
         yield Path(tmp)
         os.replace(tmp, path)
+    except OSError as exc:
+        if exc.filename == str(path):
+            raise
+        raise type(exc)(exc.errno, exc.strerror or str(exc), str(path)) from exc
     finally:
-        Path(tmp).unlink(missing_ok=True)
+        if tmp is not None:
+            Path(tmp).unlink(missing_ok=True)
 
 
 def _write_ply(mesh: Mesh, tmp: Path, ascii: bool, pixels: bool):
@@ -221,8 +276,9 @@ def read_mesh(path: str | os.PathLike, *, camera=None, image_shape=None) -> Mesh
     camera : Orthographic or Pinhole, optional
         The camera the mesh was made with (default orthographic 1, 1, 1).
     image_shape : (int, int), optional
-        Shape of the range image; default from the PLY comment, else unknown
-        ``(0, 0)``.
+        Shape of the range image the mesh is meant for; a PLY written by
+        rangemesh records the shape it was made from, and a different one is
+        refused. Default: the recorded shape, else unknown ``(0, 0)``.
 
     Returns
     -------
@@ -230,8 +286,12 @@ def read_mesh(path: str | os.PathLike, *, camera=None, image_shape=None) -> Mesh
 
     Raises
     ------
-    FileNotFoundError, ValueError
-        Missing or unreadable file.
+    FileNotFoundError
+        Missing file.
+    ValueError
+        Unreadable file, no triangle, a face index out of range, non-finite
+        vertices, pixels outside the image, or a recorded image shape that
+        differs from `image_shape`.
     """
     path = Path(path)
     if not path.is_file():
@@ -263,11 +323,19 @@ def read_mesh(path: str | os.PathLike, *, camera=None, image_shape=None) -> Mesh
             vertices = np.asarray(tm.vertices, np.float64)
             faces = np.asarray(tm.faces, np.int32)
     except Exception as exc:  # readers raise many kinds of errors on bad files
-        raise ValueError(f"{path}: cannot read it as a mesh ({type(exc).__name__}: {exc})") from None
+        raise ValueError(f"{path}: cannot read it as a mesh "
+                         f"({type(exc).__name__}: {_first_line(exc)})") from None
     if faces.ndim != 2 or (len(faces) and faces.shape[1] != 3):
         raise ValueError(f"{path}: only triangle meshes are supported")
+    if len(faces) == 0:
+        raise ValueError(f"{path}: cannot read it as a mesh: it holds no triangle")
     if image_shape is not None:
-        shape = tuple(int(x) for x in image_shape)
+        given = tuple(int(x) for x in image_shape)
+        if shape != (0, 0) and shape != given:
+            raise ValueError(f"{path}: the mesh was made from a {shape[0]}x{shape[1]} image, "
+                             f"not from this {given[0]}x{given[1]} one")
+        shape = given
+    check_arrays(vertices, faces, pixels, shape, what=str(path))
     stats = Stats(vertices=len(vertices), triangles=len(faces), edges=count_edges(faces))
     return Mesh(vertices=vertices, faces=faces, pixels=pixels,
                 camera=camera if camera is not None else Orthographic(),

@@ -7,8 +7,9 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 
 from .camera import Orthographic, Pinhole
+from .geometry.signals import holding_signals
 
-__all__ = ["Mesh", "Stats", "count_edges"]
+__all__ = ["Mesh", "Stats", "count_edges", "check_arrays"]
 
 
 @dataclass(frozen=True)
@@ -59,6 +60,56 @@ class Stats:
         return d
 
 
+def check_arrays(vertices: np.ndarray, faces: np.ndarray, pixels: np.ndarray | None = None,
+                 image_shape=None, *, what: str = "mesh") -> None:
+    """Refuse arrays that cannot be a mesh: checked before anything is sized by them.
+
+    Parameters
+    ----------
+    vertices : (V, 3) ndarray
+    faces : (F, 3) ndarray of int
+    pixels : (V, 2) or (0, 2) ndarray of int, optional
+    image_shape : (int, int), optional
+        With `pixels`: every pixel must lie inside it.
+    what : str
+        How the message names the mesh (a file name, say).
+
+    Raises
+    ------
+    ValueError
+        Vertices not (V, 3) or not finite; faces not (F, 3) integers, or an
+        index negative or not below V; pixels of the wrong shape or outside
+        the image.
+    """
+    if vertices.ndim != 2 or vertices.shape[1] != 3:
+        raise ValueError(f"{what}: vertices must be (V, 3), got shape {vertices.shape}")
+    if not np.isfinite(vertices).all():
+        bad = int((~np.isfinite(vertices).all(axis=1)).sum())
+        raise ValueError(f"{what}: {bad} vertices are not finite (NaN or infinite coordinates)")
+    if faces.ndim != 2 or (faces.size and faces.shape[1] != 3):
+        raise ValueError(f"{what}: only triangle meshes are supported (faces of shape {faces.shape})")
+    if faces.size and not np.issubdtype(faces.dtype, np.integer):
+        raise ValueError(f"{what}: face indices must be integers, got {faces.dtype}")
+    if faces.size:
+        lo, hi = int(faces.min()), int(faces.max())
+        if lo < 0 or hi >= len(vertices):
+            bad = lo if lo < 0 else hi
+            raise ValueError(f"{what}: face index {bad} is out of range for {len(vertices)} "
+                             f"vertices (indices run from 0 to {len(vertices) - 1})")
+    if pixels is not None and len(pixels):
+        if pixels.shape != (len(vertices), 2):
+            raise ValueError(f"{what}: pixels must be (V, 2) = ({len(vertices)}, 2), "
+                             f"got {pixels.shape}")
+        if image_shape is not None and tuple(image_shape) != (0, 0):
+            h, w = image_shape
+            outside = ((pixels[:, 0] < 0) | (pixels[:, 0] >= h)
+                       | (pixels[:, 1] < 0) | (pixels[:, 1] >= w))
+            if outside.any():
+                raise ValueError(f"{what}: {int(outside.sum())} vertex pixels (row, col) lie "
+                                 f"outside the {h}x{w} image")
+
+
+@holding_signals
 def count_edges(faces: np.ndarray) -> int:
     """Number of distinct undirected edges of a face array.
 
@@ -78,6 +129,8 @@ def count_edges(faces: np.ndarray) -> int:
     faces = np.ascontiguousarray(faces, dtype=np.int64)
     if len(faces) == 0:
         return 0
+    if faces.min() < 0:
+        raise ValueError(f"face index {int(faces.min())} is negative")
     from .geometry.halfedges import count_edges_kernel
 
     return int(count_edges_kernel(faces, int(faces.max()) + 1))

@@ -6,10 +6,10 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from .mesh import Mesh
+from .mesh import Mesh, check_arrays
 from .paper.sampling import curvature
 from .prepare import to_depth_and_mask
-from .render import relative_error, render_depth
+from .render import per_span, relative_error, render_depth
 
 __all__ = ["Evaluation", "evaluate", "render_depth", "discontinuity_mask", "relative_error"]
 
@@ -78,7 +78,7 @@ def discontinuity_mask(depth: np.ndarray, valid: np.ndarray, threshold: float = 
     span = float(depth[valid].max() - depth[valid].min())
     K = curvature(depth, valid, levels=1)
     if span > 0:
-        K = K * (255.0 / span)
+        K = per_span(K, span, 255.0)
     return valid & (K >= threshold)
 
 
@@ -104,6 +104,12 @@ def evaluate(mesh: Mesh, depth, *, background=None, discontinuities: np.ndarray 
     -------
     Evaluation
 
+    Raises
+    ------
+    ValueError
+        If the mesh was made from an image of another shape, or its arrays
+        cannot be a mesh (see `rangemesh.mesh.check_arrays`).
+
     Notes
     -----
     For every valid pixel covered by a triangle in the image plane, the error
@@ -113,6 +119,7 @@ def evaluate(mesh: Mesh, depth, *, background=None, discontinuities: np.ndarray 
     of the mean and reported separately as `uncovered`.
     """
     d, valid = to_depth_and_mask(depth, background)
+    check_arrays(mesh.vertices, mesh.faces, mesh.pixels, mesh.image_shape)
     if mesh.image_shape != d.shape:
         raise ValueError(f"depth has shape {d.shape} but the mesh was made from {mesh.image_shape}")
     n_valid = int(valid.sum())
@@ -120,8 +127,7 @@ def evaluate(mesh: Mesh, depth, *, background=None, discontinuities: np.ndarray 
     pred, _ = render_depth(mesh)
     covered = valid & np.isfinite(pred)
     n_cov = int(covered.sum())
-    scale = 100.0 / span if span > 0 else 0.0
-    err = np.abs(pred[covered] - d[covered]) * scale
+    err = per_span(np.abs(pred[covered] - d[covered]), span, 100.0)
     if discontinuities is None:
         discontinuities = discontinuity_mask(d, valid)
     elif np.shape(discontinuities) != d.shape:

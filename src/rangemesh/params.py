@@ -8,29 +8,14 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import numbers
 from dataclasses import dataclass
+
+from .checks import flag, real_number, whole_number, whole_pair
 
 __all__ = ["MeshParams", "SAMPLING_CHOICES", "FLIP_CHOICES"]
 
 SAMPLING_CHOICES = ("adaptive", "uniform")
 FLIP_CHOICES = ("disparity", "error", None)
-
-
-def _pair(name: str, value) -> tuple[int, int]:
-    """Turn ``n`` or ``(n, m)`` into a pair of Python ints, or raise."""
-    if isinstance(value, (int,)) and not isinstance(value, bool):
-        value = (value, value)
-    try:
-        a, b = value
-    except (TypeError, ValueError):
-        raise TypeError(f"{name} must be an int or a pair of ints, got {value!r}") from None
-    out = []
-    for x in (a, b):
-        if isinstance(x, bool) or not float(x).is_integer():
-            raise TypeError(f"{name} must hold whole numbers, got {value!r}")
-        out.append(int(x))
-    return out[0], out[1]
 
 
 @dataclass(frozen=True)
@@ -91,7 +76,8 @@ class MeshParams:
     ValueError
         If a value is out of range or a string choice is unknown.
     TypeError
-        If ``tiles`` or ``samples`` is not an int or a pair of ints.
+        If a value has the wrong type (e.g. ``tiles='44'``, ``fill_gaps='no'``,
+        ``levels=None``); the message names the parameter.
 
     Examples
     --------
@@ -116,33 +102,25 @@ class MeshParams:
     workers: int = 1
 
     def __post_init__(self):
-        tiles = _pair("tiles", self.tiles)
-        samples = _pair("samples", self.samples)
+        tiles = whole_pair("tiles", self.tiles, minimum=1)
+        samples = whole_pair("samples", self.samples)
         object.__setattr__(self, "tiles", tiles)
         object.__setattr__(self, "samples", samples)
-        if min(tiles) < 1:
-            raise ValueError(f"tiles must be >= 1 in both directions, got {tiles}")
         if min(samples) < 2:
             raise ValueError(
                 f"samples must be >= 2 in both directions (a tile's first and last "
                 f"samples are its borders), got {samples}"
             )
-        if self.sampling not in SAMPLING_CHOICES:
+        if not isinstance(self.sampling, str) or self.sampling not in SAMPLING_CHOICES:
             raise ValueError(
                 f"sampling must be one of {SAMPLING_CHOICES}, got {self.sampling!r}"
             )
-        if self.flips not in FLIP_CHOICES:
+        if not (self.flips is None or isinstance(self.flips, str)) \
+                or self.flips not in FLIP_CHOICES:
             raise ValueError(f"flips must be one of {FLIP_CHOICES}, got {self.flips!r}")
-        if isinstance(self.levels, bool) or not float(self.levels).is_integer() or self.levels < 1:
-            raise ValueError(f"levels must be a whole number >= 1, got {self.levels!r}")
-        object.__setattr__(self, "levels", int(self.levels))
+        object.__setattr__(self, "levels", whole_number("levels", self.levels, minimum=1))
         for name in ("curvature_floor", "delta", "epsilon", "max_angle", "min_bend"):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, (int, float)):
-                raise TypeError(f"{name} must be a number, got {value!r}")
-            if not math.isfinite(value):
-                raise ValueError(f"{name} must be finite, got {value!r}")
-            object.__setattr__(self, name, float(value))
+            object.__setattr__(self, name, real_number(name, getattr(self, name)))
         if self.curvature_floor <= 1.0:
             raise ValueError(
                 f"curvature_floor must be > 1 so that log weights stay positive, "
@@ -155,24 +133,20 @@ class MeshParams:
             if not 0.0 <= getattr(self, name) <= 180.0:
                 raise ValueError(f"{name} must be in [0, 180] degrees, got {getattr(self, name)}")
         if self.gain_threshold is not None:
-            g = self.gain_threshold
-            if isinstance(g, bool) or not isinstance(g, (int, float)) or math.isnan(g):
-                raise ValueError(f"gain_threshold must be a number or None, got {g!r}")
-            object.__setattr__(self, "gain_threshold", float(g))
-        object.__setattr__(self, "fill_gaps", bool(self.fill_gaps))
+            g = real_number("gain_threshold", self.gain_threshold, finite=False)
+            if math.isnan(g):
+                raise ValueError("gain_threshold must be a number or None, got nan")
+            object.__setattr__(self, "gain_threshold", g)
+        object.__setattr__(self, "fill_gaps", flag("fill_gaps", self.fill_gaps))
         if self.max_edge is not None:
-            e = self.max_edge
-            if isinstance(e, bool) or not isinstance(e, (int, float)):
-                raise TypeError(f"max_edge must be a number of pixels or None, got {e!r}")
+            e = real_number("max_edge", self.max_edge, finite=False)
             if not math.isfinite(e) or e < 1.5:
                 raise ValueError(
-                    f"max_edge must be at least 1.5 pixels (a pixel's diagonal is 1.41), got {e!r}"
+                    f"max_edge must be at least 1.5 pixels (a pixel's diagonal is 1.41), "
+                    f"got {self.max_edge!r}"
                 )
-            object.__setattr__(self, "max_edge", float(e))
-        w = self.workers
-        if isinstance(w, bool) or not isinstance(w, numbers.Integral) or w < 1:
-            raise ValueError(f"workers must be a whole number >= 1, got {w!r}")
-        object.__setattr__(self, "workers", int(w))
+            object.__setattr__(self, "max_edge", e)
+        object.__setattr__(self, "workers", whole_number("workers", self.workers, minimum=1))
 
     @property
     def grid_shape(self) -> tuple[int, int]:

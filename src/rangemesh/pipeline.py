@@ -12,7 +12,10 @@ import time
 
 import numpy as np
 
-from .camera import as_camera
+from .camera import as_camera, check_reach
+from .checks import real_number, whole_number
+from .geometry.pixels import valid_range
+from .geometry.signals import deferred_signals
 from .mesh import Mesh, Stats, empty_mesh
 from .paper import targets
 from .paper.sampling import fill_gaps_inplace, sample_grid, sampling_weights
@@ -97,10 +100,9 @@ def _targets_given(params: MeshParams, vertices, max_error, overrides) -> list[s
             f"do not give samples={overrides['samples']!r} as well"
         )
     if vertices is not None:
-        if isinstance(vertices, bool) or not float(vertices).is_integer() or vertices < 3:
-            raise ValueError(f"vertices must be a whole number >= 3, got {vertices!r}")
+        whole_number("vertices", vertices, minimum=3)
     if max_error is not None:
-        if isinstance(max_error, bool) or not np.isfinite(max_error) or max_error <= 0:
+        if real_number("max_error", max_error, finite=False) <= 0 or not np.isfinite(max_error):
             raise ValueError(f"max_error must be a positive number of percent, got {max_error!r}")
     return given
 
@@ -123,8 +125,12 @@ def run(image, params: MeshParams, *, background=None, camera=None, vertices=Non
     camera = as_camera(camera)
     t0 = time.perf_counter()
     depth, valid = prepare(image, params, background, workspace=workspace)
+    with deferred_signals():
+        lo, hi, n_valid = valid_range(depth, valid)
+    if n_valid:
+        check_reach(camera, depth.shape, lo, hi)
     t1 = time.perf_counter()
-    if not valid.any():
+    if not n_valid:
         # Still check the tiling so that bad parameters fail the same way on any image.
         sample_grid(depth, valid, params.replace(sampling="uniform"))
         stats = Stats(grid_shape=params.grid_shape, seconds={"prepare": t1 - t0, "total": t1 - t0},

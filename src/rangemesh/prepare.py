@@ -11,7 +11,9 @@ import numbers
 
 import numpy as np
 
+from .checks import kernel_array
 from .geometry.pixels import mask_image
+from .geometry.signals import holding_signals
 
 __all__ = ["to_depth_and_mask", "check_image", "mask_into", "guess_background"]
 
@@ -22,7 +24,8 @@ def to_depth_and_mask(image, background=None) -> tuple[np.ndarray, np.ndarray]:
     Parameters
     ----------
     image : (H, W) array_like of int or float
-        The range image. Boolean and complex arrays are refused.
+        The range image. Boolean and complex arrays are refused; the masked
+        pixels of a `numpy.ma.MaskedArray` are missing depth.
     background : float, optional
         Value that marks pixels without depth (``0``, ``65535``, ...). NaN,
         +inf and -inf always mark missing depth, whatever `background` says;
@@ -57,17 +60,20 @@ def to_depth_and_mask(image, background=None) -> tuple[np.ndarray, np.ndarray]:
 
 
 def check_image(image, background=None):
-    """Check a range image and its background marker; no copy is made.
+    """Check a range image and its background marker; copy only when a dtype needs it.
 
     Parameters
     ----------
     image : (H, W) array_like of int or float
+        A masked array's masked pixels are missing depth. float16, wider
+        floats and non-native byte orders are converted (see
+        `rangemesh.checks.kernel_array`); other arrays are used as they are.
     background : float, optional
 
     Returns
     -------
     arr : (H, W) ndarray
-        ``np.asarray(image)``.
+        The image in a dtype the kernels take; masked pixels hold NaN.
     background : float or None
         None when only NaN/inf mark missing depth (``NaN`` is folded into None).
 
@@ -76,10 +82,12 @@ def check_image(image, background=None):
     TypeError, ValueError
         As `to_depth_and_mask`.
     """
-    arr = np.asarray(image)
-    if arr.dtype == object or not (
-        np.issubdtype(arr.dtype, np.integer) or np.issubdtype(arr.dtype, np.floating)
-    ):
+    mask = np.ma.getmaskarray(image) if np.ma.isMaskedArray(image) else None
+    try:
+        arr = np.asarray(np.ma.getdata(image) if mask is not None else image)
+    except ValueError as exc:  # a ragged nested list
+        raise ValueError(f"image must be a rectangular 2-D array of numbers ({exc})") from None
+    if arr.dtype == object or arr.dtype.kind not in "iuf":
         raise TypeError(
             f"image must be an array of integers or floats, got dtype {arr.dtype}"
         )
@@ -88,14 +96,21 @@ def check_image(image, background=None):
         raise ValueError(f"image must be 2-D (rows, cols), got shape {arr.shape}{hint}")
     if arr.size == 0:
         raise ValueError(f"image must not be empty, got shape {arr.shape}")
+    arr = kernel_array(arr)
+    if mask is not None and mask.any():
+        # NaN is missing depth whatever the background is; the kernels compare
+        # integers as float64, so the float64 copy changes no value they see
+        arr = arr.astype(np.float64 if arr.dtype.kind in "iu" else arr.dtype)
+        arr[mask] = np.nan
     if background is not None:
-        if isinstance(background, bool) or not isinstance(background, numbers.Real):
+        if isinstance(background, (bool, np.bool_)) or not isinstance(background, numbers.Real):
             raise TypeError(f"background must be a number, NaN or None, got {background!r}")
         if math.isnan(float(background)):
             background = None
     return arr, background
 
 
+@holding_signals
 def mask_into(arr: np.ndarray, background, depth: np.ndarray, valid: np.ndarray) -> None:
     """Write float depth (0.0 on background) and validity of a checked image into buffers."""
     bg = 0.0 if background is None else float(background)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import warnings
 
 import numpy as np
 
@@ -13,7 +14,12 @@ from .metrics import Evaluation, render_depth
 __all__ = ["shade", "save_preview"]
 
 
-def shade(mesh: Mesh, shape=None) -> np.ndarray:
+# Longest side of each panel's image, pixels: larger images are shown one pixel in `step`
+# (a 500 px panel cannot show more, and full-size buffers of a large image cost gigabytes).
+MAX_PANEL_PIXELS = 1000
+
+
+def shade(mesh: Mesh, shape=None, *, step: int = 1) -> np.ndarray:
     """Lambert shading of the mesh, seen from the camera, as an image.
 
     Each pixel takes the shade of the face that covers it (flat shading, so
@@ -24,12 +30,14 @@ def shade(mesh: Mesh, shape=None) -> np.ndarray:
     mesh : Mesh
     shape : (int, int), optional
         Default ``mesh.image_shape``.
+    step : int, default 1
+        Shade one pixel in `step` along rows and columns (see `render_depth`).
 
     Returns
     -------
-    (H, W) ndarray of float64 in [0, 1]
+    (ceil(H/step), ceil(W/step)) ndarray of float64 in [0, 1]
     """
-    _, face = render_depth(mesh, shape)
+    _, face = render_depth(mesh, shape, step=step)
     out = np.full(face.shape, np.nan)
     if mesh.is_empty:
         return out
@@ -74,6 +82,8 @@ def save_preview(mesh: Mesh, depth: np.ndarray, valid: np.ndarray, path: str | o
     Figure = require("matplotlib.figure", "the preview picture").Figure  # noqa: N806
 
     h, w = depth.shape
+    step = max(1, -(-max(h, w) // MAX_PANEL_PIXELS))
+    depth, valid = depth[::step, ::step], valid[::step, ::step]  # views: no full-size copy
     shown = np.where(valid, depth, np.nan)
     s = mesh.stats
     figs = [f"{s.vertices} vertices", f"{s.triangles} triangles", f"{s.flipped_edges} flips"]
@@ -86,22 +96,27 @@ def save_preview(mesh: Mesh, depth: np.ndarray, valid: np.ndarray, path: str | o
     axes = fig.subplots(1, 3)
     cmap = matplotlib.colormaps["viridis"].with_extremes(bad="black")
     axes[0].imshow(shown, cmap=cmap, interpolation="nearest")
+    px = mesh.pixels / step  # pixel centres in the shown image's coordinates
     if not mesh.is_empty:
-        axes[0].triplot(mesh.pixels[:, 1], mesh.pixels[:, 0], mesh.faces, lw=0.35,
-                        color="white", alpha=0.8)
+        axes[0].triplot(px[:, 1], px[:, 0], mesh.faces, lw=0.35, color="white", alpha=0.8)
     axes[0].set_title("triangles over the range image")
-    under = shown if weights is None else np.where(valid, weights, np.nan)
+    under = shown if weights is None else np.where(valid, weights[::step, ::step], np.nan)
     grey = matplotlib.colormaps["Greys"].with_extremes(bad="white")
     axes[1].imshow(under, cmap=grey, interpolation="nearest")
     if not mesh.is_empty:
-        axes[1].scatter(mesh.pixels[:, 1], mesh.pixels[:, 0], s=2.0, c="tab:red", linewidths=0)
+        axes[1].scatter(px[:, 1], px[:, 0], s=2.0, c="tab:red", linewidths=0)
     axes[1].set_title("sample points" + (" over the sampling weight" if weights is not None else ""))
     gray = matplotlib.colormaps["gray"].with_extremes(bad="black")
-    axes[2].imshow(shade(mesh, (h, w)), cmap=gray, vmin=0, vmax=1, interpolation="nearest")
+    axes[2].imshow(shade(mesh, (h, w), step=step), cmap=gray, vmin=0, vmax=1,
+                   interpolation="nearest")
     axes[2].set_title("shaded mesh (flat shading)")
     for ax in axes:
         ax.set_xticks([])
         ax.set_yticks([])
+    if step > 1:
+        figs.append(f"shown 1 pixel in {step}")
     fig.suptitle((title + ": " if title else "") + ", ".join(figs))
-    with atomic_path(path) as tmp:
+    with atomic_path(path) as tmp, warnings.catch_warnings():
+        # a file name in a script the font lacks (CJK...) is drawn with boxes; say nothing
+        warnings.filterwarnings("ignore", message="Glyph .* missing from font", category=UserWarning)
         fig.savefig(tmp, format="png")

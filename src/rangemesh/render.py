@@ -6,10 +6,13 @@ stop on an error bound; it knows only meshes, cameras and the rasteriser.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from .camera import Orthographic
 from .geometry.raster import rasterize
+from .geometry.signals import holding_signals
 from .mesh import Mesh
 
 __all__ = ["render_depth", "relative_error"]
@@ -36,7 +39,9 @@ def _snap(x: np.ndarray, tol: float = 1e-3) -> np.ndarray:
     return np.where(np.abs(x - near) < tol, near, x)
 
 
-def render_depth(mesh: Mesh, shape: tuple[int, int] | None = None) -> tuple[np.ndarray, np.ndarray]:
+@holding_signals
+def render_depth(mesh: Mesh, shape: tuple[int, int] | None = None, *,
+                 step: int = 1) -> tuple[np.ndarray, np.ndarray]:
     """Depth the mesh predicts at every pixel centre, in stored depth units.
 
     Each pixel is intersected with the triangle that covers it in the image
@@ -50,20 +55,27 @@ def render_depth(mesh: Mesh, shape: tuple[int, int] | None = None) -> tuple[np.n
     mesh : Mesh
     shape : (int, int), optional
         Image shape; default ``mesh.image_shape``.
+    step : int, default 1
+        Render every `step`-th pixel of every `step`-th row only (pixel
+        ``(i, j)`` of the result is pixel ``(step*i, step*j)`` of the image):
+        pictures of large images need no full-resolution buffers.
 
     Returns
     -------
-    depth : (H, W) ndarray of float64
+    depth : (ceil(H/step), ceil(W/step)) ndarray of float64
         NaN where no triangle covers the pixel.
-    face : (H, W) ndarray of int64
+    face : (ceil(H/step), ceil(W/step)) ndarray of int64
         Index of the covering face, -1 where none.
     """
     h, w = mesh.image_shape if shape is None else shape
+    h, w = -(-h // step), -(-w // step)
     out = np.full((h, w), np.nan)
     face = np.full((h, w), -1, np.int64)
     if mesh.is_empty:
         return out, face
     r, c = _image_coords(mesh)
+    if step != 1:
+        r, c = r / step, c / step
     cam = mesh.camera
     z = mesh.vertices[:, 2]
     if isinstance(cam, Orthographic):
@@ -100,5 +112,19 @@ def relative_error(mesh: Mesh, depth: np.ndarray, valid: np.ndarray) -> float:
     if not covered.any():
         return float("nan")
     span = float(depth[valid].max() - depth[valid].min())
-    scale = 100.0 / span if span > 0 else 0.0
-    return float(np.mean(np.abs(pred[covered] - depth[covered]))) * scale
+    return float(per_span(np.mean(np.abs(pred[covered] - depth[covered])), span, 100.0))
+
+
+def per_span(x, span: float, full: float):
+    """``x * full / span`` (``x`` a number or an array): a share of the depth range.
+
+    0 when the span is 0 (a constant image has no error). For a subnormal
+    span, ``full / span`` overflows, so ``x`` is divided first; otherwise the
+    factor is applied as one multiplication.
+    """
+    if not span > 0:
+        return x * 0.0
+    factor = full / span
+    if math.isfinite(factor):
+        return x * factor
+    return (x / span) * full

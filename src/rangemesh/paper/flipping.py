@@ -15,6 +15,7 @@ import math
 import numpy as np
 
 from ..geometry.halfedges import build_halfedges
+from ..geometry.signals import holding_signals
 from ..mesh import Mesh
 from ..params import MeshParams
 from . import flipping_kernels as _k
@@ -59,6 +60,7 @@ def _gain_quantum(vertices: np.ndarray) -> float:
     return math.ldexp(1.0, math.frexp(extent)[1] - 32)
 
 
+@holding_signals
 def flip_edges(mesh: Mesh, depth: np.ndarray, valid: np.ndarray,
                params: MeshParams | None = None) -> Mesh:
     """Flip edges of a mesh to follow jump and crease edges.

@@ -8,9 +8,12 @@ background value ever reaches arithmetic (SPEC P1).
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from ..geometry.pixels import valid_range
+from ..geometry.signals import holding_signals
 from ..params import MeshParams
 from . import sampling_kernels as _k
 
@@ -28,6 +31,7 @@ __all__ = [
 _PAPER_SCALE = 255.0
 
 
+@holding_signals
 def fill_gaps(depth: np.ndarray, valid: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Fill single-pixel holes: one pass, paper II.A.1, SPEC 1.1.
 
@@ -58,6 +62,7 @@ def fill_gaps(depth: np.ndarray, valid: np.ndarray) -> tuple[np.ndarray, np.ndar
     return out_d, out_v
 
 
+@holding_signals
 def valid_span(depth: np.ndarray, valid: np.ndarray) -> float:
     """Max - min of the valid depths (0 when there is none)."""
     lo, hi, n = valid_range(np.ascontiguousarray(depth, dtype=np.float64),
@@ -65,6 +70,7 @@ def valid_span(depth: np.ndarray, valid: np.ndarray) -> float:
     return float(hi - lo) if n else 0.0
 
 
+@holding_signals
 def curvature(depth: np.ndarray, valid: np.ndarray, levels: int = 2) -> np.ndarray:
     """Multiresolution curvature image ``K``, paper II.A.1 and SPEC 1.2-1.3.
 
@@ -101,6 +107,7 @@ def curvature(depth: np.ndarray, valid: np.ndarray, levels: int = 2) -> np.ndarr
     return K
 
 
+@holding_signals
 def sampling_weights(depth: np.ndarray, valid: np.ndarray, params: MeshParams, *,
                      out: np.ndarray | None = None) -> np.ndarray:
     """Per-pixel weight ``f`` that stage one integrates (paper eq. 1, SPEC 1.4).
@@ -135,7 +142,12 @@ def sampling_weights(depth: np.ndarray, valid: np.ndarray, params: MeshParams, *
     span = valid_span(d, v)
     _k.curvature_kernel(d, v, span, int(params.levels), out)
     if span > 0.0:
-        np.multiply(out, _PAPER_SCALE / span, out=out)
+        factor = _PAPER_SCALE / span
+        if math.isfinite(factor):
+            np.multiply(out, factor, out=out)
+        else:  # a subnormal span: 255 / span overflows, so divide first
+            np.divide(out, span, out=out)
+            np.multiply(out, _PAPER_SCALE, out=out)
     else:
         out[:] = 0.0  # a constant scene has no curvature anywhere
     # in place: this runs on every pixel, and each temporary is a full image
@@ -143,6 +155,7 @@ def sampling_weights(depth: np.ndarray, valid: np.ndarray, params: MeshParams, *
     return np.log(out, out=out)
 
 
+@holding_signals
 def fill_gaps_inplace(depth: np.ndarray, valid: np.ndarray) -> None:
     """`fill_gaps` on our own C-contiguous float64/bool buffers, in place (no copies)."""
     _k.fill_gaps_inplace(depth, valid)
@@ -187,6 +200,40 @@ def tile_bounds(n: int, tiles: int, *, name: str = "tiles") -> np.ndarray:
     return bounds
 
 
+# Small images may have grids larger than themselves (samples then repeat pixels).
+SMALL_GRID = 1 << 16
+
+
+def max_grid_entries(shape) -> int:
+    """The largest sample grid allowed for an image: one entry per pixel, or 65,536.
+
+    A grid with more entries than the image has pixels can only repeat pixels;
+    its memory (8 bytes an entry, and as much again to find the distinct
+    ones) is what `sample_grid` refuses to spend on repeats. Small images may
+    still use grids up to 65,536 entries (half a megabyte).
+    """
+    return max(int(shape[0]) * int(shape[1]), SMALL_GRID)
+
+
+def check_grid_size(params: MeshParams, shape) -> None:
+    """Refuse a grid larger than `max_grid_entries` before anything is allocated.
+
+    Raises
+    ------
+    ValueError
+        Naming the samples, the tiles and the largest grid allowed.
+    """
+    gr, gc = params.grid_shape
+    limit = max_grid_entries(shape)
+    if gr * gc > limit:
+        raise ValueError(
+            f"samples={params.samples} with tiles={params.tiles} make a grid of {gr}x{gc} = "
+            f"{gr * gc} samples on a {shape[0]}x{shape[1]} image; at most {limit} are allowed "
+            f"(one per pixel, or 65536 on small images): more only repeat pixels"
+        )
+
+
+@holding_signals
 def sample_grid(depth: np.ndarray, valid: np.ndarray, params: MeshParams | None = None,
                 *, weights: np.ndarray | None = None, workers: int = 1) -> np.ndarray:
     """The sample grid of stage one (paper II.A.2-3, SPEC 1.5-1.8).
@@ -227,9 +274,10 @@ def sample_grid(depth: np.ndarray, valid: np.ndarray, params: MeshParams | None 
     v_tiles, h_tiles = params.tiles
     rb = tile_bounds(h, v_tiles, name="tiles (rows)")
     cb = tile_bounds(w, h_tiles, name="tiles (columns)")
+    rs, zs = params.samples
+    check_grid_size(params, (h, w))  # before anything is allocated
     f = sampling_weights(depth, valid, params) if weights is None else weights
     f = np.ascontiguousarray(f, dtype=np.float64)
-    rs, zs = params.samples
     grid = np.zeros(params.grid_shape + (2,), np.int32)
     if workers > 1:
         import numba  # only here: the parallel kernel is compiled only when asked for

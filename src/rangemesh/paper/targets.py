@@ -20,9 +20,8 @@ from ..mesh import Mesh
 from ..params import MeshParams
 from ..render import relative_error
 from .flipping import flip_edges
-from .sampling import sample_grid, sampling_weights
-from .stages import mesh_grid
-from .triangulation import delaunay_mesh
+from .sampling import max_grid_entries, sample_grid, sampling_weights
+from .stages import mesh_grid, refine_to_edge
 
 __all__ = ["auto_tiles", "fit_vertices", "fit_error", "fit_edge", "count_samples"]
 
@@ -85,12 +84,14 @@ def _candidates(shape, target_points, tiles):
     else:
         tile_opts = [tuple(tiles)]
     out = set()
+    limit = max_grid_entries(shape)
     for v, t in tile_opts:
         rs0 = (gr0 - 1) / v + 1
         z0 = (gc0 - 1) / t + 1
         for rs in {math.floor(rs0) - 1, math.floor(rs0), math.ceil(rs0), math.ceil(rs0) + 1}:
             for z in {math.floor(z0) - 1, math.floor(z0), math.ceil(z0), math.ceil(z0) + 1}:
-                if rs >= 2 and z >= 2:
+                # sample_grid refuses grids larger than max_grid_entries
+                if rs >= 2 and z >= 2 and ((rs - 1) * v + 1) * ((z - 1) * t + 1) <= limit:
                     out.add(((v, t), (rs, z)))
     return sorted(out)
 
@@ -147,7 +148,8 @@ def fit_vertices(depth, valid, params: MeshParams, camera, n: int, *,
     depth, valid : (H, W) ndarrays
         Prepared image (`rangemesh.pipeline.prepare`).
     params : MeshParams
-        Everything but tiles and samples is kept (``max_edge`` bounds every try).
+        Everything but tiles and samples is kept. With ``max_edge``, every try
+        is refined until no edge is longer (see `rangemesh.paper.stages.refine_to_edge`).
     camera : Orthographic or Pinhole
     n : int
         Vertices wanted.
@@ -204,8 +206,14 @@ def fit_vertices(depth, valid, params: MeshParams, camera, n: int, *,
     mesh, p = best
     got = mesh.stats.vertices
     ok = abs(got - n) <= _TOLERANCE * n
-    note = "" if ok else (f"closest grid gives {got} vertices; the grid's steps are coarser than "
-                          f"2 % of {n} on this image")
+    if ok:
+        note = ""
+    elif params.max_edge is not None and got > n:
+        note = (f"max_edge={params.max_edge:g} needs more vertices than {n} on this image: "
+                f"the closest mesh found with no edge longer has {got}")
+    else:
+        note = (f"closest grid gives {got} vertices; the grid's steps are coarser than "
+                f"2 % of {n} on this image")
     return mesh, _target_record("vertices", n, got, p, meshings, ok, note)
 
 
@@ -322,42 +330,6 @@ def fit_error(depth, valid, params: MeshParams, camera, max_error: float, ref_de
                                 vertices=mesh.stats.vertices)
 
 
-def _split_points(mesh: Mesh, valid: np.ndarray, max_edge: float) -> np.ndarray:
-    """Valid pixels that cut every edge longer than `max_edge` into pieces short enough."""
-    f = mesh.faces.astype(np.int64)
-    e = np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]])
-    e = np.unique(np.sort(e, axis=1), axis=0)
-    a = mesh.pixels[e[:, 0]].astype(np.float64)
-    b = mesh.pixels[e[:, 1]].astype(np.float64)
-    length = np.sqrt(((b - a) ** 2).sum(axis=1))
-    long = length > max_edge
-    if not long.any():
-        return np.zeros((0, 2), np.int64)
-    a, b, length = a[long], b[long], length[long]
-
-    def along(pieces):
-        """Pixels at k/pieces of each long edge, k = 1..pieces-1, in edge order."""
-        owner = np.repeat(np.arange(pieces.size), pieces - 1)
-        start = np.repeat(np.cumsum(pieces - 1) - (pieces - 1), pieces - 1)
-        k = np.arange(owner.size) - start + 1
-        t = (k / pieces[owner])[:, None]
-        pts = np.floor(a[owner] + t * (b[owner] - a[owner]) + 0.5).astype(np.int64)
-        return owner, pts
-
-    # Even cuts, and the valid pixels where an edge enters or leaves background,
-    # so that triangles can hug a hole instead of spanning it.
-    _, even = along(np.ceil(length / (0.9 * max_edge)).astype(np.int64))
-    owner, dense = along(np.ceil(length).astype(np.int64) + 1)
-    ok = valid[dense[:, 0], dense[:, 1]]
-    same_edge = owner[1:] == owner[:-1]
-    change = same_edge & (ok[1:] != ok[:-1])
-    border = np.zeros(ok.size, bool)
-    border[:-1] |= change & ok[:-1]
-    border[1:] |= change & ok[1:]
-    pts = np.concatenate([even[valid[even[:, 0], even[:, 1]]], dense[border]])
-    return pts
-
-
 def fit_edge(depth, valid, params: MeshParams, camera, *, tiles=None) -> tuple[Mesh, dict]:
     """Mesh so that no triangle edge is longer than `max_edge` pixels in the image plane.
 
@@ -409,16 +381,8 @@ def fit_edge(depth, valid, params: MeshParams, camera, *, tiles=None) -> tuple[M
     z = max(2, math.ceil((max(w - 1, 1) / t) / step) + 1)
     p = params.replace(tiles=tiles, samples=(rs, z))
     grid = sample_grid(depth, valid, p, weights=weights)
-    points = grid.reshape(-1, 2).astype(np.int64)
     t1 = time.perf_counter()
-    rounds = 0
-    for rounds in range(1, 7):  # noqa: B007 (the count is reported)
-        mesh = delaunay_mesh(points.reshape(-1, 1, 2), depth, valid, camera)
-        extra = _split_points(mesh, valid, max_edge) if not mesh.is_empty else np.zeros((0, 2))
-        if len(extra) == 0:
-            break
-        points = np.concatenate([points, extra])
-    mesh = delaunay_mesh(points.reshape(-1, 1, 2), depth, valid, camera, max_edge=max_edge)
+    mesh, rounds, points = refine_to_edge(grid, depth, valid, camera, max_edge)
     t2 = time.perf_counter()
     mesh = flip_edges(mesh, depth, valid, params)
     t3 = time.perf_counter()

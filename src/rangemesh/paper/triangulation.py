@@ -10,6 +10,7 @@ import numpy as np
 from ..camera import as_camera, backproject
 from ..geometry.delaunay import delaunay_sweep, legalize_all
 from ..geometry.halfedges import build_halfedges, neighbors_from_halfedges
+from ..geometry.signals import holding_signals
 from ..mesh import Mesh, Stats, count_edges, empty_mesh
 from .triangulation_kernels import prune_dangling
 
@@ -21,6 +22,7 @@ def _empty(camera, shape, grid_shape, n_points, reason):
                                            reason=reason))
 
 
+@holding_signals
 def triangulate_points(pts: np.ndarray, engine: str = "sweep") -> tuple[np.ndarray, np.ndarray]:
     """The canonical Delaunay triangulation of distinct integer points.
 
@@ -95,6 +97,7 @@ def triangulate_points(pts: np.ndarray, engine: str = "sweep") -> tuple[np.ndarr
     return faces, neighbors_from_halfedges(halfedges)
 
 
+@holding_signals
 def delaunay_mesh(grid: np.ndarray, depth: np.ndarray, valid: np.ndarray, camera=None, *,
                   max_edge: float | None = None, engine: str = "sweep") -> Mesh:
     """Triangulate the valid samples and lift them to 3-D (SPEC 2.1-2.4).

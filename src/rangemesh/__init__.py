@@ -17,7 +17,7 @@ first use, so that ``import rangemesh`` does not load Dask or matplotlib.
 
 from ._version import __version__
 from .camera import Orthographic, Pinhole, backproject
-from .io import read_range_image, write_mesh
+from .io import read_mesh, read_range_image, write_mesh
 from .mesh import Mesh, Stats
 from .metrics import Evaluation, discontinuity_mask, evaluate
 from .paper import curvature, delaunay_mesh, fill_gaps, flip_edges, sample_grid, sampling_weights
@@ -60,6 +60,7 @@ __all__ = [
     "triangle_disparities",
     "triangulate",
     "write_mesh",
+    "read_mesh",
 ]
 
 

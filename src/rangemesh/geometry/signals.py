@@ -4,13 +4,20 @@ Python runs a signal handler between two bytecodes. A Numba kernel is one
 long C call, but it may call back into Python (to build an exception object,
 say); a ``KeyboardInterrupt`` raised inside such a callback cannot unwind
 through the compiled frames and ends in ``SystemError`` or a segmentation
-fault. So the kernels of a stage run with SIGINT, SIGTERM and SIGHUP blocked
-in the calling thread; a signal that arrives meanwhile stays pending and is
-delivered the moment the stage returns, in plain Python code, where it
+fault. So while the kernels of a stage run:
+
+* SIGINT, SIGTERM and SIGHUP are blocked in the calling thread, and
+* their Python handlers are swapped for one that only notes the signal
+  (a signal sent to the process may reach another thread, a BLAS worker
+  for instance, that does not block it; its handler still runs in the main
+  thread, possibly inside such a callback, where it must not raise).
+
+When the stage returns, the mask and the handlers are put back and a noted
+signal is raised again, in plain Python code, where the original handler
 unwinds normally (``finally`` blocks run, temporary files are removed).
 
-The cost is two system calls per stage, a few microseconds. A Ctrl-C waits
-for the stage that is running (milliseconds to a few seconds on the largest
+The cost is a few system calls per stage, microseconds. A Ctrl-C waits for
+the stage that is running (milliseconds, a few seconds on the largest
 images), never for the whole job.
 """
 
@@ -22,27 +29,46 @@ from contextlib import contextmanager
 
 __all__ = ["deferred_signals", "holding_signals", "HELD_SIGNALS"]
 
-HELD_SIGNALS = frozenset(
+HELD_SIGNALS = tuple(
     getattr(signal, name) for name in ("SIGINT", "SIGTERM", "SIGHUP") if hasattr(signal, name)
 )
+
+_state = {"depth": 0}
+_noted: list[int] = []
+
+
+def _note(signum, frame):
+    _noted.append(signum)
 
 
 @contextmanager
 def deferred_signals():
-    """Block `HELD_SIGNALS` in this thread inside the block; deliver pending ones after.
+    """Hold `HELD_SIGNALS` inside the block; deliver the first one that came after it.
 
-    Does nothing where POSIX signal masks do not exist (Windows) and in
-    threads other than the main one (Python runs handlers in the main thread
-    only, so only its mask matters).
+    Nested blocks hold them once, for the outermost. Outside the main thread
+    (where Python runs no handler) this does nothing.
     """
-    if not hasattr(signal, "pthread_sigmask") or threading.current_thread() is not threading.main_thread():
+    if _state["depth"] or threading.current_thread() is not threading.main_thread():
         yield
         return
-    old = signal.pthread_sigmask(signal.SIG_BLOCK, HELD_SIGNALS)
+    # only handlers set from Python can be put back (getsignal gives None otherwise)
+    held = [s for s in HELD_SIGNALS if signal.getsignal(s) is not None]
+    old_handlers = {s: signal.signal(s, _note) for s in held}
+    mask = hasattr(signal, "pthread_sigmask")
+    old_mask = signal.pthread_sigmask(signal.SIG_BLOCK, held) if mask else None
+    _state["depth"] = 1
     try:
         yield
     finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, old)
+        _state["depth"] = 0
+        if mask:
+            signal.pthread_sigmask(signal.SIG_SETMASK, old_mask)  # pending ones reach _note
+        for s, handler in old_handlers.items():
+            signal.signal(s, handler)
+        if _noted:
+            first = _noted[0]
+            _noted.clear()
+            signal.raise_signal(first)  # now the original handler takes it
 
 
 def holding_signals(func):

@@ -552,6 +552,9 @@ def test_d27_nonsense_meshes_are_refused(chair_file, chair, tmp_path, capsys):
 
     bad = dataclasses.replace(m, vertices=np.where(np.arange(len(m.vertices))[:, None] == 3,
                                                    np.inf, m.vertices))
-    rangemesh.write_mesh(bad, tmp_path / "inf.ply")
+    _ply_with_faces(tmp_path / "inf.ply", bad, bad.faces)  # another writer: ours refuses
     one_error_line(capsys, main(["eval", str(chair_file), str(tmp_path / "inf.ply")]),
                    match="not finite")
+    with pytest.raises(ValueError, match="not finite"):
+        rangemesh.write_mesh(bad, tmp_path / "never.ply")
+    assert not (tmp_path / "never.ply").exists()

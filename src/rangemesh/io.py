@@ -237,7 +237,9 @@ def write_mesh(mesh: Mesh, path: str | os.PathLike, *, ascii: bool = False,
     Raises
     ------
     ValueError
-        For an unknown suffix, or ``ascii``/``pixels`` with another format.
+        For an unknown suffix, ``ascii``/``pixels`` with another format, a
+        mesh whose arrays are not a mesh (see `rangemesh.mesh.check_arrays`),
+        or a vertex coordinate beyond float32's range.
     FileNotFoundError
         If the folder does not exist.
 
@@ -254,6 +256,11 @@ def write_mesh(mesh: Mesh, path: str | os.PathLike, *, ascii: bool = False,
                          f"{', '.join(MESH_SUFFIXES)}")
     if suffix != ".ply" and (ascii or pixels):
         raise ValueError(f"{path}: ascii and pixels apply to PLY files only")
+    check_arrays(mesh.vertices, mesh.faces, mesh.pixels, mesh.image_shape, what=str(path))
+    largest = float(np.abs(mesh.vertices).max()) if mesh.vertices.size else 0.0
+    if largest > float(np.finfo(np.float32).max):
+        raise ValueError(f"{path}: a vertex coordinate of {largest:g} does not fit the float32 of "
+                         f"mesh files; scale the vertices (the camera's kx, ky, kz or depth_scale)")
     with atomic_path(path) as tmp:
         if suffix == ".ply":
             _write_ply(mesh, tmp, ascii, pixels)

@@ -7,7 +7,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from .mesh import Mesh, check_arrays
-from .paper.sampling import curvature
+from .paper.sampling import curvature, valid_span
 from .prepare import to_depth_and_mask
 from .render import per_span, relative_error, render_depth
 
@@ -78,7 +78,7 @@ def discontinuity_mask(depth: np.ndarray, valid: np.ndarray, threshold: float = 
     span = float(depth[valid].max() - depth[valid].min())
     K = curvature(depth, valid, levels=1)
     if span > 0:
-        K = per_span(K, span, 255.0)
+        K = per_span(K, span, 255.0, out=K)
     return valid & (K >= threshold)
 
 
@@ -122,12 +122,8 @@ def evaluate(mesh: Mesh, depth, *, background=None, discontinuities: np.ndarray 
     check_arrays(mesh.vertices, mesh.faces, mesh.pixels, mesh.image_shape)
     if mesh.image_shape != d.shape:
         raise ValueError(f"depth has shape {d.shape} but the mesh was made from {mesh.image_shape}")
-    n_valid = int(valid.sum())
-    span = float(d[valid].max() - d[valid].min()) if n_valid else 0.0
-    pred, _ = render_depth(mesh)
-    covered = valid & np.isfinite(pred)
-    n_cov = int(covered.sum())
-    err = per_span(np.abs(pred[covered] - d[covered]), span, 100.0)
+    if isinstance(band, bool) or not isinstance(band, (int, np.integer)) or band < 0:
+        raise ValueError(f"band must be a whole number >= 0, got {band!r}")
     if discontinuities is None:
         discontinuities = discontinuity_mask(d, valid)
     elif np.shape(discontinuities) != d.shape:
@@ -135,13 +131,27 @@ def evaluate(mesh: Mesh, depth, *, background=None, discontinuities: np.ndarray 
             f"discontinuities must have the image's shape {d.shape}, "
             f"got {np.shape(discontinuities)}"
         )
-    if isinstance(band, bool) or not isinstance(band, (int, np.integer)) or band < 0:
-        raise ValueError(f"band must be a whole number >= 0, got {band!r}")
     near = np.asarray(discontinuities, bool)
     if band > 0:
         from scipy import ndimage  # imported here: start-up time of the command line matters
-  # iterations=0 would mean "until nothing changes" to SciPy
+
+        # iterations=0 would mean "until nothing changes" to SciPy
         near = ndimage.binary_dilation(near, structure=np.ones((3, 3), bool), iterations=band)
+    n_valid = int(np.count_nonzero(valid))
+    span = valid_span(d, valid)
+    # Full-size buffers are the memory of a large image: reuse them in place and
+    # drop each as soon as it is spent (peak about 6.5x a float32 image).
+    pred, face = render_depth(mesh)
+    del face
+    covered = valid & np.isfinite(pred)
+    del valid
+    n_cov = int(np.count_nonzero(covered))
+    np.subtract(pred, d, out=pred)
+    del d
+    err = pred[covered]
+    del pred
+    np.abs(err, out=err)
+    per_span(err, span, 100.0, out=err)
     in_band = near[covered]
     return Evaluation(
         relative_error=float(err.mean()) if n_cov else float("nan"),

@@ -115,16 +115,17 @@ def relative_error(mesh: Mesh, depth: np.ndarray, valid: np.ndarray) -> float:
     return float(per_span(np.mean(np.abs(pred[covered] - depth[covered])), span, 100.0))
 
 
-def per_span(x, span: float, full: float):
+def per_span(x, span: float, full: float, *, out=None):
     """``x * full / span`` (``x`` a number or an array): a share of the depth range.
 
     0 when the span is 0 (a constant image has no error). For a subnormal
     span, ``full / span`` overflows, so ``x`` is divided first; otherwise the
-    factor is applied as one multiplication.
+    factor is applied as one multiplication. `out` (an array, possibly `x`)
+    receives the result without a new array.
     """
     if not span > 0:
-        return x * 0.0
+        return np.multiply(x, 0.0, out=out)
     factor = full / span
     if math.isfinite(factor):
-        return x * factor
-    return (x / span) * full
+        return np.multiply(x, factor, out=out)
+    return np.multiply(np.divide(x, span, out=out), full, out=out)

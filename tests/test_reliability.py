@@ -558,3 +558,19 @@ def test_d27_nonsense_meshes_are_refused(chair_file, chair, tmp_path, capsys):
     with pytest.raises(ValueError, match="not finite"):
         rangemesh.write_mesh(bad, tmp_path / "never.ply")
     assert not (tmp_path / "never.ply").exists()
+
+
+# ---------------------------------------------------------------- memory rule
+
+
+def test_an_image_larger_than_free_memory_is_refused_before_work(monkeypatch, chair, chair_file,
+                                                                  capsys):
+    import rangemesh.pipeline as pl
+
+    # 96 x 96 pixels x 20 bytes = 184,320 bytes: refuse with less available, mesh with more
+    monkeypatch.setattr(pl, "available_memory", lambda: 184_319)
+    with pytest.raises(MemoryError, match="96x96 image needs"):
+        rangemesh.triangulate(chair, background=0)
+    one_error_line(capsys, main(["mesh", str(chair_file)]), match="memory")
+    monkeypatch.setattr(pl, "available_memory", lambda: 184_320)
+    assert not rangemesh.triangulate(chair, background=0).is_empty

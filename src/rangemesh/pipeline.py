@@ -23,7 +23,7 @@ from .paper.stages import mesh_grid
 from .params import MeshParams
 from .prepare import check_image, mask_into, to_depth_and_mask
 
-__all__ = ["triangulate", "resolve_params", "prepare", "run", "Workspace"]
+__all__ = ["triangulate", "resolve_params", "prepare", "run", "Workspace", "check_memory"]
 
 
 def resolve_params(params: MeshParams | None, overrides: dict) -> MeshParams:
@@ -58,6 +58,49 @@ class Workspace:
         self.weights = np.zeros(shape)
 
 
+# Peak working memory of `run` per image pixel, bytes: float64 depth, weights, the mask and
+# the rest, measured by benchmarks/memory.py (4.2x a float32 image, 17 bytes a pixel), rounded up.
+BYTES_PER_PIXEL = 20
+
+
+def available_memory() -> int | None:
+    """Bytes of memory the system can give without swapping (Linux ``MemAvailable``), or None."""
+    try:
+        with open("/proc/meminfo") as fh:
+            for line in fh:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    return None
+
+
+def check_memory(shape) -> None:
+    """Refuse an image whose meshing would need more memory than the machine has free.
+
+    The rule: ``BYTES_PER_PIXEL`` (20) bytes per pixel, against the memory
+    available now. Failing at once with a clear message beats being killed by
+    the kernel's out-of-memory handler half way, or swapping the machine to a
+    halt.
+
+    Raises
+    ------
+    MemoryError
+    """
+    need = int(shape[0]) * int(shape[1]) * BYTES_PER_PIXEL
+    free = available_memory()
+    if free is not None and need > free:
+        raise MemoryError(
+            f"a {shape[0]}x{shape[1]} image needs about {_size(need)} of memory to mesh "
+            f"({BYTES_PER_PIXEL} bytes a pixel) and {_size(free)} are available; "
+            f"mesh it in parts or on a larger machine"
+        )
+
+
+def _size(n: int) -> str:
+    return f"{n / 2**30:.1f} GiB" if n >= 2**30 else f"{n / 2**20:.1f} MiB"
+
+
 def prepare(image, params: MeshParams, background=None, *,
             workspace: Workspace | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Depth and validity mask as stage one sees them: checked, masked, gap-filled.
@@ -78,6 +121,7 @@ def prepare(image, params: MeshParams, background=None, *,
     """
     arr, background = check_image(image, background)
     if workspace is None:
+        check_memory(arr.shape)
         depth = np.zeros(arr.shape, np.float64)
         valid = np.zeros(arr.shape, np.bool_)
     else:
@@ -207,10 +251,17 @@ def triangulate(image, params: MeshParams | None = None, *, background=None, cam
     Raises
     ------
     ValueError
-        Bad image shape, parameters out of range (e.g. more tiles than fit),
-        or ``samples`` together with a target.
+        Bad image shape, parameters out of range (e.g. more tiles than fit,
+        or a sample grid with more entries than the image has pixels, see
+        `rangemesh.paper.sampling.max_grid_entries`), ``samples`` together
+        with a target, or a camera that maps pixels beyond the float range.
+        The message names the parameter.
     TypeError
-        Wrong kind of image, camera or parameter.
+        Wrong kind of image, camera or parameter (strings are never read as
+        numbers or flags).
+    MemoryError
+        The image needs more memory than the machine has available (20 bytes
+        a pixel, see `check_memory`).
 
     See Also
     --------

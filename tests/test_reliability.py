@@ -574,3 +574,38 @@ def test_an_image_larger_than_free_memory_is_refused_before_work(monkeypatch, ch
     one_error_line(capsys, main(["mesh", str(chair_file)]), match="memory")
     monkeypatch.setattr(pl, "available_memory", lambda: 184_320)
     assert not rangemesh.triangulate(chair, background=0).is_empty
+
+
+# ---------------------------------------------------------------- found by the second hostile run
+
+
+def test_eval_uses_the_camera_the_file_records(chair_file, tmp_path, capsys):
+    ply = tmp_path / "p.ply"
+    assert main(["mesh", str(chair_file), "-o", str(ply), "--intrinsics", "500,500,48,48",
+                 "--depth-scale", "0.001", "--quiet", "--json"]) == 0
+    made = capsys.readouterr().out
+    import json
+
+    want = json.loads(made)["evaluation"]["relative_error"]
+    assert main(["eval", str(chair_file), str(ply), "--json"]) == 0  # no camera flags needed
+    assert json.loads(capsys.readouterr().out)["relative_error"] == pytest.approx(want, rel=1e-6)
+    # another camera than the recorded one is refused instead of giving 75 % uncovered
+    one_error_line(capsys, main(["eval", str(chair_file), str(ply), "--scale", "1,1,1"]),
+                   match="was made with")
+    m = rangemesh.read_mesh(ply)
+    assert m.camera == rangemesh.Pinhole(500, 500, 48, 48, 0.001)
+
+
+def test_folders_and_pipes_are_not_files(tmp_path, capsys):
+    with pytest.raises(ValueError, match="folder"):
+        rangemesh.read_range_image(tmp_path)
+    fifo = tmp_path / "f.npy"
+    os.mkfifo(fifo)
+    one_error_line(capsys, main(["mesh", str(fifo)]), match="regular file")
+
+
+def test_a_closed_stdout_ends_quietly(chair_file):
+    # `rangemesh mesh ... --json | head`: here the reader leaves before the JSON is written
+    cmd = f"{sys.executable} -m rangemesh mesh {chair_file} --json --background 0 | true"
+    proc = subprocess.run(["bash", "-c", cmd], capture_output=True, text=True, timeout=120)
+    assert proc.stderr == "", proc.stderr

@@ -10,6 +10,7 @@ import argparse
 import contextlib
 import json
 import math
+import os
 import signal
 import sys
 import threading
@@ -452,7 +453,8 @@ def _cmd_info(args):
 def _cmd_eval(args):
     image = _read_image(args.image)
     bg = _resolve_background(args.background, image)
-    camera = _camera(args)
+    given = any(x is not None for x in (args.scale, args.intrinsics, args.depth_scale))
+    camera = _camera(args) if given else None  # None: the camera the file records
     try:
         mesh = read_mesh(args.mesh, camera=camera, image_shape=image.shape)
         ev = evaluate(mesh, image, background=bg)
@@ -562,7 +564,9 @@ def build_parser() -> argparse.ArgumentParser:
     e = sub.add_parser("eval", help="the paper's relative error of any mesh file",
                        description="Compare a mesh file with its range image: relative error "
                                    "(mean |depth - mesh| / depth range), RMS, max, edge band, "
-                                   "uncovered share. Give the camera the mesh was made with.")
+                                   "uncovered share. PLY files written by rangemesh record "
+                                   "their camera; for other files give the camera the mesh was "
+                                   "made with.")
     e.add_argument("image")
     e.add_argument("mesh", help=f"mesh file ({' '.join(MESH_SUFFIXES)})")
     _add_image_options(e)
@@ -626,6 +630,9 @@ def main(argv=None) -> int:
     try:
         with _signals_raise():
             return commands[args.command](args)
+    except BrokenPipeError:  # the reader went away (`rangemesh ... --json | head`): stop quietly
+        sys.stdout = open(os.devnull, "w")  # noqa: SIM115 - Python flushes stdout at exit
+        return 128 + 13  # SIGPIPE's status, as a shell reports a killed writer
     except KeyboardInterrupt as exc:
         signum = getattr(exc, "signum", signal.SIGINT)
         print(f"rangemesh: interrupted ({signal.Signals(signum).name}) after "

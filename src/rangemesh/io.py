@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from ._optional import require
-from .camera import Orthographic
+from .camera import Orthographic, Pinhole
 from .mesh import Mesh, Stats, check_arrays, count_edges
 
 __all__ = [
@@ -56,6 +56,16 @@ def _read_pcd_z(path: Path) -> np.ndarray:
     if h <= 1:
         raise ValueError(f"{path}: the point cloud is not organised (height {h}); no image to mesh")
     return pc.numpy(("z",)).reshape(h, w)
+
+
+def _check_readable(path: Path) -> None:
+    """A regular file (or a link to one); a folder or a missing path is said so."""
+    if path.is_dir():
+        raise ValueError(f"{path}: is a folder, not a file")
+    if path.exists() and not path.is_file():
+        raise ValueError(f"{path}: is not a regular file (a pipe or a device?)")
+    if not path.is_file():
+        raise FileNotFoundError(f"{path}: no such file")
 
 
 def _first_line(exc: BaseException) -> str:
@@ -93,8 +103,7 @@ def read_range_image(path: str | os.PathLike) -> np.ndarray:
     they read byte-swapped, as in every standard reader.
     """
     path = Path(path)
-    if not path.is_file():
-        raise FileNotFoundError(f"{path}: no such file")
+    _check_readable(path)
     suffix = _suffix(path)
     if suffix not in IMAGE_SUFFIXES:
         raise ValueError(f"{path}: unknown image type {suffix!r}; known: {', '.join(IMAGE_SUFFIXES)}")
@@ -211,7 +220,8 @@ def _write_ply(mesh: Mesh, tmp: Path, ascii: bool, pixels: bool):
     PlyData(
         [PlyElement.describe(vert, "vertex"), PlyElement.describe(face, "face")],
         text=ascii,
-        comments=[f"rangemesh image_shape {mesh.image_shape[0]} {mesh.image_shape[1]}"],
+        comments=[f"rangemesh image_shape {mesh.image_shape[0]} {mesh.image_shape[1]}",
+                  "rangemesh camera " + _camera_text(mesh.camera)],
     ).write(str(tmp))
 
 
@@ -281,7 +291,9 @@ def read_mesh(path: str | os.PathLike, *, camera=None, image_shape=None) -> Mesh
         back their ``row``/``col``; otherwise pixels are empty and `evaluate`
         projects the vertices with the camera.
     camera : Orthographic or Pinhole, optional
-        The camera the mesh was made with (default orthographic 1, 1, 1).
+        The camera the mesh was made with. Default: the camera a PLY written
+        by rangemesh records, else orthographic 1, 1, 1. A camera that
+        differs from the recorded one is refused.
     image_shape : (int, int), optional
         Shape of the range image the mesh is meant for; a PLY written by
         rangemesh records the shape it was made from, and a different one is
@@ -301,13 +313,13 @@ def read_mesh(path: str | os.PathLike, *, camera=None, image_shape=None) -> Mesh
         differs from `image_shape`.
     """
     path = Path(path)
-    if not path.is_file():
-        raise FileNotFoundError(f"{path}: no such file")
+    _check_readable(path)
     suffix = _suffix(path)
     if suffix not in MESH_SUFFIXES:
         raise ValueError(f"{path}: unknown mesh format {suffix!r}; known: {', '.join(MESH_SUFFIXES)}")
     pixels = np.zeros((0, 2), np.int32)
     shape = (0, 0)
+    recorded = None
     if suffix != ".ply":
         trimesh = require("trimesh", f"reading {suffix} meshes")
     try:
@@ -325,6 +337,8 @@ def read_mesh(path: str | os.PathLike, *, camera=None, image_shape=None) -> Mesh
                 parts = c.split()
                 if len(parts) == 4 and parts[:2] == ["rangemesh", "image_shape"]:
                     shape = (int(parts[2]), int(parts[3]))
+                if len(parts) >= 3 and parts[:2] == ["rangemesh", "camera"]:
+                    recorded = _camera_from_text(parts[2:])
         else:
             tm = trimesh.load(path, process=False, force="mesh")
             vertices = np.asarray(tm.vertices, np.float64)
@@ -342,8 +356,32 @@ def read_mesh(path: str | os.PathLike, *, camera=None, image_shape=None) -> Mesh
             raise ValueError(f"{path}: the mesh was made from a {shape[0]}x{shape[1]} image, "
                              f"not from this {given[0]}x{given[1]} one")
         shape = given
+    if camera is not None and recorded is not None and camera != recorded:
+        raise ValueError(f"{path}: the mesh was made with {recorded}, not {camera}; give its "
+                         f"camera, or none to use the one the file records")
     check_arrays(vertices, faces, pixels, shape, what=str(path))
     stats = Stats(vertices=len(vertices), triangles=len(faces), edges=count_edges(faces))
-    return Mesh(vertices=vertices, faces=faces, pixels=pixels,
-                camera=camera if camera is not None else Orthographic(),
+    camera = camera if camera is not None else recorded if recorded is not None else Orthographic()
+    return Mesh(vertices=vertices, faces=faces, pixels=pixels, camera=camera,
                 image_shape=shape, stats=stats)
+
+
+def _camera_text(camera) -> str:
+    """The camera as a PLY comment: ``orthographic kx ky kz`` or ``pinhole fx fy cx cy scale``."""
+    if isinstance(camera, Pinhole):
+        values = (camera.fx, camera.fy, camera.cx, camera.cy, camera.depth_scale)
+        return "pinhole " + " ".join(repr(float(v)) for v in values)
+    return "orthographic " + " ".join(repr(float(v)) for v in (camera.kx, camera.ky, camera.kz))
+
+
+def _camera_from_text(parts):
+    """The camera of a ``rangemesh camera ...`` comment, or None if it cannot be read."""
+    try:
+        values = [float(p) for p in parts[1:]]
+        if parts[0] == "pinhole" and len(values) == 5:
+            return Pinhole(*values[:4], depth_scale=values[4])
+        if parts[0] == "orthographic" and len(values) == 3:
+            return Orthographic(*values)
+    except (ValueError, TypeError):
+        pass
+    return None  # another writer's comment, or a damaged one: the caller's camera decides

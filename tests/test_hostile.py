@@ -25,10 +25,11 @@ from hypothesis import strategies as st
 import rangemesh
 from rangemesh.cli import main
 
+from .conftest import PHASES
 from .helpers import assert_valid_mesh
 
 EXAMPLES = int(os.environ.get("RANGEMESH_HOSTILE_EXAMPLES", "30"))
-hostile = settings(max_examples=EXAMPLES, deadline=None, derandomize=EXAMPLES <= 100,
+hostile = settings(max_examples=EXAMPLES, deadline=None, derandomize=EXAMPLES <= 100, phases=PHASES,
                    suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large,
                                           HealthCheck.function_scoped_fixture])
 

@@ -89,6 +89,7 @@ OURS = [
     ("rangemesh adaptive, no flips", dict(sampling="adaptive", flips=None)),
     ("rangemesh uniform+error (Table I baseline)", dict(sampling="uniform", flips="error")),
     ("rangemesh uniform, no flips", dict(sampling="uniform", flips=None)),
+    ("rangemesh greedy insertion", dict(method="greedy")),
 ]
 
 
@@ -344,6 +345,8 @@ def run(images, budgets, repeat, peers=True, log=print):
                 f"4x4 tiles, {budget[0]}x{budget[1]} samples"
             n = None
             for label, opts in OURS:
+                if opts.get("method") == "greedy" and not isinstance(budget, int):
+                    continue  # greedy insertion takes a vertex count, not a grid
                 mesh, ms = _timed(lambda opts=opts, kw=kw, image=image: triangulate(
                     image.depth, background=image.background, **opts, **kw), repeat)
                 rows.append(_record(image, bname, label, mesh, ms, valid))

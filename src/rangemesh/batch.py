@@ -222,7 +222,8 @@ def _clean_stale_parts(out_dir: Path):
 def mesh_many(paths, out_dir, params: MeshParams | None = None, *, background=None, camera=None,
               scheduler: str | None = None, workers: int | None = None, overwrite: bool = False,
               fmt: str = ".ply", progress: bool = False, vertices=None, max_error=None,
-              max_edge=None, connect_timeout: float = 10.0, **overrides) -> list[BatchResult]:
+              max_edge=None, connect_timeout: float = 10.0, method: str = "paper",
+              **overrides) -> list[BatchResult]:
     """Mesh many range images into `out_dir`, in parallel, through Dask.
 
     Parameters
@@ -232,7 +233,7 @@ def mesh_many(paths, out_dir, params: MeshParams | None = None, *, background=No
     out_dir : str or os.PathLike
         Folder for the meshes (created if needed) and for
         ``rangemesh-batch.csv`` / ``.json`` with one row per input.
-    params, background, camera, vertices, max_error, max_edge, **overrides
+    params, background, camera, vertices, max_error, max_edge, method, **overrides
         As for `rangemesh.triangulate`, the same for every image;
         ``background='auto'`` takes 0 for integer images and only NaN/inf for
         float images, image by image.
@@ -278,6 +279,8 @@ def mesh_many(paths, out_dir, params: MeshParams | None = None, *, background=No
     camera = as_camera(camera)
     targets = {k: v for k, v in (("vertices", vertices), ("max_error", max_error),
                                  ("max_edge", max_edge)) if v is not None}
+    if method != "paper":
+        targets["method"] = method
     files = expand_inputs([paths] if isinstance(paths, (str, os.PathLike)) else paths)
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)

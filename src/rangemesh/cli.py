@@ -135,6 +135,9 @@ def _add_mesh_options(p):
     g.add_argument("--samples", type=_pair, default=None, metavar="RxZ",
                    help=f"samples per tile; the grid is ((R-1)V+1) x ((Z-1)H+1) points "
                         f"(default {d('samples')})")
+    p.add_argument("--method", choices=["paper", "greedy"], default="paper",
+                   help="paper: Garcia & Sappa's pipeline (default); greedy: insert the worst "
+                        "pixel until --vertices or --max-error is met (one pass)")
     t = p.add_argument_group("ask for the result instead of the grid (instead of --samples)")
     t.add_argument("--vertices", type=int, default=None,
                    help="about this many vertices (within 2 %%); tiles and samples are chosen")
@@ -336,7 +339,21 @@ def _targets(args) -> dict:
     return targets
 
 
+def _check_method(args):
+    """Options of the paper's method are refused with --method greedy, not silently ignored."""
+    if args.method != "greedy":
+        return
+    paper = [opt for opt in _FIELDS if opt != "threads" and getattr(args, opt, None) is not None]
+    paper += ["flips"] if args.flips is not _UNSET else []
+    if paper:
+        raise UserError(f"--{paper[0].replace('_', '-')} belongs to --method paper; --method "
+                        f"greedy takes --vertices or --max-error")
+    if args.vertices is None and args.max_error is None:
+        raise UserError("--method greedy needs --vertices N or --max-error E")
+
+
 def _run_mesh(args, image, name, bg, outputs_for):
+    _check_method(args)
     params = _params(args)
     camera = _camera(args)
     _first_run_notice(args)
@@ -345,7 +362,8 @@ def _run_mesh(args, image, name, bg, outputs_for):
         given = [k for k, v in targets.items() if v is not None]
         extra = {"tiles": args.tiles} if (given and args.tiles is not None) else {}
         try:
-            mesh = triangulate(image, params, background=bg, camera=camera, **targets, **extra)
+            mesh = triangulate(image, params, background=bg, camera=camera, method=args.method,
+                               **targets, **extra)
         except (ValueError, TypeError, MemoryError) as exc:
             raise UserError(f"{name}: {_one_line(exc)}") from None
         bar.update(1)
@@ -475,6 +493,7 @@ def _cmd_eval(args):
 def _cmd_batch(args):
     from .batch import mesh_many, summarize
 
+    _check_method(args)
     params = _params(args)
     targets = _targets(args)
     camera = _camera(args)
@@ -486,7 +505,7 @@ def _cmd_batch(args):
                             camera=camera, scheduler=args.scheduler, workers=args.workers,
                             overwrite=args.overwrite, fmt="." + args.format,
                             progress=not (args.quiet or args.json) and sys.stderr.isatty(),
-                            **targets)
+                            method=args.method, **targets)
     except (ValueError, TypeError) as exc:
         raise UserError(_one_line(exc)) from None
     summary = summarize(results, time.perf_counter() - t0)

@@ -16,6 +16,7 @@ from .camera import as_camera, check_reach
 from .checks import real_number, whole_number
 from .geometry.pixels import valid_range
 from .geometry.signals import deferred_signals
+from .greedy import greedy_mesh
 from .mesh import Mesh, Stats, empty_mesh
 from .paper import targets
 from .paper.sampling import fill_gaps_inplace, sample_grid, sampling_weights
@@ -133,6 +134,18 @@ def prepare(image, params: MeshParams, background=None, *,
     return depth, valid
 
 
+def _check_method(method, params: MeshParams, vertices, max_error, overrides) -> None:
+    if method not in METHODS:
+        raise ValueError(f"method must be one of {METHODS}, got {method!r}")
+    if method == "greedy":
+        if vertices is None and max_error is None:
+            raise ValueError("method='greedy' needs a target: vertices=N or max_error=E")
+        paper_only = sorted(set(overrides) - {"fill_gaps", "workers"})
+        if paper_only or params.max_edge is not None:
+            raise ValueError(f"{paper_only or ['max_edge']} are parameters of method='paper'; "
+                             f"method='greedy' takes vertices or max_error (and fill_gaps)")
+
+
 def _targets_given(params: MeshParams, vertices, max_error, overrides) -> list[str]:
     if vertices is not None and max_error is not None:
         raise ValueError("vertices and max_error exclude each other: give one target")
@@ -151,8 +164,12 @@ def _targets_given(params: MeshParams, vertices, max_error, overrides) -> list[s
     return given
 
 
+METHODS = ("paper", "greedy")
+
+
 def run(image, params: MeshParams, *, background=None, camera=None, vertices=None,
-        max_error=None, tiles_given: bool = True, workspace: Workspace | None = None) -> Mesh:
+        max_error=None, tiles_given: bool = True, workspace: Workspace | None = None,
+        method: str = "paper") -> Mesh:
     """Prepare `image`, mesh it with the paper's method (or a target search), assemble stats.
 
     The arguments are those of `triangulate`, already resolved: `params`
@@ -182,7 +199,11 @@ def run(image, params: MeshParams, *, background=None, camera=None, vertices=Non
         return empty_mesh(camera, depth.shape, stats)
     target = {}
     tiles = params.tiles if tiles_given else None
-    if vertices is not None:
+    if method == "greedy":
+        ref = to_depth_and_mask(image, background) if max_error is not None else None
+        mesh, target = greedy_mesh(depth, valid, camera, vertices=vertices, max_error=max_error,
+                                   reference=ref)
+    elif vertices is not None:
         mesh, target = targets.fit_vertices(depth, valid, params, camera, int(vertices), tiles=tiles)
     elif max_error is not None:
         ref_depth, ref_valid = to_depth_and_mask(image, background)
@@ -208,7 +229,7 @@ def run(image, params: MeshParams, *, background=None, camera=None, vertices=Non
 
 def triangulate(image, params: MeshParams | None = None, *, background=None, camera=None,
                 vertices: int | None = None, max_error: float | None = None,
-                **overrides) -> Mesh:
+                method: str = "paper", **overrides) -> Mesh:
     """Mesh a range image: adaptive sampling, 2.5-D Delaunay, discontinuity-preserving flips.
 
     Parameters
@@ -230,6 +251,12 @@ def triangulate(image, params: MeshParams | None = None, *, background=None, cam
     max_error : float, optional
         Ask for the smallest grid whose relative error (percent, as
         `evaluate`) is at most this (see `rangemesh.paper.targets.fit_error`).
+    method : {'paper', 'greedy'}, default 'paper'
+        ``'paper'``: Garcia & Sappa's pipeline with every parameter below.
+        ``'greedy'``: greedy insertion (`rangemesh.greedy`): the worst pixel
+        becomes a vertex until exactly `vertices` vertices or a relative
+        error of `max_error` is reached, in one pass; needs one of them and
+        takes only ``fill_gaps`` of the parameters.
     **overrides
         Any field of `MeshParams`: ``tiles``, ``samples``, ``sampling``,
         ``flips``, ``levels``, ``curvature_floor``, ``fill_gaps``, ``delta``,
@@ -292,5 +319,6 @@ def triangulate(image, params: MeshParams | None = None, *, background=None, cam
     """
     params = resolve_params(params, overrides)
     _targets_given(params, vertices, max_error, overrides)
+    _check_method(method, params, vertices, max_error, overrides)
     return run(image, params, background=background, camera=camera, vertices=vertices,
-               max_error=max_error, tiles_given="tiles" in overrides)
+               max_error=max_error, tiles_given="tiles" in overrides, method=method)

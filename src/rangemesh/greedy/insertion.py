@@ -1,0 +1,129 @@
+"""Meshes by greedy insertion (Garland & Heckbert 1995), on a prepared range image."""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from ..camera import backproject
+from ..geometry.pixels import valid_range
+from ..geometry.signals import holding_signals
+from ..mesh import Mesh, Stats, count_edges, empty_mesh
+from ..render import relative_error
+from . import kernels as _k
+
+__all__ = ["greedy_mesh", "fill_background"]
+
+
+def fill_background(depth: np.ndarray, valid: np.ndarray) -> np.ndarray:
+    """Depth with every background pixel given the depth of its nearest valid pixel.
+
+    Vertex heights of the image corners come from here, and the planes the
+    error is measured against never fall to a background value: a silhouette
+    is an edge of the valid region, not a jump to zero.
+    """
+    if valid.all():
+        return depth
+    from scipy import ndimage
+
+    idx = ndimage.distance_transform_edt(~valid, return_distances=False, return_indices=True)
+    return depth[idx[0], idx[1]]
+
+
+def _assemble(vr, vc, tv, depth, valid, camera, shape):
+    """Drop triangles with a background vertex, then vertices no triangle uses; lift to 3-D."""
+    faces = tv.reshape(-1, 3)
+    keep = valid[vr[faces], vc[faces]].all(axis=1)
+    faces = faces[keep]
+    used = np.zeros(len(vr), bool)
+    used[faces.ravel()] = True
+    new_id = np.cumsum(used) - 1
+    faces = new_id[faces].astype(np.int32)
+    pixels = np.stack([vr[used], vc[used]], axis=1).astype(np.int32)
+    vertices = backproject(pixels[:, 0], pixels[:, 1], depth[pixels[:, 0], pixels[:, 1]], camera)
+    return vertices, faces, pixels
+
+
+@holding_signals
+def greedy_mesh(depth: np.ndarray, valid: np.ndarray, camera, *, vertices: int | None = None,
+                max_error: float | None = None, reference=None) -> tuple[Mesh, dict]:
+    """Mesh a prepared image by inserting its worst pixel until a target is met.
+
+    Parameters
+    ----------
+    depth, valid : (H, W) ndarrays
+        Prepared image (`rangemesh.pipeline.prepare`): float64 depth, bool mask.
+    camera : Orthographic or Pinhole
+    vertices : int, optional
+        Exactly this many vertices (every valid pixel if there are fewer).
+    max_error : float, optional
+        Insert until the relative error (percent of the valid depth range,
+        mean over the valid pixels, as `rangemesh.evaluate`) is at most this.
+    reference : (depth, valid), optional
+        The image the error bound is checked against (the original, before
+        gap filling); default `depth`, `valid`.
+
+    Returns
+    -------
+    mesh : Mesh
+    target : dict
+        What was asked and achieved, as the paper's targets report it.
+
+    Notes
+    -----
+    Triangles with a background vertex (an image corner outside the object)
+    are refined until they hold no valid pixel, then dropped, so the mesh
+    covers the valid pixels without spending vertices on the background.
+    """
+    h, w = depth.shape
+    if h < 2 or w < 2:
+        raise ValueError(f"greedy insertion needs an image of at least 2x2 pixels, got {h}x{w}")
+    t0 = time.perf_counter()
+    ref = (depth, valid) if reference is None else reference
+    lo, hi, n_valid = valid_range(depth, valid)
+    span = hi - lo
+    filled = fill_background(depth, valid)
+    # above every pixel's error (at most the span), with room to rank pixels above it
+    cover_key = 1.25 * max(float(span), 1.0)
+    want = n_valid if vertices is None else min(int(vertices), n_valid)
+    max_sum = -1.0 if max_error is None else float(max_error) / 100.0 * span * n_valid
+    runs = 0
+    asked = want
+    while True:
+        runs += 1
+        vr, vc, tv, _, total = _k.greedy_insert(depth, valid, filled, asked, max_sum, cover_key)
+        verts, faces, pixels = _assemble(vr, vc, tv, depth, valid, camera, (h, w))
+        got = len(pixels)
+        if vertices is not None and got < want and asked < n_valid and runs < 8:
+            asked += want - got  # vertices left without a triangle: insert as many more
+            continue
+        if max_error is not None and runs < 8 and len(faces):
+            m = Mesh(verts, faces, pixels, camera, (h, w))
+            if relative_error(m, *ref) > max_error and asked > got:
+                max_sum *= 0.9  # the running sum is an estimate: tighten and go on
+                continue
+        break
+    t1 = time.perf_counter()
+    stats = Stats(vertices=got, triangles=len(faces), edges=count_edges(faces),
+                  sampled_points=got, seconds={"insertion": t1 - t0})
+    if len(faces) == 0:
+        stats = Stats(seconds={"insertion": t1 - t0},
+                      reason="no triangle with valid corners: too few valid pixels")
+        return empty_mesh(camera, (h, w), stats), {}
+    mesh = Mesh(verts, faces, pixels, camera, (h, w), stats)
+    if vertices is not None:
+        ok = got == int(vertices)
+        note = "" if ok else (f"the image has only {n_valid} valid pixels" if n_valid < vertices
+                              else f"{got} vertices kept after dropping background triangles")
+        target = {"target": "vertices", "requested": int(vertices), "achieved": got, "met": ok,
+                  "meshings": runs}
+    else:
+        achieved = relative_error(mesh, *ref)
+        ok = achieved <= max_error
+        note = "" if ok else "the bound was not reached"
+        target = {"target": "max_error", "requested": float(max_error), "achieved": achieved,
+                  "met": ok, "meshings": runs, "vertices": got}
+    if note:
+        target["note"] = note
+    return mesh, target

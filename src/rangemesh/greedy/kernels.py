@@ -1,0 +1,409 @@
+"""Greedy insertion kernels: a Delaunay mesh refined at its worst pixel, one pixel at a time.
+
+The mesh starts as the image rectangle cut in two. Every triangle knows its
+worst pixel (largest vertical distance between the image and the triangle's
+plane) and the sum of its pixels' distances; an indexed max-heap orders the
+triangles by their worst pixel. Each step inserts the worst pixel of the worst
+triangle, splitting its triangle (or the two triangles of the edge it lies
+on), restores the Delaunay property with Lawson flips, and rasterises only the
+triangles that changed. This is Garland & Heckbert's "greedy insertion"
+(1995), the method of hmm and delatin, written here for range images:
+
+* background pixels never become vertices and never count in the error; the
+  background is filled with the nearest valid depth so that a silhouette is
+  not a jump to 0;
+* a triangle with a background vertex (an image corner) must not keep valid
+  pixels: its valid pixels come first in the heap, nearest to the corner
+  first (keys in ``(cover, 2 cover]``, above every error), so the triangles
+  dropped at the end cover only background;
+* pixels on an edge shared by two triangles belong to one of them (the one
+  on the edge's left when it is walked with rows, then columns, increasing),
+  so the error sums count every pixel once.
+
+Coordinates are integers (row, column) and every geometric predicate is exact
+in int64 for images up to about 30,000 pixels a side.
+"""
+
+import numpy as np
+from numba import njit
+
+from ..geometry.heap import rekey, sift_up
+
+
+@njit(cache=True)
+def _orient(ra, ca, rb, cb, rc, cc):
+    return (rb - ra) * (cc - ca) - (cb - ca) * (rc - ra)
+
+
+@njit(cache=True)
+def _incircle(ar, ac, br, bc, cr, cc, dr, dc):
+    """> 0 when d lies strictly inside the circle through the counter-clockwise a, b, c."""
+    adr = ar - dr
+    adc = ac - dc
+    bdr = br - dr
+    bdc = bc - dc
+    cdr = cr - dr
+    cdc = cc - dc
+    ad = adr * adr + adc * adc
+    bd = bdr * bdr + bdc * bdc
+    cd = cdr * cdr + cdc * cdc
+    return (adr * (bdc * cd - bd * cdc) - adc * (bdr * cd - bd * cdr) + ad * (bdr * cdc - bdc * cdr))
+
+
+@njit(cache=True)
+def _owns(ar, ac, br, bc):
+    """Whether the triangle left of the directed edge a -> b owns the pixels on it."""
+    return br > ar or (br == ar and bc > ac)
+
+
+@njit(cache=True)
+def _nxt(e):
+    return e - e % 3 + (e + 1) % 3
+
+
+@njit(cache=True)
+def _prv(e):
+    return e - e % 3 + (e + 2) % 3
+
+
+@njit(cache=True)
+def _link(he, a, b):
+    he[a] = b
+    if b >= 0:
+        he[b] = a
+
+
+@njit(cache=True)
+def _scan(t, tv, he, vr, vc, vz, vbg, depth, valid, cover_key, out):
+    """Rasterise triangle `t`: its worst pixel, that pixel's key, and its error sum.
+
+    Writes ``out[0] = key`` (-1 when no pixel can be inserted), ``out[1], out[2]``
+    = row, column of that pixel, ``out[3]`` = sum of |depth - plane| over the valid
+    pixels the triangle owns.
+    """
+    a = tv[3 * t]
+    b = tv[3 * t + 1]
+    c = tv[3 * t + 2]
+    ar, ac, az = vr[a], vc[a], vz[a]
+    br, bc, bz = vr[b], vc[b], vz[b]
+    cr, cc, cz = vr[c], vc[c], vz[c]
+    area = _orient(ar, ac, br, bc, cr, cc)
+    cover = vbg[a] or vbg[b] or vbg[c]
+    # pixels on an edge: the hull's always, a shared edge's by one side only
+    own0 = he[3 * t] < 0 or _owns(ar, ac, br, bc)
+    own1 = he[3 * t + 1] < 0 or _owns(br, bc, cr, cc)
+    own2 = he[3 * t + 2] < 0 or _owns(cr, cc, ar, ac)
+    r0 = min(ar, min(br, cr))
+    r1 = max(ar, max(br, cr))
+    c0 = min(ac, min(bc, cc))
+    c1 = max(ac, max(bc, cc))
+    best = -1.0
+    best_r = -1
+    best_c = -1
+    total = 0.0
+    inv = 1.0 / area
+    for r in range(r0, r1 + 1):
+        for c in range(c0, c1 + 1):
+            w0 = _orient(ar, ac, br, bc, r, c)  # opposite C
+            if w0 < 0 or (w0 == 0 and not own0):
+                continue
+            w1 = _orient(br, bc, cr, cc, r, c)  # opposite A
+            if w1 < 0 or (w1 == 0 and not own1):
+                continue
+            w2 = _orient(cr, cc, ar, ac, r, c)  # opposite B
+            if w2 < 0 or (w2 == 0 and not own2):
+                continue
+            if not valid[r, c]:
+                continue
+            z = (w1 * az + w2 * bz + w0 * cz) * inv
+            err = abs(depth[r, c] - z)
+            total += err
+            if (r == ar and c == ac) or (r == br and c == bc) or (r == cr and c == cc):
+                continue
+            if cover:
+                # nearest to a background corner first: carves the corner's fan away from
+                # the valid pixels with few vertices
+                dmin = 1e18
+                if vbg[a]:
+                    dmin = min(dmin, (r - ar) ** 2 + (c - ac) ** 2)
+                if vbg[b]:
+                    dmin = min(dmin, (r - br) ** 2 + (c - bc) ** 2)
+                if vbg[c]:
+                    dmin = min(dmin, (r - cr) ** 2 + (c - cc) ** 2)
+                key = cover_key * (1.0 + 1.0 / (1.0 + dmin))
+            else:
+                key = err
+            if key > best:
+                best = key
+                best_r = r
+                best_c = c
+    out[0] = best if best > 0.0 else -1.0
+    out[1] = best_r
+    out[2] = best_c
+    out[3] = total
+
+
+@njit(cache=True)
+def _legalize(e0, tv, he, vr, vc, changed, n_changed, stack):
+    """Lawson flips from half-edge `e0`, whose opposite vertex is the new point."""
+    top = 0
+    stack[top] = e0
+    top += 1
+    while top > 0:
+        top -= 1
+        a = stack[top]
+        b = he[a]
+        if b < 0:
+            continue
+        al = _nxt(a)
+        ar = _prv(a)
+        bn = _nxt(b)
+        bp = _prv(b)
+        pa = tv[a]
+        pb = tv[al]
+        pc = tv[ar]
+        pd = tv[bp]
+        if _incircle(vr[pa], vc[pa], vr[pb], vc[pb], vr[pc], vc[pc], vr[pd], vc[pd]) <= 0:
+            continue
+        # flip A-B to C-D: (A, B, C) + (B, A, D) -> (D, B, C) + (C, A, D)
+        hbp = he[bp]
+        har = he[ar]
+        tv[a] = pd
+        tv[b] = pc
+        _link(he, a, hbp)
+        _link(he, b, har)
+        _link(he, ar, bp)
+        changed[n_changed] = a // 3
+        changed[n_changed + 1] = b // 3
+        n_changed += 2
+        stack[top] = a  # (D, B, C): D -> B is opposite the new point C
+        stack[top + 1] = bn  # (C, A, D): A -> D is opposite C
+        top += 2
+    return n_changed
+
+
+@njit(cache=True)
+def _new_tri(tv, he, t, a, b, c):
+    tv[3 * t] = a
+    tv[3 * t + 1] = b
+    tv[3 * t + 2] = c
+    he[3 * t] = -1
+    he[3 * t + 1] = -1
+    he[3 * t + 2] = -1
+
+
+@njit(cache=True)
+def _insert(t, p, tv, he, vr, vc, n_t, changed, stack):
+    """Insert vertex `p` (inside or on an edge of triangle `t`); returns (n_t, n_changed)."""
+    e = 3 * t
+    pr, pc = vr[p], vc[p]
+    on = -1
+    for k in range(3):
+        a = tv[e + k]
+        b = tv[e + (k + 1) % 3]
+        if _orient(vr[a], vc[a], vr[b], vc[b], pr, pc) == 0:
+            on = k
+    n_changed = 0
+    if on < 0:
+        a, b, c = tv[e], tv[e + 1], tv[e + 2]
+        h_ab, h_bc, h_ca = he[e], he[e + 1], he[e + 2]
+        t1 = n_t
+        t2 = n_t + 1
+        _new_tri(tv, he, t, a, b, p)
+        _new_tri(tv, he, t1, b, c, p)
+        _new_tri(tv, he, t2, c, a, p)
+        _link(he, 3 * t, h_ab)
+        _link(he, 3 * t1, h_bc)
+        _link(he, 3 * t2, h_ca)
+        _link(he, 3 * t + 1, 3 * t1 + 2)
+        _link(he, 3 * t1 + 1, 3 * t2 + 2)
+        _link(he, 3 * t2 + 1, 3 * t + 2)
+        changed[0] = t
+        changed[1] = t1
+        changed[2] = t2
+        n_changed = 3
+        for s in (3 * t, 3 * t1, 3 * t2):
+            n_changed = _legalize(s, tv, he, vr, vc, changed, n_changed, stack)
+        return n_t + 2, n_changed
+    # on the edge A -> B of t, opposite C
+    ea = e + on
+    a = tv[ea]
+    b = tv[e + (on + 1) % 3]
+    c = tv[e + (on + 2) % 3]
+    h_bc = he[e + (on + 1) % 3]
+    h_ca = he[e + (on + 2) % 3]
+    tw = he[ea]
+    t1 = n_t
+    _new_tri(tv, he, t, a, p, c)  # A -> P, P -> C, C -> A
+    _new_tri(tv, he, t1, p, b, c)  # P -> B, B -> C, C -> P
+    _link(he, 3 * t + 2, h_ca)
+    _link(he, 3 * t1 + 1, h_bc)
+    _link(he, 3 * t + 1, 3 * t1 + 2)
+    changed[0] = t
+    changed[1] = t1
+    n_changed = 2
+    n_new = 1
+    outer = np.empty(4, np.int64)
+    outer[0] = 3 * t + 2
+    outer[1] = 3 * t1 + 1
+    n_outer = 2
+    if tw >= 0:
+        u = tw // 3
+        d = tv[_prv(tw)]  # (B, A, D)
+        h_ad = he[_nxt(tw)]
+        h_db = he[_prv(tw)]
+        t3 = n_t + 1
+        _new_tri(tv, he, u, b, p, d)  # B -> P, P -> D, D -> B
+        _new_tri(tv, he, t3, p, a, d)  # P -> A, A -> D, D -> P
+        _link(he, 3 * u + 2, h_db)
+        _link(he, 3 * t3 + 1, h_ad)
+        _link(he, 3 * u + 1, 3 * t3 + 2)
+        _link(he, 3 * u, 3 * t1)  # B -> P with P -> B
+        _link(he, 3 * t3, 3 * t)  # P -> A with A -> P
+        changed[2] = u
+        changed[3] = t3
+        n_changed = 4
+        n_new = 2
+        outer[2] = 3 * u + 2
+        outer[3] = 3 * t3 + 1
+        n_outer = 4
+    for i in range(n_outer):
+        n_changed = _legalize(outer[i], tv, he, vr, vc, changed, n_changed, stack)
+    return n_t + n_new, n_changed
+
+
+@njit(cache=True)
+def _grow_f(x, n):
+    y = np.empty(n, x.dtype)
+    y[: x.size] = x
+    return y
+
+
+@njit(cache=True)
+def greedy_insert(depth, valid, filled, max_vertices, max_sum, cover_key):
+    """Refine the image rectangle's two triangles at their worst pixels.
+
+    Parameters
+    ----------
+    depth : (H, W) float64
+        Depth; read on valid pixels only.
+    valid : (H, W) bool
+    filled : (H, W) float64
+        Depth with the background filled by the nearest valid depth (vertex heights).
+    max_vertices : int
+        Stop when this many vertices stand on valid pixels.
+    max_sum : float
+        Also stop when the summed error of the valid pixels is at most this
+        (and no valid pixel is left in a triangle with a background vertex).
+    cover_key : float
+        Larger than any pixel's error (the valid depth range, say): keys of
+        valid pixels in triangles with a background vertex lie above it.
+
+    Returns
+    -------
+    vr, vc : (V,) int64
+        Vertex pixels; the first four are the image corners.
+    tv : (3 * T,) int64
+        Triangles, counter-clockwise in (row, column).
+    n_valid_vertices : int
+    total : float
+        The summed error at the end.
+    """
+    h, w = depth.shape
+    cap_v = 1024
+    cap_t = 2 * cap_v + 8
+    vr = np.zeros(cap_v, np.int64)
+    vc = np.zeros(cap_v, np.int64)
+    vz = np.zeros(cap_v, np.float64)
+    vbg = np.zeros(cap_v, np.bool_)
+    tv = np.zeros(3 * cap_t, np.int64)
+    he = np.full(3 * cap_t, -1, np.int64)
+    terr = np.full(cap_t, -1.0)
+    tcr = np.zeros(cap_t, np.int64)
+    tcc = np.zeros(cap_t, np.int64)
+    tsum = np.zeros(cap_t)
+    heap = np.zeros(cap_t, np.int64)
+    slot = np.zeros(cap_t, np.int64)
+    is_vertex = np.zeros((h, w), np.bool_)
+    changed = np.zeros(64, np.int64)
+    stack = np.zeros(64, np.int64)
+    out = np.zeros(4)
+    corners_r = (0, h - 1, h - 1, 0)
+    corners_c = (0, 0, w - 1, w - 1)
+    for i in range(4):
+        r, c = corners_r[i], corners_c[i]
+        vr[i], vc[i], vz[i] = r, c, filled[r, c]
+        vbg[i] = not valid[r, c]
+        is_vertex[r, c] = True
+    n_v = 4
+    n_valid_v = 0
+    for i in range(4):
+        if valid[corners_r[i], corners_c[i]]:
+            n_valid_v += 1
+    # (0,0) (H-1,0) (H-1,W-1) and (0,0) (H-1,W-1) (0,W-1): counter-clockwise in (r, c)
+    _new_tri(tv, he, 0, 0, 1, 2)
+    _new_tri(tv, he, 1, 0, 2, 3)
+    _link(he, 2, 3)
+    n_t = 2
+    n_heap = 0
+    total = 0.0
+    for t in range(2):
+        _scan(t, tv, he, vr, vc, vz, vbg, depth, valid, cover_key, out)
+        terr[t], tcr[t], tcc[t], tsum[t] = out[0], out[1], out[2], out[3]
+        total += out[3]
+        heap[n_heap] = t
+        slot[t] = n_heap
+        sift_up(heap, slot, terr, n_heap)
+        n_heap += 1
+    while True:
+        if n_heap == 0 or n_valid_v >= max_vertices:
+            break
+        t = heap[0]
+        key = terr[t]
+        if key <= 0.0 or (key <= cover_key and total <= max_sum):
+            break
+        pr, pc = tcr[t], tcc[t]
+        # room for the new vertex and up to two new triangles
+        if n_v + 1 > cap_v:
+            cap_v *= 2
+            vr = _grow_f(vr, cap_v)
+            vc = _grow_f(vc, cap_v)
+            vz = _grow_f(vz, cap_v)
+            vbg = _grow_f(vbg, cap_v)
+        if n_t + 2 > cap_t:
+            cap_t = 2 * cap_t
+            tv = _grow_f(tv, 3 * cap_t)
+            he2 = np.full(3 * cap_t, -1, np.int64)
+            he2[: he.size] = he
+            he = he2
+            terr = _grow_f(terr, cap_t)
+            tcr = _grow_f(tcr, cap_t)
+            tcc = _grow_f(tcc, cap_t)
+            tsum = _grow_f(tsum, cap_t)
+            heap = _grow_f(heap, cap_t)
+            slot = _grow_f(slot, cap_t)
+        p = n_v
+        vr[p], vc[p], vz[p] = pr, pc, filled[pr, pc]
+        vbg[p] = False
+        is_vertex[pr, pc] = True
+        n_v += 1
+        n_valid_v += 1
+        # an insertion flips each triangle at most once: 2 entries a triangle is enough
+        if changed.size < 2 * n_t + 16:
+            changed = np.zeros(4 * n_t + 16, np.int64)
+            stack = np.zeros(4 * n_t + 16, np.int64)
+        old_t = n_t
+        n_t, n_changed = _insert(t, p, tv, he, vr, vc, n_t, changed, stack)
+        for s in range(old_t, n_t):  # new triangles join the heap
+            terr[s] = -1.0
+            tsum[s] = 0.0
+            heap[n_heap] = s
+            slot[s] = n_heap
+            n_heap += 1
+        for i in range(n_changed):
+            s = changed[i]
+            _scan(s, tv, he, vr, vc, vz, vbg, depth, valid, cover_key, out)
+            total += out[3] - tsum[s]
+            terr[s], tcr[s], tcc[s], tsum[s] = out[0], out[1], out[2], out[3]
+            rekey(heap, slot, terr, s, n_heap)
+    return vr[:n_v].copy(), vc[:n_v].copy(), tv[: 3 * n_t].copy(), n_valid_v, total

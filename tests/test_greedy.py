@@ -1,0 +1,150 @@
+"""Greedy insertion (method='greedy'): valid meshes, exact targets, and the greedy property itself.
+
+The checks are independent of the kernel: validity by `assert_valid_mesh`, errors
+by `evaluate`/`render_depth` (another rasteriser), the Delaunay property by the
+empty-circle test on every triangle, and greediness by comparing each inserted
+pixel with the worst pixel of the mesh before it.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+import rangemesh
+from rangemesh import evaluate, scenes, triangulate
+from rangemesh.render import render_depth
+
+from .helpers import assert_valid_mesh
+from .images import REAL_IMAGES, load
+
+CROPS = Path(__file__).parent / "data" / "crops.npz"
+CROP_BACKGROUND = {"chair": 0, "venus": None, "cones": 0, "tum": 0, "boxes": 0, "nyu": 2047,
+                   "mug": None}
+
+
+def crops():
+    data = np.load(CROPS)
+    return [(name, data[name], CROP_BACKGROUND[name]) for name in CROP_BACKGROUND]
+
+
+def _valid(image, background):
+    """Valid pixels after gap filling: vertices may stand on filled single-pixel holes."""
+    return rangemesh.fill_gaps(*rangemesh.to_depth_and_mask(image, background))[1]
+
+
+@pytest.mark.parametrize("name, image, background", crops(), ids=[c[0] for c in crops()])
+@pytest.mark.parametrize("n", [10, 120, 600])
+def test_vertex_count_is_exact_and_the_mesh_valid(name, image, background, n):
+    m = triangulate(image, background=background, vertices=n, method="greedy")
+    valid = _valid(image, background)
+    assert m.stats.vertices == len(m.vertices) == min(n, int(valid.sum()))
+    assert m.stats.target["met"]
+    assert_valid_mesh(m, valid)
+    # valid pixels are covered (ten vertices cannot trace a silhouette: no bound there)
+    if n >= 120:
+        assert evaluate(m, image, background=background).uncovered <= 1.0
+
+
+@pytest.mark.parametrize("name, image, background", crops(), ids=[c[0] for c in crops()])
+@pytest.mark.parametrize("bound", [0.3, 1.0, 3.0])
+def test_max_error_holds(name, image, background, bound):
+    m = triangulate(image, background=background, max_error=bound, method="greedy")
+    assert evaluate(m, image, background=background).relative_error <= bound
+    assert m.stats.target["met"] and m.stats.target["meshings"] <= 2
+
+
+def test_max_error_is_met_with_few_vertices_to_spare():
+    """One pass, by construction: the mesh with one vertex less would miss the bound."""
+    image = np.load(CROPS)["venus"].astype(float)
+    m = triangulate(image, max_error=1.0, method="greedy")
+    fewer = triangulate(image, vertices=m.stats.vertices - 1, method="greedy")
+    assert evaluate(fewer, image).relative_error > 1.0 >= evaluate(m, image).relative_error
+
+
+def _worst_pixel_error(mesh, depth):
+    pred, _ = render_depth(mesh)
+    return np.nanmax(np.abs(pred - depth))
+
+
+@pytest.mark.parametrize("scene", ["crease", "pyramid", "stairs", "box"])  # fully valid
+def test_each_vertex_is_the_worst_pixel_of_the_mesh_before_it(scene):
+    depth = scenes.make(scene, (40, 50), noise=0.3).depth
+    previous = None
+    for n in range(5, 60):
+        m = triangulate(depth, vertices=n, method="greedy")
+        if previous is not None:
+            old = {tuple(p) for p in previous.pixels.tolist()}
+            new = [tuple(p) for p in m.pixels.tolist() if tuple(p) not in old]
+            assert len(new) == 1 and len(old - {tuple(p) for p in m.pixels.tolist()}) == 0
+            pred, _ = render_depth(previous)
+            r, c = new[0]
+            worst = _worst_pixel_error(previous, depth)
+            assert abs(pred[r, c] - depth[r, c]) == pytest.approx(worst, rel=1e-9, abs=1e-9)
+        previous = m
+
+
+def _circumcircle_is_empty(mesh):
+    p = mesh.pixels.astype(np.int64)
+    for a, b, c in mesh.faces:
+        (ar, ac), (br, bc), (cr, cc) = p[a], p[b], p[c]
+        d = p - [0, 0]
+        adr, adc = ar - d[:, 0], ac - d[:, 1]
+        bdr, bdc = br - d[:, 0], bc - d[:, 1]
+        cdr, cdc = cr - d[:, 0], cc - d[:, 1]
+        det = (adr * (bdc * (cdr**2 + cdc**2) - (bdr**2 + bdc**2) * cdc)
+               - adc * (bdr * (cdr**2 + cdc**2) - (bdr**2 + bdc**2) * cdr)
+               + (adr**2 + adc**2) * (bdr * cdc - bdc * cdr))
+        if (det > 0).any():
+            return False
+    return True
+
+
+@given(st.integers(0, 2**31), st.integers(8, 30), st.integers(8, 30), st.integers(4, 80))
+def test_fully_valid_images_give_delaunay_meshes(seed, h, w, n):
+    depth = np.random.default_rng(seed).uniform(0, 100, (h, w))
+    m = triangulate(depth, vertices=n, method="greedy")
+    assert len(m.vertices) == min(n, h * w)
+    assert_valid_mesh(m)
+    assert _circumcircle_is_empty(m)
+
+
+@given(st.integers(0, 2**31), st.sampled_from(sorted(scenes.SCENES)), st.floats(0, 0.6),
+       st.integers(3, 400))
+def test_scenes_with_holes(seed, name, holes, n):
+    rng = np.random.default_rng(seed)
+    depth = scenes.make(name, (int(rng.integers(12, 60)), int(rng.integers(12, 60))),
+                        noise=0.2).depth
+    depth[rng.random(depth.shape) < holes] = np.nan
+    m = triangulate(depth, vertices=n, method="greedy", fill_gaps=False)
+    valid = np.isfinite(depth)
+    assert_valid_mesh(m, valid)
+    if not m.is_empty:
+        assert len(m.vertices) == min(n, int(valid.sum())) or m.stats.target.get("note")
+
+
+@pytest.mark.parametrize("rel, background", REAL_IMAGES, ids=[r[0].split("/")[-1] for r in REAL_IMAGES])
+def test_real_images(shared_data, rel, background):
+    image = load(shared_data, rel)
+    m = triangulate(image, background=background, vertices=3000, method="greedy")
+    valid = _valid(image, background)
+    assert len(m.vertices) == min(3000, int(valid.sum()))
+    assert_valid_mesh(m, valid, check_overlap=False)
+    ev = evaluate(m, image, background=background)
+    assert ev.uncovered <= 1.0
+
+
+def test_the_paper_is_the_default_and_greedy_refuses_paper_parameters():
+    depth = scenes.make("dome", (30, 30)).depth
+    assert triangulate(depth, vertices=100).stats.target["target"] == "vertices"
+    assert "tiles" in triangulate(depth, vertices=100).stats.target  # the paper's grid search
+    with pytest.raises(ValueError, match="needs a target"):
+        triangulate(depth, method="greedy")
+    with pytest.raises(ValueError, match="method='paper'"):
+        triangulate(depth, vertices=50, method="greedy", flips="error")
+    with pytest.raises(ValueError, match="method"):
+        triangulate(depth, vertices=50, method="delatin")

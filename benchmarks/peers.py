@@ -345,9 +345,9 @@ def run(images, budgets, repeat, peers=True, log=print):
                 f"4x4 tiles, {budget[0]}x{budget[1]} samples"
             n = None
             for label, opts in OURS:
-                if opts.get("method") == "greedy" and not isinstance(budget, int):
-                    continue  # greedy insertion takes a vertex count, not a grid
-                mesh, ms = _timed(lambda opts=opts, kw=kw, image=image: triangulate(
+                # greedy insertion takes a vertex count: the paper's, as the peers get
+                kw_m = {"vertices": n} if opts.get("method") == "greedy" else kw
+                mesh, ms = _timed(lambda opts=opts, kw=kw_m, image=image: triangulate(
                     image.depth, background=image.background, **opts, **kw), repeat)
                 rows.append(_record(image, bname, label, mesh, ms, valid))
                 if n is None:
@@ -377,7 +377,31 @@ def markdown_tables(rows):
                            f"| {r['relative_error']:.4f} | {r['edge_band_error']:.4f} "
                            f"| {r['rms_error']:.4f} | {r['max_error']:.2f} | {r['uncovered']:.2f} |")
     out.append("\n" + summary_table(rows))
+    out.append("\n" + peer_table(rows))
     return "\n".join(out)
+
+
+def peer_table(rows, mine="rangemesh greedy insertion"):
+    """Medians over cases of `mine`'s figures divided by each other method's, same case."""
+    by_case = {}
+    for r in rows:
+        by_case.setdefault((r["image"], r["budget"]), {})[r["method"]] = r
+    lines = [f"### {mine} against each method (medians over cases of ratios, same image and "
+             "budget; below 1: lower for us)\n",
+             "| against | cases | rel. error ratio | edge-band ratio | time ratio |",
+             "|---|---:|---:|---:|---:|"]
+    others = [m for m in dict.fromkeys(r["method"] for r in rows) if m != mine]
+    for other in others:
+        pairs = [(c[mine], c[other]) for c in by_case.values() if mine in c and other in c]
+
+        def ratio(key, pairs=pairs):
+            vals = [a[key] / b[key] for a, b in pairs
+                    if b[key] > 0 and np.isfinite(a[key]) and np.isfinite(b[key])]
+            return statistics.median(vals) if vals else float("nan")
+
+        lines.append(f"| {other} | {len(pairs)} | {ratio('relative_error'):.3f} "
+                     f"| {ratio('edge_band_error'):.3f} | {ratio('ms'):.2f} |")
+    return "\n".join(lines)
 
 
 def summary_table(rows):

@@ -81,14 +81,15 @@ def _scan(t, tv, he, vr, vc, vz, vbg, depth, valid, cover_key, out):
     = row, column of that pixel, ``out[3]`` = sum of |depth - plane| over the valid
     pixels the triangle owns.
     """
-    a = tv[3 * t]
-    b = tv[3 * t + 1]
-    c = tv[3 * t + 2]
-    ar, ac, az = vr[a], vc[a], vz[a]
-    br, bc, bz = vr[b], vc[b], vz[b]
-    cr, cc, cz = vr[c], vc[c], vz[c]
+    ia = tv[3 * t]
+    ib = tv[3 * t + 1]
+    ic = tv[3 * t + 2]
+    ar, ac, az = vr[ia], vc[ia], vz[ia]
+    br, bc, bz = vr[ib], vc[ib], vz[ib]
+    cr, cc, cz = vr[ic], vc[ic], vz[ic]
+    bga, bgb, bgc = vbg[ia], vbg[ib], vbg[ic]
     area = _orient(ar, ac, br, bc, cr, cc)
-    cover = vbg[a] or vbg[b] or vbg[c]
+    cover = bga or bgb or bgc
     # pixels on an edge: the hull's always, a shared edge's by one side only
     own0 = he[3 * t] < 0 or _owns(ar, ac, br, bc)
     own1 = he[3 * t + 1] < 0 or _owns(br, bc, cr, cc)
@@ -102,41 +103,62 @@ def _scan(t, tv, he, vr, vc, vz, vbg, depth, valid, cover_key, out):
     best_c = -1
     total = 0.0
     inv = 1.0 / area
+    # Edge functions are linear along a row: w(c) = w(c0) + slope * (c - c0). Each row
+    # is visited only over its span inside the triangle (exact integer bounds), as
+    # delatin does: bounding-box scans of long thin triangles cost 4x more.
+    s0 = br - ar  # slope along c of w0 = orient(A, B, p)
+    s1 = cr - br
+    s2 = ar - cr
     for r in range(r0, r1 + 1):
-        for c in range(c0, c1 + 1):
-            w0 = _orient(ar, ac, br, bc, r, c)  # opposite C
-            if w0 < 0 or (w0 == 0 and not own0):
-                continue
-            w1 = _orient(br, bc, cr, cc, r, c)  # opposite A
-            if w1 < 0 or (w1 == 0 and not own1):
-                continue
-            w2 = _orient(cr, cc, ar, ac, r, c)  # opposite B
-            if w2 < 0 or (w2 == 0 and not own2):
-                continue
-            if not valid[r, c]:
-                continue
-            z = (w1 * az + w2 * bz + w0 * cz) * inv
-            err = abs(depth[r, c] - z)
-            total += err
-            if (r == ar and c == ac) or (r == br and c == bc) or (r == cr and c == cc):
-                continue
-            if cover:
-                # nearest to a background corner first: carves the corner's fan away from
-                # the valid pixels with few vertices
-                dmin = 1e18
-                if vbg[a]:
-                    dmin = min(dmin, (r - ar) ** 2 + (c - ac) ** 2)
-                if vbg[b]:
-                    dmin = min(dmin, (r - br) ** 2 + (c - bc) ** 2)
-                if vbg[c]:
-                    dmin = min(dmin, (r - cr) ** 2 + (c - cc) ** 2)
-                key = cover_key * (1.0 + 1.0 / (1.0 + dmin))
-            else:
-                key = err
-            if key > best:
-                best = key
-                best_r = r
-                best_c = c
+        v0 = _orient(ar, ac, br, bc, r, c0)
+        v1 = _orient(br, bc, cr, cc, r, c0)
+        v2 = _orient(cr, cc, ar, ac, r, c0)
+        lo = c0
+        hi = c1
+        empty = False
+        for v, sl in ((v0, s0), (v1, s1), (v2, s2)):
+            if sl > 0:
+                if v < 0:
+                    lo = max(lo, c0 + (-v + sl - 1) // sl)
+            elif sl < 0:
+                if v < 0:
+                    empty = True
+                else:
+                    hi = min(hi, c0 + v // (-sl))
+            elif v < 0:
+                empty = True
+        if empty or lo > hi:
+            continue
+        w0 = v0 + s0 * (lo - c0)
+        w1 = v1 + s1 * (lo - c0)
+        w2 = v2 + s2 * (lo - c0)
+        for c in range(lo, hi + 1):
+            if ((w0 > 0 or (w0 == 0 and own0)) and (w1 > 0 or (w1 == 0 and own1))
+                    and (w2 > 0 or (w2 == 0 and own2)) and valid[r, c]):
+                z = (w1 * az + w2 * bz + w0 * cz) * inv
+                err = abs(depth[r, c] - z)
+                total += err
+                if not ((r == ar and c == ac) or (r == br and c == bc) or (r == cr and c == cc)):
+                    if cover:
+                        # nearest to a background corner first: carves the corner's fan
+                        # away from the valid pixels with few vertices
+                        dmin = 1e18
+                        if bga:
+                            dmin = min(dmin, (r - ar) ** 2 + (c - ac) ** 2)
+                        if bgb:
+                            dmin = min(dmin, (r - br) ** 2 + (c - bc) ** 2)
+                        if bgc:
+                            dmin = min(dmin, (r - cr) ** 2 + (c - cc) ** 2)
+                        key = cover_key * (1.0 + 1.0 / (1.0 + dmin))
+                    else:
+                        key = err
+                    if key > best:
+                        best = key
+                        best_r = r
+                        best_c = c
+            w0 += s0
+            w1 += s1
+            w2 += s2
     out[0] = best if best > 0.0 else -1.0
     out[1] = best_r
     out[2] = best_c
@@ -324,6 +346,8 @@ def greedy_insert(depth, valid, filled, max_vertices, max_sum, cover_key):
     tsum = np.zeros(cap_t)
     heap = np.zeros(cap_t, np.int64)
     slot = np.zeros(cap_t, np.int64)
+    stamp = np.zeros(cap_t, np.int64)
+    step = 0
     is_vertex = np.zeros((h, w), np.bool_)
     changed = np.zeros(64, np.int64)
     stack = np.zeros(64, np.int64)
@@ -382,6 +406,9 @@ def greedy_insert(depth, valid, filled, max_vertices, max_sum, cover_key):
             tsum = _grow_f(tsum, cap_t)
             heap = _grow_f(heap, cap_t)
             slot = _grow_f(slot, cap_t)
+            stamp2 = np.zeros(cap_t, np.int64)
+            stamp2[: stamp.size] = stamp
+            stamp = stamp2
         p = n_v
         vr[p], vc[p], vz[p] = pr, pc, filled[pr, pc]
         vbg[p] = False
@@ -400,8 +427,12 @@ def greedy_insert(depth, valid, filled, max_vertices, max_sum, cover_key):
             heap[n_heap] = s
             slot[s] = n_heap
             n_heap += 1
+        step += 1
         for i in range(n_changed):
             s = changed[i]
+            if stamp[s] == step:  # flipped twice in this step: one scan is enough
+                continue
+            stamp[s] = step
             _scan(s, tv, he, vr, vc, vz, vbg, depth, valid, cover_key, out)
             total += out[3] - tsum[s]
             terr[s], tcr[s], tcc[s], tsum[s] = out[0], out[1], out[2], out[3]

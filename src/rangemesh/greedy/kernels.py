@@ -113,30 +113,21 @@ def _scan(t, tv, he, vr, vc, vz, vbg, depth, valid, cover_key, out):
         v0 = _orient(ar, ac, br, bc, r, c0)
         v1 = _orient(br, bc, cr, cc, r, c0)
         v2 = _orient(cr, cc, ar, ac, r, c0)
-        lo = c0
-        hi = c1
-        empty = False
-        for v, sl in ((v0, s0), (v1, s1), (v2, s2)):
-            if sl > 0:
-                if v < 0:
-                    lo = max(lo, c0 + (-v + sl - 1) // sl)
-            elif sl < 0:
-                if v < 0:
-                    empty = True
-                else:
-                    hi = min(hi, c0 + v // (-sl))
-            elif v < 0:
-                empty = True
-        if empty or lo > hi:
+        lo, hi = _span(v0, s0, c0, c0, c1)
+        lo, hi = _span(v1, s1, c0, lo, hi)
+        lo, hi = _span(v2, s2, c0, lo, hi)
+        if lo > hi:
             continue
+        drow = depth[r]
+        vrow = valid[r]
         w0 = v0 + s0 * (lo - c0)
         w1 = v1 + s1 * (lo - c0)
         w2 = v2 + s2 * (lo - c0)
         for c in range(lo, hi + 1):
             if ((w0 > 0 or (w0 == 0 and own0)) and (w1 > 0 or (w1 == 0 and own1))
-                    and (w2 > 0 or (w2 == 0 and own2)) and valid[r, c]):
+                    and (w2 > 0 or (w2 == 0 and own2)) and vrow[c]):
                 z = (w1 * az + w2 * bz + w0 * cz) * inv
-                err = abs(depth[r, c] - z)
+                err = abs(drow[c] - z)
                 total += err
                 if not ((r == ar and c == ac) or (r == br and c == bc) or (r == cr and c == cc)):
                     if cover:
@@ -163,6 +154,21 @@ def _scan(t, tv, he, vr, vc, vz, vbg, depth, valid, cover_key, out):
     out[1] = best_r
     out[2] = best_c
     out[3] = total
+
+
+@njit(cache=True)
+def _span(v, slope, c0, lo, hi):
+    """Narrow [lo, hi] to the columns c where v + slope * (c - c0) >= 0 (empty: lo > hi)."""
+    if slope > 0:
+        if v < 0:
+            lo = max(lo, c0 + (-v + slope - 1) // slope)
+    elif slope < 0:
+        if v < 0:
+            return 1, 0
+        hi = min(hi, c0 + v // (-slope))
+    elif v < 0:
+        return 1, 0
+    return lo, hi
 
 
 @njit(cache=True)
@@ -215,7 +221,7 @@ def _new_tri(tv, he, t, a, b, c):
 
 
 @njit(cache=True)
-def _insert(t, p, tv, he, vr, vc, n_t, changed, stack):
+def _insert(t, p, tv, he, vr, vc, n_t, changed, stack, outer):
     """Insert vertex `p` (inside or on an edge of triangle `t`); returns (n_t, n_changed)."""
     e = 3 * t
     pr, pc = vr[p], vc[p]
@@ -265,7 +271,6 @@ def _insert(t, p, tv, he, vr, vc, n_t, changed, stack):
     changed[1] = t1
     n_changed = 2
     n_new = 1
-    outer = np.empty(4, np.int64)
     outer[0] = 3 * t + 2
     outer[1] = 3 * t1 + 1
     n_outer = 2
@@ -352,6 +357,7 @@ def greedy_insert(depth, valid, filled, max_vertices, max_sum, cover_key):
     changed = np.zeros(64, np.int64)
     stack = np.zeros(64, np.int64)
     out = np.zeros(4)
+    outer = np.zeros(4, np.int64)
     corners_r = (0, h - 1, h - 1, 0)
     corners_c = (0, 0, w - 1, w - 1)
     for i in range(4):
@@ -420,7 +426,7 @@ def greedy_insert(depth, valid, filled, max_vertices, max_sum, cover_key):
             changed = np.zeros(4 * n_t + 16, np.int64)
             stack = np.zeros(4 * n_t + 16, np.int64)
         old_t = n_t
-        n_t, n_changed = _insert(t, p, tv, he, vr, vc, n_t, changed, stack)
+        n_t, n_changed = _insert(t, p, tv, he, vr, vc, n_t, changed, stack, outer)
         for s in range(old_t, n_t):  # new triangles join the heap
             terr[s] = -1.0
             tsum[s] = 0.0

@@ -148,3 +148,11 @@ def test_the_paper_is_the_default_and_greedy_refuses_paper_parameters():
         triangulate(depth, vertices=50, method="greedy", flips="error")
     with pytest.raises(ValueError, match="method"):
         triangulate(depth, vertices=50, method="delatin")
+
+
+def test_exact_count_when_the_mesh_already_fits_exactly():
+    """A piecewise-planar image is exact with few vertices; more are still inserted as asked."""
+    depth = scenes.make("stairs", (40, 50)).depth
+    m = triangulate(depth, vertices=900, method="greedy")
+    assert len(m.vertices) == 900 and m.stats.target["met"]
+    assert evaluate(m, depth).relative_error < 1e-9

@@ -150,7 +150,7 @@ def _scan(t, tv, he, vr, vc, vz, vbg, depth, valid, cover_key, out):
             w0 += s0
             w1 += s1
             w2 += s2
-    out[0] = best if best > 0.0 else -1.0
+    out[0] = best  # -1 when no pixel can be inserted; 0 when all fit exactly
     out[1] = best_r
     out[2] = best_c
     out[3] = total
@@ -390,7 +390,7 @@ def greedy_insert(depth, valid, filled, max_vertices, max_sum, cover_key):
             break
         t = heap[0]
         key = terr[t]
-        if key <= 0.0 or (key <= cover_key and total <= max_sum):
+        if key < 0.0 or (key <= cover_key and total <= max_sum):
             break
         pr, pc = tcr[t], tcc[t]
         # room for the new vertex and up to two new triangles

@@ -156,3 +156,23 @@ def test_exact_count_when_the_mesh_already_fits_exactly():
     m = triangulate(depth, vertices=900, method="greedy")
     assert len(m.vertices) == 900 and m.stats.target["met"]
     assert evaluate(m, depth).relative_error < 1e-9
+
+
+@pytest.mark.parametrize("target", [["--vertices", "300"], ["--max-error", "1.5"]])
+def test_command_line_greedy(tmp_path, capsys, target):
+    from rangemesh.cli import main
+
+    src = tmp_path / "venus.npy"
+    np.save(src, np.load(CROPS)["venus"])
+    assert main(["mesh", str(src), "--method", "greedy", *target, "-o", str(tmp_path / "g.ply"),
+                 "--preview", str(tmp_path / "g.png")]) == 0
+    err = capsys.readouterr().err
+    assert "target " in err and "wrote" in err
+    m = rangemesh.read_mesh(tmp_path / "g.ply")
+    if target[0] == "--vertices":
+        assert len(m.vertices) == 300
+    else:
+        assert evaluate(m, np.load(CROPS)["venus"]).relative_error <= 1.5
+    # paper options are refused with --method greedy, in one line
+    assert main(["mesh", str(src), "--method", "greedy", "--vertices", "30", "--tiles", "2"]) == 2
+    assert "belongs to --method paper" in capsys.readouterr().err

@@ -318,8 +318,9 @@ def _mesh_lines(mesh, ev, outputs):
         q = s.target
         ach = q["achieved"]
         ach = f"{ach:.4f}" if isinstance(ach, float) else ach
-        lines.append(f"target {q['target']} {q['requested']}: achieved {ach} with tiles "
-                     f"{q['tiles'][0]}x{q['tiles'][1]}, samples {q['samples'][0]}x{q['samples'][1]} "
+        grid = (f" with tiles {q['tiles'][0]}x{q['tiles'][1]}, samples "
+                f"{q['samples'][0]}x{q['samples'][1]}" if "tiles" in q else "")  # paper only
+        lines.append(f"target {q['target']} {q['requested']}: achieved {ach}{grid} "
                      f"({q['meshings']} meshing(s)){'' if q['met'] else ' -- not met: ' + q.get('note', '')}")
     if ev is not None:
         lines.append(f"relative error {ev.relative_error:.4f} %  rms {ev.rms_error:.4f} %  "

@@ -27,12 +27,9 @@ in int64 for images up to about 30,000 pixels a side.
 import numpy as np
 from numba import njit
 
+from ..geometry.halfedges import nxt, prv
 from ..geometry.heap import rekey, sift_up
-
-
-@njit(cache=True)
-def _orient(ra, ca, rb, cb, rc, cc):
-    return (rb - ra) * (cc - ca) - (cb - ca) * (rc - ra)
+from ..geometry.vectors import orient
 
 
 @njit(cache=True)
@@ -57,16 +54,6 @@ def _owns(ar, ac, br, bc):
 
 
 @njit(cache=True)
-def _nxt(e):
-    return e - e % 3 + (e + 1) % 3
-
-
-@njit(cache=True)
-def _prv(e):
-    return e - e % 3 + (e + 2) % 3
-
-
-@njit(cache=True)
 def _link(he, a, b):
     he[a] = b
     if b >= 0:
@@ -88,7 +75,7 @@ def _scan(t, tv, he, vr, vc, vz, vbg, depth, valid, cover_key, out):
     br, bc, bz = vr[ib], vc[ib], vz[ib]
     cr, cc, cz = vr[ic], vc[ic], vz[ic]
     bga, bgb, bgc = vbg[ia], vbg[ib], vbg[ic]
-    area = _orient(ar, ac, br, bc, cr, cc)
+    area = orient(ar, ac, br, bc, cr, cc)
     cover = bga or bgb or bgc
     # pixels on an edge: the hull's always, a shared edge's by one side only
     own0 = he[3 * t] < 0 or _owns(ar, ac, br, bc)
@@ -110,9 +97,9 @@ def _scan(t, tv, he, vr, vc, vz, vbg, depth, valid, cover_key, out):
     s1 = cr - br
     s2 = ar - cr
     for r in range(r0, r1 + 1):
-        v0 = _orient(ar, ac, br, bc, r, c0)
-        v1 = _orient(br, bc, cr, cc, r, c0)
-        v2 = _orient(cr, cc, ar, ac, r, c0)
+        v0 = orient(ar, ac, br, bc, r, c0)
+        v1 = orient(br, bc, cr, cc, r, c0)
+        v2 = orient(cr, cc, ar, ac, r, c0)
         lo, hi = _span(v0, s0, c0, c0, c1)
         lo, hi = _span(v1, s1, c0, lo, hi)
         lo, hi = _span(v2, s2, c0, lo, hi)
@@ -183,10 +170,10 @@ def _legalize(e0, tv, he, vr, vc, changed, n_changed, stack):
         b = he[a]
         if b < 0:
             continue
-        al = _nxt(a)
-        ar = _prv(a)
-        bn = _nxt(b)
-        bp = _prv(b)
+        al = nxt(a)
+        ar = prv(a)
+        bn = nxt(b)
+        bp = prv(b)
         pa = tv[a]
         pb = tv[al]
         pc = tv[ar]
@@ -229,7 +216,7 @@ def _insert(t, p, tv, he, vr, vc, n_t, changed, stack, outer):
     for k in range(3):
         a = tv[e + k]
         b = tv[e + (k + 1) % 3]
-        if _orient(vr[a], vc[a], vr[b], vc[b], pr, pc) == 0:
+        if orient(vr[a], vc[a], vr[b], vc[b], pr, pc) == 0:
             on = k
     n_changed = 0
     if on < 0:
@@ -276,9 +263,9 @@ def _insert(t, p, tv, he, vr, vc, n_t, changed, stack, outer):
     n_outer = 2
     if tw >= 0:
         u = tw // 3
-        d = tv[_prv(tw)]  # (B, A, D)
-        h_ad = he[_nxt(tw)]
-        h_db = he[_prv(tw)]
+        d = tv[prv(tw)]  # (B, A, D)
+        h_ad = he[nxt(tw)]
+        h_db = he[prv(tw)]
         t3 = n_t + 1
         _new_tri(tv, he, u, b, p, d)  # B -> P, P -> D, D -> B
         _new_tri(tv, he, t3, p, a, d)  # P -> A, A -> D, D -> P

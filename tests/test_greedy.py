@@ -176,3 +176,27 @@ def test_command_line_greedy(tmp_path, capsys, target):
     # paper options are refused with --method greedy, in one line
     assert main(["mesh", str(src), "--method", "greedy", "--vertices", "30", "--tiles", "2"]) == 2
     assert "belongs to --method paper" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("marker", [0, 65535, np.nan])
+def test_p1_background_marker_invariance(marker):
+    """SPEC P1 for greedy insertion: 0, 65535 or NaN as the background marker, one mesh."""
+    sc = scenes.make("box", (50, 60), noise=0.3)
+    depth = sc.depth.copy()
+    holes = np.random.default_rng(3).random(depth.shape) < 0.1
+    holes[:8, :8] = True  # a background corner
+    ref = triangulate(np.where(holes, np.nan, depth), vertices=400, method="greedy")
+    img = np.where(holes, marker, depth)
+    m = triangulate(img, background=None if marker != marker else marker, vertices=400,
+                    method="greedy")
+    assert np.array_equal(m.pixels, ref.pixels) and np.array_equal(m.faces, ref.faces)
+
+
+@pytest.mark.parametrize("s", [2.0**-7, 2.0**9, 10.0, 0.001])
+def test_p2_unit_invariance(s):
+    """SPEC P2 for greedy insertion: depth times s with kz divided by s, the same mesh."""
+    depth = np.load(CROPS)["chair"].astype(float)
+    a = triangulate(depth, background=0, vertices=700, method="greedy")
+    b = triangulate(depth * s, background=0, vertices=700, method="greedy", camera=(1, 1, 1 / s))
+    assert np.array_equal(a.pixels, b.pixels) and np.array_equal(a.faces, b.faces)
+    np.testing.assert_allclose(a.vertices, b.vertices, rtol=1e-12)

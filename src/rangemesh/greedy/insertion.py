@@ -84,15 +84,13 @@ def greedy_mesh(depth: np.ndarray, valid: np.ndarray, camera, *, vertices: int |
     lo, hi, n_valid = valid_range(depth, valid)
     span = hi - lo
     filled = fill_background(depth, valid)
-    # above every pixel's error (at most the span), with room to rank pixels above it
-    cover_key = 1.25 * max(float(span), 1.0)
     want = n_valid if vertices is None else min(int(vertices), n_valid)
     max_sum = -1.0 if max_error is None else float(max_error) / 100.0 * span * n_valid
     runs = 0
     asked = want
     while True:
         runs += 1
-        vr, vc, tv, _, total = _k.greedy_insert(depth, valid, filled, asked, max_sum, cover_key)
+        vr, vc, tv, _, total = _k.greedy_insert(depth, valid, filled, asked, max_sum, float(span))
         verts, faces, pixels = _assemble(vr, vc, tv, depth, valid, camera, (h, w))
         got = len(pixels)
         if vertices is not None and got < want and asked < n_valid and runs < 8:

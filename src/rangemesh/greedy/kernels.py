@@ -14,7 +14,7 @@ triangles that changed. This is Garland & Heckbert's "greedy insertion"
   not a jump to 0;
 * a triangle with a background vertex (an image corner) must not keep valid
   pixels: its valid pixels come first in the heap, nearest to the corner
-  first (keys in ``(cover, 2 cover]``, above every error), so the triangles
+  first (keys above ``COVER_KEY``, above every error), so the triangles
   dropped at the end cover only background;
 * pixels on an edge shared by two triangles belong to one of them (the one
   on the edge's left when it is walked with rows, then columns, increasing),
@@ -24,12 +24,27 @@ Coordinates are integers (row, column) and every geometric predicate is exact
 in int64 for images up to about 30,000 pixels a side.
 """
 
+import math
+
 import numpy as np
 from numba import njit
 
 from ..geometry.halfedges import nxt, prv
 from ..geometry.heap import rekey, sift_up
 from ..geometry.vectors import orient
+
+# Errors are ranked in units of 2**-32 of the valid depth range, so that a change of depth
+# unit (depth times s, kz divided by s) cannot reorder two pixels by rounding (SPEC P2), as
+# the paper's flip gains are. Keys of pixels that must be covered lie above every error key.
+KEY_STEPS = 4294967296.0
+COVER_KEY = 1.25 * KEY_STEPS
+
+
+@njit(cache=True)
+def _quantize(err, span):
+    if span > 0.0:
+        return math.floor(err / span * KEY_STEPS + 0.5)
+    return 0.0
 
 
 @njit(cache=True)
@@ -61,7 +76,7 @@ def _link(he, a, b):
 
 
 @njit(cache=True)
-def _scan(t, tv, he, vr, vc, vz, vbg, depth, valid, cover_key, out):
+def _scan(t, tv, he, vr, vc, vz, vbg, depth, valid, span, out):
     """Rasterise triangle `t`: its worst pixel, that pixel's key, and its error sum.
 
     Writes ``out[0] = key`` (-1 when no pixel can be inserted), ``out[1], out[2]``
@@ -86,6 +101,7 @@ def _scan(t, tv, he, vr, vc, vz, vbg, depth, valid, cover_key, out):
     c0 = min(ac, min(bc, cc))
     c1 = max(ac, max(bc, cc))
     best = -1.0
+    best_err = -1.0
     best_r = -1
     best_c = -1
     total = 0.0
@@ -127,13 +143,18 @@ def _scan(t, tv, he, vr, vc, vz, vbg, depth, valid, cover_key, out):
                             dmin = min(dmin, (r - br) ** 2 + (c - bc) ** 2)
                         if bgc:
                             dmin = min(dmin, (r - cr) ** 2 + (c - cc) ** 2)
-                        key = cover_key * (1.0 + 1.0 / (1.0 + dmin))
-                    else:
-                        key = err
-                    if key > best:
-                        best = key
-                        best_r = r
-                        best_c = c
+                        key = COVER_KEY * (1.0 + 1.0 / (1.0 + dmin))
+                        if key > best:
+                            best = key
+                            best_r = r
+                            best_c = c
+                    elif err > best_err:  # the key grows with err: only then can it win
+                        key = _quantize(err, span)
+                        if key > best:
+                            best = key
+                            best_err = err
+                            best_r = r
+                            best_c = c
             w0 += s0
             w1 += s1
             w2 += s2
@@ -294,7 +315,7 @@ def _grow_f(x, n):
 
 
 @njit(cache=True)
-def greedy_insert(depth, valid, filled, max_vertices, max_sum, cover_key):
+def greedy_insert(depth, valid, filled, max_vertices, max_sum, span):
     """Refine the image rectangle's two triangles at their worst pixels.
 
     Parameters
@@ -309,9 +330,8 @@ def greedy_insert(depth, valid, filled, max_vertices, max_sum, cover_key):
     max_sum : float
         Also stop when the summed error of the valid pixels is at most this
         (and no valid pixel is left in a triangle with a background vertex).
-    cover_key : float
-        Larger than any pixel's error (the valid depth range, say): keys of
-        valid pixels in triangles with a background vertex lie above it.
+    span : float
+        The valid depth range: errors are ranked in units of ``span / 2**32``.
 
     Returns
     -------
@@ -365,7 +385,7 @@ def greedy_insert(depth, valid, filled, max_vertices, max_sum, cover_key):
     n_heap = 0
     total = 0.0
     for t in range(2):
-        _scan(t, tv, he, vr, vc, vz, vbg, depth, valid, cover_key, out)
+        _scan(t, tv, he, vr, vc, vz, vbg, depth, valid, span, out)
         terr[t], tcr[t], tcc[t], tsum[t] = out[0], out[1], out[2], out[3]
         total += out[3]
         heap[n_heap] = t
@@ -377,7 +397,7 @@ def greedy_insert(depth, valid, filled, max_vertices, max_sum, cover_key):
             break
         t = heap[0]
         key = terr[t]
-        if key < 0.0 or (key <= cover_key and total <= max_sum):
+        if key < 0.0 or (key <= COVER_KEY and total <= max_sum):
             break
         pr, pc = tcr[t], tcc[t]
         # room for the new vertex and up to two new triangles
@@ -426,7 +446,7 @@ def greedy_insert(depth, valid, filled, max_vertices, max_sum, cover_key):
             if stamp[s] == step:  # flipped twice in this step: one scan is enough
                 continue
             stamp[s] = step
-            _scan(s, tv, he, vr, vc, vz, vbg, depth, valid, cover_key, out)
+            _scan(s, tv, he, vr, vc, vz, vbg, depth, valid, span, out)
             total += out[3] - tsum[s]
             terr[s], tcr[s], tcc[s], tsum[s] = out[0], out[1], out[2], out[3]
             rekey(heap, slot, terr, s, n_heap)

@@ -1,0 +1,58 @@
+"""The greedy insertion kernel alone against pydelatin, same images, same vertex counts.
+
+    python benchmarks/greedy_speed.py
+
+Prints the median of 7 calls of `rangemesh.greedy.kernels.greedy_insert` (on
+the prepared image, background filled) and of ``pydelatin.Delatin(max_points=N)``
+(on the float32 image), measured side by side in one process.
+"""
+
+from __future__ import annotations
+
+import statistics
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from rangemesh import MeshParams
+from rangemesh.geometry.pixels import valid_range
+from rangemesh.greedy import kernels
+from rangemesh.greedy.insertion import fill_background
+from rangemesh.pipeline import prepare
+
+DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
+CASES = [("middlebury/venus_disp2.npy", None), ("odetics/chair-range.npy", 0)]
+
+
+def median_ms(fn, repeat=7):
+    times = []
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t0)
+    return 1000 * statistics.median(times)
+
+
+def main() -> int:
+    import pydelatin
+
+    print("| image | vertices | kernel ms | pydelatin ms | ratio |")
+    print("|---|---:|---:|---:|---:|")
+    for rel, background in CASES:
+        z = np.load(DATA / rel)
+        depth, valid = prepare(z, MeshParams(), background)
+        filled = fill_background(depth, valid)
+        lo, hi, _ = valid_range(depth, valid)
+        kernels.greedy_insert(depth, valid, filled, 50, -1.0, hi - lo)  # compile or load
+        z32 = filled.astype(np.float32)
+        for n in (1369, 5000):
+            ours = median_ms(lambda n=n: kernels.greedy_insert(depth, valid, filled, n, -1.0, hi - lo))
+            theirs = median_ms(lambda n=n: pydelatin.Delatin(z32, max_points=n))
+            print(f"| {Path(rel).name} | {n} | {ours:.1f} | {theirs:.1f} | {ours / theirs:.2f} |")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -47,9 +47,11 @@ def main() -> int:
         lo, hi, _ = valid_range(depth, valid)
         kernels.greedy_insert(depth, valid, filled, 50, -1.0, hi - lo)  # compile or load
         z32 = filled.astype(np.float32)
+        span = hi - lo
         for n in (1369, 5000):
-            ours = median_ms(lambda n=n: kernels.greedy_insert(depth, valid, filled, n, -1.0, hi - lo))
-            theirs = median_ms(lambda n=n: pydelatin.Delatin(z32, max_points=n))
+            ours = median_ms(lambda n=n, d=depth, v=valid, f=filled, s=span:
+                             kernels.greedy_insert(d, v, f, n, -1.0, s))
+            theirs = median_ms(lambda n=n, z=z32: pydelatin.Delatin(z, max_points=n))
             print(f"| {Path(rel).name} | {n} | {ours:.1f} | {theirs:.1f} | {ours / theirs:.2f} |")
     return 0
 

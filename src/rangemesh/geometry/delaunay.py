@@ -24,7 +24,7 @@ import math
 import numpy as np
 from numba import njit
 
-from .halfedges import flip_quad, nxt, prv
+from .halfedges import flip_quad, link, nxt, prv
 
 # --------------------------------------------------------------------------
 # exact predicates
@@ -148,15 +148,9 @@ def _add_triangle(triangles, halfedges, n_t, i0, i1, i2, a, b, c):
     triangles[t] = i0
     triangles[t + 1] = i1
     triangles[t + 2] = i2
-    halfedges[t] = a
-    if a != -1:
-        halfedges[a] = t
-    halfedges[t + 1] = b
-    if b != -1:
-        halfedges[b] = t + 1
-    halfedges[t + 2] = c
-    if c != -1:
-        halfedges[c] = t + 2
+    link(halfedges, t, a)
+    link(halfedges, t + 1, b)
+    link(halfedges, t + 2, c)
     return t
 
 

@@ -22,6 +22,14 @@ def prv(e):
 
 
 @njit(cache=True)
+def link(halfedges, a, b):
+    """Make half-edges `a` and `b` twins (`b` may be -1: `a` is then on the hull)."""
+    halfedges[a] = b
+    if b != -1:
+        halfedges[b] = a
+
+
+@njit(cache=True)
 def quad_halfedges(halfedges, e0):
     """The half-edges of the quad around e0's edge: ``(e1, b0, c0, b1, c1)``.
 
@@ -55,18 +63,10 @@ def flip_quad(triangles, halfedges, e0):
     triangles[e1] = vc
     triangles[b1] = vd
     triangles[c1] = vb
-    halfedges[b0] = tc0
-    if tc0 != -1:
-        halfedges[tc0] = b0
-    halfedges[c0] = tb1
-    if tb1 != -1:
-        halfedges[tb1] = c0
-    halfedges[b1] = tc1
-    if tc1 != -1:
-        halfedges[tc1] = b1
-    halfedges[c1] = tb0
-    if tb0 != -1:
-        halfedges[tb0] = c1
+    link(halfedges, b0, tc0)
+    link(halfedges, c0, tb1)
+    link(halfedges, b1, tc1)
+    link(halfedges, c1, tb0)
 
 
 @njit(cache=True)

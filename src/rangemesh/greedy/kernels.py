@@ -29,7 +29,7 @@ import math
 import numpy as np
 from numba import njit
 
-from ..geometry.halfedges import nxt, prv
+from ..geometry.halfedges import link, nxt, prv
 from ..geometry.heap import rekey, sift_up
 from ..geometry.vectors import orient
 
@@ -66,13 +66,6 @@ def _incircle(ar, ac, br, bc, cr, cc, dr, dc):
 def _owns(ar, ac, br, bc):
     """Whether the triangle left of the directed edge a -> b owns the pixels on it."""
     return br > ar or (br == ar and bc > ac)
-
-
-@njit(cache=True)
-def _link(he, a, b):
-    he[a] = b
-    if b >= 0:
-        he[b] = a
 
 
 @njit(cache=True)
@@ -206,9 +199,9 @@ def _legalize(e0, tv, he, vr, vc, changed, n_changed, stack):
         har = he[ar]
         tv[a] = pd
         tv[b] = pc
-        _link(he, a, hbp)
-        _link(he, b, har)
-        _link(he, ar, bp)
+        link(he, a, hbp)
+        link(he, b, har)
+        link(he, ar, bp)
         changed[n_changed] = a // 3
         changed[n_changed + 1] = b // 3
         n_changed += 2
@@ -248,12 +241,12 @@ def _insert(t, p, tv, he, vr, vc, n_t, changed, stack, outer):
         _new_tri(tv, he, t, a, b, p)
         _new_tri(tv, he, t1, b, c, p)
         _new_tri(tv, he, t2, c, a, p)
-        _link(he, 3 * t, h_ab)
-        _link(he, 3 * t1, h_bc)
-        _link(he, 3 * t2, h_ca)
-        _link(he, 3 * t + 1, 3 * t1 + 2)
-        _link(he, 3 * t1 + 1, 3 * t2 + 2)
-        _link(he, 3 * t2 + 1, 3 * t + 2)
+        link(he, 3 * t, h_ab)
+        link(he, 3 * t1, h_bc)
+        link(he, 3 * t2, h_ca)
+        link(he, 3 * t + 1, 3 * t1 + 2)
+        link(he, 3 * t1 + 1, 3 * t2 + 2)
+        link(he, 3 * t2 + 1, 3 * t + 2)
         changed[0] = t
         changed[1] = t1
         changed[2] = t2
@@ -272,9 +265,9 @@ def _insert(t, p, tv, he, vr, vc, n_t, changed, stack, outer):
     t1 = n_t
     _new_tri(tv, he, t, a, p, c)  # A -> P, P -> C, C -> A
     _new_tri(tv, he, t1, p, b, c)  # P -> B, B -> C, C -> P
-    _link(he, 3 * t + 2, h_ca)
-    _link(he, 3 * t1 + 1, h_bc)
-    _link(he, 3 * t + 1, 3 * t1 + 2)
+    link(he, 3 * t + 2, h_ca)
+    link(he, 3 * t1 + 1, h_bc)
+    link(he, 3 * t + 1, 3 * t1 + 2)
     changed[0] = t
     changed[1] = t1
     n_changed = 2
@@ -290,11 +283,11 @@ def _insert(t, p, tv, he, vr, vc, n_t, changed, stack, outer):
         t3 = n_t + 1
         _new_tri(tv, he, u, b, p, d)  # B -> P, P -> D, D -> B
         _new_tri(tv, he, t3, p, a, d)  # P -> A, A -> D, D -> P
-        _link(he, 3 * u + 2, h_db)
-        _link(he, 3 * t3 + 1, h_ad)
-        _link(he, 3 * u + 1, 3 * t3 + 2)
-        _link(he, 3 * u, 3 * t1)  # B -> P with P -> B
-        _link(he, 3 * t3, 3 * t)  # P -> A with A -> P
+        link(he, 3 * u + 2, h_db)
+        link(he, 3 * t3 + 1, h_ad)
+        link(he, 3 * u + 1, 3 * t3 + 2)
+        link(he, 3 * u, 3 * t1)  # B -> P with P -> B
+        link(he, 3 * t3, 3 * t)  # P -> A with A -> P
         changed[2] = u
         changed[3] = t3
         n_changed = 4
@@ -380,7 +373,7 @@ def greedy_insert(depth, valid, filled, max_vertices, max_sum, span):
     # (0,0) (H-1,0) (H-1,W-1) and (0,0) (H-1,W-1) (0,W-1): counter-clockwise in (r, c)
     _new_tri(tv, he, 0, 0, 1, 2)
     _new_tri(tv, he, 1, 0, 2, 3)
-    _link(he, 2, 3)
+    link(he, 2, 3)
     n_t = 2
     n_heap = 0
     total = 0.0

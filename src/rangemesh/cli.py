@@ -277,13 +277,13 @@ def _cold_cache() -> bool:
     """True when the main kernels have no entry in Numba's on-disk cache: this run compiles them."""
     import os
 
-    from .geometry.delaunay import delaunay_sweep
+    from .geometry.delaunay import sweep_insert
     from .paper.flipping_kernels import flip_loop
     from .paper.sampling_kernels import sample_tiles
 
     try:
         return not all(os.path.exists(k._cache._cache_file._index_path)
-                       for k in (flip_loop, delaunay_sweep, sample_tiles))
+                       for k in (flip_loop, sweep_insert, sample_tiles))
     except AttributeError:  # another Numba's internals: say nothing rather than guess
         return False
 

@@ -114,7 +114,8 @@ def legalize_all(triangles, halfedges, pr, pc):
         flips += 1
         if top + 4 > stack.size:
             bigger = np.zeros(2 * stack.size, np.int64)
-            bigger[:top] = stack[:top]
+            for k in range(top):  # a loop, not a slice copy: Numba compiles that ~2 s slower
+                bigger[k] = stack[k]
             stack = bigger
         for s in (nxt(e), prv(e), nxt(t), prv(t)):
             stack[top] = s
@@ -188,34 +189,63 @@ def _legalize(triangles, halfedges, pr, pc, hull_tri, a, stack):
             a = stack[top]
 
 
-@njit(cache=True)
 def delaunay_sweep(pr, pc):
     """Delaunay triangulation of distinct integer points (pr, pc).
 
     Returns ``(triangles, halfedges, n_triangles)``; ``n_triangles == 0``
     when the points are all collinear (or fewer than 3). Triangles are
     counter-clockwise in (r, c); every point is a vertex.
+
+    Three steps: `sweep_seed` picks the first triangle, NumPy orders the
+    points by distance from its circumcentre (a stable sort, so ties keep
+    index order), and `sweep_insert` adds them. The sort runs in NumPy
+    because Numba's own argsort costs ~1.5 s of compile time on a first run.
     """
-    n = pr.size
-    max_t = max(2 * n - 5, 1)
-    triangles = np.full(3 * max_t, -1, np.int64)
-    halfedges = np.full(3 * max_t, -1, np.int64)
-    if n < 3:
-        return triangles[:0], halfedges[:0], 0
+    pr = np.ascontiguousarray(pr, dtype=np.int64)
+    pc = np.ascontiguousarray(pc, dtype=np.int64)
+    i0, i1, i2, cr, cc = sweep_seed(pr, pc)
+    if i2 == -1:  # fewer than 3 points, or all collinear
+        empty = np.zeros(0, np.int64)
+        return empty, empty.copy(), 0
     fr = pr.astype(np.float64)
     fc = pc.astype(np.float64)
-    # seed: the point nearest the bounding-box centre, its nearest neighbour, and the
-    # point making the smallest circumcircle with them
-    mr = 0.5 * (fr.min() + fr.max())
-    mc = 0.5 * (fc.min() + fc.max())
-    i0 = 0
+    # the same operations, in the same order, as the kernel did: the order is bit for bit the same
+    dist = (fr - cr) ** 2 + (fc - cc) ** 2
+    order = np.argsort(dist, kind="stable")
+    return sweep_insert(pr, pc, order, i0, i1, i2, cr, cc)
+
+
+@njit(cache=True)
+def sweep_seed(pr, pc):
+    """The sweep's first triangle ``(i0, i1, i2)``, counter-clockwise, and its circumcentre.
+
+    i0 is the point nearest the bounding-box centre, i1 its nearest neighbour,
+    i2 the point making the smallest circumcircle with them. ``i2 == -1``
+    when there are fewer than 3 points or all are collinear.
+    """
+    n = pr.size
+    if n < 3:
+        return -1, -1, -1, 0.0, 0.0
+    fr = pr.astype(np.float64)
+    fc = pc.astype(np.float64)
+    # min and max by hand: Numba's np.min/np.max add ~0.5 s of first-run compile
+    lo_r = hi_r = fr[0]
+    lo_c = hi_c = fc[0]
+    for i in range(1, n):
+        lo_r = min(lo_r, fr[i])
+        hi_r = max(hi_r, fr[i])
+        lo_c = min(lo_c, fc[i])
+        hi_c = max(hi_c, fc[i])
+    mr = 0.5 * (lo_r + hi_r)
+    mc = 0.5 * (lo_c + hi_c)
+    i0 = np.int64(0)  # not literals: see `none` in sweep_insert
     best = np.inf
     for i in range(n):
         d = (fr[i] - mr) ** 2 + (fc[i] - mc) ** 2
         if d < best:
             best = d
             i0 = i
-    i1 = -1
+    i1 = np.int64(-1)
     best = np.inf
     for i in range(n):
         if i == i0:
@@ -224,7 +254,7 @@ def delaunay_sweep(pr, pc):
         if d < best:
             best = d
             i1 = i
-    i2 = -1
+    i2 = np.int64(-1)
     best = np.inf
     for i in range(n):
         if i == i0 or i == i1:
@@ -247,7 +277,7 @@ def delaunay_sweep(pr, pc):
             best = rr
             i2 = i
     if i2 == -1:
-        return triangles[:0], halfedges[:0], 0  # all collinear
+        return i0, i1, -1, 0.0, 0.0  # all collinear
     if orient_i(pr, pc, i0, i1, i2) < 0:
         i1, i2 = i2, i1
     # circumcentre of the seed
@@ -260,10 +290,18 @@ def delaunay_sweep(pr, pc):
     den = 0.5 / (ar * bc - ac * br)
     cr = fr[i0] + (bc * bl - ac * cl) * den
     cc = fc[i0] + (ar * cl - br * bl) * den
-    dist = np.zeros(n)
-    for i in range(n):
-        dist[i] = (fr[i] - cr) ** 2 + (fc[i] - cc) ** 2
-    order = np.argsort(dist, kind="mergesort")
+    return i0, i1, i2, cr, cc
+
+
+@njit(cache=True)
+def sweep_insert(pr, pc, order, i0, i1, i2, cr, cc):
+    """Insert the points in `order` around the seed triangle; see `delaunay_sweep`."""
+    n = pr.size
+    max_t = max(2 * n - 5, 1)
+    triangles = np.full(3 * max_t, -1, np.int64)
+    halfedges = np.full(3 * max_t, -1, np.int64)
+    fr = pr.astype(np.float64)
+    fc = pc.astype(np.float64)
     hash_size = max(int(math.ceil(math.sqrt(n))), 1)
     hull_hash = np.full(hash_size, -1, np.int64)
     hull_next = np.full(n, -1, np.int64)
@@ -277,8 +315,12 @@ def delaunay_sweep(pr, pc):
     hull_prev[i0] = i2
     hull_prev[i1] = i0
     hull_prev[i2] = i1
-    t = _add_triangle(triangles, halfedges, 0, i0, i1, i2, -1, -1, -1)
-    n_t = 1
+    # np.int64(-1), not a bare -1: a literal argument would make Numba compile
+    # _add_triangle and link once more, for that constant (first-run time)
+    none = np.int64(-1)
+    n_t = np.int64(0)
+    t = _add_triangle(triangles, halfedges, n_t, i0, i1, i2, none, none, none)
+    n_t += 1
     hull_tri[i0] = t
     hull_tri[i1] = t + 1
     hull_tri[i2] = t + 2
@@ -310,7 +352,7 @@ def delaunay_sweep(pr, pc):
             raise RuntimeError("delaunay_sweep: a point sees no hull edge (duplicate points?)")
         after = hull_next[e]
         # first triangle on the visible edge e -> after: (after, e, p)
-        t = _add_triangle(triangles, halfedges, n_t, after, e, p, hull_tri[e], -1, -1)
+        t = _add_triangle(triangles, halfedges, n_t, after, e, p, hull_tri[e], none, none)
         n_t += 1
         hull_tri[e] = t + 1   # e -> p
         hull_tri[p] = t + 2   # p -> after
@@ -321,7 +363,7 @@ def delaunay_sweep(pr, pc):
             if orient_i(pr, pc, after, q, p) >= 0:
                 break
             # triangle (q, after, p): q->after twins the hull edge after->q; after->p twins p->after
-            t = _add_triangle(triangles, halfedges, n_t, q, after, p, hull_tri[after], hull_tri[p], -1)
+            t = _add_triangle(triangles, halfedges, n_t, q, after, p, hull_tri[after], hull_tri[p], none)
             n_t += 1
             hull_tri[p] = t + 2   # p -> q
             _legalize(triangles, halfedges, pr, pc, hull_tri, t, stack)
@@ -334,7 +376,7 @@ def delaunay_sweep(pr, pc):
                 if orient_i(pr, pc, q, e, p) >= 0:
                     break
                 # triangle (e, q, p): e->q twins q->e; p->e twins e->p
-                t = _add_triangle(triangles, halfedges, n_t, e, q, p, hull_tri[q], -1, hull_tri[e])
+                t = _add_triangle(triangles, halfedges, n_t, e, q, p, hull_tri[q], none, hull_tri[e])
                 n_t += 1
                 hull_tri[q] = t + 1   # q -> p
                 _legalize(triangles, halfedges, pr, pc, hull_tri, t, stack)

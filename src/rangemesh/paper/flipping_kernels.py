@@ -343,7 +343,7 @@ def flip_loop(triangles, halfedges, pixels, vertices, depth, valid, cam, mode, t
     n_v = vertices.shape[0]
     # former neighbours: an open-addressing set of vertex-pair keys (faster than a typed dict)
     former = np.full(1024, -1, np.int64)
-    n_former = 0
+    n_former = np.int64(0)  # not a literal 0: Numba would compile _set_add twice
     flips = 0
     n_logged = 0
     while n_e > 0:

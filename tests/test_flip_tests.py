@@ -151,3 +151,31 @@ def test_the_final_test_flips_when_the_edge_has_the_larger_disparity(lifted, exp
     assert ang(ns_c, ns_d) <= 2 * ang(ns_a, ns_b)                          # T5 passes
     assert (disp_ab > disp_cd) == (expected is Verdict.FLIPPED)
     assert _verdict(v) is expected
+
+
+@pytest.mark.parametrize("mode", [fk.MODE_ERROR, fk.MODE_DISPARITY])
+def test_t1_refuses_to_restore_an_edge_that_was_flipped_away(mode):
+    # The flat patch, edge AB. Had C and D been joined before (CD flipped away to AB), joining
+    # them again would cycle: T1 rejects before any other test, in either flip rule.
+    # Without that record, the error rule flips and the disparity rule gets to T2.
+    v = _patch(2, [0] * 8)
+    triangles, halfedges = build_halfedges(FACES, len(v))
+    normals = np.tile([0.0, 0.0, 1.0], (len(FACES), 1))
+    pixels = v[:, :2].astype(np.int64) * 2  # only read for the edge-length bound (inf here)
+    edge_he = np.array([0], np.int64)       # edge 0 is half-edge 0, A -> B
+
+    def verdict(former_pairs):
+        former = np.full(16, -1, np.int64)
+        for a, b in former_pairs:
+            key = min(a, b) * len(v) + max(a, b)
+            former[fk._set_slot(former, key)] = key
+        return Verdict(fk.decide(0, edge_he, triangles, halfedges, pixels, v, normals, former,
+                                 mode, *(math.radians(DEFAULTS[k]) for k in
+                                         ("delta", "epsilon", "max_angle", "min_bend")),
+                                 np.inf))
+
+    free = Verdict.FLIPPED if mode == fk.MODE_ERROR else Verdict.T2_DISPARITY_CHANGE
+    assert verdict([]) is free
+    assert verdict([(A, B), (C, P1)]) is free  # other former edges do not matter
+    assert verdict([(C, D)]) is Verdict.T1_DEADLOCK
+    assert verdict([(D, C)]) is Verdict.T1_DEADLOCK

@@ -61,8 +61,9 @@ def test_max_error_holds(name, image, background, bound):
 def test_max_error_is_met_with_few_vertices_to_spare():
     """One pass, by construction: the mesh with one vertex less would miss the bound."""
     image = np.load(CROPS)["venus"].astype(float)
-    m = triangulate(image, max_error=1.0, method="greedy")
-    fewer = triangulate(image, vertices=m.stats.vertices - 1, method="greedy")
+    # a property of the insertion: vertex depths copied from their pixels, as inserted
+    m = triangulate(image, max_error=1.0, method="greedy", heights="pixel")
+    fewer = triangulate(image, vertices=m.stats.vertices - 1, method="greedy", heights="pixel")
     assert evaluate(fewer, image).relative_error > 1.0 >= evaluate(m, image).relative_error
 
 
@@ -76,7 +77,7 @@ def test_each_vertex_is_the_worst_pixel_of_the_mesh_before_it(scene):
     depth = scenes.make(scene, (40, 50), noise=0.3).depth
     previous = None
     for n in range(5, 60):
-        m = triangulate(depth, vertices=n, method="greedy")
+        m = triangulate(depth, vertices=n, method="greedy", heights="pixel")
         if previous is not None:
             old = {tuple(p) for p in previous.pixels.tolist()}
             new = [tuple(p) for p in m.pixels.tolist() if tuple(p) not in old]
@@ -200,3 +201,71 @@ def test_p2_unit_invariance(s):
     b = triangulate(depth * s, background=0, vertices=700, method="greedy", camera=(1, 1, 1 / s))
     assert np.array_equal(a.pixels, b.pixels) and np.array_equal(a.faces, b.faces)
     np.testing.assert_allclose(a.vertices, b.vertices, rtol=1e-12)
+
+
+# --------------------------------------------------------------------------
+# least-squares vertex depths (heights='fit', greedy's default)
+# --------------------------------------------------------------------------
+
+
+def _fitted_depth(mesh):
+    """Depth of each vertex in stored units, from its 3-D position."""
+    cam = mesh.camera
+    if isinstance(cam, rangemesh.Orthographic):
+        return mesh.vertices[:, 2] / cam.kz
+    return mesh.vertices[:, 2] / cam.depth_scale
+
+
+def test_fitted_depths_reproduce_an_exact_plane():
+    # Least squares on pixels that all lie on one plane returns that plane exactly.
+    r, c = np.mgrid[0:60, 0:80]
+    depth = 100.0 + 0.3 * r - 0.7 * c
+    m = triangulate(depth, vertices=40, method="greedy")
+    want = 100.0 + 0.3 * m.pixels[:, 0] - 0.7 * m.pixels[:, 1]
+    np.testing.assert_allclose(_fitted_depth(m), want, rtol=0, atol=1e-9)
+
+
+def test_fitted_depths_reproduce_a_plane_seen_by_a_pinhole_camera():
+    # A 3-D plane Z = 2 + 0.01 X has inverse depth affine in the image: 1/Z = (1 - 0.01 (c - cx)/fx)/2,
+    # which is what a pinhole mesh interpolates; the fit must give back Z at every vertex.
+    cam = rangemesh.Pinhole(fx=100.0, fy=100.0, cx=40.0, cy=30.0)
+    r, c = np.mgrid[0:60, 0:80]
+    depth = 2.0 / (1.0 - 0.01 * (c - 40.0) / 100.0)
+    m = triangulate(depth, vertices=30, method="greedy", camera=cam)
+    want = 2.0 / (1.0 - 0.01 * (m.pixels[:, 1] - 40.0) / 100.0)
+    np.testing.assert_allclose(_fitted_depth(m), want, rtol=1e-9)
+
+
+def test_fitted_depths_average_out_noise():
+    # A plane with Gaussian noise: the fitted vertices lie nearer the true plane than the
+    # noisy pixels they sit on, and the mesh's error against the noisy image is lower.
+    sc = scenes.make("plane", (80, 100), noise=2.0)
+    true = scenes.make("plane", (80, 100)).depth  # the same plane without noise
+    m_fit = triangulate(sc.depth, vertices=60, method="greedy")
+    m_pix = triangulate(sc.depth, vertices=60, method="greedy", heights="pixel")
+    assert np.array_equal(m_fit.pixels, m_pix.pixels) and np.array_equal(m_fit.faces, m_pix.faces)
+    t = true[m_fit.pixels[:, 0], m_fit.pixels[:, 1]]
+    assert np.mean(np.abs(_fitted_depth(m_fit) - t)) < 0.5 * np.mean(np.abs(_fitted_depth(m_pix) - t))
+    assert evaluate(m_fit, sc.depth).relative_error < evaluate(m_pix, sc.depth).relative_error
+
+
+@pytest.mark.parametrize("name", ["box", "stairs"])
+def test_fitted_depths_are_not_pulled_across_a_jump(name):
+    # Noiseless jumps: a wall triangle's pixels on the far surface are left out of the fit, so
+    # no vertex moves off its own surface by more than a hair of the jump height.
+    sc = scenes.make(name, (60, 80))
+    m = triangulate(sc.depth, vertices=80, method="greedy")
+    own = sc.depth[m.pixels[:, 0], m.pixels[:, 1]]
+    span = np.ptp(sc.depth)
+    assert np.max(np.abs(_fitted_depth(m) - own)) < 0.01 * span
+
+
+def test_the_paper_method_refuses_fitted_depths():
+    depth = scenes.make("crease", (30, 40)).depth
+    with pytest.raises(ValueError, match="heights='fit' belongs to method='greedy'"):
+        triangulate(depth, heights="fit")
+    with pytest.raises(ValueError, match="heights must be one of"):
+        triangulate(depth, vertices=30, method="greedy", heights="least-squares")
+    a = triangulate(depth, tiles=2, samples=5)
+    b = triangulate(depth, tiles=2, samples=5, heights="pixel")
+    assert np.array_equal(a.vertices, b.vertices) and np.array_equal(a.faces, b.faces)

@@ -138,6 +138,10 @@ def _add_mesh_options(p):
     p.add_argument("--method", choices=["paper", "greedy"], default="paper",
                    help="paper: Garcia & Sappa's pipeline (default); greedy: insert the worst "
                         "pixel until --vertices or --max-error is met (one pass)")
+    p.add_argument("--heights", choices=["fit", "pixel"], default=None,
+                   help="vertex depths: least squares over the pixels, jumps left out (fit, "
+                        "--method greedy's default) or copied from the vertex's pixel (pixel, "
+                        "the paper's)")
     t = p.add_argument_group("ask for the result instead of the grid (instead of --samples)")
     t.add_argument("--vertices", type=int, default=None,
                    help="about this many vertices (within 2 %%); tiles and samples are chosen")
@@ -195,7 +199,8 @@ def _add_output_options(p):
 _FIELDS = {"tiles": "tiles", "samples": "samples", "sampling": "sampling", "delta": "delta",
            "epsilon": "epsilon", "max_angle": "max_angle", "min_bend": "min_bend",
            "gain_threshold": "gain_threshold", "curvature_floor": "curvature_floor",
-           "levels": "levels", "max_edge": "max_edge", "threads": "workers"}
+           "levels": "levels", "max_edge": "max_edge", "threads": "workers",
+           "heights": "heights"}
 
 
 def _params(args) -> MeshParams:
@@ -344,7 +349,8 @@ def _check_method(args):
     """Options of the paper's method are refused with --method greedy, not silently ignored."""
     if args.method != "greedy":
         return
-    paper = [opt for opt in _FIELDS if opt != "threads" and getattr(args, opt, None) is not None]
+    paper = [opt for opt in _FIELDS if opt not in ("threads", "heights")
+             and getattr(args, opt, None) is not None]
     paper += ["flips"] if args.flips is not _UNSET else []
     if paper:
         raise UserError(f"--{paper[0].replace('_', '-')} belongs to --method paper; --method "

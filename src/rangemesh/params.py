@@ -18,6 +18,9 @@ SAMPLING_CHOICES = ("adaptive", "uniform")
 FLIP_CHOICES = ("disparity", "error", None)
 
 
+HEIGHT_CHOICES = (None, "fit", "pixel")
+
+
 @dataclass(frozen=True)
 class MeshParams:
     """Parameters of the Garcia & Sappa pipeline, with the paper's defaults.
@@ -70,6 +73,14 @@ class MeshParams:
     workers : int, default 1
         Threads sharing stage one's tiles (the paper's parallel stage). The
         mesh is the same for any number.
+    heights : {'fit', 'pixel'} or None, default None
+        Where vertex depths come from. ``'pixel'``: each vertex copies the
+        depth of its pixel (the paper's eq. 4; the only choice of
+        ``method='paper'``). ``'fit'``: least squares over the pixels each
+        vertex's triangles cover, pixels across a jump left out
+        (`rangemesh.greedy.heights.fit_heights`); ``method='greedy'`` only.
+        ``None``: the method's default, ``'pixel'`` for the paper,
+        ``'fit'`` for greedy insertion.
 
     Raises
     ------
@@ -100,6 +111,7 @@ class MeshParams:
     gain_threshold: float | None = None
     max_edge: float | None = None
     workers: int = 1
+    heights: str | None = None
 
     def __post_init__(self):
         tiles = whole_pair("tiles", self.tiles, minimum=1)
@@ -147,6 +159,9 @@ class MeshParams:
                 )
             object.__setattr__(self, "max_edge", e)
         object.__setattr__(self, "workers", whole_number("workers", self.workers, minimum=1))
+        if not (self.heights is None or isinstance(self.heights, str)) \
+                or self.heights not in HEIGHT_CHOICES:
+            raise ValueError(f"heights must be one of {HEIGHT_CHOICES}, got {self.heights!r}")
 
     @property
     def grid_shape(self) -> tuple[int, int]:

@@ -12,6 +12,7 @@ from ..geometry.signals import holding_signals
 from ..mesh import Mesh, Stats, count_edges, empty_mesh
 from ..render import relative_error
 from . import kernels as _k
+from .heights import fit_heights
 
 __all__ = ["greedy_mesh", "fill_background"]
 
@@ -45,9 +46,21 @@ def _assemble(vr, vc, tv, depth, valid, camera, shape):
     return vertices, faces, pixels
 
 
+def _fitted(verts, faces, pixels, depth, valid, camera, shape, max_error, ref):
+    """Vertices with least-squares depths; the copied ones if those alone meet `max_error`."""
+    z = fit_heights(pixels, faces, depth, valid, camera)
+    fitted = backproject(pixels[:, 0], pixels[:, 1], z, camera)
+    if max_error is not None:
+        if relative_error(Mesh(fitted, faces, pixels, camera, shape), *ref) > max_error >= \
+                relative_error(Mesh(verts, faces, pixels, camera, shape), *ref):
+            return verts
+    return fitted
+
+
 @holding_signals
 def greedy_mesh(depth: np.ndarray, valid: np.ndarray, camera, *, vertices: int | None = None,
-                max_error: float | None = None, reference=None) -> tuple[Mesh, dict]:
+                max_error: float | None = None, reference=None,
+                fit: bool = True) -> tuple[Mesh, dict]:
     """Mesh a prepared image by inserting its worst pixel until a target is met.
 
     Parameters
@@ -63,6 +76,10 @@ def greedy_mesh(depth: np.ndarray, valid: np.ndarray, camera, *, vertices: int |
     reference : (depth, valid), optional
         The image the error bound is checked against (the original, before
         gap filling); default `depth`, `valid`.
+    fit : bool, default True
+        Fit the vertex depths by least squares (`fit_heights`) once the
+        triangulation is chosen; else copy each from its pixel. With
+        `max_error`, fitted depths are kept only when they meet the bound.
 
     Returns
     -------
@@ -103,10 +120,14 @@ def greedy_mesh(depth: np.ndarray, valid: np.ndarray, camera, *, vertices: int |
                 continue
         break
     t1 = time.perf_counter()
+    seconds = {"insertion": t1 - t0}
+    if fit and len(faces):
+        verts = _fitted(verts, faces, pixels, depth, valid, camera, (h, w), max_error, ref)
+        seconds["fit"] = time.perf_counter() - t1
     stats = Stats(vertices=got, triangles=len(faces), edges=count_edges(faces),
-                  sampled_points=got, seconds={"insertion": t1 - t0})
+                  sampled_points=got, seconds=seconds)
     if len(faces) == 0:
-        stats = Stats(seconds={"insertion": t1 - t0},
+        stats = Stats(seconds=seconds,
                       reason="no triangle with valid corners: too few valid pixels")
         return empty_mesh(camera, (h, w), stats), {}
     mesh = Mesh(verts, faces, pixels, camera, (h, w), stats)

@@ -90,6 +90,7 @@ OURS = [
     ("rangemesh uniform+error (Table I baseline)", dict(sampling="uniform", flips="error")),
     ("rangemesh uniform, no flips", dict(sampling="uniform", flips=None)),
     ("rangemesh greedy insertion", dict(method="greedy")),
+    ("rangemesh greedy insertion, pixel heights", dict(method="greedy", heights="pixel")),
 ]
 
 

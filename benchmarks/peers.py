@@ -291,6 +291,21 @@ PEERS = [
 # ---------------------------------------------------------------- inputs
 
 
+def find_data(data: Path | None) -> Path | None:
+    """The shared images: `data` if given, else shared/data beside the repository, if any."""
+    if data is None:
+        repo = Path(__file__).resolve().parents[1]
+        for cand in (repo.parent / "shared" / "data", repo / "shared" / "data",
+                     Path.cwd().parent / "shared" / "data"):
+            if cand.is_dir():
+                data = cand
+                break
+    if data is None or not data.is_dir():
+        print("no shared/data folder found: synthetic scenes only (use --data)", file=sys.stderr)
+        return None
+    return data
+
+
 def load_images(data: Path | None, quick: bool) -> tuple[list[Image], list[str]]:
     """Real images that load, then synthetic scenes with exact discontinuities."""
     out, skipped = [], []
@@ -506,17 +521,7 @@ def main(argv=None) -> int:
     ap.add_argument("--no-peers", action="store_true", help="rangemesh variants only")
     ap.add_argument("--no-figure", action="store_true", help="skip the figure")
     args = ap.parse_args(argv)
-    data = args.data
-    if data is None:
-        repo = Path(__file__).resolve().parents[1]
-        for cand in (repo.parent / "shared" / "data", repo / "shared" / "data",
-                     Path.cwd().parent / "shared" / "data"):
-            if cand.is_dir():
-                data = cand
-                break
-    if data is None or not data.is_dir():
-        print("no shared/data folder found: synthetic scenes only (use --data)", file=sys.stderr)
-        data = None
+    data = find_data(args.data)
     repeat = args.repeat or (1 if args.quick else 5)
     budgets = [(5, 5), 5000] if args.quick else PAPER_BUDGETS + [5000]
     images, skipped_images = load_images(data, args.quick)

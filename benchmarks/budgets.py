@@ -1,0 +1,115 @@
+"""Greedy insertion against its targets: 1 %, 3 % and 10 % of the valid pixels as vertex counts.
+
+Run ``python benchmarks/budgets.py`` (``--quick`` for three images, ``--help``).
+For every image of ``../shared/data`` and every synthetic scene of the
+package, at each budget it meshes with
+
+* rangemesh greedy insertion, fitted vertex depths (the default) and copied
+  ones (``heights="pixel"``);
+* pydelatin (greedy insertion, Garland-Heckbert), asked for the count that
+  puts as many vertices on valid pixels;
+* fast-simplification (quadric decimation) of the full-resolution grid mesh;
+
+and evaluates every mesh with `rangemesh.evaluate`. It prints one row per
+case and the medians over the cases of the issue's target ratios: mean
+relative error against quadric decimation (target <= 1.0), error within 2 px
+of jumps and creases against pydelatin (target <= 1.0), and whole-call time
+against pydelatin (target <= 1.0). Times are medians of ``--repeat`` calls in
+one process, measured side by side (the peers' hole filling, grid building
+and count search are not timed, as in ``benchmarks/peers.py``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+import peers  # noqa: E402  (the sibling script: images, peers and timing)
+
+from rangemesh.pipeline import triangulate  # noqa: E402
+
+FRACTIONS = (0.01, 0.03, 0.10)
+MINE = "greedy, fitted depths"
+VARIANTS = [(MINE, {}), ("greedy, pixel depths", {"heights": "pixel"})]
+
+
+def run(images, repeat, log=print):
+    rows = []
+    for image in images:
+        masked, valid = peers.to_depth_and_mask(image.depth, image.background)
+        for frac in FRACTIONS:
+            n = max(int(frac * valid.sum()), 50)
+            got = {}
+            for label, opts in VARIANTS:
+                mesh, ms = peers._timed(lambda opts=opts, image=image, n=n: triangulate(
+                    image.depth, background=image.background, vertices=n, method="greedy",
+                    **opts), repeat)
+                got[label] = peers._record(image, f"{frac:.0%}", label, mesh, ms, valid)
+            n_mine = max(got[MINE]["vertices"], 4)
+            for label, fn in (("pydelatin", peers.peer_delatin),
+                              ("quadric decimation", peers.peer_quadric)):
+                mesh, ms = fn(masked, valid, n_mine, repeat)
+                got[label] = peers._record(image, f"{frac:.0%}", label, mesh, ms, valid)
+            rows.append(got)
+            m, d, q = got[MINE], got["pydelatin"], got["quadric decimation"]
+            log(f"{image.name[:30]:30s} {frac:4.0%} {n_mine:7d} | err {m['relative_error']:.4f} "
+                f"pix {got['greedy, pixel depths']['relative_error']:.4f} "
+                f"quadric {q['relative_error']:.4f} delatin {d['relative_error']:.4f} | band "
+                f"{m['edge_band_error']:.3f} delatin {d['edge_band_error']:.3f} | ms "
+                f"{m['ms']:.1f} delatin {d['ms']:.1f} | uncovered {m['uncovered']:.2f} %")
+    return rows
+
+
+# Errors below a millionth of the depth range (in percent: 1e-4) count as exact: ratios
+# of two rounding residues would say nothing.
+EXACT = 1e-4
+
+
+def _ratio(a, b):
+    return max(a, EXACT) / max(b, EXACT)
+
+
+def summary(rows):
+    """Medians over the cases of the target ratios, overall and per budget."""
+    out = []
+    for frac in (None, *FRACTIONS):
+        sel = [g for g in rows if frac is None or g[MINE]["budget"] == f"{frac:.0%}"]
+        if not sel:
+            continue
+        err = statistics.median(_ratio(g[MINE]["relative_error"],
+                                       g["quadric decimation"]["relative_error"]) for g in sel)
+        fit = statistics.median(_ratio(g[MINE]["relative_error"],
+                                       g["greedy, pixel depths"]["relative_error"]) for g in sel)
+        band = statistics.median(_ratio(g[MINE]["edge_band_error"],
+                                        g["pydelatin"]["edge_band_error"]) for g in sel)
+        ms = statistics.median(_ratio(g[MINE]["ms"], g["pydelatin"]["ms"]) for g in sel)
+        worst = max(g[MINE]["uncovered"] for g in sel)
+        out.append((frac, len(sel), err, fit, band, ms, worst))
+    return out
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(prog="python benchmarks/budgets.py", description=__doc__.split("\n")[0])
+    ap.add_argument("--data", type=Path, default=None, help="the shared data folder")
+    ap.add_argument("--quick", action="store_true", help="three real images, two scenes")
+    ap.add_argument("--repeat", type=int, default=3, help="timed calls per case (default 3)")
+    args = ap.parse_args(argv)
+    images, missing = peers.load_images(peers.find_data(args.data), args.quick)
+    for m in missing:
+        print(f"skipped: {m}", file=sys.stderr)
+    rows = run(images, args.repeat)
+    print("\n| budget | cases | error / quadric | fitted / pixel depths | edge band / pydelatin "
+          "| time / pydelatin | worst uncovered % |")
+    print("|---|---:|---:|---:|---:|---:|---:|")
+    for frac, n, err, fit, band, ms, worst in summary(rows):
+        name = "all" if frac is None else f"{frac:.0%} of valid pixels"
+        print(f"| {name} | {n} | {err:.2f} | {fit:.2f} | {band:.2f} | {ms:.2f} | {worst:.2f} |")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

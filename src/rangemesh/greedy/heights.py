@@ -21,14 +21,15 @@ from __future__ import annotations
 import numpy as np
 
 from ..camera import Orthographic
-from ..geometry.raster import rasterize
 from ..geometry.signals import holding_signals
+from .heights_kernels import empty_buffers, fit_pass
 
 __all__ = ["fit_heights"]
 
 # A pixel whose error under the copied depths exceeds OUTLIER_MADS robust
-# standard deviations (1.4826 MAD) of all errors, and OUTLIER_FLOOR of the
-# depth range, is left out: it belongs to another surface than its triangle.
+# standard deviations (1.4826 x the median error) of all errors, and
+# OUTLIER_FLOOR of the vertices' depth range, is left out: it belongs to
+# another surface than its triangle.
 OUTLIER_MADS = 4.0
 OUTLIER_FLOOR = 0.005
 # Ridge towards the copied value, relative to a vertex's own weight: it keeps a
@@ -61,8 +62,8 @@ def fit_heights(pixels: np.ndarray, faces: np.ndarray, depth: np.ndarray, valid:
     from scipy import sparse
     from scipy.sparse.linalg import spsolve
 
-    pr = pixels[:, 0].astype(np.int64)
-    pc = pixels[:, 1].astype(np.int64)
+    pr = np.ascontiguousarray(pixels[:, 0], dtype=np.int64)
+    pc = np.ascontiguousarray(pixels[:, 1], dtype=np.int64)
     n = len(pr)
     ortho = isinstance(camera, Orthographic)
     with np.errstate(divide="ignore"):
@@ -71,44 +72,22 @@ def fit_heights(pixels: np.ndarray, faces: np.ndarray, depth: np.ndarray, valid:
     if not np.isfinite(h0).all():
         raise ValueError("fit_heights: every vertex must sit on a valid pixel")
     f = np.ascontiguousarray(faces, dtype=np.int64)
-    fr = np.ascontiguousarray(pr[f].astype(np.float64))
-    fc = np.ascontiguousarray(pc[f].astype(np.float64))
-    pred = np.full(depth.shape, np.nan)
-    face = np.full(depth.shape, -1, np.int64)
-    rasterize(fr, fc, np.ascontiguousarray(h0[f]), depth.shape[0], depth.shape[1], pred, face)
-    use = valid & (face >= 0)
-    rows, cols = np.nonzero(use)
-    t = face[rows, cols]
-    target = image[rows, cols]
-    resid = np.abs(pred[rows, cols] - target)
-    mad = np.median(np.abs(resid - np.median(resid))) if len(resid) else 0.0
-    span = float(np.ptp(target)) if len(target) else 0.0
-    keep = resid <= max(OUTLIER_MADS * 1.4826 * mad, OUTLIER_FLOOR * span)
-    rows, cols, t, target = rows[keep], cols[keep], t[keep], target[keep]
-    # barycentric weights of each kept pixel in its triangle
-    r0, r1, r2 = fr[t, 0], fr[t, 1], fr[t, 2]
-    c0, c1, c2 = fc[t, 0], fc[t, 1], fc[t, 2]
-    area = (r1 - r0) * (c2 - c0) - (c1 - c0) * (r2 - r0)
-    w = np.empty((len(t), 3))
-    w[:, 0] = ((r2 - r1) * (cols - c1) - (c2 - c1) * (rows - r1)) / area
-    w[:, 1] = ((r0 - r2) * (cols - c2) - (c0 - c2) * (rows - r2)) / area
-    w[:, 2] = 1.0 - w[:, 0] - w[:, 1]
-    # normal equations, summed per triangle first (9 entries a triangle, not 9 a pixel)
-    nf = len(f)
-    block = np.empty((nf, 3, 3))
-    rhs = np.zeros(n)
-    for i in range(3):
-        rhs += np.bincount(f[t, i], weights=w[:, i] * target, minlength=n)
-        for j in range(i, 3):
-            block[:, i, j] = block[:, j, i] = np.bincount(t, weights=w[:, i] * w[:, j],
-                                                          minlength=nf)
-    ii = np.repeat(f, 3, axis=1).ravel()
-    jj = np.tile(f, (1, 3)).ravel()
-    m = sparse.csc_matrix((block.ravel(), (ii, jj)), shape=(n, n))
-    diag = m.diagonal()
-    ridge = RIDGE * np.maximum(diag, 1.0)
+    resid, ids, block, rhs = empty_buffers(len(f), int(np.count_nonzero(valid)))
+    used = fit_pass(f, pr, pc, h0, image, valid, -1.0, resid, ids, block, rhs)
+    if used == 0:
+        return depth[pr, pc].astype(np.float64)
+    # a robust sigma of the errors (1.4826 x their median: they centre on 0), from every
+    # 4th pixel: a median of 300k values costs more than the fit's own pass
+    sigma = 1.4826 * float(np.median(resid[:used:4]))
+    lo, hi = float(np.min(h0)), float(np.max(h0))
+    thr = max(OUTLIER_MADS * sigma, OUTLIER_FLOOR * (hi - lo))
+    fit_pass(f, pr, pc, h0, image, valid, thr, resid, ids, block, rhs)
+    m = sparse.csc_matrix((block.ravel(), (np.repeat(ids, 3, axis=1).ravel(),
+                                           np.tile(ids, (1, 3)).ravel())), shape=(n, n))
+    b = np.bincount(ids.ravel(), weights=rhs.ravel(), minlength=n)
+    ridge = RIDGE * np.maximum(m.diagonal(), 1.0)
     m = m + sparse.diags(ridge, format="csc")
-    fitted = spsolve(m, rhs + ridge * h0)
+    fitted = spsolve(m, b + ridge * h0)
     if not np.isfinite(fitted).all():
         raise RuntimeError("fit_heights: the least-squares solve failed")
     return fitted if ortho else 1.0 / fitted

@@ -1,0 +1,103 @@
+"""Numba kernel of the least-squares vertex depths: one pass over each triangle's pixels.
+
+Each pixel is visited once, by the triangle that owns it: interior pixels by
+their triangle, a pixel on a shared edge by one side only (the rule of the
+greedy kernel's `_owns`), a pixel on the mesh's border edge by its triangle
+when that rule says so (otherwise it is simply not used by the fit). Rows are
+walked over their exact integer spans, as the greedy kernel does.
+"""
+
+import numpy as np
+from numba import njit
+
+from ..geometry.vectors import orient
+from .kernels import _owns, _span
+
+
+@njit(cache=True)
+def fit_pass(faces, pr, pc, h0, image, valid, thr, resid, ids, block, rhs):
+    """Visit every owned valid pixel of every triangle.
+
+    With ``thr < 0`` (the first pass) writes each pixel's ``|image - mesh|``
+    under the vertex values `h0` into `resid` and returns how many. Otherwise
+    adds, for the pixels whose residual is at most `thr`, the products of
+    their barycentric weights to ``block[t]`` (3x3) and weight times image
+    value to ``rhs[t]`` (3), for the vertices ``ids[t]`` (the face's vertices,
+    turned counter-clockwise), and returns how many pixels were used.
+    """
+    k = 0
+    h, w = image.shape
+    for t in range(faces.shape[0]):
+        a = faces[t, 0]
+        b = faces[t, 1]
+        c = faces[t, 2]
+        if orient(pr[a], pc[a], pr[b], pc[b], pr[c], pc[c]) < 0:
+            b, c = c, b
+        ids[t, 0] = a
+        ids[t, 1] = b
+        ids[t, 2] = c
+        ar, ac, az = pr[a], pc[a], h0[a]
+        br, bc, bz = pr[b], pc[b], h0[b]
+        cr, cc, cz = pr[c], pc[c], h0[c]
+        area = orient(ar, ac, br, bc, cr, cc)
+        if area == 0:
+            continue
+        inv = 1.0 / area
+        own0 = _owns(ar, ac, br, bc)
+        own1 = _owns(br, bc, cr, cc)
+        own2 = _owns(cr, cc, ar, ac)
+        r0 = max(min(ar, min(br, cr)), 0)
+        r1 = min(max(ar, max(br, cr)), h - 1)
+        c0 = max(min(ac, min(bc, cc)), 0)
+        c1 = min(max(ac, max(bc, cc)), w - 1)
+        s0 = br - ar
+        s1 = cr - br
+        s2 = ar - cr
+        for r in range(r0, r1 + 1):
+            v0 = orient(ar, ac, br, bc, r, c0)
+            v1 = orient(br, bc, cr, cc, r, c0)
+            v2 = orient(cr, cc, ar, ac, r, c0)
+            lo, hi = _span(v0, s0, c0, c0, c1)
+            lo, hi = _span(v1, s1, c0, lo, hi)
+            lo, hi = _span(v2, s2, c0, lo, hi)
+            if lo > hi:
+                continue
+            w0 = v0 + s0 * (lo - c0)
+            w1 = v1 + s1 * (lo - c0)
+            w2 = v2 + s2 * (lo - c0)
+            for col in range(lo, hi + 1):
+                if ((w0 > 0 or (w0 == 0 and own0)) and (w1 > 0 or (w1 == 0 and own1))
+                        and (w2 > 0 or (w2 == 0 and own2)) and valid[r, col]):
+                    la = w1 * inv  # weight of a
+                    lb = w2 * inv
+                    lc = w0 * inv
+                    v = image[r, col]
+                    e = abs(v - (la * az + lb * bz + lc * cz))
+                    if thr < 0.0:
+                        if k < resid.size:  # overlapping faces could visit a pixel twice
+                            resid[k] = e
+                            k += 1
+                    elif e <= thr:
+                        k += 1
+                        block[t, 0, 0] += la * la
+                        block[t, 0, 1] += la * lb
+                        block[t, 0, 2] += la * lc
+                        block[t, 1, 1] += lb * lb
+                        block[t, 1, 2] += lb * lc
+                        block[t, 2, 2] += lc * lc
+                        rhs[t, 0] += la * v
+                        rhs[t, 1] += lb * v
+                        rhs[t, 2] += lc * v
+                w0 += s0
+                w1 += s1
+                w2 += s2
+        block[t, 1, 0] = block[t, 0, 1]
+        block[t, 2, 0] = block[t, 0, 2]
+        block[t, 2, 1] = block[t, 1, 2]
+    return k
+
+
+def empty_buffers(n_faces, n_pixels):
+    """Zeroed outputs of `fit_pass` for `n_faces` faces and at most `n_pixels` pixels."""
+    return (np.zeros(n_pixels), np.zeros((n_faces, 3), np.int64), np.zeros((n_faces, 3, 3)),
+            np.zeros((n_faces, 3)))

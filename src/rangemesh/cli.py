@@ -142,6 +142,12 @@ def _add_mesh_options(p):
                    help="vertex depths: least squares over the pixels, jumps left out (fit, "
                         "--method greedy's default) or copied from the vertex's pixel (pixel, "
                         "the paper's)")
+    p.add_argument("--no-walls", action="store_true",
+                   help="--method greedy: drop the triangles across depth jumps, so separate "
+                        "surfaces stay separate")
+    p.add_argument("--jump", type=float, default=None,
+                   help=f"with --no-walls: a depth change above this share of the local depth "
+                        f"per pixel is a jump (default {d('jump')})")
     t = p.add_argument_group("ask for the result instead of the grid (instead of --samples)")
     t.add_argument("--vertices", type=int, default=None,
                    help="about this many vertices (within 2 %%); tiles and samples are chosen")
@@ -200,7 +206,7 @@ _FIELDS = {"tiles": "tiles", "samples": "samples", "sampling": "sampling", "delt
            "epsilon": "epsilon", "max_angle": "max_angle", "min_bend": "min_bend",
            "gain_threshold": "gain_threshold", "curvature_floor": "curvature_floor",
            "levels": "levels", "max_edge": "max_edge", "threads": "workers",
-           "heights": "heights"}
+           "heights": "heights", "jump": "jump"}
 
 
 def _params(args) -> MeshParams:
@@ -211,6 +217,8 @@ def _params(args) -> MeshParams:
         given["flips"] = args.flips
     if args.no_fill_gaps:
         given["fill_gaps"] = False
+    if getattr(args, "no_walls", False):
+        given["walls"] = False
     try:
         return MeshParams(**given)
     except (ValueError, TypeError) as exc:
@@ -271,11 +279,13 @@ def _say(args, lines):
 
 def _kernel_modules():
     """Every module that holds Numba kernels."""
-    from .geometry import delaunay, halfedges, heap, pixels, raster, vectors
-    from .paper import flipping_kernels, sampling_kernels, triangulation_kernels
+    from .geometry import delaunay, fans, halfedges, heap, pixels, raster, vectors
+    from .greedy import heights_kernels
+    from .greedy import kernels as greedy_kernels
+    from .paper import flipping_kernels, sampling_kernels
 
-    return (vectors, pixels, raster, heap, halfedges, delaunay, sampling_kernels,
-            triangulation_kernels, flipping_kernels)
+    return (vectors, pixels, raster, heap, halfedges, delaunay, fans, sampling_kernels,
+            flipping_kernels, greedy_kernels, heights_kernels)
 
 
 def _cold_cache() -> bool:
@@ -348,8 +358,12 @@ def _targets(args) -> dict:
 def _check_method(args):
     """Options of the paper's method are refused with --method greedy, not silently ignored."""
     if args.method != "greedy":
+        greedy = ["no_walls"] if args.no_walls else []
+        greedy += ["jump"] if args.jump is not None else []
+        if greedy:
+            raise UserError(f"--{greedy[0].replace('_', '-')} belongs to --method greedy")
         return
-    paper = [opt for opt in _FIELDS if opt not in ("threads", "heights")
+    paper = [opt for opt in _FIELDS if opt not in ("threads", "heights", "jump")
              and getattr(args, opt, None) is not None]
     paper += ["flips"] if args.flips is not _UNSET else []
     if paper:

@@ -81,6 +81,13 @@ class MeshParams:
         (`rangemesh.greedy.heights.fit_heights`); ``method='greedy'`` only.
         ``None``: the method's default, ``'pixel'`` for the paper,
         ``'fit'`` for greedy insertion.
+    walls : bool, default True
+        Keep the triangles that bridge a depth jump ("walls"). ``False``
+        drops them, so separate surfaces stay separate (`method='greedy'`
+        only; see `rangemesh.greedy.walls` for how a jump is decided).
+    jump : float, default 0.05
+        With ``walls=False``: an edge is a jump when depth changes along it
+        by more than this share of the local depth per pixel.
 
     Raises
     ------
@@ -112,6 +119,8 @@ class MeshParams:
     max_edge: float | None = None
     workers: int = 1
     heights: str | None = None
+    walls: bool = True
+    jump: float = 0.05
 
     def __post_init__(self):
         tiles = whole_pair("tiles", self.tiles, minimum=1)
@@ -162,6 +171,11 @@ class MeshParams:
         if not (self.heights is None or isinstance(self.heights, str)) \
                 or self.heights not in HEIGHT_CHOICES:
             raise ValueError(f"heights must be one of {HEIGHT_CHOICES}, got {self.heights!r}")
+        object.__setattr__(self, "walls", flag("walls", self.walls))
+        jump = real_number("jump", self.jump)
+        if not jump > 0:
+            raise ValueError(f"jump must be a positive share of the depth, got {self.jump!r}")
+        object.__setattr__(self, "jump", jump)
 
     @property
     def grid_shape(self) -> tuple[int, int]:

@@ -140,14 +140,16 @@ def _check_method(method, params: MeshParams, vertices, max_error, overrides) ->
     if method == "greedy":
         if vertices is None and max_error is None:
             raise ValueError("method='greedy' needs a target: vertices=N or max_error=E")
-        paper_only = sorted(set(overrides) - {"fill_gaps", "workers", "heights"})
+        paper_only = sorted(set(overrides) - set(GREEDY_FIELDS))
         if paper_only or params.max_edge is not None:
             raise ValueError(f"{paper_only or ['max_edge']} are parameters of method='paper'; "
-                             f"method='greedy' takes vertices or max_error (and fill_gaps, "
-                             f"heights)")
+                             f"method='greedy' takes vertices or max_error (and "
+                             f"{', '.join(GREEDY_FIELDS)})")
     elif params.heights == "fit":
         raise ValueError("heights='fit' belongs to method='greedy'; the paper's method copies "
                          "each vertex's depth from its pixel")
+    elif not params.walls or "jump" in overrides:
+        raise ValueError("walls=False and jump belong to method='greedy'")
 
 
 def _targets_given(params: MeshParams, vertices, max_error, overrides) -> list[str]:
@@ -169,6 +171,8 @@ def _targets_given(params: MeshParams, vertices, max_error, overrides) -> list[s
 
 
 METHODS = ("paper", "greedy")
+# the MeshParams fields greedy insertion reads
+GREEDY_FIELDS = ("fill_gaps", "workers", "heights", "walls", "jump")
 
 
 def run(image, params: MeshParams, *, background=None, camera=None, vertices=None,
@@ -206,7 +210,8 @@ def run(image, params: MeshParams, *, background=None, camera=None, vertices=Non
     if method == "greedy":
         ref = to_depth_and_mask(image, background) if max_error is not None else None
         mesh, target = greedy_mesh(depth, valid, camera, vertices=vertices, max_error=max_error,
-                                   reference=ref, fit=params.heights != "pixel")
+                                   reference=ref, fit=params.heights != "pixel",
+                                   walls=params.walls, jump=params.jump)
     elif vertices is not None:
         mesh, target = targets.fit_vertices(depth, valid, params, camera, int(vertices), tiles=tiles)
     elif max_error is not None:
@@ -260,8 +265,9 @@ def triangulate(image, params: MeshParams | None = None, *, background=None, cam
         ``'greedy'``: greedy insertion (`rangemesh.greedy`): the worst pixel
         becomes a vertex until exactly `vertices` vertices or a relative
         error of `max_error` is reached, in one pass; needs one of them and
-        takes only ``fill_gaps`` and ``heights`` of the parameters (vertex
-        depths are fitted by least squares unless ``heights='pixel'``).
+        takes only ``fill_gaps``, ``heights``, ``walls`` and ``jump`` of the
+        parameters (vertex depths are fitted by least squares unless
+        ``heights='pixel'``; ``walls=False`` drops the triangles across jumps).
     **overrides
         Any field of `MeshParams`: ``tiles``, ``samples``, ``sampling``,
         ``flips``, ``levels``, ``curvature_floor``, ``fill_gaps``, ``delta``,

@@ -13,6 +13,7 @@ from ..mesh import Mesh, Stats, count_edges, empty_mesh
 from ..render import relative_error
 from . import kernels as _k
 from .heights import fit_heights
+from .walls import drop_walls
 
 __all__ = ["greedy_mesh", "fill_background"]
 
@@ -32,18 +33,27 @@ def fill_background(depth: np.ndarray, valid: np.ndarray) -> np.ndarray:
     return depth[idx[0], idx[1]]
 
 
-def _assemble(vr, vc, tv, depth, valid, camera, shape):
-    """Drop triangles with a background vertex, then vertices no triangle uses; lift to 3-D."""
+def _assemble(vr, vc, tv, depth, valid, camera, walls, jump):
+    """Drop triangles with a background vertex (and walls, unless `walls`), then unused vertices.
+
+    Returns the vertices (lifted to 3-D with each pixel's depth), faces,
+    pixels and the number of walls dropped.
+    """
     faces = tv.reshape(-1, 3)
     keep = valid[vr[faces], vc[faces]].all(axis=1)
     faces = faces[keep]
+    n_walls = 0
+    if not walls and len(faces):
+        kept, wall = drop_walls(faces, np.stack([vr, vc], axis=1), depth[vr, vc], jump)
+        faces = faces[kept]
+        n_walls = int(wall.sum())
     used = np.zeros(len(vr), bool)
     used[faces.ravel()] = True
     new_id = np.cumsum(used) - 1
     faces = new_id[faces].astype(np.int32)
     pixels = np.stack([vr[used], vc[used]], axis=1).astype(np.int32)
     vertices = backproject(pixels[:, 0], pixels[:, 1], depth[pixels[:, 0], pixels[:, 1]], camera)
-    return vertices, faces, pixels
+    return vertices, faces, pixels, n_walls
 
 
 def _fitted(verts, faces, pixels, depth, valid, camera, shape, max_error, ref):
@@ -59,8 +69,8 @@ def _fitted(verts, faces, pixels, depth, valid, camera, shape, max_error, ref):
 
 @holding_signals
 def greedy_mesh(depth: np.ndarray, valid: np.ndarray, camera, *, vertices: int | None = None,
-                max_error: float | None = None, reference=None,
-                fit: bool = True) -> tuple[Mesh, dict]:
+                max_error: float | None = None, reference=None, fit: bool = True,
+                walls: bool = True, jump: float = 0.05) -> tuple[Mesh, dict]:
     """Mesh a prepared image by inserting its worst pixel until a target is met.
 
     Parameters
@@ -80,6 +90,12 @@ def greedy_mesh(depth: np.ndarray, valid: np.ndarray, camera, *, vertices: int |
         Fit the vertex depths by least squares (`fit_heights`) once the
         triangulation is chosen; else copy each from its pixel. With
         `max_error`, fitted depths are kept only when they meet the bound.
+    walls : bool, default True
+        Keep the triangles across depth jumps; ``False`` drops them
+        (`rangemesh.greedy.walls`), and insertion goes on until `vertices`
+        vertices remain in use.
+    jump : float, default 0.05
+        The jump rule's share of the local depth per pixel (``walls=False``).
 
     Returns
     -------
@@ -108,7 +124,7 @@ def greedy_mesh(depth: np.ndarray, valid: np.ndarray, camera, *, vertices: int |
     while True:
         runs += 1
         vr, vc, tv, _, total = _k.greedy_insert(depth, valid, filled, asked, max_sum, float(span))
-        verts, faces, pixels = _assemble(vr, vc, tv, depth, valid, camera, (h, w))
+        verts, faces, pixels, n_walls = _assemble(vr, vc, tv, depth, valid, camera, walls, jump)
         got = len(pixels)
         if vertices is not None and got < want and asked < n_valid and runs < 8:
             asked += want - got  # vertices left without a triangle: insert as many more
@@ -128,13 +144,16 @@ def greedy_mesh(depth: np.ndarray, valid: np.ndarray, camera, *, vertices: int |
                   sampled_points=got, seconds=seconds)
     if len(faces) == 0:
         stats = Stats(seconds=seconds,
-                      reason="no triangle with valid corners: too few valid pixels")
+                      reason="no triangle with valid corners: too few valid pixels"
+                      if walls or not n_walls else
+                      f"every triangle was a wall across a jump ({n_walls} dropped)")
         return empty_mesh(camera, (h, w), stats), {}
     mesh = Mesh(verts, faces, pixels, camera, (h, w), stats)
     if vertices is not None:
         ok = got == int(vertices)
         note = "" if ok else (f"the image has only {n_valid} valid pixels" if n_valid < vertices
-                              else f"{got} vertices kept after dropping background triangles")
+                              else f"{got} vertices kept after dropping background triangles"
+                              + ("" if walls else " and walls"))
         target = {"target": "vertices", "requested": int(vertices), "achieved": got, "met": ok,
                   "meshings": runs}
     else:
@@ -143,6 +162,8 @@ def greedy_mesh(depth: np.ndarray, valid: np.ndarray, camera, *, vertices: int |
         note = "" if ok else "the bound was not reached"
         target = {"target": "max_error", "requested": float(max_error), "achieved": achieved,
                   "met": ok, "meshings": runs, "vertices": got}
+    if not walls:
+        target["walls_dropped"] = n_walls
     if note:
         target["note"] = note
     return mesh, target

@@ -9,10 +9,10 @@ import numpy as np
 
 from ..camera import as_camera, backproject
 from ..geometry.delaunay import delaunay_sweep, legalize_all
+from ..geometry.fans import prune_dangling
 from ..geometry.halfedges import build_halfedges, neighbors_from_halfedges
 from ..geometry.signals import holding_signals
 from ..mesh import Mesh, Stats, count_edges, empty_mesh
-from .triangulation_kernels import prune_dangling
 
 __all__ = ["delaunay_mesh", "triangulate_points"]
 

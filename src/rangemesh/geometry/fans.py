@@ -1,4 +1,9 @@
-"""Numba kernels of stage two (paper II.B.1, SPEC 2.3): pruning dangling triangles."""
+"""Numba kernel pruning triangles so that every vertex keeps one fan (SPEC P4).
+
+Used by the paper's stage two (II.B.1, SPEC 2.3: dangling triangles after
+removing background ones) and by greedy insertion when it drops the walls of
+jumps: in both, removing triangles can leave a vertex with two separate fans.
+"""
 
 import numpy as np
 from numba import njit

@@ -1,0 +1,104 @@
+"""walls=False: greedy insertion drops the triangles that bridge depth jumps."""
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import rangemesh
+from rangemesh import evaluate, scenes, triangulate
+from rangemesh.greedy.walls import wall_faces
+
+from .helpers import assert_valid_mesh
+
+
+def test_the_jump_rule_by_hand():
+    # one triangle per case; its edge 0-1 decides (vertex 2 sits far away at the same depth
+    # as vertex 0, along a long edge that is never a jump)
+    def is_wall(z0, z1, length):
+        pixels = np.array([[0, 0], [0, length], [100, 0]])
+        return bool(wall_faces(np.array([[0, 1, 2]]), pixels, np.array([z0, z1, z0]), 0.05)[0])
+
+    assert not is_wall(1.0, 1.04, 1)   # 4 % a pixel
+    assert is_wall(1.0, 1.06, 1)       # 6 % a pixel
+    assert not is_wall(1.0, 1.08, 2)   # 8 % over 2 pixels: 4 % a pixel
+    assert is_wall(0.5, 0.6, 1)        # 10 cm at 0.5 m: 20 % a pixel
+    assert not is_wall(4.0, 4.1, 2)    # 10 cm at 4 m over 2 pixels: 1.25 % a pixel
+    assert is_wall(1.04, 1.0, 1) == is_wall(1.0, 1.04, 1)  # symmetric
+
+
+@pytest.mark.parametrize("name", ["box", "stairs"])
+def test_no_kept_triangle_spans_a_labelled_jump(name):
+    sc = scenes.make(name, (80, 100))
+    valid = np.ones(sc.depth.shape, bool)
+    both = triangulate(sc.depth, vertices=600, method="greedy")
+    open_ = triangulate(sc.depth, vertices=600, method="greedy", walls=False)
+    assert_valid_mesh(open_, valid)
+    assert len(open_.vertices) == 600  # insertion went on until 600 vertices are in use
+
+    def spans(mesh):
+        lab = sc.labels[mesh.pixels[:, 0], mesh.pixels[:, 1]][mesh.faces]
+        return (lab != lab[:, :1]).any(axis=1)
+
+    assert spans(both).any()       # with walls, jumps are bridged (so the test can fail)
+    assert not spans(open_).any()  # without, never
+    assert open_.stats.target["walls_dropped"] > 0
+    # what goes uncovered is at most the jumps' own pixels
+    grown = evaluate(open_, sc.depth).uncovered - evaluate(both, sc.depth).uncovered
+    assert grown <= 100.0 * sc.discontinuities.mean()
+
+
+def test_the_rule_is_the_same_in_any_depth_unit():
+    # a pinhole frame in millimetres and in metres: the same walls, the same mesh
+    sc = scenes.make("box", (60, 80))
+    mm = sc.depth * 10.0  # ~1-2 m, in mm
+    cam_mm = rangemesh.Pinhole(fx=80.0, fy=80.0, cx=40.0, cy=30.0, depth_scale=0.001)
+    cam_m = rangemesh.Pinhole(fx=80.0, fy=80.0, cx=40.0, cy=30.0)
+    a = triangulate(mm, camera=cam_mm, vertices=300, method="greedy", walls=False)
+    b = triangulate(mm / 1000.0, camera=cam_m, vertices=300, method="greedy", walls=False)
+    assert np.array_equal(a.faces, b.faces) and np.array_equal(a.pixels, b.pixels)
+    assert a.stats.target["walls_dropped"] == b.stats.target["walls_dropped"] > 0
+
+
+def test_walls_belong_to_greedy_insertion():
+    depth = scenes.make("box", (30, 40)).depth
+    with pytest.raises(ValueError, match="walls=False and jump belong to method='greedy'"):
+        triangulate(depth, walls=False)
+    with pytest.raises(ValueError, match="walls=False and jump"):
+        triangulate(depth, jump=0.1)
+    with pytest.raises(ValueError, match="jump must be a positive"):
+        triangulate(depth, vertices=50, method="greedy", walls=False, jump=0.0)
+    with pytest.raises(TypeError, match="walls"):
+        triangulate(depth, vertices=50, method="greedy", walls="no")
+
+
+def test_command_line_no_walls(tmp_path, capsys):
+    from rangemesh.cli import main
+
+    src = tmp_path / "box.npy"
+    np.save(src, scenes.make("box", (60, 80)).depth)
+    out = tmp_path / "b.ply"
+    assert main(["mesh", str(src), "--method", "greedy", "--vertices", "200", "--no-walls",
+                 "--jump", "0.1", "-o", str(out), "--quiet"]) == 0
+    m = rangemesh.read_mesh(out)
+    assert len(m.vertices) == 200
+    assert main(["mesh", str(src), "--no-walls", "-o", str(out)]) == 2
+    assert "--no-walls belongs to --method greedy" in capsys.readouterr().err
+
+
+@settings(deadline=None)
+@given(st.integers(0, 2**31), st.sampled_from(sorted(scenes.SCENES)), st.floats(0, 0.5),
+       st.integers(3, 400), st.floats(0.005, 0.5))
+def test_meshes_without_walls_are_valid(seed, name, holes, n, jump):
+    # random scenes with random holes and thresholds: what is left is a valid mesh (one fan
+    # per vertex, no lone triangle), with no wall left in it
+    rng = np.random.default_rng(seed)
+    depth = scenes.make(name, (int(rng.integers(12, 60)), int(rng.integers(12, 60))),
+                        noise=0.2).depth
+    depth[rng.random(depth.shape) < holes] = np.nan
+    m = triangulate(depth, vertices=n, method="greedy", fill_gaps=False, walls=False, jump=jump,
+                    heights="pixel")
+    assert_valid_mesh(m, np.isfinite(depth))
+    if not m.is_empty:
+        z = depth[m.pixels[:, 0], m.pixels[:, 1]]
+        assert not wall_faces(m.faces, m.pixels, z, jump).any()

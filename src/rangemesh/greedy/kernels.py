@@ -69,6 +69,68 @@ def _owns(ar, ac, br, bc):
 
 
 @njit(cache=True)
+def _nearest_cover(ar, ac, br, bc, cr, cc, own0, own1, own2, lost0, lost1, lost2, kr, kc,
+                   valid, h, best):
+    """The valid pixel of the triangle that needs covering nearest the image corner (kr, kc).
+
+    `best` holds ``(d, r, c)``, the best so far (``d`` a squared distance); a
+    pixel replaces it when ``(d, r, c)`` is smaller, so that ties go to the
+    first pixel in row-major order, as a full scan would find it. Rows are
+    visited outward from the corner's row (the first or the last image row)
+    and each row from the corner's side, so the search ends as soon as no
+    farther row can hold a nearer pixel: a corner triangle's pixels near the
+    corner, not its whole area (which can be most of the image).
+    Returns whether any valid pixel was seen.
+    """
+    r0 = min(ar, min(br, cr))
+    r1 = max(ar, max(br, cr))
+    c0 = min(ac, min(bc, cc))
+    c1 = max(ac, max(bc, cc))
+    s0 = br - ar
+    s1 = cr - br
+    s2 = ar - cr
+    seen = False
+    n_rows = r1 - r0 + 1
+    for i in range(n_rows):
+        r = r0 + i if kr == 0 else r1 - i
+        dr = (r - kr) * (r - kr)
+        if dr > best[0]:
+            break
+        v0 = orient(ar, ac, br, bc, r, c0)
+        v1 = orient(br, bc, cr, cc, r, c0)
+        v2 = orient(cr, cc, ar, ac, r, c0)
+        lo, hi = _span(v0, s0, c0, c0, c1)
+        lo, hi = _span(v1, s1, c0, lo, hi)
+        lo, hi = _span(v2, s2, c0, lo, hi)
+        if lo > hi:
+            continue
+        for j in range(hi - lo + 1):
+            c = lo + j if kc == 0 else hi - j
+            d = dr + (c - kc) * (c - kc)
+            if d > best[0]:
+                break
+            if not valid[r, c]:
+                continue
+            w0 = v0 + s0 * (c - c0)
+            w1 = v1 + s1 * (c - c0)
+            w2 = v2 + s2 * (c - c0)
+            if not ((w0 > 0 or (w0 == 0 and own0)) and (w1 > 0 or (w1 == 0 and own1))
+                    and (w2 > 0 or (w2 == 0 and own2))):
+                continue
+            seen = True
+            if (r == ar and c == ac) or (r == br and c == bc) or (r == cr and c == cc):
+                continue
+            if (w0 == 0 and not lost0) or (w1 == 0 and not lost1) or (w2 == 0 and not lost2):
+                continue  # on an edge that stays: competes by its error (full scan)
+            if d < best[0] or (d == best[0] and (r < best[1] or (r == best[1] and c < best[2]))):
+                best[0] = d
+                best[1] = r
+                best[2] = c
+            break  # farther pixels of this row are farther from the corner
+    return seen
+
+
+@njit(cache=True)
 def _lost_across(he, tv, vbg, e):
     """Whether the triangle across half-edge `e` is missing or has a background corner."""
     twin = he[e]
@@ -107,6 +169,33 @@ def _scan(t, tv, he, vr, vc, vz, vbg, depth, valid, span, out):
     lost0 = bga or bgb or _lost_across(he, tv, vbg, 3 * t)
     lost1 = bgb or bgc or _lost_across(he, tv, vbg, 3 * t + 1)
     lost2 = bgc or bga or _lost_across(he, tv, vbg, 3 * t + 2)
+    h = depth.shape[0]
+    if cover:
+        # Cover first: the pixel to insert is the coverable one nearest a background
+        # corner, found without visiting the whole triangle. Its error sum is not needed
+        # (left 0): a triangle with a cover key is split before any stop on the sum, and
+        # `total` subtracts the same 0 when it goes. Only a triangle with valid pixels and
+        # none to cover (they lie on edges that stay) is scanned in full, below.
+        near = np.array([np.inf, -1.0, -1.0])
+        seen = False
+        for k, bg in enumerate((bga, bgb, bgc)):
+            if bg:
+                kr = (ar, br, cr)[k]
+                kc = (ac, bc, cc)[k]
+                seen |= _nearest_cover(ar, ac, br, bc, cr, cc, own0, own1, own2,
+                                       lost0, lost1, lost2, kr, kc, valid, h, near)
+        if near[1] >= 0:
+            out[0] = COVER_KEY * (1.0 + 1.0 / (1.0 + near[0]))
+            out[1] = near[1]
+            out[2] = near[2]
+            out[3] = 0.0
+            return
+        if not seen:
+            out[0] = -1.0
+            out[1] = -1
+            out[2] = -1
+            out[3] = 0.0
+            return
     r0 = min(ar, min(br, cr))
     r1 = max(ar, max(br, cr))
     c0 = min(ac, min(bc, cc))

@@ -1,13 +1,22 @@
-"""Greedy insertion kernels: a Delaunay mesh refined at its worst pixel, one pixel at a time.
+"""Greedy insertion kernels: a Delaunay mesh refined at a worst pixel, one pixel at a time.
 
 The mesh starts as the image rectangle cut in two. Every triangle knows its
 worst pixel (largest vertical distance between the image and the triangle's
 plane) and the sum of its pixels' distances; an indexed max-heap orders the
-triangles by their worst pixel. Each step inserts the worst pixel of the worst
-triangle, splitting its triangle (or the two triangles of the edge it lies
-on), restores the Delaunay property with Lawson flips, and rasterises only the
-triangles that changed. This is Garland & Heckbert's "greedy insertion"
-(1995), the method of hmm and delatin, written here for range images:
+triangles. Each step inserts the worst pixel of the first triangle, splitting
+it (or the two triangles of the edge it lies on), restores the Delaunay
+property with Lawson flips, and rasterises only the triangles that changed.
+This is Garland & Heckbert's "greedy insertion" (1995), the method of hmm and
+delatin, written here for range images:
+
+* triangles are ranked by ``sqrt(worst error * error sum)``, not by the worst
+  error alone: Garland & Heckbert's order (hmm, delatin) spends vertices on a
+  few pixels of large error, along jumps, long before broad areas of small
+  error; the summed error alone leaves jumps for last. Measured with
+  ``benchmarks/budgets.py`` (66 cases at 1, 3 and 10 % of the valid pixels,
+  fitted depths): mean error against quadric decimation 1.00 -> 0.88 (0.94
+  by the sum alone), error near jumps against pydelatin 0.97 -> 1.00 (1.27
+  by the sum alone; worst^0.67 * sum^0.33 gave 0.90 and 1.00);
 
 * background pixels never become vertices and never count in the error; the
   background is filled with the nearest valid depth so that a silhouette is
@@ -259,6 +268,8 @@ def _scan(t, tv, he, vr, vc, vz, vbg, depth, valid, span, out):
             w0 += s0
             w1 += s1
             w2 += s2
+    if 0.0 <= best <= KEY_STEPS:  # an error key (not a cover key): rank by max and sum
+        best = _quantize(math.sqrt(best_err * total / (depth.shape[0] * depth.shape[1])), span)
     out[0] = best  # -1 when no pixel can be inserted; 0 when all fit exactly
     out[1] = best_r
     out[2] = best_c

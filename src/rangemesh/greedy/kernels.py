@@ -221,6 +221,7 @@ def _scan(t, tv, he, vr, vc, vz, vbg, depth, valid, span, out):
     s0 = br - ar  # slope along c of w0 = orient(A, B, p)
     s1 = cr - br
     s2 = ar - cr
+    f0, f1, f2 = float(s0), float(s1), float(s2)
     for r in range(r0, r1 + 1):
         v0 = orient(ar, ac, br, bc, r, c0)
         v1 = orient(br, bc, cr, cc, r, c0)
@@ -232,42 +233,28 @@ def _scan(t, tv, he, vr, vc, vz, vbg, depth, valid, span, out):
             continue
         drow = depth[r]
         vrow = valid[r]
-        w0 = v0 + s0 * (lo - c0)
-        w1 = v1 + s1 * (lo - c0)
-        w2 = v2 + s2 * (lo - c0)
+        # float64 holds these integers exactly (|w| < 2**53): no int-to-float per pixel
+        w0 = float(v0 + s0 * (lo - c0))
+        w1 = float(v1 + s1 * (lo - c0))
+        w2 = float(v2 + s2 * (lo - c0))
         for c in range(lo, hi + 1):
-            if ((w0 > 0 or (w0 == 0 and own0)) and (w1 > 0 or (w1 == 0 and own1))
-                    and (w2 > 0 or (w2 == 0 and own2)) and vrow[c]):
+            if vrow[c] and ((w0 > 0 or (w0 == 0 and own0)) and (w1 > 0 or (w1 == 0 and own1))
+                            and (w2 > 0 or (w2 == 0 and own2))):
                 z = (w1 * az + w2 * bz + w0 * cz) * inv
                 err = abs(drow[c] - z)
                 total += err
-                if not ((r == ar and c == ac) or (r == br and c == bc) or (r == cr and c == cc)):
-                    if cover and ((w0 != 0 or lost0) and (w1 != 0 or lost1)
-                                  and (w2 != 0 or lost2)):
-                        # nearest to a background corner first: carves the corner's fan
-                        # away from the valid pixels with few vertices
-                        dmin = 1e18
-                        if bga:
-                            dmin = min(dmin, (r - ar) ** 2 + (c - ac) ** 2)
-                        if bgb:
-                            dmin = min(dmin, (r - br) ** 2 + (c - bc) ** 2)
-                        if bgc:
-                            dmin = min(dmin, (r - cr) ** 2 + (c - cc) ** 2)
-                        key = COVER_KEY * (1.0 + 1.0 / (1.0 + dmin))
-                        if key > best:
-                            best = key
-                            best_r = r
-                            best_c = c
-                    elif err > best_err:  # the key grows with err: only then can it win
-                        key = _quantize(err, span)
-                        if key > best:
-                            best = key
-                            best_err = err
-                            best_r = r
-                            best_c = c
-            w0 += s0
-            w1 += s1
-            w2 += s2
+                # (a triangle with a pixel to cover never gets here: see above)
+                if err > best_err and not ((r == ar and c == ac) or (r == br and c == bc)
+                                           or (r == cr and c == cc)):
+                    key = _quantize(err, span)  # only a larger error can have a larger key
+                    if key > best:
+                        best = key
+                        best_err = err
+                        best_r = r
+                        best_c = c
+            w0 += f0
+            w1 += f1
+            w2 += f2
     if 0.0 <= best <= KEY_STEPS:  # an error key (not a cover key): rank by max and sum
         best = _quantize(math.sqrt(best_err * total / (depth.shape[0] * depth.shape[1])), span)
     out[0] = best  # -1 when no pixel can be inserted; 0 when all fit exactly

@@ -307,3 +307,20 @@ def test_the_paper_method_refuses_fitted_depths():
     a = triangulate(depth, tiles=2, samples=5)
     b = triangulate(depth, tiles=2, samples=5, heights="pixel")
     assert np.array_equal(a.vertices, b.vertices) and np.array_equal(a.faces, b.faces)
+
+
+@given(st.integers(0, 2**31), st.integers(1, 70), st.integers(1, 70), st.floats(0.001, 1.0))
+def test_corner_depths_are_those_of_the_nearest_valid_pixel(seed, h, w, share):
+    # brute force over every valid pixel: nearest by squared distance, then smallest (row, col)
+    from rangemesh.greedy.insertion import corner_depths
+
+    rng = np.random.default_rng(seed)
+    valid = rng.random((h, w)) < share
+    valid[rng.integers(h), rng.integers(w)] = True
+    depth = rng.random((h, w))
+    got = corner_depths(depth, valid)
+    rr, cc = np.nonzero(valid)
+    for i, (r, c) in enumerate(((0, 0), (h - 1, 0), (h - 1, w - 1), (0, w - 1))):
+        d = (rr - r) ** 2 + (cc - c) ** 2
+        j = min(range(len(d)), key=lambda k: (d[k], rr[k], cc[k]))
+        assert got[i] == depth[rr[j], cc[j]]

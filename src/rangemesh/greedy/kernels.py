@@ -17,14 +17,14 @@ delatin, written here for range images:
   fitted depths): mean error against quadric decimation 1.00 -> 0.88 (0.94
   by the sum alone), error near jumps against pydelatin 0.97 -> 1.00 (1.27
   by the sum alone; worst^0.67 * sum^0.33 gave 0.90 and 1.00);
-
-* background pixels never become vertices and never count in the error; the
-  background is filled with the nearest valid depth so that a silhouette is
-  not a jump to 0;
+* background pixels never become vertices and never count in the error; a
+  background image corner takes the depth of its nearest valid pixel so that a
+  silhouette is not a jump to 0;
 * a triangle with a background vertex (an image corner) must not keep valid
-  pixels: its valid pixels come first in the heap, nearest to the corner
-  first (keys above ``COVER_KEY``, above every error), so the triangles
-  dropped at the end cover only background;
+  pixels: its pixels to cover come first in the heap (keys above
+  ``COVER_KEY``, above every error), the one farthest from the corner's
+  opposite edge first (`_cover_pixel`), so the triangles dropped at the end
+  cover only background;
 * pixels on an edge shared by two triangles belong to one of them (the one
   on the edge's left when it is walked with rows, then columns, increasing),
   so the error sums count every pixel once.
@@ -416,7 +416,7 @@ def _grow_f(x, n):
 
 
 @njit(cache=True)
-def greedy_insert(depth, valid, filled, max_vertices, max_sum, span):
+def greedy_insert(depth, valid, corner_z, max_vertices, max_sum, span):
     """Refine the image rectangle's two triangles at their worst pixels.
 
     Parameters
@@ -424,8 +424,10 @@ def greedy_insert(depth, valid, filled, max_vertices, max_sum, span):
     depth : (H, W) float64
         Depth; read on valid pixels only.
     valid : (H, W) bool
-    filled : (H, W) float64
-        Depth with the background filled by the nearest valid depth (vertex heights).
+    corner_z : (4,) float64
+        Heights of the image corners (0, 0), (H-1, 0), (H-1, W-1), (0, W-1): their
+        depth, or for a background corner the depth of the nearest valid pixel.
+        Every other vertex stands on a valid pixel and takes its depth.
     max_vertices : int
         Stop when this many vertices stand on valid pixels.
     max_sum : float
@@ -470,7 +472,7 @@ def greedy_insert(depth, valid, filled, max_vertices, max_sum, span):
     corners_c = (0, 0, w - 1, w - 1)
     for i in range(4):
         r, c = corners_r[i], corners_c[i]
-        vr[i], vc[i], vz[i] = r, c, filled[r, c]
+        vr[i], vc[i], vz[i] = r, c, corner_z[i]
         vbg[i] = not valid[r, c]
         is_vertex[r, c] = True
     n_v = 4
@@ -524,7 +526,7 @@ def greedy_insert(depth, valid, filled, max_vertices, max_sum, span):
             stamp2[: stamp.size] = stamp
             stamp = stamp2
         p = n_v
-        vr[p], vc[p], vz[p] = pr, pc, filled[pr, pc]
+        vr[p], vc[p], vz[p] = pr, pc, depth[pr, pc]
         vbg[p] = False
         is_vertex[pr, pc] = True
         n_v += 1

@@ -15,11 +15,12 @@ from .kernels import _owns, _span
 
 
 @njit(cache=True)
-def fit_pass(faces, pr, pc, h0, image, valid, thr, resid, ids, block, rhs):
+def fit_pass(faces, pr, pc, h0, image, valid, thr, resid, ids, block, rhs, stride):
     """Visit every owned valid pixel of every triangle.
 
     With ``thr < 0`` (the first pass) writes each pixel's ``|image - mesh|``
-    under the vertex values `h0` into `resid` and returns how many. Otherwise
+    under the vertex values `h0` into `resid`, for the rows that are a multiple
+    of `stride` only, and returns how many. Otherwise
     adds, for the pixels whose residual is at most `thr`, the products of
     their barycentric weights to ``block[t]`` (3x3) and weight times image
     value to ``rhs[t]`` (3), for the vertices ``ids[t]`` (the face's vertices,
@@ -53,7 +54,13 @@ def fit_pass(faces, pr, pc, h0, image, valid, thr, resid, ids, block, rhs):
         s0 = br - ar
         s1 = cr - br
         s2 = ar - cr
+        f0, f1, f2 = float(s0), float(s1), float(s2)
+        # sums of this triangle, kept in registers and written once
+        m00 = m01 = m02 = m11 = m12 = m22 = 0.0
+        q0 = q1 = q2 = 0.0
         for r in range(r0, r1 + 1):
+            if thr < 0.0 and r % stride != 0:
+                continue
             v0 = orient(ar, ac, br, bc, r, c0)
             v1 = orient(br, bc, cr, cc, r, c0)
             v2 = orient(cr, cc, ar, ac, r, c0)
@@ -62,16 +69,20 @@ def fit_pass(faces, pr, pc, h0, image, valid, thr, resid, ids, block, rhs):
             lo, hi = _span(v2, s2, c0, lo, hi)
             if lo > hi:
                 continue
-            w0 = v0 + s0 * (lo - c0)
-            w1 = v1 + s1 * (lo - c0)
-            w2 = v2 + s2 * (lo - c0)
+            vrow = valid[r]
+            irow = image[r]
+            # float64 holds these integers exactly: no conversion per pixel
+            w0 = float(v0 + s0 * (lo - c0))
+            w1 = float(v1 + s1 * (lo - c0))
+            w2 = float(v2 + s2 * (lo - c0))
             for col in range(lo, hi + 1):
-                if ((w0 > 0 or (w0 == 0 and own0)) and (w1 > 0 or (w1 == 0 and own1))
-                        and (w2 > 0 or (w2 == 0 and own2)) and valid[r, col]):
+                if vrow[col] and ((w0 > 0 or (w0 == 0 and own0))
+                                  and (w1 > 0 or (w1 == 0 and own1))
+                                  and (w2 > 0 or (w2 == 0 and own2))):
                     la = w1 * inv  # weight of a
                     lb = w2 * inv
                     lc = w0 * inv
-                    v = image[r, col]
+                    v = irow[col]
                     e = abs(v - (la * az + lb * bz + lc * cz))
                     if thr < 0.0:
                         if k < resid.size:  # overlapping faces could visit a pixel twice
@@ -79,21 +90,27 @@ def fit_pass(faces, pr, pc, h0, image, valid, thr, resid, ids, block, rhs):
                             k += 1
                     elif e <= thr:
                         k += 1
-                        block[t, 0, 0] += la * la
-                        block[t, 0, 1] += la * lb
-                        block[t, 0, 2] += la * lc
-                        block[t, 1, 1] += lb * lb
-                        block[t, 1, 2] += lb * lc
-                        block[t, 2, 2] += lc * lc
-                        rhs[t, 0] += la * v
-                        rhs[t, 1] += lb * v
-                        rhs[t, 2] += lc * v
-                w0 += s0
-                w1 += s1
-                w2 += s2
-        block[t, 1, 0] = block[t, 0, 1]
-        block[t, 2, 0] = block[t, 0, 2]
-        block[t, 2, 1] = block[t, 1, 2]
+                        m00 += la * la
+                        m01 += la * lb
+                        m02 += la * lc
+                        m11 += lb * lb
+                        m12 += lb * lc
+                        m22 += lc * lc
+                        q0 += la * v
+                        q1 += lb * v
+                        q2 += lc * v
+                w0 += f0
+                w1 += f1
+                w2 += f2
+        block[t, 0, 0] = m00
+        block[t, 0, 1] = block[t, 1, 0] = m01
+        block[t, 0, 2] = block[t, 2, 0] = m02
+        block[t, 1, 1] = m11
+        block[t, 1, 2] = block[t, 2, 1] = m12
+        block[t, 2, 2] = m22
+        rhs[t, 0] = q0
+        rhs[t, 1] = q1
+        rhs[t, 2] = q2
     return k
 
 

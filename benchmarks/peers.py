@@ -473,7 +473,7 @@ def figure(images, out_png, n=1500):
     axes = fig.subplots(len(images), 4, squeeze=False)
     for row, image in zip(axes, images, strict=True):
         d, valid = to_depth_and_mask(image.depth, image.background)
-        ours = triangulate(image.depth, background=image.background, vertices=n)
+        ours = triangulate(image.depth, background=image.background, vertices=n, method="paper")
         n_ours = _valid_vertex_count(ours, valid)
         cands = [("rangemesh (paper)", ours),
                  ("uniform + error flips", triangulate(

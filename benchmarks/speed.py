@@ -132,7 +132,7 @@ img = scenes.box((h, w), noise=0.3).depth.astype(np.float32)
 with open("/proc/self/clear_refs", "w") as fh:       # reset the peak (VmHWM) to now
     fh.write("5")
 base = kb("VmRSS")
-m = rangemesh.triangulate(img, vertices=n)
+m = rangemesh.triangulate(img, vertices=n, method="paper")
 peak = kb("VmHWM")
 print(img.nbytes, (peak - base) * 1024, m.stats.vertices)
 """

@@ -46,6 +46,7 @@ def kwargs_for(config: dict) -> dict:
     import rangemesh
 
     kw = dict(config)
+    kw["method"] = "paper"  # these are the paper's meshes, whatever the default method
     cam = kw.pop("camera", None)
     if cam is not None:
         kw["camera"] = rangemesh.Pinhole(*cam[1:])

@@ -177,10 +177,23 @@ def test_real_images(shared_data, rel, background):
     assert ev.uncovered <= 1.0
 
 
-def test_the_paper_is_the_default_and_greedy_refuses_paper_parameters():
+def test_greedy_is_the_default_for_a_target_and_refuses_paper_parameters():
     depth = scenes.make("dome", (30, 30)).depth
-    assert triangulate(depth, vertices=100).stats.target["target"] == "vertices"
-    assert "tiles" in triangulate(depth, vertices=100).stats.target  # the paper's grid search
+
+    def is_greedy(mesh):  # the paper's grid search reports its grid; greedy insertion does not
+        return "tiles" not in mesh.stats.target
+
+    assert is_greedy(triangulate(depth, vertices=100))
+    assert is_greedy(triangulate(depth, max_error=2.0))
+    assert is_greedy(triangulate(depth, vertices=100, walls=False, heights="pixel"))
+    assert not is_greedy(triangulate(depth, vertices=100, method="paper"))
+    # a parameter only the paper's method reads selects it, as a keyword or in params
+    assert not is_greedy(triangulate(depth, vertices=100, flips="error"))
+    assert not is_greedy(triangulate(depth, vertices=100, tiles=2))
+    assert not is_greedy(triangulate(depth, rangemesh.MeshParams(delta=15), vertices=100))
+    assert not is_greedy(triangulate(depth, vertices=100, max_edge=8))
+    # without a target, the paper's method with its grid (the meshes it always gave)
+    assert triangulate(depth).stats.grid_shape == rangemesh.MeshParams().grid_shape
     with pytest.raises(ValueError, match="needs a target"):
         triangulate(depth, method="greedy")
     with pytest.raises(ValueError, match="method='paper'"):

@@ -21,7 +21,7 @@ def test_vertex_count_within_2_percent(shared_data, rel, background):
     img = load(shared_data, rel)
     n_valid = rangemesh.fill_gaps(*rangemesh.to_depth_and_mask(img, background))[1].sum()
     for n in (1000, 5000, 20000):
-        m = triangulate(img, background=background, vertices=n)
+        m = triangulate(img, background=background, vertices=n, method="paper")
         s = m.stats.target
         assert s["requested"] == n and s["achieved"] == m.stats.vertices
         if abs(m.stats.vertices - n) <= 0.02 * n:
@@ -34,13 +34,13 @@ def test_vertex_count_within_2_percent(shared_data, rel, background):
 
 def test_vertex_count_properties():
     sc = scenes.box((90, 200))
-    m = triangulate(sc.depth, vertices=2000)
+    m = triangulate(sc.depth, vertices=2000, method="paper")
     assert_valid_mesh(m)
     gr, gc = m.stats.grid_shape
     assert gc > 1.5 * gr  # a wide image gets a wide grid
     assert abs(m.stats.vertices - 2000) <= 40
     # tiles given as a keyword are kept
-    m = triangulate(sc.depth, vertices=2000, tiles=(2, 2))
+    m = triangulate(sc.depth, vertices=2000, tiles=(2, 2), method="paper")
     assert m.stats.target["tiles"] == [2, 2]
 
 
@@ -54,7 +54,7 @@ def test_auto_tiles_by_hand():
 @pytest.mark.parametrize("bound", [1.0, 0.5])
 def test_error_bound_holds(shared_data, rel, background, bound):
     img = load(shared_data, rel)
-    m = triangulate(img, background=background, max_error=bound)
+    m = triangulate(img, background=background, max_error=bound, method="paper")
     e = evaluate(m, img, background=background)  # the same code as evaluate, measured again
     assert e.relative_error <= bound
     assert m.stats.target["achieved"] == pytest.approx(e.relative_error)
@@ -67,11 +67,11 @@ def test_error_bound_holds(shared_data, rel, background, bound):
 
 def test_error_bound_on_a_scene_is_near_minimal():
     sc = scenes.dome((120, 160))
-    m = triangulate(sc.depth, max_error=0.3)
+    m = triangulate(sc.depth, max_error=0.3, method="paper")
     e = evaluate(m, sc.depth).relative_error
     assert e <= 0.3
     # 15 % fewer vertices must not meet the bound as well (the search stops within 5 %)
-    fewer = triangulate(sc.depth, vertices=int(0.85 * m.stats.vertices))
+    fewer = triangulate(sc.depth, vertices=int(0.85 * m.stats.vertices), method="paper")
     assert evaluate(fewer, sc.depth).relative_error > 0.3
 
 
@@ -88,7 +88,7 @@ def test_max_edge_holds_on_every_edge(shared_data, rel, background, L):
 
 def test_max_edge_with_a_vertex_target_and_flips():
     sc = scenes.pyramid((100, 140))
-    m = triangulate(sc.depth, vertices=800, max_edge=12)
+    m = triangulate(sc.depth, vertices=800, max_edge=12, method="paper")
     assert _edges(m).max() <= 12
     assert_valid_mesh(m)
 

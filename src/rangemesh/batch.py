@@ -222,7 +222,7 @@ def _clean_stale_parts(out_dir: Path):
 def mesh_many(paths, out_dir, params: MeshParams | None = None, *, background=None, camera=None,
               scheduler: str | None = None, workers: int | None = None, overwrite: bool = False,
               fmt: str = ".ply", progress: bool = False, vertices=None, max_error=None,
-              max_edge=None, connect_timeout: float = 10.0, method: str = "paper",
+              max_edge=None, connect_timeout: float = 10.0, method: str | None = None,
               **overrides) -> list[BatchResult]:
     """Mesh many range images into `out_dir`, in parallel, through Dask.
 
@@ -279,7 +279,7 @@ def mesh_many(paths, out_dir, params: MeshParams | None = None, *, background=No
     camera = as_camera(camera)
     targets = {k: v for k, v in (("vertices", vertices), ("max_error", max_error),
                                  ("max_edge", max_edge)) if v is not None}
-    if method != "paper":
+    if method is not None:
         targets["method"] = method
     files = expand_inputs([paths] if isinstance(paths, (str, os.PathLike)) else paths)
     out_dir = Path(out_dir)

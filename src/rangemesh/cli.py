@@ -135,9 +135,10 @@ def _add_mesh_options(p):
     g.add_argument("--samples", type=_pair, default=None, metavar="RxZ",
                    help=f"samples per tile; the grid is ((R-1)V+1) x ((Z-1)H+1) points "
                         f"(default {d('samples')})")
-    p.add_argument("--method", choices=["paper", "greedy"], default="paper",
-                   help="paper: Garcia & Sappa's pipeline (default); greedy: insert the worst "
-                        "pixel until --vertices or --max-error is met (one pass)")
+    p.add_argument("--method", choices=["greedy", "paper"], default=None,
+                   help="greedy: insert a worst pixel until --vertices or --max-error is met "
+                        "(one pass; the default with either); paper: Garcia & Sappa's pipeline "
+                        "(the default without, or with any of its own options)")
     p.add_argument("--heights", choices=["fit", "pixel"], default=None,
                    help="vertex depths: least squares over the pixels, jumps left out (fit, "
                         "--method greedy's default) or copied from the vertex's pixel (pixel, "
@@ -356,16 +357,19 @@ def _targets(args) -> dict:
 
 
 def _check_method(args):
-    """Options of the paper's method are refused with --method greedy, not silently ignored."""
+    """Choose the method when not given; refuse options that belong to the other one."""
+    paper = [opt for opt in _FIELDS if opt not in ("threads", "heights", "jump")
+             and getattr(args, opt, None) is not None]
+    paper += ["flips"] if args.flips is not _UNSET else []
+    if args.method is None:  # as rangemesh.pipeline.default_method
+        target = args.vertices is not None or args.max_error is not None
+        args.method = "greedy" if target and not paper else "paper"
     if args.method != "greedy":
         greedy = ["no_walls"] if args.no_walls else []
         greedy += ["jump"] if args.jump is not None else []
         if greedy:
             raise UserError(f"--{greedy[0].replace('_', '-')} belongs to --method greedy")
         return
-    paper = [opt for opt in _FIELDS if opt not in ("threads", "heights", "jump")
-             and getattr(args, opt, None) is not None]
-    paper += ["flips"] if args.flips is not _UNSET else []
     if paper:
         raise UserError(f"--{paper[0].replace('_', '-')} belongs to --method paper; --method "
                         f"greedy takes --vertices or --max-error")

@@ -134,6 +134,25 @@ def prepare(image, params: MeshParams, background=None, *,
     return depth, valid
 
 
+def default_method(params: MeshParams, vertices, max_error, overrides) -> str:
+    """The method a call without ``method=`` gets.
+
+    ``'greedy'`` when a target (``vertices`` or ``max_error``) is given and
+    nothing only the paper's method reads is (a keyword, or a field of
+    `params` away from its default); ``'paper'`` otherwise, so that every
+    call written for the paper's parameters keeps meshing with them.
+    """
+    if vertices is None and max_error is None:
+        return "paper"
+    if set(overrides) - set(GREEDY_FIELDS):
+        return "paper"
+    defaults = MeshParams()
+    for f in dataclasses.fields(MeshParams):
+        if f.name not in GREEDY_FIELDS and getattr(params, f.name) != getattr(defaults, f.name):
+            return "paper"
+    return "greedy"
+
+
 def _check_method(method, params: MeshParams, vertices, max_error, overrides) -> None:
     if method not in METHODS:
         raise ValueError(f"method must be one of {METHODS}, got {method!r}")
@@ -238,8 +257,8 @@ def run(image, params: MeshParams, *, background=None, camera=None, vertices=Non
 
 def triangulate(image, params: MeshParams | None = None, *, background=None, camera=None,
                 vertices: int | None = None, max_error: float | None = None,
-                method: str = "paper", **overrides) -> Mesh:
-    """Mesh a range image: adaptive sampling, 2.5-D Delaunay, discontinuity-preserving flips.
+                method: str | None = None, **overrides) -> Mesh:
+    """Mesh a range image: greedy insertion for a target, or Garcia & Sappa's pipeline.
 
     Parameters
     ----------
@@ -254,20 +273,24 @@ def triangulate(image, params: MeshParams | None = None, *, background=None, cam
         How pixels become 3-D points; default ``Orthographic(1, 1, 1)``, the
         paper's eq. (4) with unit scales.
     vertices : int, optional
-        Ask for about this many vertices instead of giving ``samples``: the
-        grid (tiles unless given, then samples per tile) is searched so that
-        the final count is within 2 % (see `rangemesh.paper.targets.fit_vertices`).
+        Exactly this many vertices (greedy insertion; every valid pixel if
+        there are fewer). With ``method='paper'``: about this many, the grid
+        searched to within 2 % (`rangemesh.paper.targets.fit_vertices`).
     max_error : float, optional
-        Ask for the smallest grid whose relative error (percent, as
-        `evaluate`) is at most this (see `rangemesh.paper.targets.fit_error`).
-    method : {'paper', 'greedy'}, default 'paper'
-        ``'paper'``: Garcia & Sappa's pipeline with every parameter below.
-        ``'greedy'``: greedy insertion (`rangemesh.greedy`): the worst pixel
+        The smallest mesh whose relative error (percent, as `evaluate`) is at
+        most this: greedy insertion stops there, in one pass; the paper's
+        method searches its grid (`rangemesh.paper.targets.fit_error`).
+    method : {'greedy', 'paper'}, optional
+        ``'greedy'``: greedy insertion (`rangemesh.greedy`): a worst pixel
         becomes a vertex until exactly `vertices` vertices or a relative
         error of `max_error` is reached, in one pass; needs one of them and
         takes only ``fill_gaps``, ``heights``, ``walls`` and ``jump`` of the
         parameters (vertex depths are fitted by least squares unless
         ``heights='pixel'``; ``walls=False`` drops the triangles across jumps).
+        ``'paper'``: Garcia & Sappa's pipeline with every parameter below,
+        the meshes it has always given. Default (`default_method`):
+        ``'greedy'`` with a target and no parameter of the paper's method,
+        ``'paper'`` otherwise.
     **overrides
         Any field of `MeshParams`: ``tiles``, ``samples``, ``sampling``,
         ``flips``, ``levels``, ``curvature_floor``, ``fill_gaps``, ``delta``,
@@ -330,6 +353,8 @@ def triangulate(image, params: MeshParams | None = None, *, background=None, cam
     """
     params = resolve_params(params, overrides)
     _targets_given(params, vertices, max_error, overrides)
+    if method is None:
+        method = default_method(params, vertices, max_error, overrides)
     _check_method(method, params, vertices, max_error, overrides)
     return run(image, params, background=background, camera=camera, vertices=vertices,
                max_error=max_error, tiles_given="tiles" in overrides, method=method)

@@ -17,6 +17,10 @@ of jumps and creases against pydelatin (target <= 1.0), and whole-call time
 against pydelatin (target <= 1.0). Times are medians of ``--repeat`` calls in
 one process, measured side by side (the peers' hole filling, grid building
 and count search are not timed, as in ``benchmarks/peers.py``).
+
+A second table checks ``max_error=E`` (E = 1 % and 0.3 %) on every image:
+whether the bound holds, and its time against one ``vertices=N`` call at the
+count it landed on (target <= 2).
 """
 
 from __future__ import annotations
@@ -69,6 +73,25 @@ def run(images, repeat, log=print):
 EXACT = 1e-4
 
 
+def error_bounds(images, repeat, log=print):
+    """max_error=E on every image: bound held, meshings, time against vertices=N at its count."""
+    from rangemesh.metrics import evaluate
+
+    rows = []
+    for image in images:
+        for bound in (1.0, 0.3):
+            mesh, ms = peers._timed(lambda image=image, bound=bound: triangulate(
+                image.depth, background=image.background, max_error=bound), repeat)
+            n = len(mesh.vertices)
+            _, ms_n = peers._timed(lambda image=image, n=n: triangulate(
+                image.depth, background=image.background, vertices=n), repeat)
+            err = evaluate(mesh, image.depth, background=image.background).relative_error
+            rows.append((image.name, bound, n, err, mesh.stats.target["meshings"], ms, ms_n))
+            log(f"{image.name[:30]:30s} max_error {bound}: {n} vertices, error {err:.3f} % "
+                f"({'held' if err <= bound else 'MISSED'}), {ms:.1f} ms against {ms_n:.1f} ms")
+    return rows
+
+
 def _ratio(a, b):
     return max(a, EXACT) / max(b, EXACT)
 
@@ -108,6 +131,12 @@ def main(argv=None) -> int:
     for frac, n, err, fit, band, ms, worst in summary(rows):
         name = "all" if frac is None else f"{frac:.0%} of valid pixels"
         print(f"| {name} | {n} | {err:.2f} | {fit:.2f} | {band:.2f} | {ms:.2f} | {worst:.2f} |")
+    bounds = error_bounds(images, args.repeat)
+    held = sum(err <= bound for _, bound, _, err, *_ in bounds)
+    times = [ms / ms_n for *_, ms, ms_n in bounds]
+    print(f"\nmax_error: the bound held on {held} of {len(bounds)} cases; meshings at most "
+          f"{max(b[4] for b in bounds)}; time against vertices=N at the same count: median "
+          f"{statistics.median(times):.2f}, max {max(times):.2f}")
     return 0
 
 

@@ -19,7 +19,7 @@ import numpy as np
 from rangemesh import MeshParams
 from rangemesh.geometry.pixels import valid_range
 from rangemesh.greedy import kernels
-from rangemesh.greedy.insertion import corner_depths, fill_background
+from rangemesh.greedy.insertion import fill_background, first_mesh
 from rangemesh.pipeline import prepare
 
 DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
@@ -44,14 +44,13 @@ def main() -> int:
         z = np.load(DATA / rel)
         depth, valid = prepare(z, MeshParams(), background)
         filled = fill_background(depth, valid)  # pydelatin needs every pixel
-        corner_z = corner_depths(depth, valid)
         lo, hi, _ = valid_range(depth, valid)
-        kernels.greedy_insert(depth, valid, corner_z, 50, -1.0, hi - lo)  # compile or load
+        kernels.greedy_insert(depth, valid, *first_mesh(depth, valid, 0), 50, -1.0, hi - lo)
         z32 = filled.astype(np.float32)
         span = hi - lo
         for n in (1369, 5000):
-            ours = median_ms(lambda n=n, d=depth, v=valid, f=corner_z, s=span:
-                             kernels.greedy_insert(d, v, f, n, -1.0, s))
+            ours = median_ms(lambda n=n, d=depth, v=valid, s=span: kernels.greedy_insert(
+                d, v, *first_mesh(d, v, min(256, n // 16)), n, -1.0, s))
             theirs = median_ms(lambda n=n, z=z32: pydelatin.Delatin(z, max_points=n))
             print(f"| {Path(rel).name} | {n} | {ours:.1f} | {theirs:.1f} | {ours / theirs:.2f} |")
     return 0

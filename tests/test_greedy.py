@@ -59,11 +59,24 @@ def test_max_error_holds(name, image, background, bound):
 
 
 def test_max_error_is_met_with_few_vertices_to_spare():
-    """One pass, by construction: the mesh with one vertex less would miss the bound."""
+    """One pass, by construction: stopping one insertion earlier would miss the bound."""
+    from rangemesh.geometry.pixels import valid_range
+    from rangemesh.greedy import insertion, kernels
+
     image = np.load(CROPS)["venus"].astype(float)
     # a property of the insertion: vertex depths copied from their pixels, as inserted
     m = triangulate(image, max_error=1.0, method="greedy", heights="pixel")
-    fewer = triangulate(image, vertices=m.stats.vertices - 1, method="greedy", heights="pixel")
+    # the same insertions from the same first mesh, one fewer
+    depth, valid = rangemesh.pipeline.prepare(image, rangemesh.MeshParams(), None)
+    lo, hi, n_valid = valid_range(depth, valid)
+    start = insertion.first_mesh(depth, valid, insertion.grid_size(n_valid, n_valid, True))
+    vr, vc, tv, _, _ = kernels.greedy_insert(depth, valid, *start, m.stats.vertices - 1, -1.0,
+                                             hi - lo)
+    faces = tv.reshape(-1, 3)
+    pixels = np.stack([vr, vc], axis=1).astype(np.int32)
+    fewer = rangemesh.Mesh(np.c_[pixels.astype(float), depth[vr, vc]], faces.astype(np.int32),
+                           pixels, rangemesh.Orthographic(), image.shape)
+    assert len(fewer.vertices) == m.stats.vertices - 1
     assert evaluate(fewer, image).relative_error > 1.0 >= evaluate(m, image).relative_error
 
 

@@ -7,6 +7,7 @@ import time
 import numpy as np
 
 from ..camera import backproject
+from ..geometry.delaunay import delaunay_sweep
 from ..geometry.pixels import valid_range
 from ..geometry.signals import holding_signals
 from ..mesh import Mesh, Stats, count_edges, empty_mesh
@@ -67,6 +68,62 @@ def corner_depths(depth: np.ndarray, valid: np.ndarray) -> np.ndarray:
                 raise ValueError("corner_depths: the image has no valid pixel")
             k *= 2
     return out
+
+
+# The first mesh: the image corners and a coarse grid of valid pixels, about this
+# share of the vertices asked (at most GRID_MAX points; GRID_ERROR_BOUND points with
+# max_error, whose count is not known beforehand). Starting from the two triangles of
+# the image rectangle, the first insertions each rescan a large part of the image:
+# 40 % of the insertion time at 640x480 and 2700 vertices.
+GRID_SHARE = 1.0 / 16.0
+GRID_MAX = 256
+GRID_ERROR_BOUND = 64
+
+
+def grid_size(want: int, n_valid: int, by_error: bool) -> int:
+    """Grid points of the first mesh: a share of `want` vertices, or a fixed few for max_error."""
+    if by_error:
+        return min(GRID_ERROR_BOUND, int(n_valid * GRID_SHARE))
+    return min(GRID_MAX, int(want * GRID_SHARE))
+
+
+def first_mesh(depth: np.ndarray, valid: np.ndarray, n_grid: int):
+    """The mesh greedy insertion starts from: image corners plus about `n_grid` grid pixels.
+
+    Grid points sit at the centres of a grid of cells shaped like the image;
+    those on background pixels are left out. With fewer than 4 grid points the
+    mesh is the image rectangle cut in two.
+
+    Returns
+    -------
+    vr, vc, vz, tv, he : ndarrays
+        As `rangemesh.greedy.kernels.greedy_insert` takes them.
+    """
+    h, w = depth.shape
+    corner_z = corner_depths(depth, valid)
+    vr = np.array([0, h - 1, h - 1, 0], np.int64)
+    vc = np.array([0, 0, w - 1, w - 1], np.int64)
+    gr = int(round(np.sqrt(n_grid * h / w))) if n_grid >= 4 else 0
+    gc = int(round(np.sqrt(n_grid * w / h))) if n_grid >= 4 else 0
+    if gr >= 2 and gc >= 2:
+        rows = ((np.arange(gr) + 0.5) * h / gr).astype(np.int64)
+        cols = ((np.arange(gc) + 0.5) * w / gc).astype(np.int64)
+        r, c = np.meshgrid(np.unique(rows), np.unique(cols), indexing="ij")
+        r, c = r.ravel(), c.ravel()
+        keep = valid[r, c] & ~(((r == 0) | (r == h - 1)) & ((c == 0) | (c == w - 1)))
+        vr = np.concatenate([vr, r[keep]])
+        vc = np.concatenate([vc, c[keep]])
+    if len(vr) > 4:
+        tv, he, n_t = delaunay_sweep(vr, vc)
+        if n_t == 0:
+            raise RuntimeError("first_mesh: the image corners cannot be collinear")
+        tv, he = tv[: 3 * n_t].copy(), he[: 3 * n_t].copy()
+    else:
+        # (0,0) (H-1,0) (H-1,W-1) and (0,0) (H-1,W-1) (0,W-1): counter-clockwise in (r, c)
+        tv = np.array([0, 1, 2, 0, 2, 3], np.int64)
+        he = np.array([-1, -1, 3, 2, -1, -1], np.int64)
+    vz = np.concatenate([corner_z, depth[vr[4:], vc[4:]]])
+    return vr, vc, vz, tv, he
 
 
 def _assemble(vr, vc, tv, depth, valid, camera, walls, jump):
@@ -152,14 +209,14 @@ def greedy_mesh(depth: np.ndarray, valid: np.ndarray, camera, *, vertices: int |
     ref = (depth, valid) if reference is None else reference
     lo, hi, n_valid = valid_range(depth, valid)
     span = hi - lo
-    corner_z = corner_depths(depth, valid)
     want = n_valid if vertices is None else min(int(vertices), n_valid)
+    start = first_mesh(depth, valid, grid_size(want, n_valid, vertices is None))
     max_sum = -1.0 if max_error is None else float(max_error) / 100.0 * span * n_valid
     runs = 0
     asked = want
     while True:
         runs += 1
-        vr, vc, tv, _, total = _k.greedy_insert(depth, valid, corner_z, asked, max_sum, float(span))
+        vr, vc, tv, _, total = _k.greedy_insert(depth, valid, *start, asked, max_sum, float(span))
         verts, faces, pixels, n_walls = _assemble(vr, vc, tv, depth, valid, camera, walls, jump)
         got = len(pixels)
         if vertices is not None and got < want and asked < n_valid and runs < 8:

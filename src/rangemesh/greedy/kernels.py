@@ -416,18 +416,21 @@ def _grow_f(x, n):
 
 
 @njit(cache=True)
-def greedy_insert(depth, valid, corner_z, max_vertices, max_sum, span):
-    """Refine the image rectangle's two triangles at their worst pixels.
+def greedy_insert(depth, valid, vr0, vc0, vz0, tv0, he0, max_vertices, max_sum, span):
+    """Refine a first mesh of the image at worst pixels, one vertex at a time.
 
     Parameters
     ----------
     depth : (H, W) float64
         Depth; read on valid pixels only.
     valid : (H, W) bool
-    corner_z : (4,) float64
-        Heights of the image corners (0, 0), (H-1, 0), (H-1, W-1), (0, W-1): their
-        depth, or for a background corner the depth of the nearest valid pixel.
-        Every other vertex stands on a valid pixel and takes its depth.
+    vr0, vc0, vz0 : (V0,) int64, int64, float64
+        The first mesh's vertices: the four image corners (0, 0), (H-1, 0),
+        (H-1, W-1), (0, W-1) first, then valid pixels only; heights (a
+        background corner takes the depth of the nearest valid pixel).
+    tv0, he0 : (3 * T0,) int64
+        Its triangles (counter-clockwise in (row, column), covering the image
+        rectangle, Delaunay) and their twin half-edges.
     max_vertices : int
         Stop when this many vertices stand on valid pixels.
     max_sum : float
@@ -447,7 +450,9 @@ def greedy_insert(depth, valid, corner_z, max_vertices, max_sum, span):
         The summed error at the end.
     """
     h, w = depth.shape
-    cap_v = 1024
+    n_v = vr0.size
+    n_t = tv0.size // 3
+    cap_v = max(1024, 2 * n_v)
     cap_t = 2 * cap_v + 8
     vr = np.zeros(cap_v, np.int64)
     vc = np.zeros(cap_v, np.int64)
@@ -468,26 +473,22 @@ def greedy_insert(depth, valid, corner_z, max_vertices, max_sum, span):
     stack = np.zeros(64, np.int64)
     out = np.zeros(4)
     outer = np.zeros(4, np.int64)
-    corners_r = (0, h - 1, h - 1, 0)
-    corners_c = (0, 0, w - 1, w - 1)
-    for i in range(4):
-        r, c = corners_r[i], corners_c[i]
-        vr[i], vc[i], vz[i] = r, c, corner_z[i]
-        vbg[i] = not valid[r, c]
-        is_vertex[r, c] = True
-    n_v = 4
     n_valid_v = 0
-    for i in range(4):
-        if valid[corners_r[i], corners_c[i]]:
+    for i in range(n_v):
+        r, c = vr0[i], vc0[i]
+        vr[i], vc[i], vz[i] = r, c, vz0[i]
+        vbg[i] = not valid[r, c]
+        if vbg[i] and i >= 4:
+            raise ValueError("greedy_insert: only the image corners may be background vertices")
+        if not vbg[i]:
             n_valid_v += 1
-    # (0,0) (H-1,0) (H-1,W-1) and (0,0) (H-1,W-1) (0,W-1): counter-clockwise in (r, c)
-    _new_tri(tv, he, 0, 0, 1, 2)
-    _new_tri(tv, he, 1, 0, 2, 3)
-    link(he, 2, 3)
-    n_t = 2
+        is_vertex[r, c] = True
+    for k in range(3 * n_t):
+        tv[k] = tv0[k]
+        he[k] = he0[k]
     n_heap = 0
     total = 0.0
-    for t in range(2):
+    for t in range(n_t):
         _scan(t, tv, he, vr, vc, vz, vbg, depth, valid, span, out)
         terr[t], tcr[t], tcc[t], tsum[t] = out[0], out[1], out[2], out[3]
         total += out[3]

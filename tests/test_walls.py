@@ -102,3 +102,34 @@ def test_meshes_without_walls_are_valid(seed, name, holes, n, jump):
     if not m.is_empty:
         z = depth[m.pixels[:, 0], m.pixels[:, 1]]
         assert not wall_faces(m.faces, m.pixels, z, jump).any()
+
+
+@pytest.mark.parametrize("name", ["box", "stairs"])
+@pytest.mark.parametrize("n", [150, 600])
+def test_walls_are_at_most_a_pixel_wide_and_no_triangle_crosses_a_jump(name, n):
+    # Noiseless jumps with known labels: greedy insertion puts vertices on both sides of each
+    # jump, so a wall triangle (vertices on two surfaces) covers only pixels within 1 px of
+    # a jump pixel, and no triangle covers a pixel of a surface none of its vertices is on.
+    from scipy import ndimage
+
+    from rangemesh.render import render_depth
+
+    sc = scenes.make(name, (80, 100))
+    m = triangulate(sc.depth, vertices=n)
+    _, face = render_depth(m)
+    covered = face >= 0
+    vertex_labels = sc.labels[m.pixels[:, 0], m.pixels[:, 1]][m.faces][face[covered]]
+    wall = (vertex_labels != vertex_labels[:, :1]).any(axis=1)
+    assert wall.any()
+    to_jump = ndimage.distance_transform_edt(~sc.discontinuities)[covered]
+    assert to_jump[wall].max() <= 1.0
+    assert (vertex_labels == sc.labels[covered][:, None]).any(axis=1).all()
+
+
+@pytest.mark.parametrize(("name", "n"), [("crease", 40), ("pyramid", 80)])
+def test_creases_get_vertices_on_the_crease_line(name, n):
+    # planes meeting at creases (one line; a pyramid's four edges and its base outline): a few
+    # dozen vertices on the crease lines make the mesh exact
+    sc = scenes.make(name, (80, 100))
+    m = triangulate(sc.depth, vertices=n)
+    assert evaluate(m, sc.depth).max_error < 1e-9

@@ -461,7 +461,7 @@ def summary_table(rows):
 
 
 def figure(images, out_png, n=1500):
-    """Fig. 10/11-like: our mesh, uniform + error flips and the two best peers, same vertex count."""
+    """Fig. 10/11-like: greedy insertion, the paper's method and the two best peers, same count."""
     import matplotlib
 
     matplotlib.use("Agg", force=False)
@@ -475,11 +475,9 @@ def figure(images, out_png, n=1500):
         d, valid = to_depth_and_mask(image.depth, image.background)
         ours = triangulate(image.depth, background=image.background, vertices=n, method="paper")
         n_ours = _valid_vertex_count(ours, valid)
-        cands = [("rangemesh (paper)", ours),
-                 ("uniform + error flips", triangulate(
-                     image.depth, background=image.background, sampling="uniform", flips="error",
-                     tiles=tuple(ours.stats.target["tiles"]),
-                     samples=tuple(ours.stats.target["samples"])))]
+        cands = [("rangemesh greedy (default)", triangulate(
+                     image.depth, background=image.background, vertices=n_ours)),
+                 ("rangemesh paper", ours)]
         for label, module, fn in PEERS[:2]:
             try:
                 __import__(module)

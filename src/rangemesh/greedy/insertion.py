@@ -149,15 +149,21 @@ def _assemble(vr, vc, tv, depth, valid, camera, walls, jump):
     return vertices, faces, pixels, n_walls
 
 
-def _fitted(verts, faces, pixels, depth, valid, camera, shape, max_error, ref):
-    """Vertices with least-squares depths; the copied ones if those alone meet `max_error`."""
+def _fitted(verts, faces, pixels, depth, valid, camera, shape, max_error, ref, copied_error):
+    """Vertices with least-squares depths, and their relative error when `max_error` is set.
+
+    The copied depths stay when they alone meet `max_error` (`copied_error`
+    is theirs, already measured); the error returned is that of the vertices
+    returned (NaN without `max_error`).
+    """
     z = fit_heights(pixels, faces, depth, valid, camera)
     fitted = backproject(pixels[:, 0], pixels[:, 1], z, camera)
-    if max_error is not None:
-        if relative_error(Mesh(fitted, faces, pixels, camera, shape), *ref) > max_error >= \
-                relative_error(Mesh(verts, faces, pixels, camera, shape), *ref):
-            return verts
-    return fitted
+    if max_error is None:
+        return fitted, float("nan")
+    fitted_error = relative_error(Mesh(fitted, faces, pixels, camera, shape), *ref)
+    if fitted_error > max_error >= copied_error:
+        return verts, copied_error
+    return fitted, fitted_error
 
 
 @holding_signals
@@ -214,6 +220,7 @@ def greedy_mesh(depth: np.ndarray, valid: np.ndarray, camera, *, vertices: int |
     max_sum = -1.0 if max_error is None else float(max_error) / 100.0 * span * n_valid
     runs = 0
     asked = want
+    achieved = float("nan")  # the relative error, measured with max_error only
     while True:
         runs += 1
         vr, vc, tv, _, total = _k.greedy_insert(depth, valid, *start, asked, max_sum, float(span))
@@ -222,16 +229,19 @@ def greedy_mesh(depth: np.ndarray, valid: np.ndarray, camera, *, vertices: int |
         if vertices is not None and got < want and asked < n_valid and runs < 8:
             asked += want - got  # vertices left without a triangle: insert as many more
             continue
-        if max_error is not None and runs < 8 and len(faces):
-            m = Mesh(verts, faces, pixels, camera, (h, w))
-            if relative_error(m, *ref) > max_error and asked > got:
+        if max_error is not None and len(faces):
+            achieved = relative_error(Mesh(verts, faces, pixels, camera, (h, w)), *ref)
+            if achieved > max_error and asked > got and runs < 8:
                 max_sum *= 0.9  # the running sum is an estimate: tighten and go on
                 continue
         break
     t1 = time.perf_counter()
     seconds = {"insertion": t1 - t0}
     if fit and len(faces):
-        verts = _fitted(verts, faces, pixels, depth, valid, camera, (h, w), max_error, ref)
+        verts, fitted_error = _fitted(verts, faces, pixels, depth, valid, camera, (h, w),
+                                      max_error, ref, achieved)
+        if max_error is not None:
+            achieved = fitted_error
         seconds["fit"] = time.perf_counter() - t1
     stats = Stats(vertices=got, triangles=len(faces), edges=count_edges(faces),
                   sampled_points=got, seconds=seconds)
@@ -250,7 +260,6 @@ def greedy_mesh(depth: np.ndarray, valid: np.ndarray, camera, *, vertices: int |
         target = {"target": "vertices", "requested": int(vertices), "achieved": got, "met": ok,
                   "meshings": runs}
     else:
-        achieved = relative_error(mesh, *ref)
         ok = achieved <= max_error
         note = "" if ok else "the bound was not reached"
         target = {"target": "max_error", "requested": float(max_error), "achieved": achieved,

@@ -289,24 +289,30 @@ def _kernel_modules():
             flipping_kernels, greedy_kernels, heights_kernels)
 
 
-def _cold_cache() -> bool:
-    """True when the main kernels have no entry in Numba's on-disk cache: this run compiles them."""
+def _cold_cache(method: str = "paper") -> bool:
+    """True when the method's main kernels have no entry in Numba's on-disk cache."""
     import os
 
-    from .geometry.delaunay import sweep_insert
-    from .paper.flipping_kernels import flip_loop
-    from .paper.sampling_kernels import sample_tiles
+    if method == "greedy":
+        from .greedy.heights_kernels import fit_pass
+        from .greedy.kernels import greedy_insert
 
+        kernels = (greedy_insert, fit_pass)
+    else:
+        from .geometry.delaunay import sweep_insert
+        from .paper.flipping_kernels import flip_loop
+        from .paper.sampling_kernels import sample_tiles
+
+        kernels = (flip_loop, sweep_insert, sample_tiles)
     try:
-        return not all(os.path.exists(k._cache._cache_file._index_path)
-                       for k in (flip_loop, sweep_insert, sample_tiles))
+        return not all(os.path.exists(k._cache._cache_file._index_path) for k in kernels)
     except AttributeError:  # another Numba's internals: say nothing rather than guess
         return False
 
 
 def _first_run_notice(args):
-    if not (args.quiet or args.json) and _cold_cache():
-        print("rangemesh: first run: compiling the Numba kernels once (about 15-20 s); "
+    if not (args.quiet or args.json) and _cold_cache(getattr(args, "method", None) or "paper"):
+        print("rangemesh: first run: compiling the Numba kernels once (about 15-25 s); "
               "later runs load them from the cache", file=sys.stderr)
 
 

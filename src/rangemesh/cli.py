@@ -26,7 +26,7 @@ from .io import IMAGE_SUFFIXES, MESH_SUFFIXES, read_mesh, read_range_image, writ
 from .metrics import evaluate
 from .paper.sampling import sampling_weights
 from .params import MeshParams
-from .pipeline import prepare, triangulate
+from .pipeline import check_call, prepare, triangulate
 from .prepare import guess_background, to_depth_and_mask
 
 __all__ = ["main", "build_parser"]
@@ -387,11 +387,15 @@ def _run_mesh(args, image, name, bg, outputs_for):
     _check_method(args)
     params = _params(args)
     camera = _camera(args)
+    targets = _targets(args)
+    given = [k for k, v in targets.items() if v is not None]
+    extra = {"tiles": args.tiles} if (given and args.tiles is not None) else {}
+    try:  # bad values fail with their own message before the first-run notice
+        check_call(params.replace(**extra), method=args.method, overrides=extra, **targets)
+    except (ValueError, TypeError) as exc:
+        raise UserError(f"{name}: {_one_line(exc)}") from None
     _first_run_notice(args)
     with _progress(args, 4, f"meshing {name}") as bar:
-        targets = _targets(args)
-        given = [k for k, v in targets.items() if v is not None]
-        extra = {"tiles": args.tiles} if (given and args.tiles is not None) else {}
         try:
             mesh = triangulate(image, params, background=bg, camera=camera, method=args.method,
                                **targets, **extra)

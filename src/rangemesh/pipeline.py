@@ -24,7 +24,8 @@ from .paper.stages import mesh_grid
 from .params import MeshParams
 from .prepare import check_image, mask_into, to_depth_and_mask
 
-__all__ = ["triangulate", "resolve_params", "prepare", "run", "Workspace", "check_memory"]
+__all__ = ["triangulate", "resolve_params", "prepare", "run", "Workspace", "check_memory",
+           "check_call", "default_method"]
 
 
 def resolve_params(params: MeshParams | None, overrides: dict) -> MeshParams:
@@ -151,6 +152,26 @@ def default_method(params: MeshParams, vertices, max_error, overrides) -> str:
         if f.name not in GREEDY_FIELDS and getattr(params, f.name) != getattr(defaults, f.name):
             return "paper"
     return "greedy"
+
+
+def check_call(params: MeshParams, vertices=None, max_error=None, method=None,
+               overrides: dict | None = None) -> str:
+    """Check the targets and the method of a `triangulate` call before any work; return the method.
+
+    The command line calls it before saying that kernels will compile, so that
+    a bad value fails with its own message first.
+
+    Raises
+    ------
+    ValueError, TypeError
+        As `triangulate` does, naming the parameter.
+    """
+    overrides = {} if overrides is None else overrides
+    _targets_given(params, vertices, max_error, overrides)
+    if method is None:
+        method = default_method(params, vertices, max_error, overrides)
+    _check_method(method, params, vertices, max_error, overrides)
+    return method
 
 
 def _check_method(method, params: MeshParams, vertices, max_error, overrides) -> None:
@@ -352,9 +373,6 @@ def triangulate(image, params: MeshParams | None = None, *, background=None, cam
     (81, 3)
     """
     params = resolve_params(params, overrides)
-    _targets_given(params, vertices, max_error, overrides)
-    if method is None:
-        method = default_method(params, vertices, max_error, overrides)
-    _check_method(method, params, vertices, max_error, overrides)
+    method = check_call(params, vertices, max_error, method, overrides)
     return run(image, params, background=background, camera=camera, vertices=vertices,
                max_error=max_error, tiles_given="tiles" in overrides, method=method)

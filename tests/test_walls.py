@@ -133,3 +133,23 @@ def test_creases_get_vertices_on_the_crease_line(name, n):
     sc = scenes.make(name, (80, 100))
     m = triangulate(sc.depth, vertices=n)
     assert evaluate(m, sc.depth).max_error < 1e-9
+
+
+@pytest.mark.parametrize("n", [1000, 3000])
+def test_depth_frame_without_walls(shared_data, n):
+    # A Kinect frame in metres: no wall left, every vertex valid, one fan each; the count is N,
+    # or a few short of it with a note when some vertices had only walls (flying pixels
+    # between surfaces), never above
+    from .images import load
+
+    z = load(shared_data, "rgbd/open3d_TUM_depth.png")
+    cam = rangemesh.Pinhole(525.0, 525.0, 319.5, 239.5, depth_scale=0.0002)
+    m = triangulate(z, background=0, vertices=n, walls=False, camera=cam)
+    valid = rangemesh.pipeline.prepare(z, rangemesh.MeshParams(), 0)[1]  # holes of 1 px filled
+    assert_valid_mesh(m, valid, check_overlap=False)
+    filled = rangemesh.pipeline.prepare(z, rangemesh.MeshParams(), 0)[0]
+    depth = filled[m.pixels[:, 0], m.pixels[:, 1]] * 0.0002
+    assert not wall_faces(m.faces, m.pixels, depth, 0.05).any()
+    got = len(m.vertices)
+    assert got == n or (0.99 * n <= got < n and "walls" in m.stats.target["note"])
+    assert m.stats.target["meshings"] <= 5

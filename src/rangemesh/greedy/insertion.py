@@ -76,6 +76,11 @@ def corner_depths(depth: np.ndarray, valid: np.ndarray) -> np.ndarray:
 # the image rectangle, the first insertions each rescan a large part of the image:
 # 40 % of the insertion time at 640x480 and 2700 vertices.
 GRID_SHARE = 1.0 / 16.0
+# Meshings at most: to land on `vertices` when fans or walls are dropped, or on `max_error`.
+MAX_RUNS = 8
+# ... and once a request gave more than `vertices` (walls dropped), at most this many: the
+# count then lands within a few vertices of N, with a note, rather than costing 8 meshings.
+MAX_BISECT_RUNS = 5
 GRID_MAX = 256
 GRID_ERROR_BOUND = 64
 
@@ -221,17 +226,36 @@ def greedy_mesh(depth: np.ndarray, valid: np.ndarray, camera, *, vertices: int |
     runs = 0
     asked = want
     achieved = float("nan")  # the relative error, measured with max_error only
+    short, beyond = 0, n_valid + 1  # requests known to give fewer / more than `want`
+    best = None  # with `vertices`: the result nearest `want`, not above it if any is
     while True:
         runs += 1
         vr, vc, tv, _, total = _k.greedy_insert(depth, valid, *start, asked, max_sum, float(span))
         verts, faces, pixels, n_walls = _assemble(vr, vc, tv, depth, valid, camera, walls, jump)
         got = len(pixels)
-        if vertices is not None and got < want and asked < n_valid and runs < 8:
-            asked += want - got  # vertices left without a triangle: insert as many more
-            continue
+        if vertices is not None:
+            rank = (got > want, abs(got - want))
+            if best is None or rank < best[0]:
+                best = (rank, verts, faces, pixels, n_walls)
+            if got != want and runs < (MAX_RUNS if beyond > n_valid else MAX_BISECT_RUNS):
+                # Vertices left without a triangle (background corners' fans, dropped
+                # walls): insert as many more. Dropping walls is not monotone in the
+                # request, so past N the request is bisected between the last one short
+                # of N and the first beyond it; the nearest result not above N is kept.
+                if got < want:
+                    short = max(short, asked)
+                else:
+                    beyond = min(beyond, asked)
+                nxt = asked + (want - got) if beyond > n_valid else (short + beyond) // 2
+                nxt = min(nxt, n_valid)
+                if short < nxt < beyond and nxt != asked:
+                    asked = nxt
+                    continue
+            _, verts, faces, pixels, n_walls = best
+            got = len(pixels)
         if max_error is not None and len(faces):
             achieved = relative_error(Mesh(verts, faces, pixels, camera, (h, w)), *ref)
-            if achieved > max_error and asked > got and runs < 8:
+            if achieved > max_error and asked > got and runs < MAX_RUNS:
                 max_sum *= 0.9  # the running sum is an estimate: tighten and go on
                 continue
         break

@@ -11,7 +11,7 @@ import numpy as np
 from numba import njit
 
 from ..geometry.vectors import orient
-from .kernels import _owns, _span
+from .kernels import _owns, row_span
 
 
 @njit(cache=True)
@@ -61,12 +61,7 @@ def fit_pass(faces, pr, pc, h0, image, valid, thr, resid, ids, block, rhs, strid
         for r in range(r0, r1 + 1):
             if thr < 0.0 and r % stride != 0:
                 continue
-            v0 = orient(ar, ac, br, bc, r, c0)
-            v1 = orient(br, bc, cr, cc, r, c0)
-            v2 = orient(cr, cc, ar, ac, r, c0)
-            lo, hi = _span(v0, s0, c0, c0, c1)
-            lo, hi = _span(v1, s1, c0, lo, hi)
-            lo, hi = _span(v2, s2, c0, lo, hi)
+            v0, v1, v2, lo, hi = row_span(ar, ac, br, bc, cr, cc, r, c0, c1)
             if lo > hi:
                 continue
             vrow = valid[r]

@@ -105,12 +105,7 @@ def _cover_pixel(ar, ac, br, bc, cr, cc, own0, own1, own2, lost0, lost1, lost2, 
     best[1] = -1
     best[2] = -1
     for r in range(r0, r1 + 1):
-        v0 = orient(ar, ac, br, bc, r, c0)
-        v1 = orient(br, bc, cr, cc, r, c0)
-        v2 = orient(cr, cc, ar, ac, r, c0)
-        lo, hi = _span(v0, s0, c0, c0, c1)
-        lo, hi = _span(v1, s1, c0, lo, hi)
-        lo, hi = _span(v2, s2, c0, lo, hi)
+        v0, v1, v2, lo, hi = row_span(ar, ac, br, bc, cr, cc, r, c0, c1)
         if lo > hi:
             continue
         # the corners' weights are linear along the row: no pixel of it can beat `best`
@@ -225,12 +220,7 @@ def _scan(t, tv, he, vr, vc, vz, vbg, depth, valid, span, out):
     s2 = ar - cr
     f0, f1, f2 = float(s0), float(s1), float(s2)
     for r in range(r0, r1 + 1):
-        v0 = orient(ar, ac, br, bc, r, c0)
-        v1 = orient(br, bc, cr, cc, r, c0)
-        v2 = orient(cr, cc, ar, ac, r, c0)
-        lo, hi = _span(v0, s0, c0, c0, c1)
-        lo, hi = _span(v1, s1, c0, lo, hi)
-        lo, hi = _span(v2, s2, c0, lo, hi)
+        v0, v1, v2, lo, hi = row_span(ar, ac, br, bc, cr, cc, r, c0, c1)
         if lo > hi:
             continue
         drow = depth[r]
@@ -278,6 +268,24 @@ def _span(v, slope, c0, lo, hi):
     elif v < 0:
         return 1, 0
     return lo, hi
+
+
+@njit(cache=True)
+def row_span(ar, ac, br, bc, cr, cc, r, c0, c1):
+    """Row `r` of triangle ABC: edge functions at column `c0` and the inside columns.
+
+    Returns the edge functions at `c0` and the columns [lo, hi] of
+    `c0..c1` where all three are >= 0 (empty: lo > hi), for ABC
+    counter-clockwise. ``w0 = orient(A, B, p)`` (the weight of C), ``w1`` (of A), ``w2`` (of B); each
+    grows along the row by ``br - ar``, ``cr - br`` and ``ar - cr`` a column.
+    """
+    v0 = orient(ar, ac, br, bc, r, c0)
+    v1 = orient(br, bc, cr, cc, r, c0)
+    v2 = orient(cr, cc, ar, ac, r, c0)
+    lo, hi = _span(v0, br - ar, c0, c0, c1)
+    lo, hi = _span(v1, cr - br, c0, lo, hi)
+    lo, hi = _span(v2, ar - cr, c0, lo, hi)
+    return v0, v1, v2, lo, hi
 
 
 @njit(cache=True)

@@ -19,8 +19,11 @@ import numpy as np
 from rangemesh import MeshParams
 from rangemesh.geometry.pixels import valid_range
 from rangemesh.greedy import kernels
-from rangemesh.greedy.insertion import fill_background, first_mesh
+from rangemesh.greedy.insertion import first_mesh
 from rangemesh.pipeline import prepare
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from peers import _filled  # noqa: E402  (the sibling script: background filled for pydelatin)
 
 DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
 CASES = [("middlebury/venus_disp2.npy", None), ("odetics/chair-range.npy", 0)]
@@ -43,7 +46,7 @@ def main() -> int:
     for rel, background in CASES:
         z = np.load(DATA / rel)
         depth, valid = prepare(z, MeshParams(), background)
-        filled = fill_background(depth, valid)  # pydelatin needs every pixel
+        filled = _filled(depth, valid)  # pydelatin needs every pixel
         lo, hi, _ = valid_range(depth, valid)
         kernels.greedy_insert(depth, valid, *first_mesh(depth, valid, 0), 50, -1.0, hi - lo)
         z32 = filled.astype(np.float32)

@@ -16,22 +16,7 @@ from . import kernels as _k
 from .heights import fit_heights
 from .walls import drop_walls
 
-__all__ = ["greedy_mesh", "fill_background", "corner_depths"]
-
-
-def fill_background(depth: np.ndarray, valid: np.ndarray) -> np.ndarray:
-    """Depth with every background pixel given the depth of its nearest valid pixel.
-
-    Vertex heights of the image corners come from here, and the planes the
-    error is measured against never fall to a background value: a silhouette
-    is an edge of the valid region, not a jump to zero.
-    """
-    if valid.all():
-        return depth
-    from scipy import ndimage
-
-    idx = ndimage.distance_transform_edt(~valid, return_distances=False, return_indices=True)
-    return depth[idx[0], idx[1]]
+__all__ = ["greedy_mesh", "corner_depths", "first_mesh"]
 
 
 def corner_depths(depth: np.ndarray, valid: np.ndarray) -> np.ndarray:

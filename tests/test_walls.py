@@ -153,3 +153,13 @@ def test_depth_frame_without_walls(shared_data, n):
     got = len(m.vertices)
     assert got == n or (0.99 * n <= got < n and "walls" in m.stats.target["note"])
     assert m.stats.target["meshings"] <= 5
+
+
+@pytest.mark.parametrize("kw", [{}, {"walls": False}, {"heights": "pixel"}])
+def test_greedy_meshes_are_the_same_bit_for_bit_run_after_run(kw):
+    # SPEC P6 for greedy insertion, the fit and the walls included
+    sc = scenes.make("box", (60, 80), noise=0.5)
+    a = triangulate(sc.depth, vertices=300, **kw)
+    b = triangulate(sc.depth.copy(), vertices=300, **kw)
+    assert np.array_equal(a.faces, b.faces) and np.array_equal(a.pixels, b.pixels)
+    assert a.vertices.tobytes() == b.vertices.tobytes()

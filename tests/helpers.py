@@ -22,8 +22,15 @@ def _union(parent, a, b):
         parent[max(ra, rb)] = min(ra, rb)
 
 
-def assert_valid_mesh(mesh, valid=None, *, check_overlap=True):
-    """SPEC P4: every property a mesh from rangemesh must have."""
+def assert_valid_mesh(mesh, valid=None, *, check_overlap=True, wrap=False):
+    """SPEC P4: every property a mesh from rangemesh must have.
+
+    With `wrap` (a 360-degree image, column W-1 beside column 0) the mesh is
+    checked on the cylinder: a clockwise face is a seam face, allowed when
+    all its vertices lie on columns 0 and W-1 and it is counter-clockwise
+    once its column-0 vertices move to column W; the overlap check then
+    uses those unrolled columns.
+    """
     v, f, p = mesh.vertices, mesh.faces, mesh.pixels
     assert v.ndim == 2 and v.shape[1] == 3 and v.dtype == np.float64
     assert f.ndim == 2 and f.shape[1] == 3 and np.issubdtype(f.dtype, np.integer)
@@ -42,6 +49,15 @@ def assert_valid_mesh(mesh, valid=None, *, check_overlap=True):
     # no degenerate triangle, all counter-clockwise in (r, c)
     assert (f[:, 0] != f[:, 1]).all() and (f[:, 1] != f[:, 2]).all() and (f[:, 0] != f[:, 2]).all()
     area = _orient(p, f)
+    w = mesh.image_shape[1]
+    seam = np.zeros(len(f), bool)
+    if wrap:
+        seam = area < 0
+        sc = p[f[seam], 1]
+        assert np.isin(sc, (0, w - 1)).all(), "a seam face off columns 0 and W-1"
+        unrolled = np.stack([p[:, 0], np.where(p[:, 1] == 0, w, p[:, 1])], axis=1)
+        assert (_orient(unrolled, f[seam]) > 0).all(), "a seam face is not counter-clockwise"
+        area = np.where(seam, 1, area)
     assert (area > 0).all(), f"{(area <= 0).sum()} faces are not counter-clockwise"
     # no repeated triangle
     assert np.unique(np.sort(f, axis=1), axis=0).shape[0] == len(f), "repeated triangle"
@@ -100,17 +116,23 @@ def assert_valid_mesh(mesh, valid=None, *, check_overlap=True):
         assert mesh.stats.vertices == len(v)
         assert mesh.stats.edges == n_edges
     if check_overlap:
-        assert_no_overlap(p, f, mesh.image_shape)
+        pc = p[f, 1].astype(np.float64)
+        if seam.any():
+            pc[seam] = np.where(pc[seam] == 0, w, pc[seam])
+        assert_no_overlap(p, f, mesh.image_shape, columns=pc)
 
 
-def assert_no_overlap(p, f, shape):
-    """No point of a fine, off-lattice grid lies strictly inside two triangles."""
+def assert_no_overlap(p, f, shape, *, columns=None):
+    """No point of a fine, off-lattice grid lies strictly inside two triangles.
+
+    `columns` (F, 3), if given, replaces each face's vertex columns (unrolled seam faces).
+    """
     step = 0.25
     offs = (0.0913, 0.1771)  # off the pixel lattice: never on an edge of integer triangles
     h, w = shape
-    count = np.zeros((int(h / step) + 2, int(w / step) + 2), np.int32)
+    count = np.zeros((int(h / step) + 2, int(w / step) + 6), np.int32)
     pr = p[f, 0].astype(np.float64)
-    pc = p[f, 1].astype(np.float64)
+    pc = p[f, 1].astype(np.float64) if columns is None else columns
     for t in range(len(f)):
         r0, r1, r2 = pr[t]
         c0, c1, c2 = pc[t]

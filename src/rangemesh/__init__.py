@@ -16,7 +16,7 @@ first use, so that ``import rangemesh`` does not load Dask or matplotlib.
 """
 
 from ._version import __version__
-from .camera import Orthographic, Pinhole, backproject
+from .camera import Orthographic, Pinhole, Rays, Spherical, backproject
 from .io import read_mesh, read_range_image, write_mesh
 from .mesh import Mesh, Stats
 from .metrics import Evaluation, discontinuity_mask, evaluate
@@ -41,6 +41,8 @@ __all__ = [
     "MeshParams",
     "Orthographic",
     "Pinhole",
+    "Rays",
+    "Spherical",
     "Stats",
     "backproject",
     "calibrate_delta",

@@ -13,6 +13,7 @@ EXTRAS = {
     "pypcd4": "pcd",
     "dask": "dask",
     "distributed": "dask",
+    "open3d": "open3d",
 }
 
 

@@ -11,11 +11,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Orthographic", "Pinhole", "backproject", "as_camera", "check_reach"]
+__all__ = ["Orthographic", "Pinhole", "Spherical", "Rays", "backproject", "as_camera",
+           "check_reach", "check_shape", "toward_sensor"]
 
 # Kind codes shared with the kernels (first slot of ``Camera.as_array()``).
 ORTHOGRAPHIC = 0.0
 PINHOLE = 1.0
+RAYS = 2.0  # a ray per pixel: [2, H, W, range_scale, 0, 0, then the (H, W, 3) rays flat]
 
 
 def _positive(name, value, allow_negative=False):
@@ -104,15 +106,215 @@ class Pinhole:
         return np.array([PINHOLE, self.fx, self.fy, self.cx, self.cy, self.depth_scale])
 
 
-Camera = Orthographic | Pinhole
+def _angles(name, values, length=None) -> np.ndarray:
+    arr = np.array(values, dtype=np.float64, copy=True)
+    if arr.ndim != 1 or arr.size == 0:
+        raise ValueError(f"{name} must be a non-empty 1-D sequence of degrees, got shape {arr.shape}")
+    if length is not None and arr.size != length:
+        raise ValueError(f"{name} must have {length} values (one per row), got {arr.size}")
+    if not np.isfinite(arr).all():
+        raise ValueError(f"{name} must be finite")
+    arr.setflags(write=False)
+    return arr
 
 
-def as_camera(camera) -> Orthographic | Pinhole:
+class _RayCamera:
+    """What `Spherical` and `Rays` share: one unit ray per pixel, ``point = range * ray``."""
+
+    directions: np.ndarray
+    range_scale: float
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        """The image shape ``(H, W)`` the camera is made for."""
+        return self.directions.shape[:2]
+
+    def as_array(self) -> np.ndarray:
+        """Parameters packed for the kernels: ``[2, H, W, range_scale, 0, 0, rays...]``."""
+        h, w = self.shape
+        return np.concatenate([[RAYS, h, w, self.range_scale, 0.0, 0.0], self.directions.ravel()])
+
+    def __eq__(self, other):
+        # to 1e-9 (degrees, or ray components): a camera read back from a file's text is equal
+        return (type(self) is type(other) and self.range_scale == other.range_scale
+                and all(a.shape == b.shape and np.allclose(a, b, rtol=0.0, atol=1e-9)
+                        for a, b in zip(self._key(), other._key(), strict=True)))
+
+    def __hash__(self):
+        return hash((type(self).__name__, self.range_scale, self.shape))
+
+
+@dataclass(frozen=True, eq=False)
+class Spherical(_RayCamera):
+    """A spinning LiDAR: one elevation per row, one azimuth per column, ``point = range * ray``.
+
+    The ray of pixel ``(r, c)`` is ``(cos e cos A, cos e sin A, sin e)`` with
+    ``e = elevation[r]`` and ``A = azimuth[c] + row_azimuth[r]`` (degrees),
+    in the sensor frame of Ouster and Velodyne drivers: x forward, y left,
+    z up. Ranges are distances along the ray, times `range_scale`.
+
+    Parameters
+    ----------
+    elevation : (H,) sequence of float
+        Elevation of each row (beam), degrees; row 0 is usually the highest.
+    azimuth : (W,) sequence of float
+        Azimuth of each column, degrees.
+    row_azimuth : (H,) sequence of float, optional
+        Per-row azimuth offset, degrees (what is left of staggered beams once
+        the columns are destaggered); default 0.
+    range_scale : float, default 1.0
+        Multiplier from stored range values to 3-D units.
+
+    Examples
+    --------
+    >>> cam = Spherical([0.0, -30.0], [0.0, 90.0, 180.0, 270.0])
+    >>> np.round(backproject([1], [1], [2.0], cam), 6)
+    array([[ 0.      ,  1.732051, -1.      ]])
+    >>> cam.wraps
+    True
+    """
+
+    elevation: np.ndarray
+    azimuth: np.ndarray
+    row_azimuth: np.ndarray | None = None
+    range_scale: float = 1.0
+
+    def __post_init__(self):
+        el = _angles("elevation", self.elevation)
+        az = _angles("azimuth", self.azimuth)
+        off = np.zeros(el.size) if self.row_azimuth is None else self.row_azimuth
+        off = _angles("row_azimuth", off, el.size)
+        object.__setattr__(self, "elevation", el)
+        object.__setattr__(self, "azimuth", az)
+        object.__setattr__(self, "row_azimuth", off)
+        object.__setattr__(self, "range_scale", _positive("range_scale", self.range_scale))
+        e = np.radians(el)[:, None]
+        a = np.radians(az[None, :] + off[:, None])
+        rays = np.stack([np.cos(e) * np.cos(a), np.cos(e) * np.sin(a),
+                         np.broadcast_to(np.sin(e), a.shape)], axis=-1)
+        rays.setflags(write=False)
+        object.__setattr__(self, "directions", rays)
+
+    def _key(self):
+        return (self.elevation, self.azimuth, self.row_azimuth)
+
+    @property
+    def step(self) -> float:
+        """The median azimuth step between neighbouring columns, degrees (signed)."""
+        return float(np.median(np.diff(self.azimuth))) if self.azimuth.size > 1 else 0.0
+
+    @property
+    def wraps(self) -> bool:
+        """True when the columns go once round (360 degrees, to within half a step).
+
+        Then column W-1 is the neighbour of column 0, and `triangulate`
+        meshes the seam between them by default (``wrap=None``).
+        """
+        step = self.step
+        if self.azimuth.size < 3 or step == 0.0:
+            return False
+        d = np.diff(self.azimuth)
+        if not ((d > 0).all() or (d < 0).all()):
+            return False
+        turn = abs(float(self.azimuth[-1] - self.azimuth[0])) + abs(step)
+        return abs(turn - 360.0) <= 0.5 * abs(step)
+
+    @classmethod
+    def from_beams(cls, beams, *, range_scale: float = 1.0) -> Spherical:
+        """The camera described by a ``.beams.json`` file (or its parsed dictionary).
+
+        The layout (that of ``rellis3d_os1-64_000000.beams.json``; see the
+        README): ``elevation_deg`` (one per row), ``azimuth0_deg``,
+        ``azimuth_step_deg``, ``cols``, and optionally
+        ``azimuth_row_residual_deg`` (one per row). Column ``c`` of row ``r``
+        has azimuth ``azimuth0_deg + azimuth_row_residual_deg[r] + c *
+        azimuth_step_deg``. Other keys are ignored.
+
+        Raises
+        ------
+        ValueError
+            A missing key or a value of the wrong kind, naming it.
+        """
+        if not isinstance(beams, dict):
+            import json
+            from pathlib import Path
+
+            path = Path(beams)
+            try:
+                beams = json.loads(path.read_text())
+            except (OSError, ValueError) as exc:
+                raise ValueError(f"{path}: cannot read it as a beams file ({exc})") from None
+            if not isinstance(beams, dict):
+                raise ValueError(f"{path}: a beams file holds a JSON object")
+        missing = [k for k in ("elevation_deg", "azimuth0_deg", "azimuth_step_deg", "cols")
+                   if k not in beams]
+        if missing:
+            raise ValueError(f"beams: missing {', '.join(missing)} (see the README's beams layout)")
+        try:
+            cols = int(beams["cols"])
+            az0, step = float(beams["azimuth0_deg"]), float(beams["azimuth_step_deg"])
+        except (TypeError, ValueError):
+            raise ValueError("beams: cols, azimuth0_deg and azimuth_step_deg must be numbers") \
+                from None
+        if cols < 1 or not (math.isfinite(az0) and math.isfinite(step)) or step == 0:
+            raise ValueError(f"beams: need cols >= 1 and a finite non-zero azimuth step, got "
+                             f"cols={cols}, azimuth_step_deg={step}")
+        try:
+            el = np.asarray(beams["elevation_deg"], dtype=np.float64)
+            off = beams.get("azimuth_row_residual_deg")
+            off = None if off is None else np.asarray(off, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise ValueError("beams: elevation_deg and azimuth_row_residual_deg must be lists "
+                             "of numbers") from None
+        return cls(el, az0 + step * np.arange(cols), off, range_scale)
+
+
+@dataclass(frozen=True, eq=False)
+class Rays(_RayCamera):
+    """The most general camera: any unit ray per pixel, ``point = range * ray``.
+
+    Parameters
+    ----------
+    directions : (H, W, 3) array_like of float
+        The ray of each pixel (normalised here; none may be zero).
+    range_scale : float, default 1.0
+        Multiplier from stored range values to 3-D units.
+    """
+
+    directions: np.ndarray
+    range_scale: float = 1.0
+
+    def __post_init__(self):
+        d = np.array(self.directions, dtype=np.float64, copy=True)
+        if d.ndim != 3 or d.shape[2] != 3 or min(d.shape[:2]) < 1:
+            raise ValueError(f"directions must be (H, W, 3), got shape {d.shape}")
+        norm = np.linalg.norm(d, axis=2, keepdims=True)
+        if not (np.isfinite(d).all() and (norm > 0).all()):
+            raise ValueError("directions must be finite and non-zero")
+        d /= norm
+        d.setflags(write=False)
+        object.__setattr__(self, "directions", d)
+        object.__setattr__(self, "range_scale", _positive("range_scale", self.range_scale))
+
+    def _key(self):
+        return (self.directions,)
+
+    @property
+    def wraps(self) -> bool:
+        """False: a ray table says nothing of which columns are neighbours."""
+        return False
+
+
+Camera = Orthographic | Pinhole | Spherical | Rays
+CAMERAS = (Orthographic, Pinhole, Spherical, Rays)
+
+
+def as_camera(camera) -> Camera:
     """Return a camera object from ``None``, a camera, or a 3-tuple ``(kx, ky, kz)``.
 
     Parameters
     ----------
-    camera : None, Orthographic, Pinhole or sequence of 3 floats
+    camera : None, Orthographic, Pinhole, Spherical, Rays or sequence of 3 floats
         ``None`` means ``Orthographic(1, 1, 1)``; a 3-sequence is ``(kx, ky, kz)``.
 
     Raises
@@ -122,14 +324,27 @@ def as_camera(camera) -> Orthographic | Pinhole:
     """
     if camera is None:
         return Orthographic()
-    if isinstance(camera, (Orthographic, Pinhole)):
+    if isinstance(camera, CAMERAS):
         return camera
     if isinstance(camera, (tuple, list)) and len(camera) == 3:
         return Orthographic(*camera)
     raise TypeError(
-        "camera must be None, rangemesh.Orthographic, rangemesh.Pinhole or a "
+        "camera must be None, rangemesh.Orthographic, Pinhole, Spherical, Rays or a "
         f"(kx, ky, kz) tuple, got {camera!r}"
     )
+
+
+def check_shape(camera, image_shape) -> None:
+    """Refuse a per-pixel camera (`Spherical`, `Rays`) made for another image shape.
+
+    Raises
+    ------
+    ValueError
+    """
+    if isinstance(camera, _RayCamera) and tuple(camera.shape) != tuple(image_shape):
+        h, w = camera.shape
+        raise ValueError(f"the camera has rays for a {h}x{w} image, not for this "
+                         f"{image_shape[0]}x{image_shape[1]} one")
 
 
 def backproject(r, c, z, camera=None) -> np.ndarray:
@@ -138,10 +353,11 @@ def backproject(r, c, z, camera=None) -> np.ndarray:
     Parameters
     ----------
     r, c : (N,) array_like of int or float
-        Pixel rows and columns.
+        Pixel rows and columns (whole pixels inside the image for
+        `Spherical` and `Rays`).
     z : (N,) array_like of float
         Depth values as stored in the image (before any scaling).
-    camera : Orthographic or Pinhole, optional
+    camera : Orthographic, Pinhole, Spherical or Rays, optional
         Default ``Orthographic(1, 1, 1)``.
 
     Returns
@@ -149,6 +365,14 @@ def backproject(r, c, z, camera=None) -> np.ndarray:
     points : (N, 3) ndarray of float64
     """
     camera = as_camera(camera)
+    if isinstance(camera, _RayCamera):
+        ri, ci = np.asarray(r), np.asarray(c)
+        h, w = camera.shape
+        if ri.size and (not np.array_equal(ri, np.round(ri)) or not np.array_equal(ci, np.round(ci))
+                        or ri.min() < 0 or ri.max() >= h or ci.min() < 0 or ci.max() >= w):
+            raise ValueError(f"a per-pixel camera maps whole pixels of its {h}x{w} image only")
+        s = np.asarray(z, dtype=np.float64) * camera.range_scale
+        return s[..., None] * camera.directions[ri.astype(np.int64), ci.astype(np.int64)]
     r = np.asarray(r, dtype=np.float64)
     c = np.asarray(c, dtype=np.float64)
     z = np.asarray(z, dtype=np.float64)
@@ -183,6 +407,14 @@ def check_reach(camera, image_shape, depth_lo: float, depth_hi: float) -> None:
     """
     if isinstance(camera, Orthographic) and max(camera.kx, camera.ky, abs(camera.kz)) <= 1.0:
         return  # no coordinate can grow: the image's own values are finite
+    if isinstance(camera, _RayCamera):
+        with np.errstate(over="ignore"):
+            reach = max(abs(depth_lo), abs(depth_hi)) * camera.range_scale
+        if not math.isfinite(reach):
+            raise ValueError(f"{type(camera).__name__} camera's range_scale "
+                             f"{camera.range_scale:g} maps ranges up to "
+                             f"{max(abs(depth_lo), abs(depth_hi)):g} beyond the float range")
+        return
     h, w = image_shape
     r, c, z = (np.array(a, np.float64).ravel()
                for a in np.meshgrid([0, h - 1], [0, w - 1], [depth_lo, depth_hi]))
@@ -194,3 +426,26 @@ def check_reach(camera, image_shape, depth_lo: float, depth_hi: float) -> None:
             f"beyond the floating-point range (infinite vertices); check its parameters "
             f"and depth_scale"
         )
+
+
+def toward_sensor(camera, points: np.ndarray) -> np.ndarray:
+    """Direction from each point toward the sensor (not normalised).
+
+    The sensor of `Pinhole`, `Spherical` and `Rays` is at the origin; an
+    `Orthographic` camera looks along +Z (stored depth grows away from it),
+    so every point sees it toward -Z.
+
+    Parameters
+    ----------
+    camera : a camera
+    points : (N, 3) ndarray
+
+    Returns
+    -------
+    (N, 3) ndarray
+    """
+    if isinstance(camera, Orthographic):
+        out = np.zeros_like(points)
+        out[:, 2] = -1.0
+        return out
+    return -points

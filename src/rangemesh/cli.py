@@ -21,8 +21,16 @@ import numpy as np
 
 from . import scenes
 from ._version import __version__
-from .camera import Orthographic, Pinhole
-from .io import IMAGE_SUFFIXES, MESH_SUFFIXES, read_mesh, read_range_image, write_mesh
+from .camera import Orthographic, Pinhole, Spherical
+from .io import (
+    IMAGE_SUFFIXES,
+    MESH_SUFFIXES,
+    read_color_image,
+    read_lidar_bin,
+    read_mesh,
+    read_range_image,
+    write_mesh,
+)
 from .metrics import evaluate
 from .paper.sampling import sampling_weights
 from .params import MeshParams
@@ -102,7 +110,8 @@ def _resolve_background(spec, image):
 def _add_image_options(p):
     p.add_argument("--background", type=_background, default="auto",
                    help="value that marks missing depth: a number, 'none', or 'auto' "
-                        "(default: 0 for integer images, none for float; NaN/inf always)")
+                        "(default: 0 for integer images and --beams scans, none for float; "
+                        "NaN/inf always)")
 
 
 def _add_camera_options(p):
@@ -113,7 +122,11 @@ def _add_camera_options(p):
                    help="pinhole depth camera; vertices become camera-frame points "
                         "((c-cx)Z/fx, (r-cy)Z/fy, Z)")
     c.add_argument("--depth-scale", type=float, default=None,
-                   help="with --intrinsics: Z = stored value x this (0.001 for mm, 0.0002 for TUM)")
+                   help="with --intrinsics: Z = stored value x this (0.001 for mm, 0.0002 for "
+                        "TUM); with --beams: range = stored value x this")
+    c.add_argument("--beams", metavar="FILE.json", default=None,
+                   help="spinning LiDAR: a spherical camera from a beams file (elevation per "
+                        "row, azimuth per column; see the README); vertices = range x ray")
 
 
 def _default(name):
@@ -149,6 +162,12 @@ def _add_mesh_options(p):
     p.add_argument("--jump", type=float, default=None,
                    help=f"with --no-walls: a depth change above this share of the local depth "
                         f"per pixel is a jump (default {d('jump')})")
+    w = p.add_mutually_exclusive_group()
+    w.add_argument("--wrap", dest="wrap", action="store_const", const=True, default=None,
+                   help="column W-1 is beside column 0 (360 degrees): close the seam "
+                        "(default: on for a --beams camera that goes once round)")
+    w.add_argument("--no-wrap", dest="wrap", action="store_const", const=False,
+                   help="leave the seam of a 360-degree scan open")
     t = p.add_argument_group("ask for the result instead of the grid (instead of --samples)")
     t.add_argument("--vertices", type=int, default=None,
                    help="about this many vertices (within 2 %%); tiles and samples are chosen")
@@ -220,6 +239,8 @@ def _params(args) -> MeshParams:
         given["fill_gaps"] = False
     if getattr(args, "no_walls", False):
         given["walls"] = False
+    if getattr(args, "wrap", None) is not None:
+        given["wrap"] = args.wrap
     try:
         return MeshParams(**given)
     except (ValueError, TypeError) as exc:
@@ -234,6 +255,11 @@ def _camera(args):
 
 
 def _make_camera(args):
+    if args.beams is not None:
+        if args.intrinsics is not None or args.scale is not None:
+            raise UserError("--beams, --intrinsics and --scale exclude each other")
+        scale = 1.0 if args.depth_scale is None else args.depth_scale
+        return Spherical.from_beams(args.beams, range_scale=scale)
     if args.intrinsics is not None:
         if args.scale is not None:
             raise UserError("--scale and --intrinsics exclude each other")
@@ -408,6 +434,7 @@ def _run_mesh(args, image, name, bg, outputs_for):
         bar.update(1)
         written = []
         out, preview = outputs_for
+        mesh = _with_colors(args, mesh, image.shape, name)
         if out:
             write_mesh(mesh, out, ascii=args.ascii, pixels=args.pixels)
             written.append(out)
@@ -438,6 +465,9 @@ def _same_file(a: Path, b: Path) -> bool:
 def _check_outputs(args, inputs=()):
     """Refuse outputs that cannot be written, or that would replace an input or each other."""
     outputs = [Path(p) for p in (args.output, getattr(args, "preview", None)) if p]
+    if args.output and Path(args.output).suffix.lower() == ".obj" and getattr(args, "color", None):
+        outputs += [Path(args.output).with_suffix(".mtl"),  # the texture's files (io.write_mesh)
+                    Path(args.output).with_name(Path(args.output).stem + ".texture.png")]
     for p in outputs:
         if p.is_dir():
             raise UserError(f"{p}: is a folder, not a file to write")
@@ -456,10 +486,50 @@ def _check_outputs(args, inputs=()):
         raise UserError(f"{args.preview}: the preview is a PNG file")
 
 
+def _with_colors(args, mesh, shape, name):
+    """The mesh with the colours (--color) and intensity (--intensity) asked for."""
+    how = "mean" if getattr(args, "color_mean", False) else "pixel"
+    for opt, path in (("--color", getattr(args, "color", None)),
+                      ("--intensity", getattr(args, "intensity", None))):
+        if path is None:
+            continue
+        try:
+            img = read_color_image(path)
+            if opt == "--intensity":
+                if img.ndim != 2:
+                    raise ValueError(f"{path}: an intensity image has one channel")
+                mesh = mesh.with_attribute("intensity", img, how=how)
+                if args.color is None:  # grey colours too, so viewers show it
+                    mesh = mesh.with_colors(img, how=how)
+            else:
+                mesh = mesh.with_colors(img, how=how)
+        except (FileNotFoundError, ValueError) as exc:
+            raise UserError(f"{name}: {opt}: {_one_line(exc)}") from None
+    return mesh
+
+
+def _read_scan(args):
+    """The range image of a mesh command: an image file, or a LiDAR .bin read with --beams."""
+    if Path(args.image).suffix.lower() != ".bin":
+        return _read_image(args.image)
+    if args.beams is None:
+        raise UserError(f"{args.image}: a .bin LiDAR scan needs --beams FILE.json (its rows and "
+                        f"column shifts)")
+    try:
+        beams = json.loads(Path(args.beams).read_text())
+        rng, _ = read_lidar_bin(args.image, int(beams["rows"]),
+                                column_shift=beams.get("column_shift"))
+    except (OSError, ValueError, KeyError, TypeError) as exc:
+        raise UserError(f"{args.image}: {_one_line(exc)}") from None
+    return rng
+
+
 def _cmd_mesh(args):
-    _check_outputs(args, [args.image])
-    image = _read_image(args.image)
-    bg = _resolve_background(args.background, image)
+    _check_outputs(args, [a for a in (args.image, args.color, args.intensity) if a])
+    image = _read_scan(args)
+    # a LiDAR marks no return with range 0, in float images too
+    bg = 0.0 if args.background == "auto" and args.beams else _resolve_background(args.background,
+                                                                                     image)
     return _run_mesh(args, image, args.image, bg, (args.output, args.preview))
 
 
@@ -572,9 +642,20 @@ def build_parser() -> argparse.ArgumentParser:
     sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
     m = sub.add_parser("mesh", help="mesh one range image",
                        description="Mesh one range image; print the figures on stderr.")
-    m.add_argument("image", help=f"range image ({' '.join(IMAGE_SUFFIXES)})")
+    m.add_argument("image", help=f"range image ({' '.join(IMAGE_SUFFIXES)}), or a KITTI-style "
+                                 f"LiDAR .bin with --beams")
     m.add_argument("-o", "--output", help=f"mesh file to write ({' '.join(MESH_SUFFIXES)})")
     m.add_argument("--preview", help="PNG picture: wireframe, samples, shaded mesh")
+    col = m.add_argument_group("colour (images registered pixel to pixel with the range image)")
+    col.add_argument("--color", metavar="FILE",
+                     help="colour image: vertex colours (PLY, OBJ, GLB) and the texture of "
+                          "OBJ (+ .mtl, .texture.png) and GLB files")
+    col.add_argument("--intensity", metavar="FILE",
+                     help="scalar image (a LiDAR's intensity, .npy): a vertex property "
+                          "'intensity', and grey colours without --color")
+    col.add_argument("--color-mean", action="store_true",
+                     help="a vertex takes the mean over the pixels it stands for, not its "
+                          "own pixel's value")
     _add_ply_options(m)
     _add_image_options(m)
     _add_mesh_options(m)

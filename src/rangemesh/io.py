@@ -12,6 +12,7 @@ so a failed run never leaves a half-written file.
 
 from __future__ import annotations
 
+import dataclasses
 import errno
 import logging
 import os
@@ -22,13 +23,15 @@ from pathlib import Path
 import numpy as np
 
 from ._optional import require
-from .camera import Orthographic, Pinhole
+from .camera import Orthographic, Pinhole, Spherical
 from .mesh import Mesh, Stats, check_arrays, count_edges
 
 __all__ = [
     "IMAGE_SUFFIXES",
     "MESH_SUFFIXES",
     "read_range_image",
+    "read_lidar_bin",
+    "read_color_image",
     "write_mesh",
     "read_mesh",
     "atomic_path",
@@ -145,6 +148,87 @@ def read_range_image(path: str | os.PathLike) -> np.ndarray:
     return arr
 
 
+def read_color_image(path: str | os.PathLike) -> np.ndarray:
+    """Read a colour (or intensity) image: ``.npy``, or PNG, JPEG, TIFF... through imageio.
+
+    Returns
+    -------
+    (H, W) or (H, W, C) ndarray, values as stored.
+
+    Raises
+    ------
+    FileNotFoundError, ValueError
+    """
+    path = Path(path)
+    _check_readable(path)
+    try:
+        if _suffix(path) == ".npy":
+            arr = np.load(path, allow_pickle=False)
+        else:
+            import imageio.v3 as iio
+
+            arr = iio.imread(path)
+    except Exception as exc:  # readers raise many kinds of errors on bad files
+        raise ValueError(f"{path}: cannot read it as an image "
+                         f"({type(exc).__name__}: {_first_line(exc)})") from None
+    arr = np.asarray(arr)
+    if arr.ndim not in (2, 3) or arr.size == 0:
+        raise ValueError(f"{path}: not an image (array of shape {arr.shape})")
+    return arr
+
+
+def read_lidar_bin(path: str | os.PathLike, beams: int, *,
+                   column_shift=None) -> tuple[np.ndarray, np.ndarray]:
+    """Read a KITTI-style LiDAR scan (``.bin``) as range and intensity images.
+
+    The file holds float32 ``x y z intensity`` records, one per return,
+    ordered azimuth step by azimuth step, all `beams` beams of a step
+    together (index ``step * beams + beam``); a missing return is the point
+    (0, 0, 0). Row ``b`` of the images is beam ``b``, column ``s`` is step
+    ``s``.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+    beams : int
+        Beams of the sensor (64 for an Ouster OS1-64 or a Velodyne HDL-64).
+    column_shift : (beams,) sequence of int, optional
+        Destagger: roll row ``b`` by ``column_shift[b]`` columns so that a
+        column is one azimuth for every beam (the ``column_shift`` of a
+        ``.beams.json`` file; what the Ouster SDK's ``destagger`` does).
+
+    Returns
+    -------
+    range : (beams, steps) ndarray of float32
+        ``sqrt(x² + y² + z²)``, 0 where there is no return.
+    intensity : (beams, steps) ndarray of float32
+
+    Raises
+    ------
+    ValueError
+        A file whose size is not a whole number of steps, or a shift list of
+        the wrong length.
+    """
+    path = Path(path)
+    _check_readable(path)
+    beams = int(beams)
+    size = path.stat().st_size
+    if beams < 1 or size == 0 or size % (16 * beams):
+        raise ValueError(f"{path}: {size} bytes is not a whole number of {beams}-beam steps of "
+                         f"float32 x, y, z, intensity (16 bytes a point)")
+    pts = np.fromfile(path, dtype="<f4").reshape(-1, beams, 4).transpose(1, 0, 2)
+    rng = np.sqrt(np.sum(pts[..., :3].astype(np.float64) ** 2, axis=2)).astype(np.float32)
+    inten = np.ascontiguousarray(pts[..., 3])
+    if column_shift is not None:
+        shift = np.asarray(column_shift, dtype=np.int64)
+        if shift.shape != (beams,):
+            raise ValueError(f"column_shift must have one value per beam ({beams}), "
+                             f"got shape {shift.shape}")
+        rng = np.stack([np.roll(row, k) for row, k in zip(rng, shift, strict=True)])
+        inten = np.stack([np.roll(row, k) for row, k in zip(inten, shift, strict=True)])
+    return rng, inten
+
+
 def _umask() -> int:
     """The process's umask, read without changing it where Linux allows."""
     try:
@@ -205,14 +289,25 @@ def atomic_path(path: str | os.PathLike):
             Path(tmp).unlink(missing_ok=True)
 
 
-def _write_ply(mesh: Mesh, tmp: Path, ascii: bool, pixels: bool):
+def _write_ply(mesh: Mesh, tmp: Path, ascii: bool, pixels: bool, normals: bool):
     from plyfile import PlyData, PlyElement
 
     fields = [("x", "f4"), ("y", "f4"), ("z", "f4")]
+    if normals:
+        fields += [("nx", "f4"), ("ny", "f4"), ("nz", "f4")]
+    if mesh.colors is not None:  # the names and type MeshLab, Open3D and CloudCompare read
+        fields += [("red", "u1"), ("green", "u1"), ("blue", "u1")]
+    fields += [(name, "f4") for name in mesh.attributes]
     if pixels:
         fields += [("row", "i4"), ("col", "i4")]
     vert = np.zeros(len(mesh.vertices), dtype=fields)
     vert["x"], vert["y"], vert["z"] = mesh.vertices.T
+    if normals:
+        vert["nx"], vert["ny"], vert["nz"] = mesh.vertex_normals().T
+    if mesh.colors is not None:
+        vert["red"], vert["green"], vert["blue"] = mesh.colors.T
+    for name, values in mesh.attributes.items():
+        vert[name] = values
     if pixels:
         vert["row"], vert["col"] = mesh.pixels.T
     face = np.zeros(len(mesh.faces), dtype=[("vertex_indices", "i4", (3,))])
@@ -225,19 +320,111 @@ def _write_ply(mesh: Mesh, tmp: Path, ascii: bool, pixels: bool):
     ).write(str(tmp))
 
 
+def _texture_paths(path: Path) -> tuple[Path, Path]:
+    """The material and texture files written beside an OBJ file: ``name.mtl``, ``name.texture.png``."""
+    return path.with_suffix(".mtl"), path.with_name(path.stem + ".texture.png")
+
+
+def _write_png(image: np.ndarray, path: Path) -> None:
+    import imageio.v3 as iio
+
+    with atomic_path(path) as tmp:
+        iio.imwrite(tmp, image, extension=".png", plugin="pillow")
+
+
+def _write_obj(mesh: Mesh, path: Path, tmp: Path, normals: bool) -> None:
+    """OBJ text: ``v x y z [r g b]``, ``vt``, ``vn``, ``f v/vt/vn``, and MTL + PNG for a texture.
+
+    Written here rather than by trimesh, whose OBJ writer takes vertex colours
+    or a texture but not both.
+    """
+    cols = [mesh.vertices]
+    if mesh.colors is not None:  # the common extension: floats in [0, 1] after x y z
+        cols.append(mesh.colors / 255.0)
+    lines = ["# rangemesh"]
+    textured = mesh.texture is not None and len(mesh.pixels) == len(mesh.vertices)
+    if textured:
+        mtl, png = _texture_paths(path)
+        _write_png(mesh.texture, png)
+        with atomic_path(mtl) as t:
+            t.write_text(f"newmtl rangemesh\nKa 1 1 1\nKd 1 1 1\nKs 0 0 0\nd 1\nillum 1\n"
+                         f"map_Kd {png.name}\n")
+        lines += [f"mtllib {mtl.name}", "usemtl rangemesh"]
+    body = [_rows("v", np.hstack(cols))]
+    if textured:
+        uv = mesh.uv.copy()
+        uv[:, 1] = 1.0 - uv[:, 1]  # OBJ's texture origin is the bottom left
+        body.append(_rows("vt", uv))
+    if normals:
+        body.append(_rows("vn", mesh.vertex_normals()))
+    idx = (mesh.faces.astype(np.int64) + 1).astype(str)
+    if textured and normals:
+        corner = np.char.add(np.char.add(np.char.add(idx, "/"), np.char.add(idx, "/")), idx)
+    elif textured:
+        corner = np.char.add(np.char.add(idx, "/"), idx)
+    elif normals:
+        corner = np.char.add(np.char.add(idx, "//"), idx)
+    else:
+        corner = idx
+    body.append("\n".join("f " + " ".join(row) for row in corner.tolist()))
+    tmp.write_text("\n".join(lines + [b for b in body if b]) + "\n")
+
+
+def _rows(tag: str, values: np.ndarray) -> str:
+    if not len(values):
+        return ""
+    return "\n".join(f"{tag} " + " ".join(f"{x:.9g}" for x in row) for row in values.tolist())
+
+
+def _to_glb(mesh: Mesh, normals: bool) -> bytes:
+    """GLB bytes: positions, NORMAL, TEXCOORD_0 and the texture, or COLOR_0, and ``_name`` attributes.
+
+    glTF multiplies COLOR_0 with the base colour texture, so a textured file
+    leaves the vertex colours out (they would darken the photo);
+    ``texture=False`` writes them instead.
+    """
+    from PIL import Image
+
+    trimesh = require("trimesh", "GLB output")
+    tm = trimesh.Trimesh(mesh.vertices, mesh.faces, process=False)
+    if mesh.texture is not None and len(mesh.pixels) == len(mesh.vertices):
+        uv = mesh.uv.copy()
+        uv[:, 1] = 1.0 - uv[:, 1]  # trimesh keeps OBJ's convention and flips it back for glTF
+        tm.visual = trimesh.visual.TextureVisuals(uv=uv, image=Image.fromarray(mesh.texture))
+    elif mesh.colors is not None:
+        tm.visual = trimesh.visual.ColorVisuals(tm, vertex_colors=mesh.colors)
+    for name, values in mesh.attributes.items():
+        tm.vertex_attributes["_" + name] = np.asarray(values, np.float32)
+    kwargs = {"include_normals": bool(normals)}
+    if normals:
+        tm.vertex_normals = mesh.vertex_normals()
+    return tm.export(file_type="glb", **kwargs)
+
+
 def write_mesh(mesh: Mesh, path: str | os.PathLike, *, ascii: bool = False,
-               pixels: bool = False) -> Path:
+               pixels: bool = False, normals: bool = True, texture: bool = True) -> Path:
     """Write a mesh file, chosen by suffix; atomically.
 
     Parameters
     ----------
     mesh : Mesh
     path : str or os.PathLike
-        ``.ply`` (plyfile), ``.obj``, ``.off``, ``.stl``, ``.glb`` (trimesh).
+        ``.ply`` (plyfile), ``.obj`` (written here: trimesh's writer cannot
+        hold vertex colours and a texture at once), ``.off``, ``.stl``,
+        ``.glb`` (trimesh).
     ascii : bool, default False
         PLY only: write text instead of binary.
     pixels : bool, default False
         PLY only: add int32 vertex properties ``row`` and ``col``.
+    normals : bool, default True
+        Per-vertex normals facing the sensor (`Mesh.vertex_normals`): PLY
+        ``nx ny nz``, OBJ ``vn``, GLB ``NORMAL``.
+    texture : bool, default True
+        With a mesh that has a texture (`Mesh.with_colors`): OBJ writes
+        ``name.mtl`` and ``name.texture.png`` beside the file (replacing
+        files of those names) and texture coordinates; GLB embeds the image.
+        Vertex colours go to PLY (``red green blue`` uchar) and OBJ (``v x y
+        z r g b``) always, to GLB (``COLOR_0``) when no texture is written.
 
     Returns
     -------
@@ -271,11 +458,19 @@ def write_mesh(mesh: Mesh, path: str | os.PathLike, *, ascii: bool = False,
     if largest > float(np.finfo(np.float32).max):
         raise ValueError(f"{path}: a vertex coordinate of {largest:g} does not fit the float32 of "
                          f"mesh files; scale the vertices (the camera's kx, ky, kz or depth_scale)")
+    if not texture and mesh.texture is not None:
+        mesh = dataclasses.replace(mesh, texture=None)
+    normals = normals and not mesh.is_empty
     with atomic_path(path) as tmp:
         if suffix == ".ply":
-            _write_ply(mesh, tmp, ascii, pixels)
+            _write_ply(mesh, tmp, ascii, pixels, normals)
+        elif suffix == ".obj":
+            _write_obj(mesh, path, tmp, normals)
+        elif suffix == ".glb":
+            tmp.write_bytes(_to_glb(mesh, normals))
         else:
-            tm = mesh.to_trimesh()
+            tm = require("trimesh", f"{suffix} output").Trimesh(mesh.vertices, mesh.faces,
+                                                                 process=False)
             data = tm.export(file_type=suffix[1:])
             tmp.write_bytes(data.encode() if isinstance(data, str) else data)
     return path
@@ -320,6 +515,7 @@ def read_mesh(path: str | os.PathLike, *, camera=None, image_shape=None) -> Mesh
     pixels = np.zeros((0, 2), np.int32)
     shape = (0, 0)
     recorded = None
+    colors = None
     if suffix != ".ply":
         trimesh = require("trimesh", f"reading {suffix} meshes")
     try:
@@ -333,6 +529,8 @@ def read_mesh(path: str | os.PathLike, *, camera=None, image_shape=None) -> Mesh
                 if len(ply["face"].data) else np.zeros((0, 3), np.int32)
             if "row" in v.dtype.names and "col" in v.dtype.names:
                 pixels = np.stack([v["row"], v["col"]], axis=1).astype(np.int32)
+            if {"red", "green", "blue"} <= set(v.dtype.names):
+                colors = np.stack([v["red"], v["green"], v["blue"]], axis=1).astype(np.uint8)
             for c in ply.comments:
                 parts = c.split()
                 if len(parts) == 4 and parts[:2] == ["rangemesh", "image_shape"]:
@@ -363,11 +561,27 @@ def read_mesh(path: str | os.PathLike, *, camera=None, image_shape=None) -> Mesh
     stats = Stats(vertices=len(vertices), triangles=len(faces), edges=count_edges(faces))
     camera = camera if camera is not None else recorded if recorded is not None else Orthographic()
     return Mesh(vertices=vertices, faces=faces, pixels=pixels, camera=camera,
-                image_shape=shape, stats=stats)
+                image_shape=shape, stats=stats, colors=colors)
 
 
 def _camera_text(camera) -> str:
-    """The camera as a PLY comment: ``orthographic kx ky kz`` or ``pinhole fx fy cx cy scale``."""
+    """The camera as a PLY comment: ``orthographic kx ky kz`` or ``pinhole fx fy cx cy scale``.
+
+    A `Spherical` camera with evenly spaced columns is ``spherical scale H W
+    azimuth0 step`` then the H elevations and H row offsets; other per-pixel
+    cameras are named only (``rays``), and reading the file needs the camera.
+    """
+    if isinstance(camera, Spherical):
+        az = camera.azimuth
+        even = az[0] + camera.step * np.arange(az.size)
+        if np.allclose(az, even, rtol=0.0, atol=1e-9):
+            values = [camera.range_scale, az[0], camera.step, *camera.elevation,
+                      *camera.row_azimuth]
+            h, w = camera.shape
+            return f"spherical {h} {w} " + " ".join(repr(float(v)) for v in values)
+        return "rays"
+    if hasattr(camera, "directions"):
+        return "rays"
     if isinstance(camera, Pinhole):
         values = (camera.fx, camera.fy, camera.cx, camera.cy, camera.depth_scale)
         return "pinhole " + " ".join(repr(float(v)) for v in values)
@@ -382,6 +596,12 @@ def _camera_from_text(parts):
             return Pinhole(*values[:4], depth_scale=values[4])
         if parts[0] == "orthographic" and len(values) == 3:
             return Orthographic(*values)
+        if parts[0] == "spherical" and len(values) >= 5:
+            h, w = int(values[0]), int(values[1])
+            scale, az0, step = values[2:5]
+            rest = values[5:]
+            if len(rest) == 2 * h and w >= 1:
+                return Spherical(rest[:h], az0 + step * np.arange(w), rest[h:], scale)
     except (ValueError, TypeError):
         pass
     return None  # another writer's comment, or a damaged one: the caller's camera decides

@@ -6,7 +6,7 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-from .camera import Orthographic, Pinhole
+from .camera import Orthographic, Pinhole, Rays, Spherical
 from .geometry.signals import holding_signals
 
 __all__ = ["Mesh", "Stats", "count_edges", "check_arrays"]
@@ -150,28 +150,127 @@ class Mesh:
         counter-clockwise on screen when rows run down and columns right.
     pixels : (V, 2) ndarray of int32
         The ``(row, col)`` pixel each vertex came from.
-    camera : Orthographic or Pinhole
+    camera : Orthographic, Pinhole, Spherical or Rays
         The mapping used to lift pixels to 3-D.
     image_shape : (int, int)
         Shape of the range image the mesh was made from.
     stats : Stats
         Counts, timings and, for an empty mesh, the reason.
+    colors : (V, 3) ndarray of uint8 or None
+        Per-vertex RGB colours (`with_colors`), written to PLY, OBJ and GLB.
+    texture : (H, W, 3) ndarray of uint8 or None
+        The colour image, written as the texture of OBJ and GLB files with
+        `uv` as texture coordinates.
+    attributes : dict of str to (V,) ndarray of float32
+        Scalar per-vertex values (`with_attribute`, e.g. a LiDAR
+        ``intensity``), written to PLY (and GLB as ``_name``).
+
+    Notes
+    -----
+    With a wrap-around image (`MeshParams.wrap`) the faces that close the
+    360-degree seam are counter-clockwise once their column-0 vertices are
+    moved to column W, and so clockwise in the image plane
+    (`rangemesh.geometry.seam`).
     """
 
     vertices: np.ndarray
     faces: np.ndarray
     pixels: np.ndarray
-    camera: Orthographic | Pinhole
+    camera: Orthographic | Pinhole | Spherical | Rays
     image_shape: tuple[int, int]
     stats: Stats = field(default_factory=Stats)
+    colors: np.ndarray | None = None
+    texture: np.ndarray | None = None
+    attributes: dict = field(default_factory=dict)
 
     @property
     def is_empty(self) -> bool:
         """True when the mesh has no triangle."""
         return len(self.faces) == 0
 
+    def with_colors(self, image, *, how: str = "pixel", texture: bool = True) -> Mesh:
+        """A copy with per-vertex colours from an image registered with the range image.
+
+        Parameters
+        ----------
+        image : (H, W, 3), (H, W, 4) or (H, W) array_like
+            RGB(A) or grey, same height and width as the range image: an RGB-D
+            camera's colour frame, or a LiDAR intensity image (grey). Converted
+            by `rangemesh.attributes.as_rgb8`.
+        how : {'pixel', 'mean'}, default 'pixel'
+            The vertex's own pixel, or the mean over the pixels it stands for
+            (`rangemesh.attributes.vertex_values`).
+        texture : bool, default True
+            Keep the image as the mesh's texture (written by OBJ and GLB).
+
+        Returns
+        -------
+        Mesh
+
+        Examples
+        --------
+        >>> import numpy as np, rangemesh
+        >>> m = rangemesh.triangulate(np.ones((4, 5)), vertices=4)
+        >>> rgb = np.zeros((4, 5, 3), np.uint8); rgb[..., 0] = 200
+        >>> m.with_colors(rgb).colors[0].tolist()
+        [200, 0, 0]
+        """
+        import dataclasses
+
+        from .attributes import as_rgb8, vertex_values
+
+        rgb = as_rgb8(image)
+        values = vertex_values(self, rgb, how)
+        colors = np.clip(np.round(values), 0, 255).astype(np.uint8)
+        return dataclasses.replace(self, colors=colors, texture=rgb if texture else None)
+
+    def with_attribute(self, name: str, image, *, how: str = "pixel") -> Mesh:
+        """A copy with a scalar per-vertex attribute from a registered (H, W) image.
+
+        Parameters
+        ----------
+        name : str
+            A plain identifier (letters, digits, ``_``), e.g. ``'intensity'``;
+            it names the PLY property.
+        image : (H, W) array_like of numbers
+        how : {'pixel', 'mean'}, default 'pixel'
+
+        Returns
+        -------
+        Mesh
+        """
+        import dataclasses
+
+        from .attributes import vertex_values
+
+        if not (isinstance(name, str) and name.isidentifier() and name.isascii()):
+            raise ValueError(f"an attribute name is a plain identifier, got {name!r}")
+        if name in ("x", "y", "z", "nx", "ny", "nz", "red", "green", "blue", "row", "col"):
+            raise ValueError(f"{name!r} is taken by a vertex property of the mesh files")
+        img = np.asarray(image)
+        if img.ndim != 2 or not np.issubdtype(img.dtype, np.number):
+            raise ValueError(f"an attribute image is (H, W) numbers, got {img.dtype} {img.shape}")
+        values = vertex_values(self, img, how).astype(np.float32)
+        return dataclasses.replace(self, attributes={**self.attributes, name: values})
+
+    @property
+    def uv(self) -> np.ndarray:
+        """Texture coordinates ``(col / (W-1), row / (H-1))`` of each vertex's own pixel."""
+        from .attributes import texture_uv
+
+        return texture_uv(self)
+
+    def vertex_normals(self) -> np.ndarray:
+        """Unit per-vertex normals facing the sensor (`rangemesh.attributes.vertex_normals`)."""
+        from .attributes import vertex_normals
+
+        return vertex_normals(self)
+
     def to_trimesh(self):
         """Return a `trimesh.Trimesh` with the same vertices and faces (no merging).
+
+        Vertex colours, normals (facing the sensor) and attributes come along
+        (``vertex_attributes``).
 
         Returns
         -------
@@ -180,7 +279,39 @@ class Mesh:
         from ._optional import require
 
         trimesh = require("trimesh", "Mesh.to_trimesh")
-        return trimesh.Trimesh(self.vertices, self.faces, process=False)
+        tm = trimesh.Trimesh(self.vertices, self.faces, process=False,
+                             vertex_colors=self.colors,
+                             vertex_normals=None if self.is_empty else self.vertex_normals())
+        for name, values in self.attributes.items():
+            tm.vertex_attributes[name] = values
+        return tm
+
+    def to_open3d(self):
+        """Return an ``open3d.geometry.TriangleMesh`` (Open3D is imported only here).
+
+        Vertices, faces, vertex normals (facing the sensor) and vertex colours
+        (as floats in [0, 1]) are copied.
+
+        Returns
+        -------
+        open3d.geometry.TriangleMesh
+
+        Raises
+        ------
+        ImportError
+            Open3D is not installed (``pip install open3d``).
+        """
+        from ._optional import require
+
+        o3d = require("open3d", "Mesh.to_open3d")
+        out = o3d.geometry.TriangleMesh(
+            o3d.utility.Vector3dVector(np.ascontiguousarray(self.vertices, np.float64)),
+            o3d.utility.Vector3iVector(np.ascontiguousarray(self.faces, np.int32)))
+        if not self.is_empty:
+            out.vertex_normals = o3d.utility.Vector3dVector(self.vertex_normals())
+        if self.colors is not None:
+            out.vertex_colors = o3d.utility.Vector3dVector(self.colors / 255.0)
+        return out
 
     def __repr__(self) -> str:
         s = self.stats

@@ -88,6 +88,11 @@ class MeshParams:
     jump : float, default 0.05
         With ``walls=False``: an edge is a jump when depth changes along it
         by more than this share of the local depth per pixel.
+    wrap : bool or None, default None
+        Column W-1 is the neighbour of column 0 (a 360-degree scan): the seam
+        between them is closed with a strip of triangles
+        (`rangemesh.geometry.seam`). ``None``: on when the camera is a
+        `rangemesh.Spherical` whose columns go once round.
 
     Raises
     ------
@@ -121,6 +126,7 @@ class MeshParams:
     heights: str | None = None
     walls: bool = True
     jump: float = 0.05
+    wrap: bool | None = None
 
     def __post_init__(self):
         tiles = whole_pair("tiles", self.tiles, minimum=1)
@@ -176,6 +182,8 @@ class MeshParams:
         if not jump > 0:
             raise ValueError(f"jump must be a positive share of the depth, got {self.jump!r}")
         object.__setattr__(self, "jump", jump)
+        if self.wrap is not None:
+            object.__setattr__(self, "wrap", flag("wrap", self.wrap))
 
     @property
     def grid_shape(self) -> tuple[int, int]:

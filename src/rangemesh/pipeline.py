@@ -12,12 +12,14 @@ import time
 
 import numpy as np
 
-from .camera import as_camera, check_reach
+from .camera import Spherical, as_camera, check_reach, check_shape
 from .checks import real_number, whole_number
 from .geometry.pixels import valid_range
+from .geometry.seam import seam_strip, unrolled_columns
 from .geometry.signals import deferred_signals
 from .greedy import greedy_mesh
-from .mesh import Mesh, Stats, empty_mesh
+from .greedy.walls import wall_faces
+from .mesh import Mesh, Stats, count_edges, empty_mesh
 from .paper import targets
 from .paper.sampling import fill_gaps_inplace, sample_grid, sampling_weights
 from .paper.stages import mesh_grid
@@ -212,7 +214,39 @@ def _targets_given(params: MeshParams, vertices, max_error, overrides) -> list[s
 
 METHODS = ("paper", "greedy")
 # the MeshParams fields greedy insertion reads
-GREEDY_FIELDS = ("fill_gaps", "workers", "heights", "walls", "jump")
+GREEDY_FIELDS = ("fill_gaps", "workers", "heights", "walls", "jump", "wrap")
+
+
+def wraps(params: MeshParams, camera) -> bool:
+    """Whether the seam between the last and first column is closed: `params.wrap`, or the camera's say."""
+    if params.wrap is not None:
+        return params.wrap
+    return isinstance(camera, Spherical) and camera.wraps
+
+
+def close_seam(mesh: Mesh, depth: np.ndarray, params: MeshParams) -> Mesh:
+    """`mesh` with the strip of `rangemesh.geometry.seam.seam_strip` added.
+
+    With ``walls=False`` the strip's triangles across a jump are dropped by
+    the same rule as the others, their pixel lengths measured across the seam.
+    """
+    if mesh.is_empty:
+        return mesh
+    w = mesh.image_shape[1]
+    strip = seam_strip(mesh.pixels, mesh.faces, w)
+    if len(strip) and not params.walls:
+        z = depth[mesh.pixels[:, 0], mesh.pixels[:, 1]]
+        if hasattr(mesh.camera, "directions"):  # lengths are ray angles: the seam is no gap
+            walls = wall_faces(strip, mesh.pixels, z, params.jump, mesh.camera)
+        else:
+            coords = np.stack([mesh.pixels[:, 0], unrolled_columns(mesh.pixels, w)], axis=1)
+            walls = wall_faces(strip, coords, z, params.jump)
+        strip = strip[~walls]
+    if not len(strip):
+        return mesh
+    faces = np.concatenate([mesh.faces, strip]).astype(np.int32)
+    stats = dataclasses.replace(mesh.stats, triangles=len(faces), edges=count_edges(faces))
+    return dataclasses.replace(mesh, faces=faces, stats=stats)
 
 
 def run(image, params: MeshParams, *, background=None, camera=None, vertices=None,
@@ -234,6 +268,7 @@ def run(image, params: MeshParams, *, background=None, camera=None, vertices=Non
     camera = as_camera(camera)
     t0 = time.perf_counter()
     depth, valid = prepare(image, params, background, workspace=workspace)
+    check_shape(camera, depth.shape)
     with deferred_signals():
         lo, hi, n_valid = valid_range(depth, valid)
     if n_valid:
@@ -267,6 +302,10 @@ def run(image, params: MeshParams, *, background=None, camera=None, vertices=Non
         t2 = time.perf_counter()
         mesh = mesh_grid(depth, valid, params, camera, weights=weights)
         mesh.stats.seconds["sampling"] += t2 - t1  # the weights belong to stage one
+    if wraps(params, camera):
+        t3 = time.perf_counter()
+        mesh = close_seam(mesh, depth, params)
+        mesh.stats.seconds["seam"] = time.perf_counter() - t3
     t4 = time.perf_counter()
     seconds = {"prepare": t1 - t0, **mesh.stats.seconds}
     if target:

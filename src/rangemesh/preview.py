@@ -7,6 +7,7 @@ import warnings
 
 import numpy as np
 
+from .geometry.seam import is_seam
 from .io import atomic_path
 from .mesh import Mesh
 from .metrics import Evaluation, render_depth
@@ -17,6 +18,11 @@ __all__ = ["shade", "save_preview"]
 # Longest side of each panel's image, pixels: larger images are shown one pixel in `step`
 # (a 500 px panel cannot show more, and full-size buffers of a large image cost gigabytes).
 MAX_PANEL_PIXELS = 1000
+# Images this many times wider than tall (a spinning LiDAR's 64 x 2048) get the panels stacked,
+# the full width of the picture each, rows stretched to at least PANEL_MIN_HEIGHT inches.
+WIDE = 4.0
+WIDE_PIXELS = 1600
+PANEL_MIN_HEIGHT = 1.8
 
 
 def shade(mesh: Mesh, shape=None, *, step: int = 1) -> np.ndarray:
@@ -55,6 +61,16 @@ def shade(mesh: Mesh, shape=None, *, step: int = 1) -> np.ndarray:
     return out
 
 
+def _colour_shade(mesh: Mesh, shaded: np.ndarray, step: int) -> np.ndarray:
+    """RGB picture: each face's mean vertex colour times its shade; black where no face."""
+    _, face = render_depth(mesh, step=step)
+    rgb = np.zeros(face.shape + (3,))
+    hit = face >= 0
+    face_rgb = mesh.colors[mesh.faces].mean(axis=1) / 255.0
+    rgb[hit] = face_rgb[face[hit]] * (0.35 + 0.65 * shaded[hit])[:, None]
+    return rgb
+
+
 def save_preview(mesh: Mesh, depth: np.ndarray, valid: np.ndarray, path: str | os.PathLike, *,
                  evaluation: Evaluation | None = None, title: str = "",
                  weights: np.ndarray | None = None) -> None:
@@ -82,7 +98,8 @@ def save_preview(mesh: Mesh, depth: np.ndarray, valid: np.ndarray, path: str | o
     Figure = require("matplotlib.figure", "the preview picture").Figure  # noqa: N806
 
     h, w = depth.shape
-    step = max(1, -(-max(h, w) // MAX_PANEL_PIXELS))
+    wide = w > WIDE * h
+    step = max(1, -(-max(h, w) // (WIDE_PIXELS if wide else MAX_PANEL_PIXELS)))
     depth, valid = depth[::step, ::step], valid[::step, ::step]  # views: no full-size copy
     shown = np.where(valid, depth, np.nan)
     s = mesh.stats
@@ -92,24 +109,41 @@ def save_preview(mesh: Mesh, depth: np.ndarray, valid: np.ndarray, path: str | o
     if evaluation is not None:
         figs.append(f"relative error {evaluation.relative_error:.3f} %")
     aspect = h / max(w, 1)
-    fig = Figure(figsize=(15, max(3.0, 5.0 * aspect) + 0.6), dpi=100, layout="constrained")
-    axes = fig.subplots(1, 3)
+    if wide:
+        panel = max(PANEL_MIN_HEIGHT, 16.0 * aspect)
+        fig = Figure(figsize=(16, 3 * panel + 1.0), dpi=100, layout="constrained")
+        axes = fig.subplots(3, 1)
+        stretch = panel / (16.0 * aspect)
+        if stretch > 1.05:
+            figs.append(f"rows stretched {stretch:.1f}x")
+    else:
+        fig = Figure(figsize=(15, max(3.0, 5.0 * aspect) + 0.6), dpi=100, layout="constrained")
+        axes = fig.subplots(1, 3)
+    show = {"interpolation": "nearest", "aspect": "auto" if wide else "equal"}
     cmap = matplotlib.colormaps["viridis"].with_extremes(bad="black")
-    axes[0].imshow(shown, cmap=cmap, interpolation="nearest")
+    axes[0].imshow(shown, cmap=cmap, **show)
     px = mesh.pixels / step  # pixel centres in the shown image's coordinates
     if not mesh.is_empty:
-        axes[0].triplot(px[:, 1], px[:, 0], mesh.faces, lw=0.35, color="white", alpha=0.8)
+        # the seam's faces of a 360-degree scan would cross the whole picture
+        plain = mesh.faces[~is_seam(mesh.pixels, mesh.faces)]
+        axes[0].triplot(px[:, 1], px[:, 0], plain, lw=0.35 if not wide else 0.2,
+                        color="white", alpha=0.8)
     axes[0].set_title("triangles over the range image")
     under = shown if weights is None else np.where(valid, weights[::step, ::step], np.nan)
     grey = matplotlib.colormaps["Greys"].with_extremes(bad="white")
-    axes[1].imshow(under, cmap=grey, interpolation="nearest")
+    axes[1].imshow(under, cmap=grey, **show)
     if not mesh.is_empty:
-        axes[1].scatter(px[:, 1], px[:, 0], s=2.0, c="tab:red", linewidths=0)
+        axes[1].scatter(px[:, 1], px[:, 0], s=2.0 if not wide else 0.5, c="tab:red",
+                        linewidths=0)
     axes[1].set_title("sample points" + (" over the sampling weight" if weights is not None else ""))
-    gray = matplotlib.colormaps["gray"].with_extremes(bad="black")
-    axes[2].imshow(shade(mesh, (h, w), step=step), cmap=gray, vmin=0, vmax=1,
-                   interpolation="nearest")
-    axes[2].set_title("shaded mesh (flat shading)")
+    shaded = shade(mesh, (h, w), step=step)
+    if mesh.colors is not None and not mesh.is_empty:
+        axes[2].imshow(_colour_shade(mesh, shaded, step), **show)
+        axes[2].set_title("shaded mesh in its vertex colours (flat shading)")
+    else:
+        gray = matplotlib.colormaps["gray"].with_extremes(bad="black")
+        axes[2].imshow(shaded, cmap=gray, vmin=0, vmax=1, **show)
+        axes[2].set_title("shaded mesh (flat shading)")
     for ax in axes:
         ax.set_xticks([])
         ax.set_yticks([])

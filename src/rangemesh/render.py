@@ -10,7 +10,7 @@ import math
 
 import numpy as np
 
-from .camera import Orthographic
+from .camera import Orthographic, Pinhole, Rays, Spherical
 from .geometry.raster import rasterize
 from .geometry.signals import holding_signals
 from .mesh import Mesh
@@ -26,12 +26,31 @@ def _image_coords(mesh: Mesh) -> tuple[np.ndarray, np.ndarray]:
     v = mesh.vertices
     if isinstance(cam, Orthographic):
         r, c = v[:, 0] / cam.kx, v[:, 1] / cam.ky
+    elif isinstance(cam, Spherical):
+        r, c = _spherical_pixels(cam, v)
+    elif isinstance(cam, Rays):
+        raise ValueError("a mesh made with a Rays camera needs its vertices' pixels to be "
+                         "rendered (write PLY files with pixels=True)")
     else:
         with np.errstate(divide="ignore", invalid="ignore"):
             r, c = v[:, 1] * cam.fy / v[:, 2] + cam.cy, v[:, 0] * cam.fx / v[:, 2] + cam.cx
     # Vertices read back from float32 files project a hair off their pixel; snap them
     # so that coverage along shared edges is decided exactly as for the original mesh.
     return _snap(r), _snap(c)
+
+
+def _spherical_pixels(cam: Spherical, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Fractional (row, col) of points seen by a spherical camera (rows by elevation)."""
+    el = np.degrees(np.arctan2(v[:, 2], np.hypot(v[:, 0], v[:, 1])))
+    rows = np.arange(cam.elevation.size, dtype=np.float64)
+    order = np.argsort(cam.elevation)
+    r = np.interp(el, cam.elevation[order], rows[order])
+    ri = np.clip(np.round(r).astype(np.int64), 0, cam.elevation.size - 1)
+    az = np.degrees(np.arctan2(v[:, 1], v[:, 0])) - cam.row_azimuth[ri]
+    step = cam.step if cam.azimuth.size > 1 else 1.0
+    c = (az - cam.azimuth[0]) / step
+    c = np.mod(c + 0.5, 360.0 / abs(step)) - 0.5 if cam.wraps else c
+    return r, c
 
 
 def _snap(x: np.ndarray, tol: float = 1e-3) -> np.ndarray:
@@ -48,7 +67,9 @@ def render_depth(mesh: Mesh, shape: tuple[int, int] | None = None, *,
     plane (closed triangles; on a shared edge the first face in order wins).
     With an orthographic camera depth is interpolated linearly; with a pinhole
     camera inverse depth is, which is the exact intersection of the pixel's ray
-    with the flat 3-D triangle.
+    with the flat 3-D triangle; with `Spherical` and `Rays` cameras the range
+    is interpolated linearly. Seam faces of a wrap-around mesh
+    (`rangemesh.geometry.seam`) cover no pixel centre and are skipped.
 
     Parameters
     ----------
@@ -80,13 +101,24 @@ def render_depth(mesh: Mesh, shape: tuple[int, int] | None = None, *,
     z = mesh.vertices[:, 2]
     if isinstance(cam, Orthographic):
         val = z / cam.kz
-    else:
+    elif isinstance(cam, Pinhole):
         with np.errstate(divide="ignore"):
             val = 1.0 / z
+    else:
+        val = np.linalg.norm(mesh.vertices, axis=1) / cam.range_scale
     f = mesh.faces.astype(np.int64)
-    rasterize(np.ascontiguousarray(r[f]), np.ascontiguousarray(c[f]),
-                       np.ascontiguousarray(val[f]), h, w, out, face)
-    if not isinstance(cam, Orthographic):
+    # Seam faces of a wrap-around mesh: clockwise and as wide as the image (other meshes'
+    # faces may be clockwise, but not that wide). They cover no pixel centre.
+    fr, fc = r[f], c[f]
+    area = (fr[:, 1] - fr[:, 0]) * (fc[:, 2] - fc[:, 0]) - (fc[:, 1] - fc[:, 0]) * (fr[:, 2] - fr[:, 0])
+    seam = (area < 0) & (fc.max(axis=1) - fc.min(axis=1) > 0.5 * w)
+    index = np.flatnonzero(~seam)
+    rasterize(np.ascontiguousarray(fr[index]), np.ascontiguousarray(fc[index]),
+              np.ascontiguousarray(val[f[index]]), h, w, out, face)
+    if len(index) != len(f):
+        hit = face >= 0
+        face[hit] = index[face[hit]]
+    if isinstance(cam, Pinhole):
         with np.errstate(divide="ignore", invalid="ignore"):
             out = 1.0 / out / cam.depth_scale
     return out, face

@@ -13,6 +13,10 @@ def lift(r, c, d, cam):
     """3-D point of pixel (r, c) with stored depth d; same formulas as camera.backproject."""
     if cam[0] == 0.0:
         return cam[1] * r, cam[2] * c, cam[3] * d
+    if cam[0] == 2.0:  # a ray per pixel, stored after the 6 header slots
+        k = 6 + 3 * (int(r) * int(cam[2]) + int(c))
+        s = d * cam[3]
+        return s * cam[k], s * cam[k + 1], s * cam[k + 2]
     z = d * cam[5]
     return (c - cam[3]) * z / cam[1], (r - cam[4]) * z / cam[2], z
 

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..camera import Orthographic
+from ..camera import Pinhole
 from ..geometry.signals import holding_signals
 from .heights_kernels import empty_buffers, fit_pass
 
@@ -69,7 +69,7 @@ def fit_heights(pixels: np.ndarray, faces: np.ndarray, depth: np.ndarray, valid:
     pr = np.ascontiguousarray(pixels[:, 0], dtype=np.int64)
     pc = np.ascontiguousarray(pixels[:, 1], dtype=np.int64)
     n = len(pr)
-    ortho = isinstance(camera, Orthographic)
+    ortho = not isinstance(camera, Pinhole)  # a pinhole's flat triangles are linear in 1/depth
     with np.errstate(divide="ignore"):
         image = depth if ortho else 1.0 / depth  # the interpolated quantity
     h0 = image[pr, pc]

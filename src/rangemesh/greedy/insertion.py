@@ -127,7 +127,7 @@ def _assemble(vr, vc, tv, depth, valid, camera, walls, jump):
     faces = faces[keep]
     n_walls = 0
     if not walls and len(faces):
-        kept, wall = drop_walls(faces, np.stack([vr, vc], axis=1), depth[vr, vc], jump)
+        kept, wall = drop_walls(faces, np.stack([vr, vc], axis=1), depth[vr, vc], jump, camera)
         faces = faces[kept]
         n_walls = int(wall.sum())
     used = np.zeros(len(vr), bool)

@@ -29,10 +29,46 @@ import numpy as np
 from ..geometry.fans import prune_dangling
 from ..geometry.halfedges import build_halfedges, neighbors_from_halfedges
 
-__all__ = ["wall_faces", "drop_walls"]
+__all__ = ["wall_faces", "drop_walls", "pixel_lengths"]
 
 
-def wall_faces(faces: np.ndarray, pixels: np.ndarray, z: np.ndarray, jump: float) -> np.ndarray:
+def pixel_lengths(camera, pixels: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Length of edges a-b in pixels: in the image plane, or by ray angle for per-pixel cameras.
+
+    Parameters
+    ----------
+    camera : a camera, or None (the image plane)
+    pixels : (V, 2) ndarray of int
+    a, b : (E,) ndarray of int
+        Vertex indices of the edges' ends.
+    """
+    p = np.asarray(pixels)
+    rays = getattr(camera, "directions", None)
+    if rays is None:
+        p = p.astype(np.float64)
+        return np.hypot(p[a, 0] - p[b, 0], p[a, 1] - p[b, 1])
+    ra, rb = rays[p[a, 0], p[a, 1]], rays[p[b, 0], p[b, 1]]
+    angle = np.arctan2(np.linalg.norm(np.cross(ra, rb), axis=1), np.sum(ra * rb, axis=1))
+    return angle / _pixel_angle(camera)
+
+
+def _pixel_angle(camera) -> float:
+    """Angle of one pixel: the azimuth step, or the median angle between neighbouring columns."""
+    step = getattr(camera, "step", None)
+    if step:
+        return float(np.radians(abs(step)))
+    d = camera.directions
+    if d.shape[1] < 2:
+        d = d.transpose(1, 0, 2)
+    if d.shape[1] < 2:
+        return 1.0
+    cos = np.clip(np.sum(d[:, 1:] * d[:, :-1], axis=2), -1.0, 1.0)
+    angle = float(np.median(np.arccos(cos)))
+    return angle if angle > 0 else 1.0
+
+
+def wall_faces(faces: np.ndarray, pixels: np.ndarray, z: np.ndarray, jump: float,
+               camera=None) -> np.ndarray:
     """Which faces have an edge across a jump (see the module's rule).
 
     Parameters
@@ -45,24 +81,26 @@ def wall_faces(faces: np.ndarray, pixels: np.ndarray, z: np.ndarray, jump: float
     jump : float
         Largest depth change per pixel, as a share of the local depth, that is
         not a jump.
+    camera : optional
+        With a `Spherical` or `Rays` camera, edge lengths are ray angles
+        (`pixel_lengths`); otherwise lengths in the image plane.
 
     Returns
     -------
     (F,) ndarray of bool
     """
     f = np.asarray(faces, dtype=np.int64)
-    p = np.asarray(pixels, dtype=np.float64)
     za = np.abs(np.asarray(z, dtype=np.float64))
     wall = np.zeros(len(f), bool)
     for k in range(3):
         a, b = f[:, k], f[:, (k + 1) % 3]
-        length = np.maximum(np.hypot(p[a, 0] - p[b, 0], p[a, 1] - p[b, 1]), 1.0)
+        length = np.maximum(pixel_lengths(camera, pixels, a, b), 1.0)
         wall |= np.abs(za[a] - za[b]) > jump * np.minimum(za[a], za[b]) * length
     return wall
 
 
 def drop_walls(faces: np.ndarray, pixels: np.ndarray, z: np.ndarray,
-               jump: float) -> tuple[np.ndarray, np.ndarray]:
+               jump: float, camera=None) -> tuple[np.ndarray, np.ndarray]:
     """Faces without the walls, then without what leaves a vertex with two fans.
 
     Dropping walls can leave a vertex with two fans (a bow tie) or a triangle
@@ -77,7 +115,7 @@ def drop_walls(faces: np.ndarray, pixels: np.ndarray, z: np.ndarray,
         Faces that were walls (dropped).
     """
     f = np.ascontiguousarray(faces, dtype=np.int64)
-    walls = wall_faces(f, pixels, z, jump)
+    walls = wall_faces(f, pixels, z, jump, camera)
     kept = ~walls
     if walls.any() and kept.any():
         _, halfedges = build_halfedges(f, len(pixels))

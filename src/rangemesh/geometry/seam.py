@@ -1,0 +1,137 @@
+"""The 360-degree seam of a wrap-around image: column W-1 is the neighbour of column 0.
+
+A mesh of the image is a cylinder cut open along the seam. `seam_strip`
+closes the cut with a strip of triangles between the mesh's boundary edges on
+column W-1 and on column 0, as if column 0 were repeated as column W: the
+strip is one pixel wide, covers no pixel centre, and joins the two surfaces
+only where both columns have mesh.
+
+Seam faces are counter-clockwise in the image plane once their column-0
+vertices are moved to column W ("unrolled"); in the plain image plane they
+are clockwise, which is how `is_seam` tells them from every other face (all
+counter-clockwise).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["seam_strip", "is_seam", "unrolled_columns"]
+
+
+def _signed_area(r, c, faces):
+    r = r[faces]
+    c = c[faces]
+    return (r[:, 1] - r[:, 0]) * (c[:, 2] - c[:, 0]) - (c[:, 1] - c[:, 0]) * (r[:, 2] - r[:, 0])
+
+
+def is_seam(pixels: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """Which faces cross the seam: those clockwise in the image plane.
+
+    Parameters
+    ----------
+    pixels : (V, 2) ndarray of int
+    faces : (F, 3) ndarray of int
+
+    Returns
+    -------
+    (F,) ndarray of bool
+    """
+    if len(faces) == 0:
+        return np.zeros(0, bool)
+    r = pixels[:, 0].astype(np.int64)
+    c = pixels[:, 1].astype(np.int64)
+    return _signed_area(r, c, faces) < 0
+
+
+def unrolled_columns(pixels: np.ndarray, width: int) -> np.ndarray:
+    """Vertex columns with column 0 moved to column `width` (valid for seam faces only)."""
+    c = pixels[:, 1].astype(np.int64)
+    return np.where(c == 0, width, c)
+
+
+def _chain(pixels, faces, col):
+    """Boundary vertices on column `col`, sorted by row, and which consecutive pairs are edges."""
+    e = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]]).astype(np.int64)
+    n = len(pixels)
+    key = e[:, 0] * n + e[:, 1]
+    twin = e[:, 1] * n + e[:, 0]
+    open_ = ~np.isin(key, twin)
+    c = pixels[:, 1]
+    on = open_ & (c[e[:, 0]] == col) & (c[e[:, 1]] == col)
+    ends = e[on]
+    if len(ends) == 0:
+        return np.zeros(0, np.int64), np.zeros(0, bool), np.zeros((0, 2), np.int64)
+    verts = np.unique(ends)
+    verts = verts[np.argsort(pixels[verts, 0], kind="stable")]
+    pos = np.full(n, -1, np.int64)
+    pos[verts] = np.arange(len(verts))
+    a, b = pos[ends[:, 0]], pos[ends[:, 1]]
+    lo = np.minimum(a, b)
+    if not (np.abs(a - b) == 1).all():
+        raise RuntimeError("seam_strip: a boundary edge on the seam column skips a vertex")
+    has = np.zeros(max(len(verts) - 1, 0), bool)
+    has[lo] = True
+    rows = pixels[verts, 0].astype(np.int64)
+    return verts, has, rows
+
+
+def _overlaps(rows, has, k, lo, hi):
+    """Whether an edge of a chain at its vertex k (before or after it) overlaps rows (lo, hi)."""
+    for j in (k - 1, k):
+        if 0 <= j < len(has) and has[j] and min(rows[j + 1], hi) > max(rows[j], lo):
+            return True
+    return False
+
+
+def seam_strip(pixels: np.ndarray, faces: np.ndarray, width: int) -> np.ndarray:
+    """Triangles that close the seam between column ``width-1`` and column 0.
+
+    The boundary edges of the mesh that lie on column 0 and on column
+    ``width-1`` are zipped together, the two chains walked by increasing row
+    (the next vertex taken from the side whose next row is smaller, the
+    shorter diagonal of each quad). A triangle is made on a boundary edge
+    only where the other side has a boundary edge over an overlapping span of
+    rows, so the strip joins the two sides only where both have mesh.
+
+    Parameters
+    ----------
+    pixels : (V, 2) ndarray of int
+        Each vertex's ``(row, col)``.
+    faces : (F, 3) ndarray of int
+        The mesh, counter-clockwise in the image plane.
+    width : int
+        Image width W.
+
+    Returns
+    -------
+    (K, 3) ndarray of int32
+        New faces, counter-clockwise once unrolled (`unrolled_columns`),
+        clockwise in the image plane (`is_seam`).
+    """
+    if width < 3 or len(faces) == 0:
+        return np.zeros((0, 3), np.int32)
+    lv, lhas, lrows = _chain(pixels, faces, 0)
+    rv, rhas, rrows = _chain(pixels, faces, width - 1)
+    out = []
+    i = j = 0
+    while i < len(lv) - 1 or j < len(rv) - 1:
+        step_left = j >= len(rv) - 1 or (i < len(lv) - 1 and lrows[i + 1] <= rrows[j + 1])
+        if step_left:
+            if lhas[i] and _overlaps(rrows, rhas, j, lrows[i], lrows[i + 1]):
+                out.append((lv[i], lv[i + 1], rv[j]))
+            i += 1
+        else:
+            if rhas[j] and _overlaps(lrows, lhas, i, rrows[j], rrows[j + 1]):
+                out.append((lv[i], rv[j], rv[j + 1]))
+            j += 1
+    if not out:
+        return np.zeros((0, 3), np.int32)
+    strip = np.array(out, np.int64)
+    r = pixels[:, 0].astype(np.int64)
+    area = _signed_area(r, unrolled_columns(pixels, width), strip)
+    if (area == 0).any():
+        raise RuntimeError("seam_strip: a degenerate seam triangle")
+    flip = area < 0
+    strip[flip] = strip[flip][:, [0, 2, 1]]
+    return strip.astype(np.int32)

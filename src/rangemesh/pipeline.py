@@ -317,7 +317,7 @@ def run(image, params: MeshParams, *, background=None, camera=None, vertices=Non
 
 def triangulate(image, params: MeshParams | None = None, *, background=None, camera=None,
                 vertices: int | None = None, max_error: float | None = None,
-                method: str | None = None, **overrides) -> Mesh:
+                method: str | None = None, color=None, **overrides) -> Mesh:
     """Mesh a range image: greedy insertion for a target, or Garcia & Sappa's pipeline.
 
     Parameters
@@ -329,9 +329,12 @@ def triangulate(image, params: MeshParams | None = None, *, background=None, cam
     background : float, optional
         Value that marks missing depth (``0``, ``65535``, ...). NaN and
         infinite pixels are always background.
-    camera : Orthographic, Pinhole or (kx, ky, kz), optional
+    camera : Orthographic, Pinhole, Spherical, Rays or (kx, ky, kz), optional
         How pixels become 3-D points; default ``Orthographic(1, 1, 1)``, the
-        paper's eq. (4) with unit scales.
+        paper's eq. (4) with unit scales. `Spherical` (a spinning LiDAR,
+        ``Spherical.from_beams``) and `Rays` put each vertex at ``range *
+        ray`` of its pixel; a `Spherical` camera that goes once round closes
+        the 360-degree seam (``wrap``).
     vertices : int, optional
         Exactly this many vertices (greedy insertion; every valid pixel if
         there are fewer). With ``method='paper'``: about this many, the grid
@@ -344,13 +347,18 @@ def triangulate(image, params: MeshParams | None = None, *, background=None, cam
         ``'greedy'``: greedy insertion (`rangemesh.greedy`): a worst pixel
         becomes a vertex until exactly `vertices` vertices or a relative
         error of `max_error` is reached, in one pass; needs one of them and
-        takes only ``fill_gaps``, ``heights``, ``walls`` and ``jump`` of the
+        takes only ``fill_gaps``, ``heights``, ``walls``, ``jump`` and ``wrap`` of the
         parameters (vertex depths are fitted by least squares unless
         ``heights='pixel'``; ``walls=False`` drops the triangles across jumps).
         ``'paper'``: Garcia & Sappa's pipeline with every parameter below,
         the meshes it has always given. Default (`default_method`):
         ``'greedy'`` with a target and no parameter of the paper's method,
         ``'paper'`` otherwise.
+    color : (H, W, 3) or (H, W) array_like, optional
+        A colour image registered pixel to pixel with the range image: the
+        mesh gets each vertex's colour and keeps the image as its texture
+        (`Mesh.with_colors`, which also takes the mean over the pixels a
+        vertex stands for).
     **overrides
         Any field of `MeshParams`: ``tiles``, ``samples``, ``sampling``,
         ``flips``, ``levels``, ``curvature_floor``, ``fill_gaps``, ``delta``,
@@ -358,7 +366,8 @@ def triangulate(image, params: MeshParams | None = None, *, background=None, cam
         ``max_edge`` (no triangle edge longer than this in the image plane,
         pixels; alone, it also chooses the samples per tile, see
         `rangemesh.paper.targets.fit_edge`) and ``workers`` (threads for stage
-        one's tiles; the mesh is the same for any number).
+        one's tiles; the mesh is the same for any number), and ``wrap``
+        (close the seam between the last and the first column).
 
     Returns
     -------
@@ -413,5 +422,11 @@ def triangulate(image, params: MeshParams | None = None, *, background=None, cam
     """
     params = resolve_params(params, overrides)
     method = check_call(params, vertices, max_error, method, overrides)
-    return run(image, params, background=background, camera=camera, vertices=vertices,
+    if color is not None:
+        shape, cshape = np.shape(image)[:2], np.shape(color)[:2]
+        if shape != cshape:
+            raise ValueError(f"color is {cshape[0]}x{cshape[1]} and the image "
+                             f"{shape[0]}x{shape[1]}: they must be registered pixel to pixel")
+    mesh = run(image, params, background=background, camera=camera, vertices=vertices,
                max_error=max_error, tiles_given="tiles" in overrides, method=method)
+    return mesh if color is None or mesh.is_empty else mesh.with_colors(color)

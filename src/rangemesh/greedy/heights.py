@@ -102,4 +102,8 @@ def fit_heights(pixels: np.ndarray, faces: np.ndarray, depth: np.ndarray, valid:
         fitted = spsolve(m.tocsc(), rhs_full)
     if not np.isfinite(fitted).all():
         raise RuntimeError("fit_heights: the least-squares solve failed")
+    # A vertex that few pixels pin down can be thrown far off (a negative range was seen on a
+    # LiDAR scan at 500 vertices): no fitted value leaves the range of the valid pixels' values.
+    vals = image[valid]
+    fitted = np.clip(fitted, vals.min(), vals.max())
     return fitted if ortho else 1.0 / fitted

@@ -1,0 +1,306 @@
+"""Spinning LiDAR: the spherical camera, the .bin reader, the 360-degree seam, jumps by ray angle."""
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+import rangemesh
+from rangemesh import Orthographic, Rays, Spherical, backproject, triangulate
+from rangemesh.geometry.seam import is_seam, seam_strip
+from rangemesh.greedy.walls import wall_faces
+from rangemesh.io import read_lidar_bin, read_mesh, write_mesh
+
+from .helpers import assert_valid_mesh
+
+SCAN = "lidar/rellis3d_os1-64_000000"
+
+
+@pytest.fixture(scope="module")
+def scan(shared_data):
+    rng = np.load(shared_data / f"{SCAN}.range.npy")
+    beams = json.loads((shared_data / f"{SCAN}.beams.json").read_text())
+    raw = np.fromfile(shared_data / f"{SCAN}.bin", dtype="<f4").reshape(-1, 4)
+    cam = Spherical.from_beams(shared_data / f"{SCAN}.beams.json")
+    return rng, beams, raw, cam
+
+
+def _raw_point(raw, beams, r, c):
+    """The .bin's point for destaggered pixel (r, c): README section 5 (index = step*64 + beam)."""
+    step = (np.asarray(c) - np.asarray(beams["column_shift"])[r]) % beams["cols"]
+    return raw[step * beams["rows"] + r, :3].astype(np.float64)
+
+
+# --- the camera, by hand ---------------------------------------------------------------
+
+
+def test_spherical_rays_by_hand():
+    cam = Spherical([90.0, 0.0, -45.0], [0.0, 90.0, 180.0], row_azimuth=[0.0, 0.0, 90.0],
+                    range_scale=2.0)
+    pts = backproject([0, 1, 1, 2], [0, 0, 1, 0], [1.0, 1.0, 3.0, math.sqrt(2)], cam)
+    # straight up; forward (x); left (y) at range 3 x 2; 45 deg down at azimuth 0 + 90
+    expected = [[0, 0, 2], [2, 0, 0], [0, 6, 0], [0, 2 * 1, -2 * 1]]
+    np.testing.assert_allclose(pts, expected, atol=1e-12)
+
+
+def test_spherical_wraps_only_once_round():
+    assert Spherical([0.0, -1.0], np.arange(0, 360, 10.0)).wraps
+    assert Spherical([0.0, -1.0], -np.arange(0, 360, 10.0)).wraps  # Ouster's decreasing azimuths
+    assert not Spherical([0.0, -1.0], np.arange(0, 180, 10.0)).wraps
+    assert not Spherical([0.0, -1.0], np.arange(0, 720, 10.0)).wraps
+    assert not Rays(np.ones((2, 3, 3))).wraps
+
+
+def test_camera_of_another_shape_is_refused():
+    cam = Spherical([0.0, -1.0, -2.0], np.arange(0, 360, 10.0))
+    with pytest.raises(ValueError, match="rays for a 3x36 image"):
+        triangulate(np.ones((4, 36)), camera=cam, vertices=10)
+
+
+def test_from_beams_errors(tmp_path):
+    with pytest.raises(ValueError, match="missing azimuth_step_deg"):
+        Spherical.from_beams({"elevation_deg": [0.0], "azimuth0_deg": 0.0, "cols": 4})
+    bad = tmp_path / "b.json"
+    bad.write_text("[1, 2]")
+    with pytest.raises(ValueError, match="JSON object"):
+        Spherical.from_beams(bad)
+    with pytest.raises(ValueError, match="cannot read"):
+        Spherical.from_beams(tmp_path / "missing.json")
+
+
+def test_rays_camera_matches_spherical():
+    sph = Spherical([10.0, 0.0, -10.0], np.linspace(0.0, -350.0, 36))
+    rays = Rays(sph.directions * 3.0)  # any length: normalised
+    depth = 5.0 + np.random.default_rng(0).random((3, 36))
+    a = triangulate(depth, camera=sph, vertices=40, heights="pixel", wrap=False)
+    b = triangulate(depth, camera=rays, vertices=40, heights="pixel")
+    np.testing.assert_array_equal(a.faces, b.faces)
+    np.testing.assert_allclose(a.vertices, b.vertices, atol=1e-12)
+
+
+# --- the shared scan ------------------------------------------------------------------
+
+
+def test_read_lidar_bin_matches_the_range_image(shared_data, scan):
+    rng, beams, _, _ = scan
+    got, inten = read_lidar_bin(shared_data / f"{SCAN}.bin", 64, column_shift=beams["column_shift"])
+    np.testing.assert_array_equal(got, rng)  # the data's own converter, not ours
+    np.testing.assert_array_equal(inten, np.load(shared_data / f"{SCAN}.intensity.npy"))
+    with pytest.raises(ValueError, match="whole number of 60-beam steps"):
+        read_lidar_bin(shared_data / f"{SCAN}.bin", 60)
+
+
+@pytest.mark.parametrize("method", ["greedy", "paper"])
+def test_vertices_are_the_raw_points(scan, method):
+    """Every vertex within 1 mm of the .bin's point for its pixel (depths copied from pixels).
+
+    Single-pixel holes are left as they are (``fill_gaps=False``): a filled
+    pixel has no point in the .bin.
+    """
+    rng, beams, raw, cam = scan
+    kw = {"vertices": 3000, "heights": "pixel"} if method == "greedy" else {"tiles": (2, 16)}
+    mesh = triangulate(rng, camera=cam, background=0, method=method, fill_gaps=False, **kw)
+    assert (rng[mesh.pixels[:, 0], mesh.pixels[:, 1]] > 0).all()
+    r, c = mesh.pixels[:, 0], mesh.pixels[:, 1]
+    err = np.linalg.norm(mesh.vertices - _raw_point(raw, beams, r, c), axis=1)
+    assert err.max() < 1e-3, err.max()
+
+
+def test_fitted_vertices_stay_on_their_rays(scan):
+    rng, beams, raw, cam = scan
+    mesh = triangulate(rng, camera=cam, background=0, vertices=3000, fill_gaps=False)
+    p = _raw_point(raw, beams, mesh.pixels[:, 0], mesh.pixels[:, 1])
+    cos = np.sum(mesh.vertices * p, axis=1) / (np.linalg.norm(mesh.vertices, axis=1)
+                                               * np.linalg.norm(p, axis=1))
+    assert cos.min() > 1 - 1e-9
+
+
+def _seam_gaps(mesh, valid):
+    """Boundary edges on column 0 or W-1 with valid pixels on both sides of the seam all along."""
+    f = mesh.faces
+    w = mesh.image_shape[1]
+    directed = {(a, b) for a, b in np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]).tolist()}
+    gaps = 0
+    for a, b in directed:
+        if (b, a) in directed:
+            continue
+        (ra, ca), (rb, cb) = mesh.pixels[a], mesh.pixels[b]
+        if ca == cb and ca in (0, w - 1):
+            rows = np.arange(min(ra, rb), max(ra, rb) + 1)
+            gaps += bool(valid[rows, 0].all() and valid[rows, w - 1].all())
+    return gaps
+
+
+@pytest.mark.parametrize("method", ["greedy", "paper"])
+def test_seam_is_closed(scan, method):
+    rng, _, _, cam = scan
+    valid = rng > 0
+    kw = {"vertices": 1500} if method == "greedy" else {"tiles": (2, 16), "fill_gaps": False}
+    closed = triangulate(rng, camera=cam, background=0, method=method, **kw)
+    cut = triangulate(rng, camera=cam, background=0, method=method, wrap=False, **kw)
+    assert _seam_gaps(cut, valid) > 0  # the check can fail: the cut mesh has them
+    assert _seam_gaps(closed, valid) == 0
+    assert is_seam(closed.pixels, closed.faces).sum() > 0
+    assert not is_seam(cut.pixels, cut.faces).any()
+    assert_valid_mesh(closed, valid, wrap=True)
+    # the strip covers no pixel: the error is that of the cut mesh
+    ev_closed = rangemesh.evaluate(closed, rng, background=0)
+    ev_cut = rangemesh.evaluate(cut, rng, background=0)
+    assert ev_closed.relative_error == ev_cut.relative_error
+    assert ev_closed.uncovered == ev_cut.uncovered
+    if method == "greedy":
+        assert ev_closed.uncovered == 0.0
+
+
+def test_seam_strip_of_a_full_mesh_by_hand():
+    """Every pixel a vertex: the strip joins the H pixels of column W-1 to those of column 0."""
+    h, w = 5, 12
+    depth = 10.0 + np.random.default_rng(1).random((h, w))
+    mesh = triangulate(depth, vertices=h * w, heights="pixel", wrap=True)
+    seam = is_seam(mesh.pixels, mesh.faces)
+    assert seam.sum() == 2 * (h - 1)  # one quad per pair of rows, two triangles each
+    assert_valid_mesh(mesh, wrap=True)
+    # no seam without wrap, and none from seam_strip on a mesh that touches neither column
+    assert not is_seam(triangulate(depth, vertices=h * w).pixels,
+                       triangulate(depth, vertices=h * w).faces).any()
+    inner = mesh.pixels[:, 1] % (w - 1) != 0
+    keep = inner[mesh.faces].all(axis=1)
+    assert len(seam_strip(mesh.pixels, mesh.faces[keep], w)) == 0
+
+
+def test_walls_across_the_seam_are_dropped():
+    """A jump right at the seam (near on column 0, far on column W-1): no seam face without walls."""
+    h, w = 6, 36
+    cam = Spherical(np.linspace(5.0, -5.0, h), np.arange(w) * -10.0)
+    depth = np.full((h, w), 20.0)
+    depth[:, : w // 2] = 5.0  # near half: jumps at columns 17/18 and at the seam 35/0
+    with_walls = triangulate(depth, camera=cam, vertices=h * w, heights="pixel")
+    without = triangulate(depth, camera=cam, vertices=h * w, heights="pixel", walls=False)
+    assert is_seam(with_walls.pixels, with_walls.faces).sum() == 2 * (h - 1)
+    assert not is_seam(without.pixels, without.faces).any()
+    assert_valid_mesh(without, wrap=True)
+    depth[:] = 20.0  # no jump: the seam closes without walls too
+    flat = triangulate(depth, camera=cam, vertices=h * w, heights="pixel", walls=False)
+    assert is_seam(flat.pixels, flat.faces).sum() == 2 * (h - 1)
+
+
+def test_jump_by_ray_angle_by_hand():
+    """Beams 0.6 deg apart, columns 0.2 deg: a vertical edge is 3 pixels long."""
+    cam = Spherical([0.6, 0.0], [0.0, -0.2, -0.4])
+    pixels = np.array([[0, 0], [1, 0], [1, 1]])
+    faces = np.array([[0, 1, 2]])
+
+    def is_jump(z0, z1):
+        # edge 0-1 (3 px) changes z0 -> z1; edge 1-2 (1 px) none; edge 2-0 (3.16 px) as 0-1
+        return bool(wall_faces(faces, pixels, np.array([z0, z1, z1]), 0.05, cam)[0])
+
+    assert not is_jump(10.0, 11.4)  # 14 % over 3 px: 4.7 % a pixel
+    assert is_jump(10.0, 11.6)  # 16 %: 5.3 % a pixel
+    # in the image plane the same edge is 1 pixel long: 14 % would be a jump
+    assert bool(wall_faces(faces, pixels, np.array([10.0, 11.4, 11.4]), 0.05)[0])
+
+
+def test_walls_dropped_on_the_scan_keep_the_ground(scan):
+    rng, _, _, cam = scan
+    valid = rng > 0
+    low = valid.copy()
+    low[:44] = False  # beams under -6 deg: mostly ground, with people's legs and tree trunks
+    mesh = triangulate(rng, camera=cam, background=0, vertices=8000, walls=False)
+    ev = rangemesh.evaluate(mesh, rng, background=0)
+    assert ev.uncovered < 15.0, ev.uncovered  # what is lost: edges of trees, people, posts
+    assert np.isfinite(rangemesh.render_depth(mesh)[0][low]).mean() > 0.95
+    assert_valid_mesh(mesh, wrap=True, check_overlap=False)  # (vertices on filled gaps too)
+    # the rule by ray angle calls far fewer low faces walls than one in the image plane, which
+    # counts a step between beams 0.55 deg apart as one over 1 pixel (0.18 deg): 34 % vs 63 %
+    # when written (the rest are faces on people, posts, and long faces over rough grass)
+    full = triangulate(rng, camera=cam, background=0, vertices=8000, heights="pixel")
+    z = rng[full.pixels[:, 0], full.pixels[:, 1]]
+    on_low = (full.pixels[full.faces, 0] >= 44).all(axis=1)
+    by_angle = wall_faces(full.faces, full.pixels, z, 0.05, cam)[on_low].mean()
+    in_plane = wall_faces(full.faces, full.pixels, z, 0.05)[on_low].mean()
+    assert by_angle < 0.6 * in_plane, (by_angle, in_plane)
+
+
+def test_spherical_camera_round_trips_through_ply(tmp_path, scan):
+    rng, _, _, cam = scan
+    mesh = triangulate(rng, camera=cam, background=0, vertices=500)
+    write_mesh(mesh, tmp_path / "s.ply")
+    back = read_mesh(tmp_path / "s.ply")
+    assert back.camera == cam and back.image_shape == rng.shape
+    # without pixels, evaluation projects the vertices through the spherical camera
+    ev = rangemesh.evaluate(back, rng, background=0)
+    assert ev.relative_error == pytest.approx(
+        rangemesh.evaluate(mesh, rng, background=0).relative_error, rel=1e-6)
+
+
+def test_orthographic_wrap_on_request():
+    """wrap=True closes the seam with any camera (a panorama in an orthographic frame)."""
+    depth = 10.0 + np.random.default_rng(2).random((4, 9))
+    mesh = triangulate(depth, camera=Orthographic(), vertices=36, wrap=True)
+    assert is_seam(mesh.pixels, mesh.faces).sum() == 6
+    assert_valid_mesh(mesh, wrap=True)
+
+
+# --- the command line ----------------------------------------------------------------------
+
+
+def test_cli_meshes_the_scan_from_npy_and_bin(tmp_path, shared_data, capsys):
+    from rangemesh.cli import main
+
+    beams = shared_data / f"{SCAN}.beams.json"
+    a, b = tmp_path / "a.ply", tmp_path / "b.ply"
+    assert main(["mesh", str(shared_data / f"{SCAN}.range.npy"), "--beams", str(beams),
+                 "--vertices", "2000", "-o", str(a), "--quiet"]) == 0
+    assert main(["mesh", str(shared_data / f"{SCAN}.bin"), "--beams", str(beams), "--vertices",
+                 "2000", "-o", str(b), "--quiet",
+                 "--intensity", str(shared_data / f"{SCAN}.intensity.npy")]) == 0
+    ma, mb = read_mesh(a), read_mesh(b)
+    assert ma.camera == Spherical.from_beams(beams)
+    np.testing.assert_array_equal(ma.vertices, mb.vertices)  # the same scan, the same mesh
+    assert is_seam(*_pixels_faces(tmp_path, shared_data, beams)).any()  # wrap is on by default
+    from plyfile import PlyData
+
+    v = PlyData.read(str(b))["vertex"].data
+    assert {"red", "green", "blue", "intensity", "nx", "ny", "nz"} <= set(v.dtype.names)
+    capsys.readouterr()
+    assert main(["mesh", str(shared_data / f"{SCAN}.bin"), "-o", str(b)]) == 2
+    assert "needs --beams" in capsys.readouterr().err
+    assert main(["mesh", str(shared_data / f"{SCAN}.range.npy"), "--beams", str(beams),
+                 "--intrinsics", "1,1,1,1", "-o", str(b)]) == 2
+    assert "exclude each other" in capsys.readouterr().err
+
+
+def _pixels_faces(tmp_path, shared_data, beams):
+    from rangemesh.cli import main
+
+    out = tmp_path / "p.ply"
+    main(["mesh", str(shared_data / f"{SCAN}.range.npy"), "--beams", str(beams), "--vertices",
+          "1000", "-o", str(out), "--pixels", "--quiet"])
+    m = read_mesh(out)
+    return m.pixels, m.faces
+
+
+def test_cli_no_wrap_leaves_the_seam_open(tmp_path, shared_data):
+    from rangemesh.cli import main
+
+    beams = shared_data / f"{SCAN}.beams.json"
+    out = tmp_path / "p.ply"
+    assert main(["mesh", str(shared_data / f"{SCAN}.range.npy"), "--beams", str(beams),
+                 "--vertices", "1000", "-o", str(out), "--pixels", "--quiet", "--no-wrap"]) == 0
+    m = read_mesh(out)
+    assert not is_seam(m.pixels, m.faces).any()
+
+
+def test_preview_of_the_scan_is_legible(tmp_path, scan):
+    """64 x 2048: panels stacked at the picture's full width, rows stretched, seam not drawn."""
+    import imageio.v3 as iio
+
+    from rangemesh.preview import save_preview
+
+    rng, _, _, cam = scan
+    mesh = triangulate(rng, camera=cam, background=0, vertices=2000)
+    save_preview(mesh, rng, rng > 0, tmp_path / "p.png")
+    img = iio.imread(tmp_path / "p.png")
+    assert img.shape[1] >= 1500  # each panel the full width: 1 shown pixel for 2 columns at most
+    assert img.shape[0] > 0.3 * img.shape[1]  # three panels of legible height, not 3 slivers

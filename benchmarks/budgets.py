@@ -120,8 +120,10 @@ def main(argv=None) -> int:
     ap.add_argument("--data", type=Path, default=None, help="the shared data folder")
     ap.add_argument("--quick", action="store_true", help="three real images, two scenes")
     ap.add_argument("--repeat", type=int, default=3, help="timed calls per case (default 3)")
+    ap.add_argument("--only", default=None, metavar="TEXT",
+                    help="only the inputs whose name contains TEXT (e.g. rellis3d)")
     args = ap.parse_args(argv)
-    images, missing = peers.load_images(peers.find_data(args.data), args.quick)
+    images, missing = peers.load_images(peers.find_data(args.data), args.quick, args.only)
     for m in missing:
         print(f"skipped: {m}", file=sys.stderr)
     rows = run(images, args.repeat)

@@ -75,6 +75,10 @@ IMAGES = [
     ("rgbd/pcl_grabber_frame_20121214T142255.814212_depth.tiff", 0, "boxes on a table"),
     ("rgbd/pcl_milk_cartoon_all_small_clorox.z.npy", None, "tabletop objects"),
     ("rgbd/pcl_table_scene_mug_stereo_textured.z.npy", None, "noisy stereo"),
+    # Every method gets the range image itself (metres, 0 = no return), in the image frame:
+    # errors are in range units along the rays, the 360-degree seam left open for all, and
+    # the peers' height maps have the no-return pixels filled with the nearest range (_filled).
+    ("lidar/rellis3d_os1-64_000000.range.npy", 0, "spinning LiDAR 64x2048, people and trees"),
 ]
 QUICK_IMAGES = ["odetics/chair-range.npy", "middlebury/venus_disp2.npy",
                 "rgbd/pcl_grabber_frame_20121214T142255.814212_depth.tiff"]
@@ -306,12 +310,16 @@ def find_data(data: Path | None) -> Path | None:
     return data
 
 
-def load_images(data: Path | None, quick: bool) -> tuple[list[Image], list[str]]:
-    """Real images that load, then synthetic scenes with exact discontinuities."""
+def load_images(data: Path | None, quick: bool,
+                only: str | None = None) -> tuple[list[Image], list[str]]:
+    """Real images that load, then synthetic scenes with exact discontinuities.
+
+    `only`: keep the inputs whose name contains this text (no scene unless it matches).
+    """
     out, skipped = [], []
     if data is not None:
         for rel, bg, note in IMAGES:
-            if quick and rel not in QUICK_IMAGES:
+            if (quick and rel not in QUICK_IMAGES) or (only and only not in rel):
                 continue
             path = data / rel
             try:
@@ -322,6 +330,8 @@ def load_images(data: Path | None, quick: bool) -> tuple[list[Image], list[str]]
             d, v = to_depth_and_mask(img, bg)
             out.append(Image(Path(rel).name, img, bg, note, discontinuity_mask(d, v)))
     for name, noise in (QUICK_SCENES if quick else SCENES):
+        if only and only not in f"synthetic {name}":
+            continue
         sc = scenes.make(name, (160, 200), noise=noise)
         label = f"synthetic {name}" + (f" noise {noise}" if noise else "")
         out.append(Image(label, sc.depth, None, sc.description, sc.discontinuities))
@@ -518,11 +528,13 @@ def main(argv=None) -> int:
     ap.add_argument("--repeat", type=int, default=None, help="timed calls per case (default 5; 1 quick)")
     ap.add_argument("--no-peers", action="store_true", help="rangemesh variants only")
     ap.add_argument("--no-figure", action="store_true", help="skip the figure")
+    ap.add_argument("--only", default=None, metavar="TEXT",
+                    help="only the inputs whose name contains TEXT (e.g. rellis3d)")
     args = ap.parse_args(argv)
     data = find_data(args.data)
     repeat = args.repeat or (1 if args.quick else 5)
     budgets = [(5, 5), 5000] if args.quick else PAPER_BUDGETS + [5000]
-    images, skipped_images = load_images(data, args.quick)
+    images, skipped_images = load_images(data, args.quick, args.only)
     t0 = time.perf_counter()
     rows, skipped = run(images, budgets, repeat, peers=not args.no_peers,
                         log=lambda s: print(s, file=sys.stderr))

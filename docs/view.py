@@ -23,6 +23,7 @@ def _floats(text):
 
 
 def main(argv=None) -> int:
+    """Command line of the picture; returns the exit status."""
     ap = argparse.ArgumentParser(prog="python docs/view.py", description=__doc__.splitlines()[0])
     ap.add_argument("mesh", help="a mesh file rangemesh wrote (PLY keeps the colours)")
     ap.add_argument("png", help="picture to write")

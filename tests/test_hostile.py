@@ -78,7 +78,7 @@ param_values = st.one_of(
 )
 FIELDS = ["tiles", "samples", "sampling", "flips", "levels", "curvature_floor", "fill_gaps",
           "delta", "epsilon", "max_angle", "min_bend", "gain_threshold", "max_edge", "workers",
-          "method", "heights", "walls", "jump"]
+          "method", "heights", "walls", "jump", "wrap"]
 
 
 @st.composite
@@ -112,7 +112,8 @@ def _mesh_or_error(image, kw):
         _documented(exc)
         return None
     assert np.isfinite(mesh.vertices).all()
-    assert_valid_mesh(mesh, check_overlap=False)
+    wrap = "wrap" in kw and not isinstance(kw["wrap"], str) and kw["wrap"] in (True, 1)
+    assert_valid_mesh(mesh, check_overlap=False, wrap=wrap)
     return mesh
 
 

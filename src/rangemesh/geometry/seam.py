@@ -50,16 +50,21 @@ def unrolled_columns(pixels: np.ndarray, width: int) -> np.ndarray:
     return np.where(c == 0, width, c)
 
 
-def _chain(pixels, faces, col):
-    """Boundary vertices on column `col`, sorted by row, and which consecutive pairs are edges."""
+def _seam_side_edges(pixels, faces, width):
+    """Directed edges with both ends on column 0 or both on column W-1 and no twin (boundary)."""
     e = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]]).astype(np.int64)
-    n = len(pixels)
-    key = e[:, 0] * n + e[:, 1]
-    twin = e[:, 1] * n + e[:, 0]
-    open_ = ~np.isin(key, twin)
     c = pixels[:, 1]
-    on = open_ & (c[e[:, 0]] == col) & (c[e[:, 1]] == col)
-    ends = e[on]
+    side = (c[e[:, 0]] == c[e[:, 1]]) & ((c[e[:, 0]] == 0) | (c[e[:, 0]] == width - 1))
+    e = e[side]  # the few edges that can matter: the twin test needs only these
+    n = len(pixels)
+    open_ = ~np.isin(e[:, 0] * n + e[:, 1], e[:, 1] * n + e[:, 0])
+    return e[open_]
+
+
+def _chain(pixels, edges, col):
+    """Boundary vertices on column `col`, sorted by row, and which consecutive pairs are edges."""
+    n = len(pixels)
+    ends = edges[pixels[edges[:, 0], 1] == col]
     if len(ends) == 0:
         return np.zeros(0, np.int64), np.zeros(0, bool), np.zeros((0, 2), np.int64)
     verts = np.unique(ends)
@@ -111,8 +116,9 @@ def seam_strip(pixels: np.ndarray, faces: np.ndarray, width: int) -> np.ndarray:
     """
     if width < 3 or len(faces) == 0:
         return np.zeros((0, 3), np.int32)
-    lv, lhas, lrows = _chain(pixels, faces, 0)
-    rv, rhas, rrows = _chain(pixels, faces, width - 1)
+    edges = _seam_side_edges(pixels, faces, width)
+    lv, lhas, lrows = _chain(pixels, edges, 0)
+    rv, rhas, rrows = _chain(pixels, edges, width - 1)
     out = []
     i = j = 0
     while i < len(lv) - 1 or j < len(rv) - 1:

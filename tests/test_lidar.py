@@ -269,6 +269,15 @@ def test_cli_meshes_the_scan_from_npy_and_bin(tmp_path, shared_data, capsys):
     assert main(["mesh", str(shared_data / f"{SCAN}.range.npy"), "--beams", str(beams),
                  "--intrinsics", "1,1,1,1", "-o", str(b)]) == 2
     assert "exclude each other" in capsys.readouterr().err
+    # the OBJ's texture of an --intensity run never replaces that input
+    taken = tmp_path / "o.texture.png"
+    taken.write_bytes((shared_data / f"{SCAN}.intensity.npy").read_bytes())
+    assert main(["mesh", str(shared_data / f"{SCAN}.range.npy"), "--beams", str(beams),
+                 "--vertices", "300", "--intensity", str(taken), "-o", str(tmp_path / "o.obj")]) == 2
+    assert "never replaces an input" in capsys.readouterr().err
+    assert main(["mesh", str(shared_data / f"{SCAN}.bin"), "--beams",
+                 str(shared_data / "README.md"), "-o", str(b)]) == 2
+    assert "cannot read it as a beams file" in capsys.readouterr().err
 
 
 def _pixels_faces(tmp_path, shared_data, beams):

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 __all__ = ["Orthographic", "Pinhole", "Spherical", "Rays", "backproject", "as_camera",
-           "check_reach", "check_shape", "toward_sensor"]
+           "check_reach", "check_shape", "toward_sensor", "read_beams"]
 
 # Kind codes shared with the kernels (first slot of ``Camera.as_array()``).
 ORTHOGRAPHIC = 0.0
@@ -107,7 +107,11 @@ class Pinhole:
 
 
 def _angles(name, values, length=None) -> np.ndarray:
-    arr = np.array(values, dtype=np.float64, copy=True)
+    try:
+        arr = np.array(values, dtype=np.float64, copy=True)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a sequence of numbers (degrees), got {values!r:.60}") \
+            from None
     if arr.ndim != 1 or arr.size == 0:
         raise ValueError(f"{name} must be a non-empty 1-D sequence of degrees, got shape {arr.shape}")
     if length is not None and arr.size != length:
@@ -236,16 +240,7 @@ class Spherical(_RayCamera):
             A missing key or a value of the wrong kind, naming it.
         """
         if not isinstance(beams, dict):
-            import json
-            from pathlib import Path
-
-            path = Path(beams)
-            try:
-                beams = json.loads(path.read_text())
-            except (OSError, ValueError) as exc:
-                raise ValueError(f"{path}: cannot read it as a beams file ({exc})") from None
-            if not isinstance(beams, dict):
-                raise ValueError(f"{path}: a beams file holds a JSON object")
+            beams = read_beams(beams)
         missing = [k for k in ("elevation_deg", "azimuth0_deg", "azimuth_step_deg", "cols")
                    if k not in beams]
         if missing:
@@ -303,6 +298,27 @@ class Rays(_RayCamera):
     def wraps(self) -> bool:
         """False: a ray table says nothing of which columns are neighbours."""
         return False
+
+
+def read_beams(path) -> dict:
+    """The JSON object of a ``.beams.json`` file (layout: `Spherical.from_beams`).
+
+    Raises
+    ------
+    ValueError
+        A file that cannot be read, is not JSON, or holds no JSON object.
+    """
+    import json
+    from pathlib import Path
+
+    path = Path(path)
+    try:
+        beams = json.loads(path.read_text())
+    except (OSError, ValueError) as exc:
+        raise ValueError(f"{path}: cannot read it as a beams file ({exc})") from None
+    if not isinstance(beams, dict):
+        raise ValueError(f"{path}: a beams file holds a JSON object")
+    return beams
 
 
 Camera = Orthographic | Pinhole | Spherical | Rays

@@ -21,7 +21,7 @@ import numpy as np
 
 from . import scenes
 from ._version import __version__
-from .camera import Orthographic, Pinhole, Spherical
+from .camera import Orthographic, Pinhole, Spherical, read_beams
 from .io import (
     IMAGE_SUFFIXES,
     MESH_SUFFIXES,
@@ -434,7 +434,7 @@ def _run_mesh(args, image, name, bg, outputs_for):
         bar.update(1)
         written = []
         out, preview = outputs_for
-        mesh = _with_colors(args, mesh, image.shape, name)
+        mesh = _with_colors(args, mesh, name)
         if out:
             write_mesh(mesh, out, ascii=args.ascii, pixels=args.pixels)
             written.append(out)
@@ -465,7 +465,8 @@ def _same_file(a: Path, b: Path) -> bool:
 def _check_outputs(args, inputs=()):
     """Refuse outputs that cannot be written, or that would replace an input or each other."""
     outputs = [Path(p) for p in (args.output, getattr(args, "preview", None)) if p]
-    if args.output and Path(args.output).suffix.lower() == ".obj" and getattr(args, "color", None):
+    coloured = getattr(args, "color", None) or getattr(args, "intensity", None)
+    if args.output and Path(args.output).suffix.lower() == ".obj" and coloured:
         outputs += [Path(args.output).with_suffix(".mtl"),  # the texture's files (io.write_mesh)
                     Path(args.output).with_name(Path(args.output).stem + ".texture.png")]
     for p in outputs:
@@ -486,7 +487,7 @@ def _check_outputs(args, inputs=()):
         raise UserError(f"{args.preview}: the preview is a PNG file")
 
 
-def _with_colors(args, mesh, shape, name):
+def _with_colors(args, mesh, name):
     """The mesh with the colours (--color) and intensity (--intensity) asked for."""
     how = "mean" if getattr(args, "color_mean", False) else "pixel"
     for opt, path in (("--color", getattr(args, "color", None)),
@@ -516,10 +517,15 @@ def _read_scan(args):
         raise UserError(f"{args.image}: a .bin LiDAR scan needs --beams FILE.json (its rows and "
                         f"column shifts)")
     try:
-        beams = json.loads(Path(args.beams).read_text())
+        beams = read_beams(args.beams)
+    except ValueError as exc:
+        raise UserError(_one_line(exc)) from None
+    try:
         rng, _ = read_lidar_bin(args.image, int(beams["rows"]),
                                 column_shift=beams.get("column_shift"))
-    except (OSError, ValueError, KeyError, TypeError) as exc:
+    except KeyError:
+        raise UserError(f"{args.beams}: a beams file for a .bin scan gives its 'rows'") from None
+    except (OSError, ValueError, TypeError) as exc:
         raise UserError(f"{args.image}: {_one_line(exc)}") from None
     return rng
 

@@ -324,6 +324,38 @@ def test_fitted_depths_are_not_pulled_across_a_jump(name):
     assert np.max(np.abs(_fitted_depth(m) - own)) < 0.01 * span
 
 
+@given(st.integers(3, 12), st.integers(1, 20), st.integers(0, 2**32 - 1))
+def test_block_solver_equals_a_dense_solve(n, n_faces, seed):
+    # The matrix-free conjugate gradients of the fit, against numpy's dense solve of the
+    # same normal equations assembled here by hand: M = sum of the faces' J^T J blocks
+    # plus diag(ridge), ridge = 1e-3 max(diag(M), 1), right-hand side b + ridge * h0.
+    from rangemesh.greedy.heights import RIDGE, _direct_solve
+    from rangemesh.greedy.heights_kernels import solve_blocks
+
+    rng = np.random.default_rng(seed)
+    ids = np.stack([rng.choice(n, 3, replace=False) for _ in range(n_faces)]).astype(np.int64)
+    jac = rng.random((n_faces, 5, 3))  # 5 pixels a face, barycentric-like weights
+    block = np.einsum("tpi,tpj->tij", jac, jac)
+    rhs = np.einsum("tpi,tp->ti", jac, rng.normal(size=(n_faces, 5)))
+    h0 = rng.normal(size=n)
+    dense = np.zeros((n, n))
+    b = np.zeros(n)
+    for t in range(n_faces):
+        dense[np.ix_(ids[t], ids[t])] += block[t]
+        b[ids[t]] += rhs[t]
+    ridge = RIDGE * np.maximum(np.diag(dense), 1.0)
+    want = np.linalg.solve(dense + np.diag(ridge), b + ridge * h0)
+    got, converged = solve_blocks(ids, block, rhs, h0, RIDGE, 1e-12, 10 * n)
+    assert converged
+    np.testing.assert_allclose(got, want, rtol=1e-7, atol=1e-7 * np.abs(want).max())
+    # the fallback when CG does not converge solves the same system directly
+    np.testing.assert_allclose(_direct_solve(ids, block, rhs, h0), want, rtol=1e-9,
+                               atol=1e-9 * np.abs(want).max())
+    # and CG says so when it is stopped early on a system it has not solved
+    if not np.allclose(h0, want, rtol=1e-6):
+        assert not solve_blocks(ids, block, rhs, h0, RIDGE, 1e-12, 0)[1]
+
+
 def test_the_paper_method_refuses_fitted_depths():
     depth = scenes.make("crease", (30, 40)).depth
     with pytest.raises(ValueError, match="heights='fit' belongs to method='greedy'"):

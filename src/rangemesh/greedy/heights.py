@@ -22,7 +22,7 @@ import numpy as np
 
 from ..camera import Pinhole
 from ..geometry.signals import holding_signals
-from .heights_kernels import empty_buffers, fit_pass
+from .heights_kernels import empty_buffers, fit_pass, solve_blocks
 
 __all__ = ["fit_heights"]
 
@@ -39,6 +39,19 @@ RIDGE = 1e-3
 RESIDUAL_STRIDE = 4
 # Conjugate gradients stop at this relative residual.
 CG_RTOL = 1e-12
+
+
+def _direct_solve(ids, block, rhs, h0):
+    """The system `solve_blocks` solves, by a sparse LU (the fallback when CG does not converge)."""
+    from scipy import sparse
+    from scipy.sparse.linalg import spsolve
+
+    n = len(h0)
+    m = sparse.csr_matrix((block.ravel(), (np.repeat(ids, 3, axis=1).ravel(),
+                                           np.tile(ids, (1, 3)).ravel())), shape=(n, n))
+    b = np.bincount(ids.ravel(), weights=rhs.ravel(), minlength=n)
+    ridge = RIDGE * np.maximum(m.diagonal(), 1.0)
+    return spsolve((m + sparse.diags(ridge, format="csr")).tocsc(), b + ridge * h0)
 
 
 @holding_signals
@@ -63,9 +76,6 @@ def fit_heights(pixels: np.ndarray, faces: np.ndarray, depth: np.ndarray, valid:
         Fitted depth per vertex, in stored units. Vertices no kept pixel
         touches keep the depth of their pixel.
     """
-    from scipy import sparse
-    from scipy.sparse.linalg import cg, spsolve
-
     pr = np.ascontiguousarray(pixels[:, 0], dtype=np.int64)
     pc = np.ascontiguousarray(pixels[:, 1], dtype=np.int64)
     n = len(pr)
@@ -88,18 +98,9 @@ def fit_heights(pixels: np.ndarray, faces: np.ndarray, depth: np.ndarray, valid:
     lo, hi = float(np.min(h0)), float(np.max(h0))
     thr = max(OUTLIER_MADS * sigma, OUTLIER_FLOOR * (hi - lo))
     fit_pass(f, pr, pc, h0, image, valid, thr, resid, ids, block, rhs, 1)
-    m = sparse.csr_matrix((block.ravel(), (np.repeat(ids, 3, axis=1).ravel(),
-                                           np.tile(ids, (1, 3)).ravel())), shape=(n, n))
-    b = np.bincount(ids.ravel(), weights=rhs.ravel(), minlength=n)
-    ridge = RIDGE * np.maximum(m.diagonal(), 1.0)
-    m = m + sparse.diags(ridge, format="csr")
-    # Conjugate gradients from the copied depths, Jacobi-preconditioned: 4x faster than
-    # a sparse LU (spsolve) here, and the system is symmetric positive definite
-    rhs_full = b + ridge * h0
-    fitted, info = cg(m, rhs_full, x0=h0.copy(), rtol=CG_RTOL, atol=0.0,
-                      M=sparse.diags(1.0 / m.diagonal()), maxiter=10 * n)
-    if info != 0:  # not converged (ill-conditioned): the direct solver
-        fitted = spsolve(m.tocsc(), rhs_full)
+    fitted, converged = solve_blocks(ids, block, rhs, h0, RIDGE, CG_RTOL, 10 * n)
+    if not converged:  # ill-conditioned: a direct sparse solve of the same system
+        fitted = _direct_solve(ids, block, rhs, h0)
     if not np.isfinite(fitted).all():
         raise RuntimeError("fit_heights: the least-squares solve failed")
     # A vertex that few pixels pin down can be thrown far off (a negative range was seen on a

@@ -16,7 +16,7 @@ from .camera import Spherical, as_camera, check_reach, check_shape
 from .checks import real_number, whole_number
 from .geometry.pixels import valid_range
 from .geometry.seam import seam_strip, unrolled_columns
-from .geometry.signals import deferred_signals
+from .geometry.signals import holding_signals
 from .greedy import greedy_mesh
 from .greedy.walls import wall_faces
 from .mesh import Mesh, Stats, count_edges, empty_mesh
@@ -249,6 +249,7 @@ def close_seam(mesh: Mesh, depth: np.ndarray, params: MeshParams) -> Mesh:
     return dataclasses.replace(mesh, faces=faces, stats=stats)
 
 
+@holding_signals
 def run(image, params: MeshParams, *, background=None, camera=None, vertices=None,
         max_error=None, tiles_given: bool = True, workspace: Workspace | None = None,
         method: str = "paper") -> Mesh:
@@ -264,13 +265,18 @@ def run(image, params: MeshParams, *, background=None, camera=None, vertices=Non
     Mesh
         ``stats.seconds`` holds ``prepare``, each stage, ``search`` (target
         searches only) and ``total``.
+
+    Notes
+    -----
+    Ctrl-C and termination signals are held for the whole call
+    (`rangemesh.geometry.signals`) and delivered when it returns: once, not
+    once per stage (40 us each, 4 % of a 5 ms call).
     """
     camera = as_camera(camera)
     t0 = time.perf_counter()
     depth, valid = prepare(image, params, background, workspace=workspace)
     check_shape(camera, depth.shape)
-    with deferred_signals():
-        lo, hi, n_valid = valid_range(depth, valid)
+    lo, hi, n_valid = valid_range(depth, valid)
     if n_valid:
         check_reach(camera, depth.shape, lo, hi)
     t1 = time.perf_counter()

@@ -25,9 +25,6 @@ delatin, written here for range images:
   ``COVER_KEY``, above every error), the one farthest from the corner's
   opposite edge first (`_cover_pixel`), so the triangles dropped at the end
   cover only background;
-* once a triangle fits its pixels exactly, it ranks below every error by its
-  area, smallest first: vertices asked beyond an exact mesh go where the
-  rescans are small;
 * pixels on an edge shared by two triangles belong to one of them (the one
   on the edge's left when it is walked with rows, then columns, increasing),
   so the error sums count every pixel once.
@@ -252,15 +249,7 @@ def _scan(t, tv, he, vr, vc, vz, vbg, depth, valid, span, out):
             w2 += f2
     if 0.0 <= best <= KEY_STEPS:  # an error key (not a cover key): rank by max and sum
         best = _quantize(math.sqrt(best_err * total / (depth.shape[0] * depth.shape[1])), span)
-    if best == 0.0:
-        # Every pixel fits (to within half a key step): the smallest such triangle goes
-        # first, with a key in (0, 0.5], below every non-zero error key. Vertices asked
-        # beyond an exact mesh then cost a small rescan each, not one of a large flat
-        # triangle (which the lowest id, the old tie-break, often was): on the exact
-        # synthetic scenes at 1-10 % of their pixels, 1.3-2.6x less kernel time, the
-        # same errors (/tmp A/B, 15 cases).
-        best = 0.5 / area
-    out[0] = best  # -1 when no pixel can be inserted
+    out[0] = best  # -1 when no pixel can be inserted; 0 when all fit exactly
     out[1] = best_r
     out[2] = best_c
     out[3] = total

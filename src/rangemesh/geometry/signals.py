@@ -16,9 +16,10 @@ When the stage returns, the mask and the handlers are put back and a noted
 signal is raised again, in plain Python code, where the original handler
 unwinds normally (``finally`` blocks run, temporary files are removed).
 
-The cost is a few system calls per stage, microseconds. A Ctrl-C waits for
-the stage that is running (milliseconds, a few seconds on the largest
-images), never for the whole job.
+The cost is a few system calls per hold, about 40 microseconds; nested holds
+cost nothing, so `rangemesh.pipeline.run` holds once for a whole meshing. A
+Ctrl-C waits for the meshing that is running (milliseconds, a few seconds
+on the largest images), never for the whole job.
 """
 
 from __future__ import annotations

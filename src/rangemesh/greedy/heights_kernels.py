@@ -149,8 +149,8 @@ def solve_blocks(ids, block, rhs, h0, ridge_share, rtol, max_iter):
 
     The matrix is never assembled: a product visits the faces' blocks (9
     multiply-adds a face). Assembling it with scipy.sparse and running
-    scipy's `cg` cost 2.6 ms at 940 faces (chair, 128x128) and 13 ms at
-    14800 (TUM, 640x480), against about 0.1 and 1 ms here: the Python-level
+    scipy's `cg` cost about 2.6 ms at 940 faces (chair, 128x128) and 10 ms
+    at 14800 (TUM, 640x480), against 0.2 and 2-2.5 ms here: the Python-level
     overhead of each CG step and the CSR sort were most of the time.
 
     Returns

@@ -22,7 +22,7 @@ import numpy as np
 
 from ..camera import Pinhole
 from ..geometry.signals import holding_signals
-from .heights_kernels import empty_buffers, fit_pass, solve_blocks
+from .heights_kernels import empty_buffers, fit_pass, gather_blocks, solve_blocks
 
 __all__ = ["fit_heights"]
 
@@ -47,11 +47,10 @@ def _direct_solve(ids, block, rhs, h0):
     from scipy.sparse.linalg import spsolve
 
     n = len(h0)
+    _, b, ridge = gather_blocks(ids, block, rhs, h0, RIDGE)
     m = sparse.csr_matrix((block.ravel(), (np.repeat(ids, 3, axis=1).ravel(),
                                            np.tile(ids, (1, 3)).ravel())), shape=(n, n))
-    b = np.bincount(ids.ravel(), weights=rhs.ravel(), minlength=n)
-    ridge = RIDGE * np.maximum(m.diagonal(), 1.0)
-    return spsolve((m + sparse.diags(ridge, format="csr")).tocsc(), b + ridge * h0)
+    return spsolve((m + sparse.diags(ridge, format="csr")).tocsc(), b)
 
 
 @holding_signals

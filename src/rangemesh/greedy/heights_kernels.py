@@ -137,6 +137,28 @@ def _block_product(ids, block, ridge, x, y):
 
 
 @njit(cache=True)
+def gather_blocks(ids, block, rhs, h0, ridge_share):
+    """The system `solve_blocks` solves, per vertex: its diagonal, right-hand side and ridge.
+
+    ``ridge = ridge_share * max(diag(M), 1)``; the diagonal and the
+    right-hand side returned include it (``diag(M) + ridge``, ``b + ridge * h0``).
+    """
+    n = h0.size
+    diag = np.zeros(n)
+    b = np.zeros(n)
+    for t in range(ids.shape[0]):
+        for k in range(3):
+            diag[ids[t, k]] += block[t, k, k]
+            b[ids[t, k]] += rhs[t, k]
+    ridge = np.empty(n)
+    for i in range(n):
+        ridge[i] = ridge_share * max(diag[i], 1.0)
+        b[i] += ridge[i] * h0[i]
+        diag[i] += ridge[i]
+    return diag, b, ridge
+
+
+@njit(cache=True)
 def solve_blocks(ids, block, rhs, h0, ridge_share, rtol, max_iter):
     """Least-squares vertex values from the faces' normal-equation blocks (`fit_pass`).
 
@@ -159,17 +181,7 @@ def solve_blocks(ids, block, rhs, h0, ridge_share, rtol, max_iter):
     converged : bool
     """
     n = h0.size
-    diag = np.zeros(n)
-    b = np.zeros(n)
-    for t in range(ids.shape[0]):
-        for k in range(3):
-            diag[ids[t, k]] += block[t, k, k]
-            b[ids[t, k]] += rhs[t, k]
-    ridge = np.empty(n)
-    for i in range(n):
-        ridge[i] = ridge_share * max(diag[i], 1.0)
-        b[i] += ridge[i] * h0[i]
-        diag[i] += ridge[i]
+    diag, b, ridge = gather_blocks(ids, block, rhs, h0, ridge_share)
     x = h0.copy()
     r = np.empty(n)
     _block_product(ids, block, ridge, x, r)

@@ -7,6 +7,7 @@ from hypothesis import strategies as st
 from rangemesh.camera import Orthographic, Pinhole
 from rangemesh.geometry import heap as heapq_nb
 from rangemesh.geometry import raster
+from rangemesh.geometry.vectors import orient
 
 from . import reference as ref
 
@@ -27,6 +28,60 @@ def test_line_is_8_connected_and_hits_endpoints(r0, c0, r1, c1):
     assert set(line[:1] + line[-1:]) == {(r0, c0), (r1, c1)}
     steps = np.abs(np.diff(np.array(line), axis=0))
     assert (steps.max(axis=1) == 1).all() if len(line) > 1 else True
+
+
+def _walked_spans(a, b, c, owns):
+    """Each row's (first, last) columns as `raster.triangle_rows/next_row/row_columns` walk them.
+
+    Also checks the edge functions returned at each row's first column against `orient`.
+    """
+    r0, r1, c0, c1, edges = raster.triangle_rows(*a, *b, *c)
+    spans = {}
+    for r in range(r0, r1 + 1):
+        if r > r0:
+            edges = raster.next_row(edges)
+        lo, hi, w0, w1, w2 = raster.row_columns(edges, *owns, c0, c1)
+        assert (w0, w1, w2) == tuple(orient(*p, *q, r, lo) for p, q in ((a, b), (b, c), (c, a)))
+        spans[r] = (lo, hi)
+    return spans
+
+
+@given(st.lists(st.tuples(coord, coord), min_size=3, max_size=3, unique=True),
+       st.tuples(st.booleans(), st.booleans(), st.booleans()))
+def test_walked_row_spans_hold_exactly_the_pixels_inside(pts, owns):
+    # Independent reference: every pixel of the bounding box tested by its three edge
+    # functions (w > 0, or w == 0 on an edge whose pixels the triangle owns).
+    a, b, c = pts
+    area = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
+    if area == 0:
+        return
+    if area < 0:
+        b, c = c, b
+
+    def w(p, q, r, col):
+        return (q[0] - p[0]) * (col - p[1]) - (q[1] - p[1]) * (r - p[0])
+
+    spans = _walked_spans(a, b, c, owns)
+    for r, (lo, hi) in spans.items():
+        inside = [col for col in range(0, 41)
+                  if all(w(p, q, r, col) > 0 or (w(p, q, r, col) == 0 and own)
+                         for (p, q), own in zip(((a, b), (b, c), (c, a)), owns, strict=True))]
+        assert list(range(lo, hi + 1)) == inside
+
+
+def test_walked_row_spans_by_hand():
+    # (0,0) (4,0) (0,4), counter-clockwise in (row, col). A -> B is the column c == 0,
+    # B -> C the hypotenuse r + c == 4, C -> A the row r == 0. With every edge owned, row r
+    # holds columns 0..4-r; each edge not owned loses its own pixels.
+    a, b, c = (0, 0), (4, 0), (0, 4)
+
+    def cols(owns):
+        return {r: list(range(lo, hi + 1)) for r, (lo, hi) in _walked_spans(a, b, c, owns).items()}
+
+    assert cols((True, True, True)) == {r: list(range(0, 5 - r)) for r in range(5)}
+    assert cols((True, False, True)) == {r: list(range(0, 4 - r)) for r in range(5)}
+    assert cols((False, True, True)) == {r: list(range(1, 5 - r)) for r in range(5)}
+    assert cols((True, True, False)) == {0: [], **{r: list(range(0, 5 - r)) for r in range(1, 5)}}
 
 
 def test_bresenham_by_hand():

@@ -12,8 +12,9 @@ import math
 import numpy as np
 from numba import njit
 
+from ..geometry.raster import next_row, row_columns, triangle_rows
 from ..geometry.vectors import orient
-from .kernels import _owns, row_span
+from .kernels import _owns
 
 
 @njit(cache=True)
@@ -49,33 +50,27 @@ def fit_pass(faces, pr, pc, h0, image, valid, thr, resid, ids, block, rhs, strid
         own0 = _owns(ar, ac, br, bc)
         own1 = _owns(br, bc, cr, cc)
         own2 = _owns(cr, cc, ar, ac)
-        r0 = max(min(ar, min(br, cr)), 0)
-        r1 = min(max(ar, max(br, cr)), h - 1)
-        c0 = max(min(ac, min(bc, cc)), 0)
-        c1 = min(max(ac, max(bc, cc)), w - 1)
-        s0 = br - ar
-        s1 = cr - br
-        s2 = ar - cr
-        f0, f1, f2 = float(s0), float(s1), float(s2)
+        r0, r1, c0, c1, edges = triangle_rows(ar, ac, br, bc, cr, cc)
+        if r0 < 0 or c0 < 0 or r1 >= h or c1 >= w:
+            raise ValueError("fit_pass: a vertex lies outside the image")
+        f0, f1, f2 = float(br - ar), float(cr - br), float(ar - cr)
         # sums of this triangle, kept in registers and written once
         m00 = m01 = m02 = m11 = m12 = m22 = 0.0
         q0 = q1 = q2 = 0.0
         for r in range(r0, r1 + 1):
+            if r > r0:
+                edges = next_row(edges)
             if thr < 0.0 and r % stride != 0:
                 continue
-            v0, v1, v2, lo, hi = row_span(ar, ac, br, bc, cr, cc, r, c0, c1)
-            if lo > hi:
+            first, last, v0, v1, v2 = row_columns(edges, own0, own1, own2, c0, c1)
+            if first > last:
                 continue
             vrow = valid[r]
             irow = image[r]
             # float64 holds these integers exactly: no conversion per pixel
-            w0 = float(v0 + s0 * (lo - c0))
-            w1 = float(v1 + s1 * (lo - c0))
-            w2 = float(v2 + s2 * (lo - c0))
-            for col in range(lo, hi + 1):
-                if vrow[col] and ((w0 > 0 or (w0 == 0 and own0))
-                                  and (w1 > 0 or (w1 == 0 and own1))
-                                  and (w2 > 0 or (w2 == 0 and own2))):
+            w0, w1, w2 = float(v0), float(v1), float(v2)
+            for col in range(first, last + 1):
+                if vrow[col]:
                     la = w1 * inv  # weight of a
                     lb = w2 * inv
                     lc = w0 * inv

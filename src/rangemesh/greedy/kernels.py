@@ -40,6 +40,7 @@ from numba import njit
 
 from ..geometry.halfedges import link, nxt, prv
 from ..geometry.heap import rekey, sift_up
+from ..geometry.raster import next_row, row_columns, triangle_rows
 from ..geometry.vectors import orient
 
 # Errors are ranked in units of 2**-32 of the valid depth range, so that a change of depth
@@ -93,10 +94,7 @@ def _cover_pixel(ar, ac, br, bc, cr, cc, own0, own1, own2, lost0, lost1, lost2, 
     `best` receives ``(weight, row, col)`` (weight -1 when no pixel needs
     covering). Returns whether the triangle holds any valid pixel.
     """
-    r0 = min(ar, min(br, cr))
-    r1 = max(ar, max(br, cr))
-    c0 = min(ac, min(bc, cc))
-    c1 = max(ac, max(bc, cc))
+    r0, r1, c0, c1, edges = triangle_rows(ar, ac, br, bc, cr, cc)
     s0 = br - ar  # w0 = orient(A, B, p): the weight of C
     s1 = cr - br  # w1: the weight of A
     s2 = ar - cr  # w2: the weight of B
@@ -105,31 +103,30 @@ def _cover_pixel(ar, ac, br, bc, cr, cc, own0, own1, own2, lost0, lost1, lost2, 
     best[1] = -1
     best[2] = -1
     for r in range(r0, r1 + 1):
-        v0, v1, v2, lo, hi = row_span(ar, ac, br, bc, cr, cc, r, c0, c1)
-        if lo > hi:
+        if r > r0:
+            edges = next_row(edges)
+        first, last, v0, v1, v2 = row_columns(edges, own0, own1, own2, c0, c1)
+        if first > last:
             continue
         # the corners' weights are linear along the row: no pixel of it can beat `best`
         # when none of them does at either end of the span (and valid pixels were seen)
         if seen and best[0] >= 0:
             bound = -1
-            for cb in (lo, hi):
+            for cb in (first, last):
                 if bga:
-                    bound = max(bound, v1 + s1 * (cb - c0))
+                    bound = max(bound, v1 + s1 * (cb - first))
                 if bgb:
-                    bound = max(bound, v2 + s2 * (cb - c0))
+                    bound = max(bound, v2 + s2 * (cb - first))
                 if bgc:
-                    bound = max(bound, v0 + s0 * (cb - c0))
+                    bound = max(bound, v0 + s0 * (cb - first))
             if bound < best[0]:
                 continue
-        for c in range(lo, hi + 1):
+        for c in range(first, last + 1):
             if not valid[r, c]:
                 continue
-            w0 = v0 + s0 * (c - c0)
-            w1 = v1 + s1 * (c - c0)
-            w2 = v2 + s2 * (c - c0)
-            if not ((w0 > 0 or (w0 == 0 and own0)) and (w1 > 0 or (w1 == 0 and own1))
-                    and (w2 > 0 or (w2 == 0 and own2))):
-                continue
+            w0 = v0 + s0 * (c - first)
+            w1 = v1 + s1 * (c - first)
+            w2 = v2 + s2 * (c - first)
             seen = True
             if (r == ar and c == ac) or (r == br and c == bc) or (r == cr and c == cc):
                 continue
@@ -202,36 +199,29 @@ def _scan(t, tv, he, vr, vc, vz, vbg, depth, valid, span, out):
             out[2] = -1
             out[3] = 0.0
             return
-    r0 = min(ar, min(br, cr))
-    r1 = max(ar, max(br, cr))
-    c0 = min(ac, min(bc, cc))
-    c1 = max(ac, max(bc, cc))
     best = -1.0
     best_err = -1.0
     best_r = -1
     best_c = -1
     total = 0.0
     inv = 1.0 / area
-    # Edge functions are linear along a row: w(c) = w(c0) + slope * (c - c0). Each row
-    # is visited only over its span inside the triangle (exact integer bounds), as
-    # delatin does: bounding-box scans of long thin triangles cost 4x more.
-    s0 = br - ar  # slope along c of w0 = orient(A, B, p)
-    s1 = cr - br
-    s2 = ar - cr
-    f0, f1, f2 = float(s0), float(s1), float(s2)
+    # Each row is visited over its span inside the triangle only (exact integer bounds,
+    # pixels on edges the triangle does not own left out), as delatin does: bounding-box
+    # scans of long thin triangles cost 4x more. Edge functions are linear along a row.
+    r0, r1, c0, c1, edges = triangle_rows(ar, ac, br, bc, cr, cc)
+    f0, f1, f2 = float(br - ar), float(cr - br), float(ar - cr)
     for r in range(r0, r1 + 1):
-        v0, v1, v2, lo, hi = row_span(ar, ac, br, bc, cr, cc, r, c0, c1)
-        if lo > hi:
+        if r > r0:
+            edges = next_row(edges)
+        first, last, v0, v1, v2 = row_columns(edges, own0, own1, own2, c0, c1)
+        if first > last:
             continue
         drow = depth[r]
         vrow = valid[r]
         # float64 holds these integers exactly (|w| < 2**53): no int-to-float per pixel
-        w0 = float(v0 + s0 * (lo - c0))
-        w1 = float(v1 + s1 * (lo - c0))
-        w2 = float(v2 + s2 * (lo - c0))
-        for c in range(lo, hi + 1):
-            if vrow[c] and ((w0 > 0 or (w0 == 0 and own0)) and (w1 > 0 or (w1 == 0 and own1))
-                            and (w2 > 0 or (w2 == 0 and own2))):
+        w0, w1, w2 = float(v0), float(v1), float(v2)
+        for c in range(first, last + 1):
+            if vrow[c]:
                 z = (w1 * az + w2 * bz + w0 * cz) * inv
                 err = abs(drow[c] - z)
                 total += err
@@ -253,39 +243,6 @@ def _scan(t, tv, he, vr, vc, vz, vbg, depth, valid, span, out):
     out[1] = best_r
     out[2] = best_c
     out[3] = total
-
-
-@njit(cache=True)
-def _span(v, slope, c0, lo, hi):
-    """Narrow [lo, hi] to the columns c where v + slope * (c - c0) >= 0 (empty: lo > hi)."""
-    if slope > 0:
-        if v < 0:
-            lo = max(lo, c0 + (-v + slope - 1) // slope)
-    elif slope < 0:
-        if v < 0:
-            return 1, 0
-        hi = min(hi, c0 + v // (-slope))
-    elif v < 0:
-        return 1, 0
-    return lo, hi
-
-
-@njit(cache=True)
-def row_span(ar, ac, br, bc, cr, cc, r, c0, c1):
-    """Row `r` of triangle ABC: edge functions at column `c0` and the inside columns.
-
-    Returns the edge functions at `c0` and the columns [lo, hi] of
-    `c0..c1` where all three are >= 0 (empty: lo > hi), for ABC
-    counter-clockwise. ``w0 = orient(A, B, p)`` (the weight of C), ``w1`` (of A), ``w2`` (of B); each
-    grows along the row by ``br - ar``, ``cr - br`` and ``ar - cr`` a column.
-    """
-    v0 = orient(ar, ac, br, bc, r, c0)
-    v1 = orient(br, bc, cr, cc, r, c0)
-    v2 = orient(cr, cc, ar, ac, r, c0)
-    lo, hi = _span(v0, br - ar, c0, c0, c1)
-    lo, hi = _span(v1, cr - br, c0, lo, hi)
-    lo, hi = _span(v2, ar - cr, c0, lo, hi)
-    return v0, v1, v2, lo, hi
 
 
 @njit(cache=True)

@@ -84,6 +84,51 @@ def test_walked_row_spans_by_hand():
     assert cols((True, True, False)) == {0: [], **{r: list(range(0, 5 - r)) for r in range(1, 5)}}
 
 
+def _box_raster(tris, vals, h, w):
+    """Brute force: every pixel of each triangle's box, first triangle wins, the same float ops."""
+    out = np.full((h, w), np.nan)
+    face = np.full((h, w), -1)
+    for t, ((r0, c0), (r1, c1), (r2, c2)) in enumerate(tris):
+        area = (r1 - r0) * (c2 - c0) - (c1 - c0) * (r2 - r0)
+        if area == 0:
+            continue
+        sgn = 1 if area > 0 else -1
+        for r in range(h):
+            for c in range(w):
+                ws = [sgn * ((qr - pr) * (c - pc) - (qc - pc) * (r - pr))
+                      for (pr, pc), (qr, qc) in (((r1, c1), (r2, c2)), ((r2, c2), (r0, c0)),
+                                                 ((r0, c0), (r1, c1)))]
+                if face[r, c] != -1 or min(ws) < 0:
+                    continue
+                w0, w1, w2 = (float(x) for x in ws)
+                out[r, c] = (w0 * vals[t][0] + w1 * vals[t][1] + w2 * vals[t][2]) / (w0 + w1 + w2)
+                face[r, c] = t
+    return out, face
+
+
+@given(st.lists(st.tuples(st.tuples(st.integers(0, 11), st.integers(0, 13)),
+                          st.tuples(st.integers(0, 11), st.integers(0, 13)),
+                          st.tuples(st.integers(0, 11), st.integers(0, 13)),
+                          st.tuples(*[st.floats(-5, 5)] * 3)), min_size=1, max_size=4),
+       st.booleans())
+def test_rasterize_matches_a_box_loop(tris, shift):
+    # Integer corners take the span walk, shifted ones (by 0.5 column) the box loop: both
+    # must give what a plain loop over every pixel gives, value for value.
+    h, w = 12, 14
+    corners = [t[:3] for t in tris]
+    if shift:
+        corners = [tuple((r, c + 0.5) for r, c in tri) for tri in corners]
+    vals = np.array([t[3] for t in tris])
+    out = np.full((h, w), np.nan)
+    face = np.full((h, w), -1, np.int64)
+    fr = np.array([[p[0] for p in tri] for tri in corners], np.float64)
+    fc = np.array([[p[1] for p in tri] for tri in corners], np.float64)
+    raster.rasterize(fr, fc, vals, h, w, out, face)
+    want, want_face = _box_raster(corners, vals, h, w)
+    np.testing.assert_array_equal(face, want_face)
+    np.testing.assert_array_equal(out, want)
+
+
 def test_bresenham_by_hand():
     # (0,0)->(2,5): column-major, exact rows 0, .4, .8, 1.2, 1.6, 2 -> 0 0 1 1 2 2
     assert ref.bresenham((0, 0), (2, 5)) == [(0, 0), (0, 1), (1, 2), (1, 3), (2, 4), (2, 5)]

@@ -11,6 +11,7 @@ import math
 import numpy as np
 
 from .camera import Orthographic, Pinhole, Rays, Spherical
+from .geometry.pixels import covered_error, valid_range
 from .geometry.raster import rasterize
 from .geometry.signals import holding_signals
 from .mesh import Mesh
@@ -140,11 +141,13 @@ def relative_error(mesh: Mesh, depth: np.ndarray, valid: np.ndarray) -> float:
         NaN when no valid pixel is covered.
     """
     pred, _ = render_depth(mesh, depth.shape)
-    covered = valid & np.isfinite(pred)
-    if not covered.any():
+    depth = np.asarray(depth, np.float64)
+    valid = np.asarray(valid, np.bool_)
+    total, n = covered_error(pred, depth, valid)
+    if n == 0:
         return float("nan")
-    span = float(depth[valid].max() - depth[valid].min())
-    return float(per_span(np.mean(np.abs(pred[covered] - depth[covered])), span, 100.0))
+    lo, hi, _ = valid_range(depth, valid)
+    return float(per_span(total / n, float(hi - lo), 100.0))
 
 
 def per_span(x, span: float, full: float, *, out=None):

@@ -135,6 +135,18 @@ def test_creases_get_vertices_on_the_crease_line(name, n):
     assert evaluate(m, sc.depth).max_error < 1e-9
 
 
+@pytest.mark.parametrize("name", ["crease", "pyramid", "box"])
+def test_vertices_beyond_an_exact_mesh_keep_it_exact(name):
+    # Once a few dozen vertices make a piecewise-planar scene exact, more vertices go inside
+    # the planes: they must never join two planes in one triangle (an unguarded Delaunay flip
+    # across a crease did, on the pyramid at 69-79 vertices)
+    sc = scenes.make(name, (80, 100))
+    for n in range(70, 130):
+        m = triangulate(sc.depth, vertices=n)
+        assert len(m.vertices) == n
+        assert evaluate(m, sc.depth).max_error < 1e-9, n
+
+
 @pytest.mark.parametrize("n", [1000, 3000])
 def test_depth_frame_without_walls(shared_data, n):
     # A Kinect frame in metres: no wall left, every vertex valid, one fan each; the count is N,

@@ -48,6 +48,10 @@ from ..geometry.vectors import orient
 # the paper's flip gains are. Keys of pixels that must be covered lie above every error key.
 KEY_STEPS = 4294967296.0
 COVER_KEY = 1.25 * KEY_STEPS
+# Keys below 1 (no error key is): a triangle whose pixels all fit its plane to within half a
+# key step ranks below SMALL_KEY by its area (`_spread_key`); one with errors too small for
+# a key of 1 at SMALL_KEY, above them.
+SMALL_KEY = 0.5
 
 
 @njit(cache=True)
@@ -152,8 +156,10 @@ def _scan(t, tv, he, vr, vc, vz, vbg, depth, valid, span, out):
 
     Writes ``out[0] = key`` (-1 when no pixel can be inserted), ``out[1], out[2]``
     = row, column of that pixel, ``out[3]`` = sum of |depth - plane| over the valid
-    pixels the triangle owns.
+    pixels the triangle owns, and ``out[4]`` = 1 when the triangle fits exactly and
+    that pixel is its centroid (`_centroid_pixel`), else 0.
     """
+    out[4] = 0.0
     ia = tv[3 * t]
     ib = tv[3 * t + 1]
     ic = tv[3 * t + 2]
@@ -237,17 +243,117 @@ def _scan(t, tv, he, vr, vc, vz, vbg, depth, valid, span, out):
             w0 += f0
             w1 += f1
             w2 += f2
-    if 0.0 <= best <= KEY_STEPS:  # an error key (not a cover key): rank by max and sum
+    out[4] = 0.0
+    if best == 0.0:  # every pixel fits the plane to within half a key step
+        best = _spread_key(area, depth.shape[0], depth.shape[1])
+        pr, pc = _centroid_pixel(ar, ac, br, bc, cr, cc, valid)
+        if pr >= 0:
+            best_r, best_c = pr, pc
+            out[4] = 1.0
+    elif 0.0 < best <= KEY_STEPS:  # an error key (not a cover key): rank by max and sum
         best = _quantize(math.sqrt(best_err * total / (depth.shape[0] * depth.shape[1])), span)
-    out[0] = best  # -1 when no pixel can be inserted; 0 when all fit exactly
+        if best == 0.0:
+            best = SMALL_KEY
+    out[0] = best  # -1 when no pixel can be inserted
     out[1] = best_r
     out[2] = best_c
     out[3] = total
 
 
 @njit(cache=True)
-def _legalize(e0, tv, he, vr, vc, changed, n_changed, stack):
-    """Lawson flips from half-edge `e0`, whose opposite vertex is the new point."""
+def _spread_key(area, h, w):
+    """The key of a triangle that fits exactly: below every other, larger triangles first.
+
+    Vertices asked beyond an exact mesh then go to the largest triangles, at
+    their centroids, and spread over the image (inserting the first pixel of
+    the smallest triangles crowded them into a corner).
+    """
+    return SMALL_KEY * area / (2.0 * h * w + 1.0)
+
+
+@njit(cache=True)
+def _on_plane(plane, span, r, c, z):
+    """Whether depth `z` at pixel (r, c) lies on `plane` to within half a key step.
+
+    `plane` holds a triangle's corners, (row, column, depth) each.
+    """
+    ar, ac, az = plane[0], plane[1], plane[2]
+    br, bc, bz = plane[3], plane[4], plane[5]
+    cr, cc, cz = plane[6], plane[7], plane[8]
+    zp = (orient(br, bc, cr, cc, r, c) * az + orient(cr, cc, ar, ac, r, c) * bz
+          + orient(ar, ac, br, bc, r, c) * cz) / orient(ar, ac, br, bc, cr, cc)
+    return _quantize(abs(z - zp), span) == 0.0
+
+
+@njit(cache=True)
+def _flat_cavity(t, old_t, changed, n_changed, tv, vr, vc, terr, vz, plane, span):
+    """Whether an exact split left only triangles that fit exactly: no scan needed.
+
+    The triangles an insertion made (`changed`) tile what it replaced: the
+    split triangle and the neighbours whose edges were flipped, which keep
+    their ids (below `old_t`, their keys still theirs). When each of those
+    fitted exactly (a key below SMALL_KEY) and every corner of the new
+    triangles lies on the split triangle's plane (`_on_plane`), every new
+    triangle's pixels fit its plane too.
+    """
+    for i in range(3, n_changed):
+        s = changed[i]
+        if s != t and s < old_t and not 0.0 < terr[s] < SMALL_KEY:
+            return False
+    for i in range(n_changed):
+        for k in range(3):
+            v = tv[3 * changed[i] + k]
+            if not _on_plane(plane, span, vr[v], vc[v], vz[v]):
+                return False
+    return True
+
+
+@njit(cache=True)
+def _fit_child(t, tv, vr, vc, valid, h, w, out):
+    """Key a child of an exactly fitting triangle split at its centroid, without a scan.
+
+    Its pixels fit the parent's plane, which its new corner (an exact pixel)
+    keeps: its key is `_spread_key` and its pixel to insert its centroid.
+    Returns False, writing nothing, when that centroid is no valid inside
+    pixel: the child must then be scanned.
+    """
+    ia, ib, ic = tv[3 * t], tv[3 * t + 1], tv[3 * t + 2]
+    pr, pc = _centroid_pixel(vr[ia], vc[ia], vr[ib], vc[ib], vr[ic], vc[ic], valid)
+    if pr < 0:
+        return False
+    out[0] = _spread_key(orient(vr[ia], vc[ia], vr[ib], vc[ib], vr[ic], vc[ic]), h, w)
+    out[1] = pr
+    out[2] = pc
+    out[4] = 1.0
+    return True
+
+
+@njit(cache=True)
+def _centroid_pixel(ar, ac, br, bc, cr, cc, valid):
+    """The pixel nearest the triangle's centroid when it is valid and strictly inside, else -1s.
+
+    Strictly inside, it lies on no edge: inserting it splits the triangle in
+    three, and no other vertex can be there (a mesh triangle holds none).
+    """
+    r = (ar + br + cr + 1) // 3
+    c = (ac + bc + cc + 1) // 3
+    if (orient(ar, ac, br, bc, r, c) > 0 and orient(br, bc, cr, cc, r, c) > 0
+            and orient(cr, cc, ar, ac, r, c) > 0 and valid[r, c]):
+        return r, c
+    return -1, -1
+
+
+@njit(cache=True)
+def _legalize(e0, tv, he, vr, vc, changed, n_changed, stack, guard, terr, vz, plane, span):
+    """Lawson flips from half-edge `e0`, whose opposite vertex is the new point.
+
+    With `guard` (the split triangle fits exactly; its corners are in
+    `plane`), its creases are kept: an edge whose far triangle fits exactly
+    (or holds no pixel to insert) is flipped only when that triangle's far
+    corner lies on the split triangle's plane (`_on_plane`). Flipping it
+    would join two planes in one triangle: vertices asked beyond an exact
+    mesh of a pyramid broke it, and left it inexact when the count ran out.
+    """
     top = 0
     stack[top] = e0
     top += 1
@@ -266,6 +372,9 @@ def _legalize(e0, tv, he, vr, vc, changed, n_changed, stack):
         pc = tv[ar]
         pd = tv[bp]
         if _incircle(vr[pa], vc[pa], vr[pb], vc[pb], vr[pc], vc[pc], vr[pd], vc[pd]) <= 0:
+            continue
+        if guard and terr[b // 3] < SMALL_KEY and not _on_plane(plane, span, vr[pd], vc[pd],
+                                                                vz[pd]):
             continue
         # flip A-B to C-D: (A, B, C) + (B, A, D) -> (D, B, C) + (C, A, D)
         hbp = he[bp]
@@ -295,7 +404,7 @@ def _new_tri(tv, he, t, a, b, c):
 
 
 @njit(cache=True)
-def _insert(t, p, tv, he, vr, vc, n_t, changed, stack, outer):
+def _insert(t, p, tv, he, vr, vc, n_t, changed, stack, outer, guard, terr, vz, plane, span):
     """Insert vertex `p` (inside or on an edge of triangle `t`); returns (n_t, n_changed)."""
     e = 3 * t
     pr, pc = vr[p], vc[p]
@@ -325,7 +434,8 @@ def _insert(t, p, tv, he, vr, vc, n_t, changed, stack, outer):
         changed[2] = t2
         n_changed = 3
         for s in (3 * t, 3 * t1, 3 * t2):
-            n_changed = _legalize(s, tv, he, vr, vc, changed, n_changed, stack)
+            n_changed = _legalize(s, tv, he, vr, vc, changed, n_changed, stack, guard, terr, vz,
+                                  plane, span)
         return n_t + 2, n_changed
     # on the edge A -> B of t, opposite C
     ea = e + on
@@ -369,7 +479,8 @@ def _insert(t, p, tv, he, vr, vc, n_t, changed, stack, outer):
         outer[3] = 3 * t3 + 1
         n_outer = 4
     for i in range(n_outer):
-        n_changed = _legalize(outer[i], tv, he, vr, vc, changed, n_changed, stack)
+        n_changed = _legalize(outer[i], tv, he, vr, vc, changed, n_changed, stack, guard, terr,
+                              vz, plane, span)
     return n_t + n_new, n_changed
 
 
@@ -429,6 +540,7 @@ def greedy_insert(depth, valid, vr0, vc0, vz0, tv0, he0, max_vertices, max_sum, 
     tcr = np.zeros(cap_t, np.int64)
     tcc = np.zeros(cap_t, np.int64)
     tsum = np.zeros(cap_t)
+    tfit = np.zeros(cap_t, np.bool_)  # fits exactly, its centroid to insert (out[4])
     heap = np.zeros(cap_t, np.int64)
     slot = np.zeros(cap_t, np.int64)
     stamp = np.zeros(cap_t, np.int64)
@@ -436,7 +548,8 @@ def greedy_insert(depth, valid, vr0, vc0, vz0, tv0, he0, max_vertices, max_sum, 
     is_vertex = np.zeros((h, w), np.bool_)
     changed = np.zeros(64, np.int64)
     stack = np.zeros(64, np.int64)
-    out = np.zeros(4)
+    out = np.zeros(5)
+    plane = np.zeros(9)  # the split triangle's corners, (r, c, z) each (`_on_plane`)
     outer = np.zeros(4, np.int64)
     n_valid_v = 0
     for i in range(n_v):
@@ -456,6 +569,7 @@ def greedy_insert(depth, valid, vr0, vc0, vz0, tv0, he0, max_vertices, max_sum, 
     for t in range(n_t):
         _scan(t, tv, he, vr, vc, vz, vbg, depth, valid, span, out)
         terr[t], tcr[t], tcc[t], tsum[t] = out[0], out[1], out[2], out[3]
+        tfit[t] = out[4] > 0.0
         total += out[3]
         heap[n_heap] = t
         slot[t] = n_heap
@@ -486,6 +600,7 @@ def greedy_insert(depth, valid, vr0, vc0, vz0, tv0, he0, max_vertices, max_sum, 
             tcr = _grow_f(tcr, cap_t)
             tcc = _grow_f(tcc, cap_t)
             tsum = _grow_f(tsum, cap_t)
+            tfit = _grow_f(tfit, cap_t)
             heap = _grow_f(heap, cap_t)
             slot = _grow_f(slot, cap_t)
             stamp2 = np.zeros(cap_t, np.int64)
@@ -502,7 +617,18 @@ def greedy_insert(depth, valid, vr0, vc0, vz0, tv0, he0, max_vertices, max_sum, 
             changed = np.zeros(4 * n_t + 16, np.int64)
             stack = np.zeros(4 * n_t + 16, np.int64)
         old_t = n_t
-        n_t, n_changed = _insert(t, p, tv, he, vr, vc, n_t, changed, stack, outer)
+        # the centroid of a triangle that fits exactly: its three children fit too
+        split_fit = tfit[t]
+        for k in range(3):
+            v = tv[3 * t + k]
+            plane[3 * k], plane[3 * k + 1], plane[3 * k + 2] = vr[v], vc[v], vz[v]
+        guard = 0.0 < key < SMALL_KEY  # an exact split: keep it exact (`_legalize`)
+        n_t, n_changed = _insert(t, p, tv, he, vr, vc, n_t, changed, stack, outer, guard, terr,
+                                 vz, plane, span)
+        # ... and so does every triangle the flips made, when each triangle they replaced
+        # fitted exactly and every corner lies on the split triangle's plane
+        flat = split_fit and _flat_cavity(t, old_t, changed, n_changed, tv, vr, vc, terr, vz,
+                                          plane, span)
         for s in range(old_t, n_t):  # new triangles join the heap
             terr[s] = -1.0
             tsum[s] = 0.0
@@ -510,13 +636,20 @@ def greedy_insert(depth, valid, vr0, vc0, vz0, tv0, he0, max_vertices, max_sum, 
             slot[s] = n_heap
             n_heap += 1
         step += 1
-        for i in range(n_changed):
+        for j in range(n_changed):
+            # Children of an exact split are keyed without a scan unless a flip changed
+            # them: the flipped triangles (listed after the three) are scanned first.
+            i = n_changed - 1 - j if split_fit else j
             s = changed[i]
             if stamp[s] == step:  # flipped twice in this step: one scan is enough
                 continue
             stamp[s] = step
-            _scan(s, tv, he, vr, vc, vz, vbg, depth, valid, span, out)
+            if (flat or (split_fit and i < 3)) and _fit_child(s, tv, vr, vc, valid, h, w, out):
+                out[3] = 0.0
+            else:
+                _scan(s, tv, he, vr, vc, vz, vbg, depth, valid, span, out)
             total += out[3] - tsum[s]
             terr[s], tcr[s], tcc[s], tsum[s] = out[0], out[1], out[2], out[3]
+            tfit[s] = out[4] > 0.0
             rekey(heap, slot, terr, s, n_heap)
     return vr[:n_v].copy(), vc[:n_v].copy(), tv[: 3 * n_t].copy(), n_valid_v, total

@@ -27,7 +27,12 @@ delatin, written here for range images:
   cover only background;
 * pixels on an edge shared by two triangles belong to one of them (the one
   on the edge's left when it is walked with rows, then columns, increasing),
-  so the error sums count every pixel once.
+  so the error sums count every pixel once;
+* vertices asked beyond an exact mesh (every pixel on its triangle's plane)
+  go to the largest exact triangles, at their centroids; what such a split
+  makes inside one plane is keyed without a scan, and its flips never join
+  two planes, so an exact mesh stays exact (`_spread_key`, `_flat_cavity`,
+  `_legalize`).
 
 Coordinates are integers (row, column) and every geometric predicate is exact
 in int64 for images up to about 30,000 pixels a side.

@@ -624,10 +624,11 @@ def greedy_insert(depth, valid, vr0, vc0, vz0, tv0, he0, max_vertices, max_sum, 
         old_t = n_t
         # the centroid of a triangle that fits exactly: its three children fit too
         split_fit = tfit[t]
-        for k in range(3):
-            v = tv[3 * t + k]
-            plane[3 * k], plane[3 * k + 1], plane[3 * k + 2] = vr[v], vc[v], vz[v]
         guard = 0.0 < key < SMALL_KEY  # an exact split: keep it exact (`_legalize`)
+        if guard:
+            for k in range(3):
+                v = tv[3 * t + k]
+                plane[3 * k], plane[3 * k + 1], plane[3 * k + 2] = vr[v], vc[v], vz[v]
         n_t, n_changed = _insert(t, p, tv, he, vr, vc, n_t, changed, stack, outer, guard, terr,
                                  vz, plane, span)
         # ... and so does every triangle the flips made, when each triangle they replaced

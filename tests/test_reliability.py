@@ -9,6 +9,7 @@ float16, NaN instead of a mask, unscaled instead of subnormal values).
 
 from __future__ import annotations
 
+import math
 import os
 import signal
 import stat
@@ -574,6 +575,35 @@ def test_an_image_larger_than_free_memory_is_refused_before_work(monkeypatch, ch
     one_error_line(capsys, main(["mesh", str(chair_file)]), match="memory")
     monkeypatch.setattr(pl, "available_memory", lambda: 184_320)
     assert not rangemesh.triangulate(chair, background=0).is_empty
+
+
+def test_free_memory_is_read_at_most_once_a_second(monkeypatch):
+    import builtins
+    import time
+
+    import rangemesh.pipeline as pl
+
+    if not os.path.exists("/proc/meminfo"):
+        pytest.skip("no /proc/meminfo on this system")
+    reads = []
+    real_open = builtins.open
+
+    def counting_open(path, *args, **kwargs):
+        if path == "/proc/meminfo":
+            reads.append(path)
+        return real_open(path, *args, **kwargs)
+
+    now = [1000.0]
+    monkeypatch.setattr(builtins, "open", counting_open)
+    monkeypatch.setattr(time, "monotonic", lambda: now[0])
+    monkeypatch.setattr(pl, "_meminfo", [-math.inf, None])
+    first = pl.available_memory()
+    assert first is not None and first > 0
+    now[0] += 0.5  # within MEMINFO_SECONDS: the value read before
+    assert pl.available_memory() == first and len(reads) == 1
+    now[0] += 0.6  # 1.1 s after the read: read again
+    pl.available_memory()
+    assert len(reads) == 2
 
 
 # ---------------------------------------------------------------- found by the second hostile run

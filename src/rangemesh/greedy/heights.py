@@ -21,6 +21,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..camera import Pinhole
+from ..geometry.pixels import valid_range
 from ..geometry.signals import holding_signals
 from .heights_kernels import empty_buffers, fit_pass, gather_blocks, solve_blocks
 
@@ -104,6 +105,14 @@ def fit_heights(pixels: np.ndarray, faces: np.ndarray, depth: np.ndarray, valid:
         raise RuntimeError("fit_heights: the least-squares solve failed")
     # A vertex that few pixels pin down can be thrown far off (a negative range was seen on a
     # LiDAR scan at 500 vertices): no fitted value leaves the range of the valid pixels' values.
-    vals = image[valid]
-    fitted = np.clip(fitted, vals.min(), vals.max())
+    # (In one Numba pass: ``image[valid]`` copied every valid pixel, 0.5 ms at 640x480. The
+    # inverse of the largest depth is the smallest inverse exactly: rounding is monotone.)
+    lo, hi, _ = valid_range(depth, valid)
+    if not ortho:
+        if lo > 0.0:
+            lo, hi = 1.0 / hi, 1.0 / lo
+        else:  # depths <= 0 before a pinhole: the inverses' own range
+            vals = image[valid]
+            lo, hi = vals.min(), vals.max()
+    fitted = np.clip(fitted, lo, hi)
     return fitted if ortho else 1.0 / fitted

@@ -1,10 +1,10 @@
-"""Greedy insertion against its targets: 1 %, 3 % and 10 % of the valid pixels as vertex counts.
+"""method="refine" against its targets: 1 %, 3 % and 10 % of the valid pixels as vertex counts.
 
 Run ``python benchmarks/budgets.py`` (``--quick`` for three images, ``--help``).
 For every image of ``../shared/data`` and every synthetic scene of the
 package, at each budget it meshes with
 
-* rangemesh greedy insertion, fitted vertex depths (the default) and copied
+* rangemesh ``method="refine"`` (greedy insertion), fitted vertex depths (the default) and copied
   ones (``heights="pixel"``);
 * pydelatin (greedy insertion, Garland-Heckbert), asked for the count that
   puts as many vertices on valid pixels;
@@ -37,8 +37,8 @@ import peers  # noqa: E402  (the sibling script: images, peers and timing)
 from rangemesh.pipeline import triangulate  # noqa: E402
 
 FRACTIONS = (0.01, 0.03, 0.10)
-MINE = "greedy, fitted depths"
-VARIANTS = [(MINE, {}), ("greedy, pixel depths", {"heights": "pixel"})]
+MINE = "refine, fitted depths"
+VARIANTS = [(MINE, {}), ("refine, pixel depths", {"heights": "pixel"})]
 
 
 def run(images, repeat, log=print):
@@ -50,7 +50,7 @@ def run(images, repeat, log=print):
             got = {}
             for label, opts in VARIANTS:
                 mesh, ms = peers._timed(lambda opts=opts, image=image, n=n: triangulate(
-                    image.depth, background=image.background, vertices=n, method="greedy",
+                    image.depth, background=image.background, vertices=n, method="refine",
                     **opts), repeat)
                 got[label] = peers._record(image, f"{frac:.0%}", label, mesh, ms, valid)
             n_mine = max(got[MINE]["vertices"], 4)
@@ -106,7 +106,7 @@ def summary(rows):
         err = statistics.median(_ratio(g[MINE]["relative_error"],
                                        g["quadric decimation"]["relative_error"]) for g in sel)
         fit = statistics.median(_ratio(g[MINE]["relative_error"],
-                                       g["greedy, pixel depths"]["relative_error"]) for g in sel)
+                                       g["refine, pixel depths"]["relative_error"]) for g in sel)
         band = statistics.median(_ratio(g[MINE]["edge_band_error"],
                                         g["pydelatin"]["edge_band_error"]) for g in sel)
         ms = statistics.median(_ratio(g[MINE]["ms"], g["pydelatin"]["ms"]) for g in sel)

@@ -5,7 +5,8 @@ options). For every image and budget it meshes with
 
 * rangemesh: adaptive + disparity flips (the paper), adaptive + error flips,
   adaptive without flips, uniform + error flips (the paper's Table I
-  baseline), uniform without flips;
+  baseline), uniform without flips; and ``method="refine"`` (our own greedy
+  insertion), with fitted and with copied depths;
 * greedy insertion (Garland-Heckbert) through ``pydelatin``, asked for the
   vertex count of the paper's method (raised until that many vertices land
   on valid pixels, since it also meshes the filled holes);
@@ -93,8 +94,8 @@ OURS = [
     ("rangemesh adaptive, no flips", dict(sampling="adaptive", flips=None)),
     ("rangemesh uniform+error (Table I baseline)", dict(sampling="uniform", flips="error")),
     ("rangemesh uniform, no flips", dict(sampling="uniform", flips=None)),
-    ("rangemesh greedy insertion", dict(method="greedy")),
-    ("rangemesh greedy insertion, pixel heights", dict(method="greedy", heights="pixel")),
+    ("rangemesh refine", dict(method="refine")),
+    ("rangemesh refine, pixel heights", dict(method="refine", heights="pixel")),
 ]
 
 
@@ -371,8 +372,8 @@ def run(images, budgets, repeat, peers=True, log=print):
                 f"4x4 tiles, {budget[0]}x{budget[1]} samples"
             n = None
             for label, opts in OURS:
-                # greedy insertion takes a vertex count: the paper's, as the peers get
-                kw_m = {"vertices": n} if opts.get("method") == "greedy" else kw
+                # method="refine" takes a vertex count: the paper's, as the peers get
+                kw_m = {"vertices": n} if opts.get("method") == "refine" else kw
                 mesh, ms = _timed(lambda opts=opts, kw=kw_m, image=image: triangulate(
                     image.depth, background=image.background, **opts, **kw), repeat)
                 rows.append(_record(image, bname, label, mesh, ms, valid))
@@ -407,7 +408,7 @@ def markdown_tables(rows):
     return "\n".join(out)
 
 
-def peer_table(rows, mine="rangemesh greedy insertion"):
+def peer_table(rows, mine="rangemesh refine"):
     """Medians over cases of `mine`'s figures divided by each other method's, same case."""
     by_case = {}
     for r in rows:
@@ -471,7 +472,7 @@ def summary_table(rows):
 
 
 def figure(images, out_png, n=1500):
-    """Fig. 10/11-like: greedy insertion, the paper's method and the two best peers, same count."""
+    """Fig. 10/11-like: method="refine", the paper's method and the two best peers, same count."""
     import matplotlib
 
     matplotlib.use("Agg", force=False)
@@ -485,7 +486,7 @@ def figure(images, out_png, n=1500):
         d, valid = to_depth_and_mask(image.depth, image.background)
         ours = triangulate(image.depth, background=image.background, vertices=n, method="paper")
         n_ours = _valid_vertex_count(ours, valid)
-        cands = [("rangemesh greedy (default)", triangulate(
+        cands = [("rangemesh refine (default)", triangulate(
                      image.depth, background=image.background, vertices=n_ours)),
                  ("rangemesh paper", ours)]
         for label, module, fn in PEERS[:2]:

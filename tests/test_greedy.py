@@ -1,4 +1,4 @@
-"""Greedy insertion (method='greedy'): valid meshes, exact targets, and the greedy property itself.
+"""Greedy insertion (method='refine'): valid meshes, exact targets, and the greedy property itself.
 
 The checks are independent of the kernel: validity by `assert_valid_mesh`, errors
 by `evaluate`/`render_depth` (another rasteriser), the Delaunay property by the
@@ -40,7 +40,7 @@ def _valid(image, background):
 @pytest.mark.parametrize("name, image, background", crops(), ids=[c[0] for c in crops()])
 @pytest.mark.parametrize("n", [10, 120, 600])
 def test_vertex_count_is_exact_and_the_mesh_valid(name, image, background, n):
-    m = triangulate(image, background=background, vertices=n, method="greedy")
+    m = triangulate(image, background=background, vertices=n, method="refine")
     valid = _valid(image, background)
     assert m.stats.vertices == len(m.vertices) == min(n, int(valid.sum()))
     assert m.stats.target["met"]
@@ -53,7 +53,7 @@ def test_vertex_count_is_exact_and_the_mesh_valid(name, image, background, n):
 @pytest.mark.parametrize("name, image, background", crops(), ids=[c[0] for c in crops()])
 @pytest.mark.parametrize("bound", [0.3, 1.0, 3.0])
 def test_max_error_holds(name, image, background, bound):
-    m = triangulate(image, background=background, max_error=bound, method="greedy")
+    m = triangulate(image, background=background, max_error=bound, method="refine")
     assert evaluate(m, image, background=background).relative_error <= bound
     assert m.stats.target["met"] and m.stats.target["meshings"] <= 2
 
@@ -65,7 +65,7 @@ def test_max_error_is_met_with_few_vertices_to_spare():
 
     image = np.load(CROPS)["venus"].astype(float)
     # a property of the insertion: vertex depths copied from their pixels, as inserted
-    m = triangulate(image, max_error=1.0, method="greedy", heights="pixel")
+    m = triangulate(image, max_error=1.0, method="refine", heights="pixel")
     # the same insertions from the same first mesh, one fewer
     depth, valid = rangemesh.pipeline.prepare(image, rangemesh.MeshParams(), None)
     lo, hi, n_valid = valid_range(depth, valid)
@@ -121,7 +121,7 @@ def test_each_vertex_is_the_worst_pixel_of_the_first_ranked_triangle(scene):
     depth = scenes.make(scene, (40, 50), noise=0.3).depth
     previous = None
     for n in range(5, 45):
-        m = triangulate(depth, vertices=n, method="greedy", heights="pixel")
+        m = triangulate(depth, vertices=n, method="refine", heights="pixel")
         if previous is not None:
             old = {tuple(p) for p in previous.pixels.tolist()}
             new = [tuple(p) for p in m.pixels.tolist() if tuple(p) not in old]
@@ -159,7 +159,7 @@ def _circumcircle_is_empty(mesh):
 @given(st.integers(0, 2**31), st.integers(8, 30), st.integers(8, 30), st.integers(4, 80))
 def test_fully_valid_images_give_delaunay_meshes(seed, h, w, n):
     depth = np.random.default_rng(seed).uniform(0, 100, (h, w))
-    m = triangulate(depth, vertices=n, method="greedy")
+    m = triangulate(depth, vertices=n, method="refine")
     assert len(m.vertices) == min(n, h * w)
     assert_valid_mesh(m)
     assert _circumcircle_is_empty(m)
@@ -172,7 +172,7 @@ def test_scenes_with_holes(seed, name, holes, n):
     depth = scenes.make(name, (int(rng.integers(12, 60)), int(rng.integers(12, 60))),
                         noise=0.2).depth
     depth[rng.random(depth.shape) < holes] = np.nan
-    m = triangulate(depth, vertices=n, method="greedy", fill_gaps=False)
+    m = triangulate(depth, vertices=n, method="refine", fill_gaps=False)
     valid = np.isfinite(depth)
     assert_valid_mesh(m, valid)
     if not m.is_empty:
@@ -182,7 +182,7 @@ def test_scenes_with_holes(seed, name, holes, n):
 @pytest.mark.parametrize("rel, background", REAL_IMAGES, ids=[r[0].split("/")[-1] for r in REAL_IMAGES])
 def test_real_images(shared_data, rel, background):
     image = load(shared_data, rel)
-    m = triangulate(image, background=background, vertices=3000, method="greedy")
+    m = triangulate(image, background=background, vertices=3000, method="refine")
     valid = _valid(image, background)
     assert len(m.vertices) == min(3000, int(valid.sum()))
     assert_valid_mesh(m, valid, check_overlap=False)
@@ -208,17 +208,41 @@ def test_greedy_is_the_default_for_a_target_and_refuses_paper_parameters():
     # without a target, the paper's method with its grid (the meshes it always gave)
     assert triangulate(depth).stats.grid_shape == rangemesh.MeshParams().grid_shape
     with pytest.raises(ValueError, match="needs a target"):
-        triangulate(depth, method="greedy")
+        triangulate(depth, method="refine")
     with pytest.raises(ValueError, match="method='paper'"):
-        triangulate(depth, vertices=50, method="greedy", flips="error")
+        triangulate(depth, vertices=50, method="refine", flips="error")
     with pytest.raises(ValueError, match="method"):
         triangulate(depth, vertices=50, method="delatin")
+
+
+def test_the_earlier_name_greedy_still_means_refine(tmp_path, capsys):
+    from rangemesh.cli import main
+
+    depth = np.load(CROPS)["venus"]
+    new = triangulate(depth, vertices=120, method="refine")
+    old = triangulate(depth, vertices=120, method="greedy")
+    assert np.array_equal(new.vertices, old.vertices) and np.array_equal(new.faces, old.faces)
+    assert "tiles" not in old.stats.target  # not the paper's grid search
+    with pytest.raises(ValueError, match="method='refine' needs a target"):
+        triangulate(depth, method="greedy")
+    src = tmp_path / "venus.npy"
+    np.save(src, depth)
+    outs = []
+    for name in ("refine", "greedy"):
+        out = tmp_path / f"{name}.ply"
+        assert main(["mesh", str(src), "--method", name, "--vertices", "120", "-o", str(out),
+                     "--quiet"]) == 0
+        outs.append(rangemesh.read_mesh(out))
+    assert np.array_equal(outs[0].vertices, outs[1].vertices)
+    assert np.array_equal(outs[0].faces, outs[1].faces)
+    assert main(["mesh", str(src), "--method", "greedy", "--vertices", "30", "--tiles", "2"]) == 2
+    assert "--method refine takes" in capsys.readouterr().err
 
 
 def test_exact_count_when_the_mesh_already_fits_exactly():
     """A piecewise-planar image is exact with few vertices; more are still inserted as asked."""
     depth = scenes.make("stairs", (40, 50)).depth
-    m = triangulate(depth, vertices=900, method="greedy")
+    m = triangulate(depth, vertices=900, method="refine")
     assert len(m.vertices) == 900 and m.stats.target["met"]
     assert evaluate(m, depth).relative_error < 1e-9
 
@@ -229,7 +253,7 @@ def test_command_line_greedy(tmp_path, capsys, target):
 
     src = tmp_path / "venus.npy"
     np.save(src, np.load(CROPS)["venus"])
-    assert main(["mesh", str(src), "--method", "greedy", *target, "-o", str(tmp_path / "g.ply"),
+    assert main(["mesh", str(src), "--method", "refine", *target, "-o", str(tmp_path / "g.ply"),
                  "--preview", str(tmp_path / "g.png")]) == 0
     err = capsys.readouterr().err
     assert "target " in err and "wrote" in err
@@ -238,8 +262,8 @@ def test_command_line_greedy(tmp_path, capsys, target):
         assert len(m.vertices) == 300
     else:
         assert evaluate(m, np.load(CROPS)["venus"]).relative_error <= 1.5
-    # paper options are refused with --method greedy, in one line
-    assert main(["mesh", str(src), "--method", "greedy", "--vertices", "30", "--tiles", "2"]) == 2
+    # paper options are refused with --method refine, in one line
+    assert main(["mesh", str(src), "--method", "refine", "--vertices", "30", "--tiles", "2"]) == 2
     assert "belongs to --method paper" in capsys.readouterr().err
 
 
@@ -250,10 +274,10 @@ def test_p1_background_marker_invariance(marker):
     depth = sc.depth.copy()
     holes = np.random.default_rng(3).random(depth.shape) < 0.1
     holes[:8, :8] = True  # a background corner
-    ref = triangulate(np.where(holes, np.nan, depth), vertices=400, method="greedy")
+    ref = triangulate(np.where(holes, np.nan, depth), vertices=400, method="refine")
     img = np.where(holes, marker, depth)
     m = triangulate(img, background=None if marker != marker else marker, vertices=400,
-                    method="greedy")
+                    method="refine")
     assert np.array_equal(m.pixels, ref.pixels) and np.array_equal(m.faces, ref.faces)
 
 
@@ -261,8 +285,8 @@ def test_p1_background_marker_invariance(marker):
 def test_p2_unit_invariance(s):
     """SPEC P2 for greedy insertion: depth times s with kz divided by s, the same mesh."""
     depth = np.load(CROPS)["chair"].astype(float)
-    a = triangulate(depth, background=0, vertices=700, method="greedy")
-    b = triangulate(depth * s, background=0, vertices=700, method="greedy", camera=(1, 1, 1 / s))
+    a = triangulate(depth, background=0, vertices=700, method="refine")
+    b = triangulate(depth * s, background=0, vertices=700, method="refine", camera=(1, 1, 1 / s))
     assert np.array_equal(a.pixels, b.pixels) and np.array_equal(a.faces, b.faces)
     np.testing.assert_allclose(a.vertices, b.vertices, rtol=1e-12)
 
@@ -284,7 +308,7 @@ def test_fitted_depths_reproduce_an_exact_plane():
     # Least squares on pixels that all lie on one plane returns that plane exactly.
     r, c = np.mgrid[0:60, 0:80]
     depth = 100.0 + 0.3 * r - 0.7 * c
-    m = triangulate(depth, vertices=40, method="greedy")
+    m = triangulate(depth, vertices=40, method="refine")
     want = 100.0 + 0.3 * m.pixels[:, 0] - 0.7 * m.pixels[:, 1]
     np.testing.assert_allclose(_fitted_depth(m), want, rtol=0, atol=1e-9)
 
@@ -295,7 +319,7 @@ def test_fitted_depths_reproduce_a_plane_seen_by_a_pinhole_camera():
     cam = rangemesh.Pinhole(fx=100.0, fy=100.0, cx=40.0, cy=30.0)
     r, c = np.mgrid[0:60, 0:80]
     depth = 2.0 / (1.0 - 0.01 * (c - 40.0) / 100.0)
-    m = triangulate(depth, vertices=30, method="greedy", camera=cam)
+    m = triangulate(depth, vertices=30, method="refine", camera=cam)
     want = 2.0 / (1.0 - 0.01 * (m.pixels[:, 1] - 40.0) / 100.0)
     np.testing.assert_allclose(_fitted_depth(m), want, rtol=1e-9)
 
@@ -305,8 +329,8 @@ def test_fitted_depths_average_out_noise():
     # noisy pixels they sit on, and the mesh's error against the noisy image is lower.
     sc = scenes.make("plane", (80, 100), noise=2.0)
     true = scenes.make("plane", (80, 100)).depth  # the same plane without noise
-    m_fit = triangulate(sc.depth, vertices=60, method="greedy")
-    m_pix = triangulate(sc.depth, vertices=60, method="greedy", heights="pixel")
+    m_fit = triangulate(sc.depth, vertices=60, method="refine")
+    m_pix = triangulate(sc.depth, vertices=60, method="refine", heights="pixel")
     assert np.array_equal(m_fit.pixels, m_pix.pixels) and np.array_equal(m_fit.faces, m_pix.faces)
     t = true[m_fit.pixels[:, 0], m_fit.pixels[:, 1]]
     assert np.mean(np.abs(_fitted_depth(m_fit) - t)) < 0.5 * np.mean(np.abs(_fitted_depth(m_pix) - t))
@@ -318,7 +342,7 @@ def test_fitted_depths_are_not_pulled_across_a_jump(name):
     # Noiseless jumps: a wall triangle's pixels on the far surface are left out of the fit, so
     # no vertex moves off its own surface by more than a hair of the jump height.
     sc = scenes.make(name, (60, 80))
-    m = triangulate(sc.depth, vertices=80, method="greedy")
+    m = triangulate(sc.depth, vertices=80, method="refine")
     own = sc.depth[m.pixels[:, 0], m.pixels[:, 1]]
     span = np.ptp(sc.depth)
     assert np.max(np.abs(_fitted_depth(m) - own)) < 0.01 * span
@@ -358,10 +382,10 @@ def test_block_solver_equals_a_dense_solve(n, n_faces, seed):
 
 def test_the_paper_method_refuses_fitted_depths():
     depth = scenes.make("crease", (30, 40)).depth
-    with pytest.raises(ValueError, match="heights='fit' belongs to method='greedy'"):
+    with pytest.raises(ValueError, match="heights='fit' belongs to method='refine'"):
         triangulate(depth, heights="fit")
     with pytest.raises(ValueError, match="heights must be one of"):
-        triangulate(depth, vertices=30, method="greedy", heights="least-squares")
+        triangulate(depth, vertices=30, method="refine", heights="least-squares")
     a = triangulate(depth, tiles=2, samples=5)
     b = triangulate(depth, tiles=2, samples=5, heights="pixel")
     assert np.array_equal(a.vertices, b.vertices) and np.array_equal(a.faces, b.faces)

@@ -91,7 +91,7 @@ def test_read_lidar_bin_matches_the_range_image(shared_data, scan):
         read_lidar_bin(shared_data / f"{SCAN}.bin", 60)
 
 
-@pytest.mark.parametrize("method", ["greedy", "paper"])
+@pytest.mark.parametrize("method", ["refine", "paper"])
 def test_vertices_are_the_raw_points(scan, method):
     """Every vertex within 1 mm of the .bin's point for its pixel (depths copied from pixels).
 
@@ -99,7 +99,7 @@ def test_vertices_are_the_raw_points(scan, method):
     pixel has no point in the .bin.
     """
     rng, beams, raw, cam = scan
-    kw = {"vertices": 3000, "heights": "pixel"} if method == "greedy" else {"tiles": (2, 16)}
+    kw = {"vertices": 3000, "heights": "pixel"} if method == "refine" else {"tiles": (2, 16)}
     mesh = triangulate(rng, camera=cam, background=0, method=method, fill_gaps=False, **kw)
     assert (rng[mesh.pixels[:, 0], mesh.pixels[:, 1]] > 0).all()
     r, c = mesh.pixels[:, 0], mesh.pixels[:, 1]
@@ -132,11 +132,11 @@ def _seam_gaps(mesh, valid):
     return gaps
 
 
-@pytest.mark.parametrize("method", ["greedy", "paper"])
+@pytest.mark.parametrize("method", ["refine", "paper"])
 def test_seam_is_closed(scan, method):
     rng, _, _, cam = scan
     valid = rng > 0
-    kw = {"vertices": 1500} if method == "greedy" else {"tiles": (2, 16), "fill_gaps": False}
+    kw = {"vertices": 1500} if method == "refine" else {"tiles": (2, 16), "fill_gaps": False}
     closed = triangulate(rng, camera=cam, background=0, method=method, **kw)
     cut = triangulate(rng, camera=cam, background=0, method=method, wrap=False, **kw)
     assert _seam_gaps(cut, valid) > 0  # the check can fail: the cut mesh has them
@@ -149,7 +149,7 @@ def test_seam_is_closed(scan, method):
     ev_cut = rangemesh.evaluate(cut, rng, background=0)
     assert ev_closed.relative_error == ev_cut.relative_error
     assert ev_closed.uncovered == ev_cut.uncovered
-    if method == "greedy":
+    if method == "refine":
         assert ev_closed.uncovered == 0.0
 
 

@@ -31,8 +31,8 @@ def test_the_jump_rule_by_hand():
 def test_no_kept_triangle_spans_a_labelled_jump(name):
     sc = scenes.make(name, (80, 100))
     valid = np.ones(sc.depth.shape, bool)
-    both = triangulate(sc.depth, vertices=600, method="greedy")
-    open_ = triangulate(sc.depth, vertices=600, method="greedy", walls=False)
+    both = triangulate(sc.depth, vertices=600, method="refine")
+    open_ = triangulate(sc.depth, vertices=600, method="refine", walls=False)
     assert_valid_mesh(open_, valid)
     assert len(open_.vertices) == 600  # insertion went on until 600 vertices are in use
 
@@ -54,22 +54,22 @@ def test_the_rule_is_the_same_in_any_depth_unit():
     mm = sc.depth * 10.0  # ~1-2 m, in mm
     cam_mm = rangemesh.Pinhole(fx=80.0, fy=80.0, cx=40.0, cy=30.0, depth_scale=0.001)
     cam_m = rangemesh.Pinhole(fx=80.0, fy=80.0, cx=40.0, cy=30.0)
-    a = triangulate(mm, camera=cam_mm, vertices=300, method="greedy", walls=False)
-    b = triangulate(mm / 1000.0, camera=cam_m, vertices=300, method="greedy", walls=False)
+    a = triangulate(mm, camera=cam_mm, vertices=300, method="refine", walls=False)
+    b = triangulate(mm / 1000.0, camera=cam_m, vertices=300, method="refine", walls=False)
     assert np.array_equal(a.faces, b.faces) and np.array_equal(a.pixels, b.pixels)
     assert a.stats.target["walls_dropped"] == b.stats.target["walls_dropped"] > 0
 
 
 def test_walls_belong_to_greedy_insertion():
     depth = scenes.make("box", (30, 40)).depth
-    with pytest.raises(ValueError, match="walls=False and jump belong to method='greedy'"):
+    with pytest.raises(ValueError, match="walls=False and jump belong to method='refine'"):
         triangulate(depth, walls=False)
     with pytest.raises(ValueError, match="walls=False and jump"):
         triangulate(depth, jump=0.1)
     with pytest.raises(ValueError, match="jump must be a positive"):
-        triangulate(depth, vertices=50, method="greedy", walls=False, jump=0.0)
+        triangulate(depth, vertices=50, method="refine", walls=False, jump=0.0)
     with pytest.raises(TypeError, match="walls"):
-        triangulate(depth, vertices=50, method="greedy", walls="no")
+        triangulate(depth, vertices=50, method="refine", walls="no")
 
 
 def test_command_line_no_walls(tmp_path, capsys):
@@ -78,12 +78,12 @@ def test_command_line_no_walls(tmp_path, capsys):
     src = tmp_path / "box.npy"
     np.save(src, scenes.make("box", (60, 80)).depth)
     out = tmp_path / "b.ply"
-    assert main(["mesh", str(src), "--method", "greedy", "--vertices", "200", "--no-walls",
+    assert main(["mesh", str(src), "--method", "refine", "--vertices", "200", "--no-walls",
                  "--jump", "0.1", "-o", str(out), "--quiet"]) == 0
     m = rangemesh.read_mesh(out)
     assert len(m.vertices) == 200
     assert main(["mesh", str(src), "--no-walls", "-o", str(out)]) == 2
-    assert "--no-walls belongs to --method greedy" in capsys.readouterr().err
+    assert "--no-walls belongs to --method refine" in capsys.readouterr().err
 
 
 @settings(deadline=None)
@@ -96,7 +96,7 @@ def test_meshes_without_walls_are_valid(seed, name, holes, n, jump):
     depth = scenes.make(name, (int(rng.integers(12, 60)), int(rng.integers(12, 60))),
                         noise=0.2).depth
     depth[rng.random(depth.shape) < holes] = np.nan
-    m = triangulate(depth, vertices=n, method="greedy", fill_gaps=False, walls=False, jump=jump,
+    m = triangulate(depth, vertices=n, method="refine", fill_gaps=False, walls=False, jump=jump,
                     heights="pixel")
     assert_valid_mesh(m, np.isfinite(depth))
     if not m.is_empty:

@@ -34,7 +34,7 @@ from .io import (
 from .metrics import evaluate
 from .paper.sampling import sampling_weights
 from .params import MeshParams
-from .pipeline import check_call, prepare, triangulate
+from .pipeline import ALIASES, check_call, prepare, triangulate
 from .prepare import guess_background, to_depth_and_mask
 
 __all__ = ["main", "build_parser"]
@@ -148,16 +148,17 @@ def _add_mesh_options(p):
     g.add_argument("--samples", type=_pair, default=None, metavar="RxZ",
                    help=f"samples per tile; the grid is ((R-1)V+1) x ((Z-1)H+1) points "
                         f"(default {d('samples')})")
-    p.add_argument("--method", choices=["greedy", "paper"], default=None,
-                   help="greedy: insert a worst pixel until --vertices or --max-error is met "
-                        "(one pass; the default with either); paper: Garcia & Sappa's pipeline "
-                        "(the default without, or with any of its own options)")
+    p.add_argument("--method", choices=["refine", "paper", "greedy"], default=None,
+                   help="refine: refine a coarse mesh at its worst pixels until --vertices or "
+                        "--max-error is met (one pass; the default with either); paper: Garcia "
+                        "& Sappa's pipeline (the default without, or with any of its own "
+                        "options); greedy: the earlier name of refine")
     p.add_argument("--heights", choices=["fit", "pixel"], default=None,
                    help="vertex depths: least squares over the pixels, jumps left out (fit, "
-                        "--method greedy's default) or copied from the vertex's pixel (pixel, "
+                        "--method refine's default) or copied from the vertex's pixel (pixel, "
                         "the paper's)")
     p.add_argument("--no-walls", action="store_true",
-                   help="--method greedy: drop the triangles across depth jumps, so separate "
+                   help="--method refine: drop the triangles across depth jumps, so separate "
                         "surfaces stay separate")
     p.add_argument("--jump", type=float, default=None,
                    help=f"with --no-walls: a depth change above this share of the local depth "
@@ -319,7 +320,7 @@ def _cold_cache(method: str = "paper") -> bool:
     """True when the method's main kernels have no entry in Numba's on-disk cache."""
     import os
 
-    if method == "greedy":
+    if method == "refine":
         from .greedy.heights_kernels import fit_pass
         from .greedy.kernels import greedy_insert
 
@@ -395,18 +396,19 @@ def _check_method(args):
     paper += ["flips"] if args.flips is not _UNSET else []
     if args.method is None:  # as rangemesh.pipeline.default_method
         target = args.vertices is not None or args.max_error is not None
-        args.method = "greedy" if target and not paper else "paper"
-    if args.method != "greedy":
-        greedy = ["no_walls"] if args.no_walls else []
-        greedy += ["jump"] if args.jump is not None else []
-        if greedy:
-            raise UserError(f"--{greedy[0].replace('_', '-')} belongs to --method greedy")
+        args.method = "refine" if target and not paper else "paper"
+    args.method = ALIASES.get(args.method, args.method)
+    if args.method != "refine":
+        refine = ["no_walls"] if args.no_walls else []
+        refine += ["jump"] if args.jump is not None else []
+        if refine:
+            raise UserError(f"--{refine[0].replace('_', '-')} belongs to --method refine")
         return
     if paper:
         raise UserError(f"--{paper[0].replace('_', '-')} belongs to --method paper; --method "
-                        f"greedy takes --vertices or --max-error")
+                        f"refine takes --vertices or --max-error")
     if args.vertices is None and args.max_error is None:
-        raise UserError("--method greedy needs --vertices N or --max-error E")
+        raise UserError("--method refine needs --vertices N or --max-error E")
 
 
 def _run_mesh(args, image, name, bg, outputs_for):

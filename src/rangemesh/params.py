@@ -78,12 +78,12 @@ class MeshParams:
         depth of its pixel (the paper's eq. 4; the only choice of
         ``method='paper'``). ``'fit'``: least squares over the pixels each
         vertex's triangles cover, pixels across a jump left out
-        (`rangemesh.greedy.heights.fit_heights`); ``method='greedy'`` only.
+        (`rangemesh.greedy.heights.fit_heights`); ``method='refine'`` only.
         ``None``: the method's default, ``'pixel'`` for the paper,
-        ``'fit'`` for greedy insertion.
+        ``'fit'`` for ``method='refine'``.
     walls : bool, default True
         Keep the triangles that bridge a depth jump ("walls"). ``False``
-        drops them, so separate surfaces stay separate (`method='greedy'`
+        drops them, so separate surfaces stay separate (`method='refine'`
         only; see `rangemesh.greedy.walls` for how a jump is decided).
     jump : float, default 0.05
         With ``walls=False``: an edge is a jump when depth changes along it

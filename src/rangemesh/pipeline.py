@@ -156,20 +156,20 @@ def prepare(image, params: MeshParams, background=None, *,
 def default_method(params: MeshParams, vertices, max_error, overrides) -> str:
     """The method a call without ``method=`` gets.
 
-    ``'greedy'`` when a target (``vertices`` or ``max_error``) is given and
+    ``'refine'`` when a target (``vertices`` or ``max_error``) is given and
     nothing only the paper's method reads is (a keyword, or a field of
     `params` away from its default); ``'paper'`` otherwise, so that every
     call written for the paper's parameters keeps meshing with them.
     """
     if vertices is None and max_error is None:
         return "paper"
-    if set(overrides) - set(GREEDY_FIELDS):
+    if set(overrides) - set(REFINE_FIELDS):
         return "paper"
     defaults = MeshParams()
     for f in dataclasses.fields(MeshParams):
-        if f.name not in GREEDY_FIELDS and getattr(params, f.name) != getattr(defaults, f.name):
+        if f.name not in REFINE_FIELDS and getattr(params, f.name) != getattr(defaults, f.name):
             return "paper"
-    return "greedy"
+    return "refine"
 
 
 def check_call(params: MeshParams, vertices=None, max_error=None, method=None,
@@ -188,6 +188,8 @@ def check_call(params: MeshParams, vertices=None, max_error=None, method=None,
     _targets_given(params, vertices, max_error, overrides)
     if method is None:
         method = default_method(params, vertices, max_error, overrides)
+    elif isinstance(method, str):
+        method = ALIASES.get(method, method)
     _check_method(method, params, vertices, max_error, overrides)
     return method
 
@@ -195,19 +197,19 @@ def check_call(params: MeshParams, vertices=None, max_error=None, method=None,
 def _check_method(method, params: MeshParams, vertices, max_error, overrides) -> None:
     if method not in METHODS:
         raise ValueError(f"method must be one of {METHODS}, got {method!r}")
-    if method == "greedy":
+    if method == "refine":
         if vertices is None and max_error is None:
-            raise ValueError("method='greedy' needs a target: vertices=N or max_error=E")
-        paper_only = sorted(set(overrides) - set(GREEDY_FIELDS))
+            raise ValueError("method='refine' needs a target: vertices=N or max_error=E")
+        paper_only = sorted(set(overrides) - set(REFINE_FIELDS))
         if paper_only or params.max_edge is not None:
             raise ValueError(f"{paper_only or ['max_edge']} are parameters of method='paper'; "
-                             f"method='greedy' takes vertices or max_error (and "
-                             f"{', '.join(GREEDY_FIELDS)})")
+                             f"method='refine' takes vertices or max_error (and "
+                             f"{', '.join(REFINE_FIELDS)})")
     elif params.heights == "fit":
-        raise ValueError("heights='fit' belongs to method='greedy'; the paper's method copies "
+        raise ValueError("heights='fit' belongs to method='refine'; the paper's method copies "
                          "each vertex's depth from its pixel")
     elif not params.walls or "jump" in overrides:
-        raise ValueError("walls=False and jump belong to method='greedy'")
+        raise ValueError("walls=False and jump belong to method='refine'")
 
 
 def _targets_given(params: MeshParams, vertices, max_error, overrides) -> list[str]:
@@ -228,9 +230,12 @@ def _targets_given(params: MeshParams, vertices, max_error, overrides) -> list[s
     return given
 
 
-METHODS = ("paper", "greedy")
-# the MeshParams fields greedy insertion reads
-GREEDY_FIELDS = ("fill_gaps", "workers", "heights", "walls", "jump", "wrap")
+METHODS = ("paper", "refine")
+# The name "refine" had before: greedy insertion, its algorithm's (and pydelatin's) name. It says
+# how vertices are chosen, not what the method does; it is still accepted and means "refine".
+ALIASES = {"greedy": "refine"}
+# the MeshParams fields method="refine" reads
+REFINE_FIELDS = ("fill_gaps", "workers", "heights", "walls", "jump", "wrap")
 
 
 def wraps(params: MeshParams, camera) -> bool:
@@ -304,7 +309,7 @@ def run(image, params: MeshParams, *, background=None, camera=None, vertices=Non
         return empty_mesh(camera, depth.shape, stats)
     target = {}
     tiles = params.tiles if tiles_given else None
-    if method == "greedy":
+    if method == "refine":
         ref = to_depth_and_mask(image, background) if max_error is not None else None
         mesh, target = greedy_mesh(depth, valid, camera, vertices=vertices, max_error=max_error,
                                    reference=ref, fit=params.heights != "pixel",
@@ -340,7 +345,7 @@ def run(image, params: MeshParams, *, background=None, camera=None, vertices=Non
 def triangulate(image, params: MeshParams | None = None, *, background=None, camera=None,
                 vertices: int | None = None, max_error: float | None = None,
                 method: str | None = None, color=None, **overrides) -> Mesh:
-    """Mesh a range image: greedy insertion for a target, or Garcia & Sappa's pipeline.
+    """Mesh a range image: refined at its worst pixels for a target, or Garcia & Sappa's pipeline.
 
     Parameters
     ----------
@@ -358,24 +363,27 @@ def triangulate(image, params: MeshParams | None = None, *, background=None, cam
         ray`` of its pixel; a `Spherical` camera that goes once round closes
         the 360-degree seam (``wrap``).
     vertices : int, optional
-        Exactly this many vertices (greedy insertion; every valid pixel if
+        Exactly this many vertices (``method='refine'``; every valid pixel if
         there are fewer). With ``method='paper'``: about this many, the grid
         searched to within 2 % (`rangemesh.paper.targets.fit_vertices`).
     max_error : float, optional
         The smallest mesh whose relative error (percent, as `evaluate`) is at
-        most this: greedy insertion stops there, in one pass; the paper's
+        most this: ``method='refine'`` stops there, in one pass; the paper's
         method searches its grid (`rangemesh.paper.targets.fit_error`).
-    method : {'greedy', 'paper'}, optional
-        ``'greedy'``: greedy insertion (`rangemesh.greedy`): a worst pixel
-        becomes a vertex until exactly `vertices` vertices or a relative
-        error of `max_error` is reached, in one pass; needs one of them and
+    method : {'refine', 'paper'}, optional
+        ``'refine'``: a coarse mesh refined where it fits worst, by greedy
+        insertion (`rangemesh.greedy`): the pixel whose triangle ranks
+        highest by its errors becomes a vertex, until exactly `vertices`
+        vertices or a relative error of `max_error` is reached, in one
+        pass; jumps keep vertices on both sides. Needs one target and
         takes only ``fill_gaps``, ``heights``, ``walls``, ``jump`` and ``wrap`` of the
         parameters (vertex depths are fitted by least squares unless
         ``heights='pixel'``; ``walls=False`` drops the triangles across jumps).
         ``'paper'``: Garcia & Sappa's pipeline with every parameter below,
         the meshes it has always given. Default (`default_method`):
-        ``'greedy'`` with a target and no parameter of the paper's method,
-        ``'paper'`` otherwise.
+        ``'refine'`` with a target and no parameter of the paper's method,
+        ``'paper'`` otherwise. ``'greedy'``, the earlier name of ``'refine'``,
+        is still accepted.
     color : (H, W, 3) or (H, W) array_like, optional
         A colour image registered pixel to pixel with the range image: the
         mesh gets each vertex's colour and keeps the image as its texture

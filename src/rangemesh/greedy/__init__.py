@@ -1,4 +1,4 @@
-"""Greedy insertion: the worst pixel becomes a vertex, until a vertex count or an error bound is met."""
+"""method="refine": a coarse mesh refined by greedy insertion until a target is met."""
 
 from .insertion import greedy_mesh
 

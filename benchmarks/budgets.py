@@ -61,7 +61,7 @@ def run(images, repeat, log=print):
             rows.append(got)
             m, d, q = got[MINE], got["pydelatin"], got["quadric decimation"]
             log(f"{image.name[:30]:30s} {frac:4.0%} {n_mine:7d} | err {m['relative_error']:.4f} "
-                f"pix {got['greedy, pixel depths']['relative_error']:.4f} "
+                f"pix {got['refine, pixel depths']['relative_error']:.4f} "
                 f"quadric {q['relative_error']:.4f} delatin {d['relative_error']:.4f} | band "
                 f"{m['edge_band_error']:.3f} delatin {d['edge_band_error']:.3f} | ms "
                 f"{m['ms']:.1f} delatin {d['ms']:.1f} | uncovered {m['uncovered']:.2f} %")

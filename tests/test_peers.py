@@ -1,4 +1,4 @@
-"""Smoke test of `python benchmarks/peers.py --quick`: it runs and its numbers are finite."""
+"""Smoke tests of `benchmarks/peers.py --quick` and `budgets.py`: they run, their numbers are finite."""
 
 import importlib.util
 import json
@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 PEERS = Path(__file__).resolve().parents[1] / "benchmarks" / "peers.py"
+BUDGETS = PEERS.with_name("budgets.py")
 _spec = importlib.util.spec_from_file_location("rangemesh_benchmarks_peers", PEERS)
 bench = importlib.util.module_from_spec(_spec)
 sys.modules[_spec.name] = bench  # dataclasses look their module up there
@@ -35,6 +36,21 @@ def test_quick_benchmark_runs(shared_data, tmp_path):
     assert len(images) == 5  # 3 real images + 2 synthetic scenes
     assert (tmp_path / "results.csv").exists() and (tmp_path / "figure.png").exists()
     assert "### summary" in (tmp_path / "results.md").read_text()
+
+
+def test_budgets_benchmark_runs_on_one_scene():
+    # one synthetic scene (no shared data needed), three budgets and two max_error bounds
+    p = subprocess.run([sys.executable, str(BUDGETS), "--only", "synthetic dome", "--repeat", "1"],
+                       capture_output=True, text=True, timeout=600)
+    assert p.returncode == 0, p.stderr[-2000:]
+    rows = [line for line in p.stdout.splitlines() if line.startswith("| all |")]
+    assert len(rows) == 1, p.stdout[-2000:]
+    cells = rows[0].strip("|").split("|")
+    scenes = int(cells[1]) // 3  # the dome, with and without noise: 3 budgets each
+    assert scenes >= 1 and int(cells[1]) == 3 * scenes
+    ratios = [float(x) for x in cells[2:]]
+    assert len(ratios) == 5 and all(math.isfinite(x) and x >= 0 for x in ratios)
+    assert f"the bound held on {2 * scenes} of {2 * scenes} cases" in p.stdout
 
 
 def test_peers_meet_the_vertex_count():

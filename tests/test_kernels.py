@@ -171,33 +171,42 @@ def test_edge_error_by_hand():
 def test_heap_pops_in_gain_order_with_id_ties():
     gain = np.array([1.0, 5.0, 5.0, -np.inf, 2.0, 0.5])
     n = gain.size
+    keys = gain.copy()
     heap = np.arange(n)
     slot = np.arange(n)
     for i in range(n):
-        heapq_nb.sift_up(heap, slot, gain, i)
+        heapq_nb.sift_up(keys, heap, slot, i)
     order = []
     for _ in range(5):
         x = heap[0]
         order.append(int(x))
-        gain[x] = -np.inf  # retire it
-        heapq_nb.sift_down(heap, slot, gain, 0, n)
+        heapq_nb.rekey(keys, heap, slot, x, -np.inf, n)  # retire it
     assert order == [1, 2, 4, 0, 5]  # 1 and 2 tie at 5.0: smaller id first
+    assert np.array_equal(heap[slot], np.arange(n))
+
+
+def _check_heap(keys, heap, slot, gain):
+    """Every parent above its children, keys at their ids' positions, slots inverse to heap."""
+    n = len(heap)
+    assert np.array_equal(keys, gain[heap])
+    for i in range(1, n):
+        p = (i - 1) // 2
+        assert keys[p] > keys[i] or (keys[p] == keys[i] and heap[p] < heap[i])
     assert np.array_equal(heap[slot], np.arange(n))
 
 
 def test_heap_rekey_keeps_invariant(rng):
     n = 200
     gain = rng.normal(size=n)
+    keys = gain.copy()
     heap = np.arange(n)
     slot = np.arange(n)
     for i in range(n):
-        heapq_nb.sift_up(heap, slot, gain, i)
+        heapq_nb.sift_up(keys, heap, slot, i)
+    _check_heap(keys, heap, slot, gain)
     for _ in range(500):
         x = int(rng.integers(n))
-        gain[x] = rng.normal() if rng.random() > 0.2 else -np.inf
-        heapq_nb.rekey(heap, slot, gain, x, n)
-        g = gain[heap]
-        for i in range(1, n):
-            p = (i - 1) // 2
-            assert g[p] > g[i] or (g[p] == g[i] and heap[p] < heap[i])
-        assert np.array_equal(heap[slot], np.arange(n))
+        # ties on purpose: a few repeated values, and retired ids
+        gain[x] = rng.choice([rng.normal(), 0.25, -np.inf])
+        heapq_nb.rekey(keys, heap, slot, x, gain[x], n)
+        _check_heap(keys, heap, slot, gain)

@@ -547,10 +547,10 @@ def greedy_insert(depth, valid, vr0, vc0, vz0, tv0, he0, max_vertices, max_sum, 
     tsum = np.zeros(cap_t)
     tfit = np.zeros(cap_t, np.bool_)  # fits exactly, its centroid to insert (out[4])
     heap = np.zeros(cap_t, np.int64)
+    keys = np.zeros(cap_t)  # terr of heap[i], kept at heap positions (`geometry.heap`)
     slot = np.zeros(cap_t, np.int64)
     stamp = np.zeros(cap_t, np.int64)
     step = 0
-    is_vertex = np.zeros((h, w), np.bool_)
     changed = np.zeros(64, np.int64)
     stack = np.zeros(64, np.int64)
     out = np.zeros(5)
@@ -565,7 +565,6 @@ def greedy_insert(depth, valid, vr0, vc0, vz0, tv0, he0, max_vertices, max_sum, 
             raise ValueError("greedy_insert: only the image corners may be background vertices")
         if not vbg[i]:
             n_valid_v += 1
-        is_vertex[r, c] = True
     for k in range(3 * n_t):
         tv[k] = tv0[k]
         he[k] = he0[k]
@@ -577,8 +576,9 @@ def greedy_insert(depth, valid, vr0, vc0, vz0, tv0, he0, max_vertices, max_sum, 
         tfit[t] = out[4] > 0.0
         total += out[3]
         heap[n_heap] = t
+        keys[n_heap] = terr[t]
         slot[t] = n_heap
-        sift_up(heap, slot, terr, n_heap)
+        sift_up(keys, heap, slot, n_heap)
         n_heap += 1
     while True:
         if n_heap == 0 or n_valid_v >= max_vertices:
@@ -607,6 +607,7 @@ def greedy_insert(depth, valid, vr0, vc0, vz0, tv0, he0, max_vertices, max_sum, 
             tsum = _grow_f(tsum, cap_t)
             tfit = _grow_f(tfit, cap_t)
             heap = _grow_f(heap, cap_t)
+            keys = _grow_f(keys, cap_t)
             slot = _grow_f(slot, cap_t)
             stamp2 = np.zeros(cap_t, np.int64)
             stamp2[: stamp.size] = stamp
@@ -614,7 +615,6 @@ def greedy_insert(depth, valid, vr0, vc0, vz0, tv0, he0, max_vertices, max_sum, 
         p = n_v
         vr[p], vc[p], vz[p] = pr, pc, depth[pr, pc]
         vbg[p] = False
-        is_vertex[pr, pc] = True
         n_v += 1
         n_valid_v += 1
         # an insertion flips each triangle at most once: 2 entries a triangle is enough
@@ -639,6 +639,7 @@ def greedy_insert(depth, valid, vr0, vc0, vz0, tv0, he0, max_vertices, max_sum, 
             terr[s] = -1.0
             tsum[s] = 0.0
             heap[n_heap] = s
+            keys[n_heap] = -1.0
             slot[s] = n_heap
             n_heap += 1
         step += 1
@@ -657,5 +658,5 @@ def greedy_insert(depth, valid, vr0, vc0, vz0, tv0, he0, max_vertices, max_sum, 
             total += out[3] - tsum[s]
             terr[s], tcr[s], tcc[s], tsum[s] = out[0], out[1], out[2], out[3]
             tfit[s] = out[4] > 0.0
-            rekey(heap, slot, terr, s, n_heap)
+            rekey(keys, heap, slot, s, terr[s], n_heap)
     return vr[:n_v].copy(), vc[:n_v].copy(), tv[: 3 * n_t].copy(), n_valid_v, total

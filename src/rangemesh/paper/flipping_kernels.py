@@ -33,7 +33,7 @@ import numpy as np
 from numba import njit
 
 from ..geometry.halfedges import flip_quad, nxt, prv, quad_halfedges
-from ..geometry.heap import rekey, sift_down, sift_up
+from ..geometry.heap import rekey, sift_up
 from ..geometry.raster import edge_error
 from ..geometry.vectors import angle, max_internal_angle, orient, unit_normal
 
@@ -171,9 +171,10 @@ def _gain(x, edge_he, triangles, halfedges, pixels, vertices, depth, valid, cam,
 def init_queue(triangles, halfedges, pixels, vertices, depth, valid, cam, quantum):
     """Edge ids, unit normals, edge errors, gains and the max-heap of a half-edge mesh.
 
-    Returns ``(he_edge, edge_he, normals, err, gain, heap, slot)``: one id per
-    undirected edge in half-edge order, ``he_edge[e]`` the id of half-edge
-    ``e`` and ``edge_he[x]`` one half-edge of edge ``x``.
+    Returns ``(he_edge, edge_he, normals, err, gain, keys, heap, slot)``: one
+    id per undirected edge in half-edge order, ``he_edge[e]`` the id of
+    half-edge ``e`` and ``edge_he[x]`` one half-edge of edge ``x``; the heap
+    (`rangemesh.geometry.heap`) is keyed by the gains.
     """
     n_he = triangles.size
     n_t = n_he // 3
@@ -206,11 +207,12 @@ def init_queue(triangles, halfedges, pixels, vertices, depth, valid, cam, quantu
     for x in range(n_e):
         gain[x] = _gain(x, edge_he, triangles, halfedges, pixels, vertices, depth, valid,
                         cam, err, quantum)
+    keys = gain.copy()
     heap = np.arange(n_e)
     slot = np.arange(n_e)
     for i in range(n_e):
-        sift_up(heap, slot, gain, i)
-    return he_edge, edge_he, normals, err, gain, heap, slot
+        sift_up(keys, heap, slot, i)
+    return he_edge, edge_he, normals, err, gain, keys, heap, slot
 
 
 @njit(cache=True)
@@ -287,7 +289,7 @@ def decide(x, edge_he, triangles, halfedges, pixels, vertices, normals, former, 
 
 @njit(cache=True)
 def apply_flip(x, he_edge, edge_he, triangles, halfedges, pixels, vertices, depth, valid, cam,
-               normals, err, gain, heap, slot, quantum):
+               normals, err, gain, keys, heap, slot, quantum):
     """Flip edge `x` (AB -> CD) and re-key CD and the four outer edges of its quad."""
     n_e = edge_he.size
     e0 = edge_he[x]
@@ -321,7 +323,7 @@ def apply_flip(x, he_edge, edge_he, triangles, halfedges, pixels, vertices, dept
     for y in (x, eb0, ec0, eb1, ec1):
         gain[y] = _gain(y, edge_he, triangles, halfedges, pixels, vertices, depth, valid,
                         cam, err, quantum)
-        rekey(heap, slot, gain, y, n_e)
+        rekey(keys, heap, slot, y, gain[y], n_e)
 
 
 @njit(cache=True)
@@ -337,7 +339,7 @@ def flip_loop(triangles, halfedges, pixels, vertices, depth, valid, cam, mode, t
     written to `log` (int64, (n, 3)): the edge's endpoints (smaller first) and
     the verdict; pass a (0, 3) array to keep no log.
     """
-    he_edge, edge_he, normals, err, gain, heap, slot = init_queue(
+    he_edge, edge_he, normals, err, gain, keys, heap, slot = init_queue(
         triangles, halfedges, pixels, vertices, depth, valid, cam, quantum)
     n_e = edge_he.size
     n_v = vertices.shape[0]
@@ -364,12 +366,12 @@ def flip_loop(triangles, halfedges, pixels, vertices, depth, valid, cam, mode, t
         verdicts[verdict] += 1
         if verdict != FLIPPED:
             gain[x] = NEG_INF
-            sift_down(heap, slot, gain, slot[x], n_e)
+            rekey(keys, heap, slot, x, NEG_INF, n_e)
             continue
         e0 = edge_he[x]
         former = _set_add(former, _pair_key(triangles[e0], triangles[nxt(e0)], n_v), n_former)
         n_former += 1
         apply_flip(x, he_edge, edge_he, triangles, halfedges, pixels, vertices, depth, valid,
-                   cam, normals, err, gain, heap, slot, quantum)
+                   cam, normals, err, gain, keys, heap, slot, quantum)
         flips += 1
     return flips

@@ -380,6 +380,35 @@ def test_block_solver_equals_a_dense_solve(n, n_faces, seed):
         assert not solve_blocks(ids, block, rhs, h0, RIDGE, 1e-12, 0)[1]
 
 
+@pytest.mark.parametrize("vertices", [40, 400])
+def test_the_fit_samples_its_errors_from_every_4th_face_or_row(vertices):
+    # The first pass of the fit (thr < 0) keeps the errors of every 4th face, or of every
+    # 4th row: the same errors as a full pass over the faces 0, 4, 8, ... alone, or over
+    # the image with every other row masked out (each face owns its pixels by its own
+    # edges' orientation, whatever its neighbours).
+    from rangemesh.greedy.heights_kernels import empty_buffers, fit_pass
+
+    sc = scenes.make("box", (60, 80), noise=0.5)
+    m = triangulate(sc.depth, vertices=vertices, method="refine", heights="pixel")
+    pr, pc = (np.ascontiguousarray(m.pixels[:, k], dtype=np.int64) for k in (0, 1))
+    faces = np.ascontiguousarray(m.faces, dtype=np.int64)
+    valid = np.ones(sc.depth.shape, bool)
+    h0 = sc.depth[pr, pc]
+
+    def errors(f, mask, rows, every):
+        bufs = empty_buffers(len(f), sc.depth.size)
+        used = fit_pass(f, pr, pc, h0, sc.depth, mask, -1.0, *bufs, rows, every)
+        return np.sort(bufs[0][:used])
+
+    every_row = np.zeros_like(valid)
+    every_row[::4] = True
+    full = errors(faces, valid, 1, 1)
+    assert 0.9 * sc.depth.size < len(full) <= sc.depth.size  # each pixel once at most
+    np.testing.assert_array_equal(errors(faces, valid, 1, 4),
+                                  errors(np.ascontiguousarray(faces[::4]), valid, 1, 1))
+    np.testing.assert_array_equal(errors(faces, valid, 4, 1), errors(faces, every_row, 1, 1))
+
+
 def test_the_paper_method_refuses_fitted_depths():
     depth = scenes.make("crease", (30, 40)).depth
     with pytest.raises(ValueError, match="heights='fit' belongs to method='refine'"):

@@ -18,12 +18,14 @@ from .kernels import _owns
 
 
 @njit(cache=True)
-def fit_pass(faces, pr, pc, h0, image, valid, thr, resid, ids, block, rhs, stride):
+def fit_pass(faces, pr, pc, h0, image, valid, thr, resid, ids, block, rhs, row_stride,
+             face_stride):
     """Visit every owned valid pixel of every triangle.
 
     With ``thr < 0`` (the first pass) writes each pixel's ``|image - mesh|``
-    under the vertex values `h0` into `resid`, for the rows that are a multiple
-    of `stride` only, and returns how many. Otherwise
+    under the vertex values `h0` into `resid`, for the rows that are a
+    multiple of `row_stride` of the triangles whose index is a multiple of
+    `face_stride` only, and returns how many. Otherwise
     adds, for the pixels whose residual is at most `thr`, the products of
     their barycentric weights to ``block[t]`` (3x3) and weight times image
     value to ``rhs[t]`` (3), for the vertices ``ids[t]`` (the face's vertices,
@@ -32,6 +34,8 @@ def fit_pass(faces, pr, pc, h0, image, valid, thr, resid, ids, block, rhs, strid
     k = 0
     h, w = image.shape
     for t in range(faces.shape[0]):
+        if thr < 0.0 and t % face_stride != 0:
+            continue
         a = faces[t, 0]
         b = faces[t, 1]
         c = faces[t, 2]
@@ -60,7 +64,7 @@ def fit_pass(faces, pr, pc, h0, image, valid, thr, resid, ids, block, rhs, strid
         for r in range(r0, r1 + 1):
             if r > r0:
                 edges = next_row(edges)
-            if thr < 0.0 and r % stride != 0:
+            if thr < 0.0 and r % row_stride != 0:
                 continue
             first, last, v0, v1, v2 = row_columns(edges, own0, own1, own2, c0, c1)
             if first > last:

@@ -100,7 +100,7 @@ def fit_heights(pixels: np.ndarray, faces: np.ndarray, depth: np.ndarray, valid:
     by_face = len(f) >= RESIDUAL_STRIDE * RESIDUAL_SAMPLE
     rows, every = (1, RESIDUAL_STRIDE) if by_face else (RESIDUAL_STRIDE, 1)
     used = fit_pass(f, pr, pc, h0, image, valid, -1.0, resid, ids, block, rhs, rows, every)
-    if used == 0:
+    if used == 0 and (rows, every) != (1, 1):  # the sample missed every valid pixel
         used = fit_pass(f, pr, pc, h0, image, valid, -1.0, resid, ids, block, rhs, 1, 1)
     if used == 0:
         return depth[pr, pc].astype(np.float64)

@@ -381,12 +381,12 @@ def test_block_solver_equals_a_dense_solve(n, n_faces, seed):
 
 
 @pytest.mark.parametrize("vertices", [40, 400])
-def test_the_fit_samples_its_errors_from_every_4th_face_or_row(vertices):
-    # The first pass of the fit (thr < 0) keeps the errors of every 4th face, or of every
-    # 4th row: the same errors as a full pass over the faces 0, 4, 8, ... alone, or over
-    # the image with every other row masked out (each face owns its pixels by its own
-    # edges' orientation, whatever its neighbours).
-    from rangemesh.greedy.heights_kernels import empty_buffers, fit_pass
+def test_the_fit_samples_its_errors_from_every_kth_face_or_row(vertices):
+    # The first pass of the fit (thr < 0) keeps the errors of every k-th face of its visiting
+    # order, or of every 4th row: the same errors as a full pass over the faces order[::k]
+    # alone, or over the image with every other row masked out (each face owns its pixels
+    # by its own edges' orientation, whatever its neighbours).
+    from rangemesh.greedy.heights_kernels import empty_buffers, face_order, fit_pass
 
     sc = scenes.make("box", (60, 80), noise=0.5)
     m = triangulate(sc.depth, vertices=vertices, method="refine", heights="pixel")
@@ -394,19 +394,75 @@ def test_the_fit_samples_its_errors_from_every_4th_face_or_row(vertices):
     faces = np.ascontiguousarray(m.faces, dtype=np.int64)
     valid = np.ones(sc.depth.shape, bool)
     h0 = sc.depth[pr, pc]
+    order = face_order(faces, pr, pc, 60, 80, 8)
 
-    def errors(f, mask, rows, every):
+    def errors(f, o, mask, rows, every):
         bufs = empty_buffers(len(f), sc.depth.size)
-        used = fit_pass(f, pr, pc, h0, sc.depth, mask, -1.0, *bufs, rows, every)
+        used = fit_pass(f, o, pr, pc, h0, sc.depth, mask, -1.0, *bufs, rows, every)
         return np.sort(bufs[0][:used])
 
     every_row = np.zeros_like(valid)
     every_row[::4] = True
-    full = errors(faces, valid, 1, 1)
+    full = errors(faces, order, valid, 1, 1)
     assert 0.9 * sc.depth.size < len(full) <= sc.depth.size  # each pixel once at most
-    np.testing.assert_array_equal(errors(faces, valid, 1, 4),
-                                  errors(np.ascontiguousarray(faces[::4]), valid, 1, 1))
-    np.testing.assert_array_equal(errors(faces, valid, 4, 1), errors(faces, every_row, 1, 1))
+    for k in (3, 4):
+        alone = np.ascontiguousarray(faces[order[::k]])
+        np.testing.assert_array_equal(errors(faces, order, valid, 1, k),
+                                      errors(alone, np.arange(len(alone)), valid, 1, 1))
+    np.testing.assert_array_equal(errors(faces, order, valid, 4, 1),
+                                  errors(faces, order, every_row, 1, 1))
+
+
+def test_the_fit_samples_about_2000_faces_when_it_has_many():
+    from rangemesh.greedy.heights import sample_strides
+
+    # (row stride, face stride): every 4th row below 2000 faces, then every 4th face, then
+    # every k-th with k = faces // 2000
+    assert sample_strides(10) == (4, 1)
+    assert sample_strides(1999) == (4, 1)
+    assert sample_strides(2000) == (1, 4)
+    assert sample_strides(8000) == (1, 4)
+    assert sample_strides(50_000) == (1, 25)
+
+
+@given(st.integers(0, 2**31), st.integers(1, 40), st.integers(2, 50), st.integers(2, 50),
+       st.sampled_from([1, 3, 8]))
+def test_face_order_sorts_by_the_cell_of_the_top_left_corner(seed, n, h, w, tile):
+    # against numpy: the stable sort by (row // tile, col // tile) of each face's smallest row
+    # and smallest column, cells in row-major order
+    from rangemesh.greedy.heights_kernels import face_order
+
+    rng = np.random.default_rng(seed)
+    pr = rng.integers(0, h, 30)
+    pc = rng.integers(0, w, 30)
+    faces = rng.integers(0, 30, (n, 3))
+    r = pr[faces].min(axis=1) // tile
+    c = pc[faces].min(axis=1) // tile
+    want = np.lexsort((np.arange(n), c, r))
+    np.testing.assert_array_equal(face_order(faces, pr, pc, h, w, tile), want)
+    with pytest.raises(ValueError, match="outside the image"):
+        face_order(faces, pr + h, pc, h, w, tile)
+
+
+def test_the_fit_does_not_depend_on_the_order_it_visits_the_faces(monkeypatch):
+    # A 400x400 image is visited in `face_order`; with the order switched off (the faces as
+    # they come) the same system is solved: the same depths but for rounding. Noiseless
+    # planes: the outlier threshold is its floor either way, whatever pixels were sampled.
+    from rangemesh.greedy import heights
+
+    sc = scenes.make("box", (400, 400))
+    m = triangulate(sc.depth, vertices=2000, method="refine", heights="pixel")
+    valid = np.ones(sc.depth.shape, bool)
+    args = (m.pixels, m.faces, sc.depth, valid, m.camera)
+    assert sc.depth.size >= heights.ORDER_MIN_PIXELS
+    ordered = heights.fit_heights(*args)
+    monkeypatch.setattr(heights, "ORDER_MIN_PIXELS", sc.depth.size + 1)
+    as_they_come = heights.fit_heights(*args)
+    np.testing.assert_allclose(ordered, as_they_come, rtol=0, atol=1e-9 * np.ptp(sc.depth))
+    assert not np.array_equal(heights.face_order(np.ascontiguousarray(m.faces, np.int64),
+                                                 m.pixels[:, 0].astype(np.int64),
+                                                 m.pixels[:, 1].astype(np.int64), 400, 400, 8),
+                              np.arange(len(m.faces)))  # the orders did differ
 
 
 def test_the_paper_method_refuses_fitted_depths():

@@ -18,32 +18,69 @@ from .kernels import _owns
 
 
 @njit(cache=True)
-def fit_pass(faces, pr, pc, h0, image, valid, thr, resid, ids, block, rhs, row_stride,
+def face_order(faces, pr, pc, h, w, tile):
+    """The faces in the row-major order of the `tile` x `tile` pixel cells of their top-left.
+
+    A counting sort, O(faces + cells). The faces of a mesh made by insertion
+    come in the order they were made, scattered over the image; visited in
+    this order instead, consecutive faces read the same image rows from the
+    cache: a pass of `fit_pass` over the faces of teddy or TUM at 10 % of
+    their pixels took 0.6-0.8x the time.
+    """
+    across = (w + tile - 1) // tile
+    cells = ((h + tile - 1) // tile) * across
+    start = np.zeros(cells + 1, np.int64)
+    cell = np.empty(faces.shape[0], np.int64)
+    for t in range(faces.shape[0]):
+        a = faces[t, 0]
+        b = faces[t, 1]
+        c = faces[t, 2]
+        r = min(pr[a], min(pr[b], pr[c]))
+        col = min(pc[a], min(pc[b], pc[c]))
+        if r < 0 or col < 0 or r >= h or col >= w:
+            raise ValueError("face_order: a vertex lies outside the image")
+        k = (r // tile) * across + col // tile
+        cell[t] = k
+        start[k + 1] += 1
+    for k in range(cells):
+        start[k + 1] += start[k]
+    order = np.empty(faces.shape[0], np.int64)
+    for t in range(faces.shape[0]):  # stable: by index within a cell
+        k = cell[t]
+        order[start[k]] = t
+        start[k] += 1
+    return order
+
+
+@njit(cache=True)
+def fit_pass(faces, order, pr, pc, h0, image, valid, thr, resid, ids, block, rhs, row_stride,
              face_stride):
-    """Visit every owned valid pixel of every triangle.
+    """Visit every owned valid pixel of every triangle, the triangles in `order`.
 
     With ``thr < 0`` (the first pass) writes each pixel's ``|image - mesh|``
     under the vertex values `h0` into `resid`, for the rows that are a
-    multiple of `row_stride` of the triangles whose index is a multiple of
-    `face_stride` only, and returns how many. Otherwise
+    multiple of `row_stride` of the triangles ``order[0], order[face_stride],
+    order[2 * face_stride], ...`` only, and returns how many. Otherwise
     adds, for the pixels whose residual is at most `thr`, the products of
-    their barycentric weights to ``block[t]`` (3x3) and weight times image
-    value to ``rhs[t]`` (3), for the vertices ``ids[t]`` (the face's vertices,
-    turned counter-clockwise), and returns how many pixels were used.
+    their barycentric weights to ``block[i]`` (3x3) and weight times image
+    value to ``rhs[i]`` (3), for the vertices ``ids[i]`` (the face's vertices,
+    turned counter-clockwise) of face ``order[i]``, and returns how many pixels
+    were used. (Written in visiting order: written at the faces' own indices,
+    scattered over megabytes, they cost the spatial order its gain.)
     """
     k = 0
     h, w = image.shape
-    for t in range(faces.shape[0]):
-        if thr < 0.0 and t % face_stride != 0:
-            continue
+    step = face_stride if thr < 0.0 else 1
+    for i in range(0, order.size, step):
+        t = order[i]
         a = faces[t, 0]
         b = faces[t, 1]
         c = faces[t, 2]
         if orient(pr[a], pc[a], pr[b], pc[b], pr[c], pc[c]) < 0:
             b, c = c, b
-        ids[t, 0] = a
-        ids[t, 1] = b
-        ids[t, 2] = c
+        ids[i, 0] = a
+        ids[i, 1] = b
+        ids[i, 2] = c
         ar, ac, az = pr[a], pc[a], h0[a]
         br, bc, bz = pr[b], pc[b], h0[b]
         cr, cc, cz = pr[c], pc[c], h0[c]
@@ -98,15 +135,15 @@ def fit_pass(faces, pr, pc, h0, image, valid, thr, resid, ids, block, rhs, row_s
                 w0 += f0
                 w1 += f1
                 w2 += f2
-        block[t, 0, 0] = m00
-        block[t, 0, 1] = block[t, 1, 0] = m01
-        block[t, 0, 2] = block[t, 2, 0] = m02
-        block[t, 1, 1] = m11
-        block[t, 1, 2] = block[t, 2, 1] = m12
-        block[t, 2, 2] = m22
-        rhs[t, 0] = q0
-        rhs[t, 1] = q1
-        rhs[t, 2] = q2
+        block[i, 0, 0] = m00
+        block[i, 0, 1] = block[i, 1, 0] = m01
+        block[i, 0, 2] = block[i, 2, 0] = m02
+        block[i, 1, 1] = m11
+        block[i, 1, 2] = block[i, 2, 1] = m12
+        block[i, 2, 2] = m22
+        rhs[i, 0] = q0
+        rhs[i, 1] = q1
+        rhs[i, 2] = q2
     return k
 
 

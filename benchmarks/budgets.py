@@ -10,7 +10,10 @@ package, at each budget it meshes with
   puts as many vertices on valid pixels;
 * fast-simplification (quadric decimation) of the full-resolution grid mesh;
 
-and evaluates every mesh with `rangemesh.evaluate`. It prints one row per
+and evaluates every mesh with `rangemesh.evaluate`. The LiDAR scan is meshed with its
+beams' camera (`Spherical.from_beams`), as a user of that sensor would: its rows lie 3x
+farther apart than its columns, and the Delaunay test weighs them so; the peers see the same
+range image. It prints one row per
 case and the medians over the cases of the issue's target ratios: mean
 relative error against quadric decimation (target <= 1.0), error within 2 px
 of jumps and creases against pydelatin (target <= 1.0), and whole-call time
@@ -34,6 +37,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import peers  # noqa: E402  (the sibling script: images, peers and timing)
 
+from rangemesh.camera import Spherical  # noqa: E402
 from rangemesh.pipeline import triangulate  # noqa: E402
 
 FRACTIONS = (0.01, 0.03, 0.10)
@@ -41,17 +45,28 @@ MINE = "refine, fitted depths"
 VARIANTS = [(MINE, {}), ("refine, pixel depths", {"heights": "pixel"})]
 
 
-def run(images, repeat, log=print):
+def sensor_camera(image, data):
+    """The camera of the sensor where the data ships one (a LiDAR scan's ``.beams.json``), else None."""
+    for rel, _, _ in peers.IMAGES if data is not None else ():
+        if Path(rel).name == image.name and rel.endswith(".range.npy"):
+            beams = data / rel.replace(".range.npy", ".beams.json")
+            if beams.exists():
+                return Spherical.from_beams(beams)
+    return None
+
+
+def run(images, repeat, data=None, log=print):
     rows = []
     for image in images:
         masked, valid = peers.to_depth_and_mask(image.depth, image.background)
+        camera = sensor_camera(image, data)
         for frac in FRACTIONS:
             n = max(int(frac * valid.sum()), 50)
             got = {}
             for label, opts in VARIANTS:
-                mesh, ms = peers._timed(lambda opts=opts, image=image, n=n: triangulate(
+                mesh, ms = peers._timed(lambda opts=opts, image=image, n=n, camera=camera: triangulate(
                     image.depth, background=image.background, vertices=n, method="refine",
-                    **opts), repeat)
+                    camera=camera, **opts), repeat)
                 got[label] = peers._record(image, f"{frac:.0%}", label, mesh, ms, valid)
             n_mine = max(got[MINE]["vertices"], 4)
             for label, fn in (("pydelatin", peers.peer_delatin),
@@ -73,18 +88,20 @@ def run(images, repeat, log=print):
 EXACT = 1e-4
 
 
-def error_bounds(images, repeat, log=print):
+def error_bounds(images, repeat, data=None, log=print):
     """max_error=E on every image: bound held, meshings, time against vertices=N at its count."""
     from rangemesh.metrics import evaluate
 
     rows = []
     for image in images:
+        camera = sensor_camera(image, data)
         for bound in (1.0, 0.3):
-            mesh, ms = peers._timed(lambda image=image, bound=bound: triangulate(
-                image.depth, background=image.background, max_error=bound), repeat)
+            mesh, ms = peers._timed(lambda image=image, bound=bound, camera=camera: triangulate(
+                image.depth, background=image.background, max_error=bound, camera=camera),
+                repeat)
             n = len(mesh.vertices)
-            _, ms_n = peers._timed(lambda image=image, n=n: triangulate(
-                image.depth, background=image.background, vertices=n), repeat)
+            _, ms_n = peers._timed(lambda image=image, n=n, camera=camera: triangulate(
+                image.depth, background=image.background, vertices=n, camera=camera), repeat)
             err = evaluate(mesh, image.depth, background=image.background).relative_error
             rows.append((image.name, bound, n, err, mesh.stats.target["meshings"], ms, ms_n))
             log(f"{image.name[:30]:30s} max_error {bound}: {n} vertices, error {err:.3f} % "
@@ -123,17 +140,18 @@ def main(argv=None) -> int:
     ap.add_argument("--only", default=None, metavar="TEXT",
                     help="only the inputs whose name contains TEXT (e.g. rellis3d)")
     args = ap.parse_args(argv)
-    images, missing = peers.load_images(peers.find_data(args.data), args.quick, args.only)
+    data = peers.find_data(args.data)
+    images, missing = peers.load_images(data, args.quick, args.only)
     for m in missing:
         print(f"skipped: {m}", file=sys.stderr)
-    rows = run(images, args.repeat)
+    rows = run(images, args.repeat, data)
     print("\n| budget | cases | error / quadric | fitted / pixel depths | edge band / pydelatin "
           "| time / pydelatin | worst uncovered % |")
     print("|---|---:|---:|---:|---:|---:|---:|")
     for frac, n, err, fit, band, ms, worst in summary(rows):
         name = "all" if frac is None else f"{frac:.0%} of valid pixels"
         print(f"| {name} | {n} | {err:.2f} | {fit:.2f} | {band:.2f} | {ms:.2f} | {worst:.2f} |")
-    bounds = error_bounds(images, args.repeat)
+    bounds = error_bounds(images, args.repeat, data)
     held = sum(err <= bound for _, bound, _, err, *_ in bounds)
     times = [ms / ms_n for *_, ms, ms_n in bounds]
     print(f"\nmax_error: the bound held on {held} of {len(bounds)} cases; meshings at most "

@@ -140,8 +140,9 @@ def test_each_vertex_is_the_worst_pixel_of_the_first_ranked_triangle(scene):
         previous = m
 
 
-def _circumcircle_is_empty(mesh):
-    p = mesh.pixels.astype(np.int64)
+def _circumcircle_is_empty(mesh, scales=(1, 1)):
+    """No vertex strictly inside any face's circumcircle, rows and columns weighted by `scales`."""
+    p = mesh.pixels.astype(np.int64) * np.asarray(scales, np.int64)
     for a, b, c in mesh.faces:
         (ar, ac), (br, bc), (cr, cc) = p[a], p[b], p[c]
         d = p - [0, 0]
@@ -163,6 +164,40 @@ def test_fully_valid_images_give_delaunay_meshes(seed, h, w, n):
     assert len(m.vertices) == min(n, h * w)
     assert_valid_mesh(m)
     assert _circumcircle_is_empty(m)
+
+
+@given(st.integers(0, 2**31), st.integers(8, 30), st.integers(8, 30), st.integers(4, 80),
+       st.sampled_from([(3.1, 1.0, (3, 1)), (1.0, 2.2, (1, 2)), (0.1, 0.5, (1, 5))]))
+def test_anisotropic_cameras_give_delaunay_meshes_in_their_units(seed, h, w, n, camera):
+    """Rows spaced kx, columns ky: the mesh is Delaunay with rows counting round(kx/ky) (or the
+    reverse), checked on the scaled integer pixels by the same empty-circle test."""
+    kx, ky, scales = camera
+    depth = np.random.default_rng(seed).uniform(0, 100, (h, w))
+    m = triangulate(depth, vertices=n, method="refine", camera=rangemesh.Orthographic(kx, ky))
+    assert len(m.vertices) == min(n, h * w)
+    assert_valid_mesh(m)
+    assert _circumcircle_is_empty(m, scales)
+
+
+def test_delaunay_scales_follow_the_pixel_aspect():
+    from rangemesh.camera import Pinhole, Rays, Spherical, pixel_aspect
+    from rangemesh.greedy.insertion import delaunay_scales
+
+    # hand values: kx/ky; fx/fy; elevation step 0.5 against azimuth step 0.25 degrees
+    assert pixel_aspect(rangemesh.Orthographic(2.0, 0.5)) == 4.0
+    assert pixel_aspect(Pinhole(500.0, 250.0, 0.0, 0.0)) == 2.0
+    sph = Spherical([1.0, 0.5, 0.0], [0.0, 0.25, 0.5, 0.75])
+    assert pixel_aspect(sph) == pytest.approx(2.0)
+    # the same rays as a table: between rows 0.5 degrees apart, between columns 0.25 * cos(e)
+    rays = Rays(sph.directions)
+    assert pixel_aspect(rays) == pytest.approx(0.5 / (0.25 * np.cos(np.radians(0.5))), rel=1e-4)
+    assert delaunay_scales(rangemesh.Orthographic(3.4, 1.0), (64, 2048)) == (3, 1)
+    assert delaunay_scales(rangemesh.Orthographic(1.0, 2.6), (64, 2048)) == (1, 3)
+    assert delaunay_scales(rangemesh.Orthographic(1.4, 1.0), (64, 2048)) == (1, 1)  # < 1.5
+    assert delaunay_scales(rangemesh.Orthographic(20.0, 1.0), (64, 2048)) == (8, 1)  # capped
+    # exact predicates: the scaled image stays within 30,000 pixels a side
+    assert delaunay_scales(rangemesh.Orthographic(3.0, 1.0), (15_001, 10)) == (2, 1)
+    assert delaunay_scales(None, (10, 10)) == (1, 1)
 
 
 @given(st.integers(0, 2**31), st.sampled_from(sorted(scenes.SCENES)), st.floats(0, 0.6),

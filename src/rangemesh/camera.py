@@ -325,6 +325,49 @@ Camera = Orthographic | Pinhole | Spherical | Rays
 CAMERAS = (Orthographic, Pinhole, Spherical, Rays)
 
 
+def pixel_aspect(camera) -> float:
+    """How far apart neighbouring rows are, against neighbouring columns, in the sensor's units.
+
+    Orthographic: ``kx / ky`` (3-D units). Pinhole: ``fx / fy`` (the angle
+    between rows against that between columns, near the principal point).
+    Spherical: the median elevation step against the median azimuth step
+    (an Ouster OS1-64: 0.55 against 0.176 degrees, about 3.1). Rays: the
+    median angle between vertically neighbouring rays against that between
+    horizontally neighbouring ones. 1.0 for ``None`` and for a single row
+    or column.
+
+    Examples
+    --------
+    >>> pixel_aspect(Orthographic(2.0, 1.0))
+    2.0
+    >>> round(pixel_aspect(Spherical([1.0, 0.5, 0.0], [0.0, 0.25, 0.5, 0.75])), 6)
+    2.0
+    """
+    if camera is None:
+        return 1.0
+    if isinstance(camera, Orthographic):
+        return camera.kx / camera.ky
+    if isinstance(camera, Pinhole):
+        return camera.fx / camera.fy
+    if isinstance(camera, Spherical):
+        if camera.elevation.size < 2 or camera.azimuth.size < 2:
+            return 1.0
+        rows = float(np.median(np.abs(np.diff(camera.elevation))))
+        cols = float(np.median(np.abs(np.diff(camera.azimuth))))
+    elif isinstance(camera, Rays):
+        d = camera.directions
+        if d.shape[0] < 2 or d.shape[1] < 2:
+            return 1.0
+        rows = float(np.median(np.arccos(np.clip((d[1:] * d[:-1]).sum(axis=2), -1.0, 1.0))))
+        cols = float(np.median(np.arccos(np.clip((d[:, 1:] * d[:, :-1]).sum(axis=2), -1.0,
+                                                   1.0))))
+    else:
+        raise TypeError(f"pixel_aspect: not a camera: {camera!r}")
+    if rows > 0.0 and cols > 0.0:
+        return rows / cols
+    return 1.0
+
+
 def as_camera(camera) -> Camera:
     """Return a camera object from ``None``, a camera, or a 3-tuple ``(kx, ky, kz)``.
 

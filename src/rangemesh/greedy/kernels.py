@@ -349,7 +349,8 @@ def _centroid_pixel(ar, ac, br, bc, cr, cc, valid):
 
 
 @njit(cache=True)
-def _legalize(e0, tv, he, vr, vc, changed, n_changed, stack, guard, terr, vz, plane, span):
+def _legalize(e0, tv, he, vr, vc, changed, n_changed, stack, guard, terr, vz, plane, span, sr,
+              sc):
     """Lawson flips from half-edge `e0`, whose opposite vertex is the new point.
 
     With `guard` (the split triangle fits exactly; its corners are in
@@ -358,6 +359,9 @@ def _legalize(e0, tv, he, vr, vc, changed, n_changed, stack, guard, terr, vz, pl
     corner lies on the split triangle's plane (`_on_plane`). Flipping it
     would join two planes in one triangle: vertices asked beyond an exact
     mesh of a pyramid broke it, and left it inexact when the count ran out.
+
+    Rows count `sr` and columns `sc` in the circle test (`delaunay_scales`):
+    the mesh is Delaunay in the sensor's units, not in pixels.
     """
     top = 0
     stack[top] = e0
@@ -376,7 +380,8 @@ def _legalize(e0, tv, he, vr, vc, changed, n_changed, stack, guard, terr, vz, pl
         pb = tv[al]
         pc = tv[ar]
         pd = tv[bp]
-        if _incircle(vr[pa], vc[pa], vr[pb], vc[pb], vr[pc], vc[pc], vr[pd], vc[pd]) <= 0:
+        if _incircle(sr * vr[pa], sc * vc[pa], sr * vr[pb], sc * vc[pb], sr * vr[pc],
+                     sc * vc[pc], sr * vr[pd], sc * vc[pd]) <= 0:
             continue
         if guard and terr[b // 3] < SMALL_KEY and not _on_plane(plane, span, vr[pd], vc[pd],
                                                                 vz[pd]):
@@ -409,7 +414,8 @@ def _new_tri(tv, he, t, a, b, c):
 
 
 @njit(cache=True)
-def _insert(t, p, tv, he, vr, vc, n_t, changed, stack, outer, guard, terr, vz, plane, span):
+def _insert(t, p, tv, he, vr, vc, n_t, changed, stack, outer, guard, terr, vz, plane, span, sr,
+            sc):
     """Insert vertex `p` (inside or on an edge of triangle `t`); returns (n_t, n_changed)."""
     e = 3 * t
     pr, pc = vr[p], vc[p]
@@ -440,7 +446,7 @@ def _insert(t, p, tv, he, vr, vc, n_t, changed, stack, outer, guard, terr, vz, p
         n_changed = 3
         for s in (3 * t, 3 * t1, 3 * t2):
             n_changed = _legalize(s, tv, he, vr, vc, changed, n_changed, stack, guard, terr, vz,
-                                  plane, span)
+                                  plane, span, sr, sc)
         return n_t + 2, n_changed
     # on the edge A -> B of t, opposite C
     ea = e + on
@@ -485,7 +491,7 @@ def _insert(t, p, tv, he, vr, vc, n_t, changed, stack, outer, guard, terr, vz, p
         n_outer = 4
     for i in range(n_outer):
         n_changed = _legalize(outer[i], tv, he, vr, vc, changed, n_changed, stack, guard, terr,
-                              vz, plane, span)
+                              vz, plane, span, sr, sc)
     return n_t + n_new, n_changed
 
 
@@ -497,7 +503,7 @@ def _grow_f(x, n):
 
 
 @njit(cache=True)
-def greedy_insert(depth, valid, vr0, vc0, vz0, tv0, he0, max_vertices, max_sum, span):
+def greedy_insert(depth, valid, vr0, vc0, vz0, tv0, he0, max_vertices, max_sum, span, sr=1, sc=1):
     """Refine a first mesh of the image at worst pixels, one vertex at a time.
 
     Parameters
@@ -519,6 +525,11 @@ def greedy_insert(depth, valid, vr0, vc0, vz0, tv0, he0, max_vertices, max_sum, 
         (and no valid pixel is left in a triangle with a background vertex).
     span : float
         The valid depth range: errors are ranked in units of ``span / 2**32``.
+    sr, sc : int, default 1
+        Rows and columns count this much in the Delaunay circle test
+        (`rangemesh.greedy.insertion.delaunay_scales`); the first mesh should
+        be Delaunay in the same units. ``max(sr * (H-1), sc * (W-1))`` must
+        stay within the exact range of the predicates (about 30,000).
 
     Returns
     -------
@@ -630,7 +641,7 @@ def greedy_insert(depth, valid, vr0, vc0, vz0, tv0, he0, max_vertices, max_sum, 
                 v = tv[3 * t + k]
                 plane[3 * k], plane[3 * k + 1], plane[3 * k + 2] = vr[v], vc[v], vz[v]
         n_t, n_changed = _insert(t, p, tv, he, vr, vc, n_t, changed, stack, outer, guard, terr,
-                                 vz, plane, span)
+                                 vz, plane, span, sr, sc)
         # ... and so does every triangle the flips made, when each triangle they replaced
         # fitted exactly and every corner lies on the split triangle's plane
         flat = split_fit and _flat_cavity(t, old_t, changed, n_changed, tv, vr, vc, terr, vz,

@@ -136,6 +136,8 @@ def _seam_gaps(mesh, valid):
 def test_seam_is_closed(scan, method):
     rng, _, _, cam = scan
     valid = rng > 0
+    if method == "refine":  # it fills single-pixel gaps by default: vertices may stand on them
+        valid = rangemesh.fill_gaps(*rangemesh.to_depth_and_mask(rng, 0))[1]
     kw = {"vertices": 1500} if method == "refine" else {"tiles": (2, 16), "fill_gaps": False}
     closed = triangulate(rng, camera=cam, background=0, method=method, **kw)
     cut = triangulate(rng, camera=cam, background=0, method=method, wrap=False, **kw)
@@ -212,14 +214,22 @@ def test_walls_dropped_on_the_scan_keep_the_ground(scan):
     assert np.isfinite(rangemesh.render_depth(mesh)[0][low]).mean() > 0.95
     assert_valid_mesh(mesh, wrap=True, check_overlap=False)  # (vertices on filled gaps too)
     # the rule by ray angle calls far fewer low faces walls than one in the image plane, which
-    # counts a step between beams 0.55 deg apart as one over 1 pixel (0.18 deg): 34 % vs 63 %
-    # when written (the rest are faces on people, posts, and long faces over rough grass)
-    full = triangulate(rng, camera=cam, background=0, vertices=8000, heights="pixel")
-    z = rng[full.pixels[:, 0], full.pixels[:, 1]]
-    on_low = (full.pixels[full.faces, 0] >= 44).all(axis=1)
-    by_angle = wall_faces(full.faces, full.pixels, z, 0.05, cam)[on_low].mean()
-    in_plane = wall_faces(full.faces, full.pixels, z, 0.05)[on_low].mean()
-    assert by_angle < 0.6 * in_plane, (by_angle, in_plane)
+    # counts a step between beams 0.55 deg apart as one over 1 pixel (0.18 deg). Both rules are
+    # judged on one fixed mesh, every low pixel a vertex (two triangles a pixel square), so that
+    # the comparison does not move with how the mesher shapes its triangles: 3.8 % against
+    # 33.8 % when written (on the 8000-vertex mesh above, 35 % against 54 %)
+    h, w = rng.shape
+    rows, cols = np.mgrid[44:h, 0:w]
+    idx = np.arange(rows.size).reshape(rows.shape)
+    a, b, c, d = idx[:-1, :-1], idx[:-1, 1:], idx[1:, :-1], idx[1:, 1:]
+    faces = np.concatenate([np.stack([a, c, b], -1).reshape(-1, 3),
+                            np.stack([b, c, d], -1).reshape(-1, 3)])
+    faces = faces[valid[44:].ravel()[faces].all(axis=1)]
+    pixels = np.stack([rows.ravel(), cols.ravel()], axis=1)
+    z = rng[pixels[:, 0], pixels[:, 1]]
+    by_angle = wall_faces(faces, pixels, z, 0.05, cam).mean()
+    in_plane = wall_faces(faces, pixels, z, 0.05).mean()
+    assert by_angle < 0.25 * in_plane, (by_angle, in_plane)
 
 
 def test_spherical_camera_round_trips_through_ply(tmp_path, scan):

@@ -88,6 +88,21 @@ def _owns(ar, ac, br, bc):
 
 
 @njit(cache=True)
+def _own_edge(twin, ar, ac, br, bc, w):
+    """Whether a triangle owns the pixels on its edge a -> b, whose twin half-edge is `twin`.
+
+    A shared edge's pixels belong to one side (`_owns`); a hull edge's to its
+    only triangle, except on a seam: a hull edge down an inner column, where a
+    mesh of a vertical strip of the image (`rangemesh.greedy.strips`) meets the
+    next. The seam's vertices are fixed beforehand; its pixels are no
+    candidates in either strip, and a vertex there would not be in the other.
+    """
+    if twin < 0:
+        return not (ac == bc and 0 < ac < w - 1)
+    return _owns(ar, ac, br, bc)
+
+
+@njit(cache=True)
 def _cover_pixel(ar, ac, br, bc, cr, cc, own0, own1, own2, lost0, lost1, lost2, bga, bgb, bgc,
                  valid, best):
     """The pixel that covers a background-corner triangle best, as QuickHull picks a point.
@@ -174,10 +189,11 @@ def _scan(t, tv, he, vr, vc, vz, vbg, depth, valid, span, out):
     bga, bgb, bgc = vbg[ia], vbg[ib], vbg[ic]
     area = orient(ar, ac, br, bc, cr, cc)
     cover = bga or bgb or bgc
-    # pixels on an edge: the hull's always, a shared edge's by one side only
-    own0 = he[3 * t] < 0 or _owns(ar, ac, br, bc)
-    own1 = he[3 * t + 1] < 0 or _owns(br, bc, cr, cc)
-    own2 = he[3 * t + 2] < 0 or _owns(cr, cc, ar, ac)
+    # pixels on an edge: the image border's always, a shared edge's by one side only
+    w = depth.shape[1]
+    own0 = _own_edge(he[3 * t], ar, ac, br, bc, w)
+    own1 = _own_edge(he[3 * t + 1], br, bc, cr, cc, w)
+    own2 = _own_edge(he[3 * t + 2], cr, cc, ar, ac, w)
     # A valid pixel on an edge of a background-corner triangle needs covering only
     # when the edge itself has a background end: both its triangles go. On an edge
     # between two valid vertices it competes by its error, and is covered once the
@@ -502,6 +518,180 @@ def _grow_f(x, n):
     return y
 
 
+@njit(cache=True, nogil=True)
+def start_insertion(depth, valid, vr0, vc0, vz0, tv0, he0, span, max_vertices):
+    """The state of greedy insertion on a first mesh, every triangle scanned and in the heap.
+
+    Takes the first mesh as `greedy_insert` does; `max_vertices` sizes the
+    arrays (they grow when more are inserted). Returns the state tuple that
+    `advance` takes and gives back: ``(vr, vc, vz, vbg, tv, he, terr, tcr,
+    tcc, tsum, tfit, heap, keys, slot, stamp, counts, total)``, with
+    ``counts = [vertices, triangles, heap entries, vertices on valid pixels,
+    steps]`` and ``total[0]`` the summed error of the valid pixels.
+    """
+    n_v = vr0.size
+    n_t = tv0.size // 3
+    cap_v = max(1024, 2 * n_v, n_v + max_vertices + 8)
+    cap_t = 2 * cap_v + 8
+    vr = np.zeros(cap_v, np.int64)
+    vc = np.zeros(cap_v, np.int64)
+    vz = np.zeros(cap_v, np.float64)
+    vbg = np.zeros(cap_v, np.bool_)
+    tv = np.zeros(3 * cap_t, np.int64)
+    he = np.full(3 * cap_t, -1, np.int64)
+    terr = np.full(cap_t, -1.0)
+    tcr = np.zeros(cap_t, np.int64)
+    tcc = np.zeros(cap_t, np.int64)
+    tsum = np.zeros(cap_t)
+    tfit = np.zeros(cap_t, np.bool_)  # fits exactly, its centroid to insert (out[4])
+    heap = np.zeros(cap_t, np.int64)
+    keys = np.zeros(cap_t)  # terr of heap[i], kept at heap positions (`geometry.heap`)
+    slot = np.zeros(cap_t, np.int64)
+    stamp = np.zeros(cap_t, np.int64)
+    # an insertion flips each triangle at most once: 2 entries a triangle is enough
+    changed = np.empty(2 * cap_t + 16, np.int64)
+    stack = np.empty(2 * cap_t + 16, np.int64)
+    out = np.zeros(5)
+    n_valid_v = 0
+    for i in range(n_v):
+        r, c = vr0[i], vc0[i]
+        vr[i], vc[i], vz[i] = r, c, vz0[i]
+        vbg[i] = not valid[r, c]
+        if vbg[i] and i >= 4:
+            raise ValueError("greedy_insert: only the first four vertices may be background")
+        if not vbg[i]:
+            n_valid_v += 1
+    for k in range(3 * n_t):
+        tv[k] = tv0[k]
+        he[k] = he0[k]
+    n_heap = 0
+    total = 0.0
+    for t in range(n_t):
+        _scan(t, tv, he, vr, vc, vz, vbg, depth, valid, span, out)
+        terr[t], tcr[t], tcc[t], tsum[t] = out[0], out[1], out[2], out[3]
+        tfit[t] = out[4] > 0.0
+        total += out[3]
+        heap[n_heap] = t
+        keys[n_heap] = terr[t]
+        slot[t] = n_heap
+        sift_up(keys, heap, slot, n_heap)
+        n_heap += 1
+    counts = np.array([n_v, n_t, n_heap, n_valid_v, 0], np.int64)
+    return (vr, vc, vz, vbg, tv, he, terr, tcr, tcc, tsum, tfit, heap, keys, slot, stamp, changed,
+            stack, counts, np.array([total]))
+
+
+@njit(cache=True)
+def top_key(state):
+    """The key of the triangle `advance` would split next (-1 when none is left)."""
+    heap, counts = state[11], state[17]
+    return state[6][heap[0]] if counts[2] > 0 else -1.0
+
+
+@njit(cache=True, nogil=True)
+def advance(depth, valid, state, max_vertices, max_sum, stop_key, span, sr=1, sc=1):
+    """Insert worst pixels while the first triangle's key is at least `stop_key`.
+
+    Also stops once `max_vertices` vertices stand on valid pixels, when no
+    pixel is left to insert, or (not while valid pixels wait to be covered)
+    once the summed error is at most `max_sum`. Returns the state, whose
+    arrays may have grown. Runs without the GIL: two states on the same image
+    can advance on two threads.
+    """
+    (vr, vc, vz, vbg, tv, he, terr, tcr, tcc, tsum, tfit, heap, keys, slot, stamp, changed, stack,
+     counts, totals) = state
+    h, w = depth.shape
+    n_v, n_t, n_heap, n_valid_v, step = counts[0], counts[1], counts[2], counts[3], counts[4]
+    total = totals[0]
+    cap_v = vr.size
+    cap_t = terr.size
+    out = np.zeros(5)
+    plane = np.zeros(9)  # the split triangle's corners, (r, c, z) each (`_on_plane`)
+    outer = np.zeros(4, np.int64)
+    while True:
+        if n_heap == 0 or n_valid_v >= max_vertices:
+            break
+        t = heap[0]
+        key = terr[t]
+        if key < 0.0 or key < stop_key or (key <= COVER_KEY and total <= max_sum):
+            break
+        pr, pc = tcr[t], tcc[t]
+        # room for the new vertex and up to two new triangles
+        if n_v + 1 > cap_v:
+            cap_v *= 2
+            vr = _grow_f(vr, cap_v)
+            vc = _grow_f(vc, cap_v)
+            vz = _grow_f(vz, cap_v)
+            vbg = _grow_f(vbg, cap_v)
+        if n_t + 2 > cap_t:
+            cap_t = 2 * cap_t
+            tv = _grow_f(tv, 3 * cap_t)
+            he2 = np.full(3 * cap_t, -1, np.int64)
+            he2[: he.size] = he
+            he = he2
+            terr = _grow_f(terr, cap_t)
+            tcr = _grow_f(tcr, cap_t)
+            tcc = _grow_f(tcc, cap_t)
+            tsum = _grow_f(tsum, cap_t)
+            tfit = _grow_f(tfit, cap_t)
+            heap = _grow_f(heap, cap_t)
+            keys = _grow_f(keys, cap_t)
+            slot = _grow_f(slot, cap_t)
+            stamp2 = np.zeros(cap_t, np.int64)
+            stamp2[: stamp.size] = stamp
+            stamp = stamp2
+        p = n_v
+        vr[p], vc[p], vz[p] = pr, pc, depth[pr, pc]
+        vbg[p] = False
+        n_v += 1
+        n_valid_v += 1
+        if changed.size < 2 * n_t + 16:  # (sized in `start_insertion`; grown with the triangles)
+            changed = np.empty(4 * n_t + 16, np.int64)
+            stack = np.empty(4 * n_t + 16, np.int64)
+        old_t = n_t
+        # the centroid of a triangle that fits exactly: its three children fit too
+        split_fit = tfit[t]
+        guard = 0.0 < key < SMALL_KEY  # an exact split: keep it exact (`_legalize`)
+        if guard:
+            for k in range(3):
+                v = tv[3 * t + k]
+                plane[3 * k], plane[3 * k + 1], plane[3 * k + 2] = vr[v], vc[v], vz[v]
+        n_t, n_changed = _insert(t, p, tv, he, vr, vc, n_t, changed, stack, outer, guard, terr,
+                                 vz, plane, span, sr, sc)
+        # ... and so does every triangle the flips made, when each triangle they replaced
+        # fitted exactly and every corner lies on the split triangle's plane
+        flat = split_fit and _flat_cavity(t, old_t, changed, n_changed, tv, vr, vc, terr, vz,
+                                          plane, span)
+        for s in range(old_t, n_t):  # new triangles join the heap
+            terr[s] = -1.0
+            tsum[s] = 0.0
+            heap[n_heap] = s
+            keys[n_heap] = -1.0
+            slot[s] = n_heap
+            n_heap += 1
+        step += 1
+        for j in range(n_changed):
+            # Children of an exact split are keyed without a scan unless a flip changed
+            # them: the flipped triangles (listed after the three) are scanned first.
+            i = n_changed - 1 - j if split_fit else j
+            s = changed[i]
+            if stamp[s] == step:  # flipped twice in this step: one scan is enough
+                continue
+            stamp[s] = step
+            if (flat or (split_fit and i < 3)) and _fit_child(s, tv, vr, vc, valid, h, w, out):
+                out[3] = 0.0
+            else:
+                _scan(s, tv, he, vr, vc, vz, vbg, depth, valid, span, out)
+            total += out[3] - tsum[s]
+            terr[s], tcr[s], tcc[s], tsum[s] = out[0], out[1], out[2], out[3]
+            tfit[s] = out[4] > 0.0
+            rekey(keys, heap, slot, s, terr[s], n_heap)
+    counts[0], counts[1], counts[2], counts[3], counts[4] = n_v, n_t, n_heap, n_valid_v, step
+    totals[0] = total
+    return (vr, vc, vz, vbg, tv, he, terr, tcr, tcc, tsum, tfit, heap, keys, slot, stamp, changed,
+            stack, counts, totals)
+
+
 @njit(cache=True)
 def greedy_insert(depth, valid, vr0, vc0, vz0, tv0, he0, max_vertices, max_sum, span, sr=1, sc=1):
     """Refine a first mesh of the image at worst pixels, one vertex at a time.
@@ -541,133 +731,17 @@ def greedy_insert(depth, valid, vr0, vc0, vz0, tv0, he0, max_vertices, max_sum, 
     total : float
         The summed error at the end.
     """
-    h, w = depth.shape
-    n_v = vr0.size
-    n_t = tv0.size // 3
-    cap_v = max(1024, 2 * n_v)
-    cap_t = 2 * cap_v + 8
-    vr = np.zeros(cap_v, np.int64)
-    vc = np.zeros(cap_v, np.int64)
-    vz = np.zeros(cap_v, np.float64)
-    vbg = np.zeros(cap_v, np.bool_)
-    tv = np.zeros(3 * cap_t, np.int64)
-    he = np.full(3 * cap_t, -1, np.int64)
-    terr = np.full(cap_t, -1.0)
-    tcr = np.zeros(cap_t, np.int64)
-    tcc = np.zeros(cap_t, np.int64)
-    tsum = np.zeros(cap_t)
-    tfit = np.zeros(cap_t, np.bool_)  # fits exactly, its centroid to insert (out[4])
-    heap = np.zeros(cap_t, np.int64)
-    keys = np.zeros(cap_t)  # terr of heap[i], kept at heap positions (`geometry.heap`)
-    slot = np.zeros(cap_t, np.int64)
-    stamp = np.zeros(cap_t, np.int64)
-    step = 0
-    changed = np.zeros(64, np.int64)
-    stack = np.zeros(64, np.int64)
-    out = np.zeros(5)
-    plane = np.zeros(9)  # the split triangle's corners, (r, c, z) each (`_on_plane`)
-    outer = np.zeros(4, np.int64)
-    n_valid_v = 0
-    for i in range(n_v):
-        r, c = vr0[i], vc0[i]
-        vr[i], vc[i], vz[i] = r, c, vz0[i]
-        vbg[i] = not valid[r, c]
-        if vbg[i] and i >= 4:
-            raise ValueError("greedy_insert: only the image corners may be background vertices")
-        if not vbg[i]:
-            n_valid_v += 1
-    for k in range(3 * n_t):
-        tv[k] = tv0[k]
-        he[k] = he0[k]
-    n_heap = 0
-    total = 0.0
-    for t in range(n_t):
-        _scan(t, tv, he, vr, vc, vz, vbg, depth, valid, span, out)
-        terr[t], tcr[t], tcc[t], tsum[t] = out[0], out[1], out[2], out[3]
-        tfit[t] = out[4] > 0.0
-        total += out[3]
-        heap[n_heap] = t
-        keys[n_heap] = terr[t]
-        slot[t] = n_heap
-        sift_up(keys, heap, slot, n_heap)
-        n_heap += 1
-    while True:
-        if n_heap == 0 or n_valid_v >= max_vertices:
-            break
-        t = heap[0]
-        key = terr[t]
-        if key < 0.0 or (key <= COVER_KEY and total <= max_sum):
-            break
-        pr, pc = tcr[t], tcc[t]
-        # room for the new vertex and up to two new triangles
-        if n_v + 1 > cap_v:
-            cap_v *= 2
-            vr = _grow_f(vr, cap_v)
-            vc = _grow_f(vc, cap_v)
-            vz = _grow_f(vz, cap_v)
-            vbg = _grow_f(vbg, cap_v)
-        if n_t + 2 > cap_t:
-            cap_t = 2 * cap_t
-            tv = _grow_f(tv, 3 * cap_t)
-            he2 = np.full(3 * cap_t, -1, np.int64)
-            he2[: he.size] = he
-            he = he2
-            terr = _grow_f(terr, cap_t)
-            tcr = _grow_f(tcr, cap_t)
-            tcc = _grow_f(tcc, cap_t)
-            tsum = _grow_f(tsum, cap_t)
-            tfit = _grow_f(tfit, cap_t)
-            heap = _grow_f(heap, cap_t)
-            keys = _grow_f(keys, cap_t)
-            slot = _grow_f(slot, cap_t)
-            stamp2 = np.zeros(cap_t, np.int64)
-            stamp2[: stamp.size] = stamp
-            stamp = stamp2
-        p = n_v
-        vr[p], vc[p], vz[p] = pr, pc, depth[pr, pc]
-        vbg[p] = False
-        n_v += 1
-        n_valid_v += 1
-        # an insertion flips each triangle at most once: 2 entries a triangle is enough
-        if changed.size < 2 * n_t + 16:
-            changed = np.zeros(4 * n_t + 16, np.int64)
-            stack = np.zeros(4 * n_t + 16, np.int64)
-        old_t = n_t
-        # the centroid of a triangle that fits exactly: its three children fit too
-        split_fit = tfit[t]
-        guard = 0.0 < key < SMALL_KEY  # an exact split: keep it exact (`_legalize`)
-        if guard:
-            for k in range(3):
-                v = tv[3 * t + k]
-                plane[3 * k], plane[3 * k + 1], plane[3 * k + 2] = vr[v], vc[v], vz[v]
-        n_t, n_changed = _insert(t, p, tv, he, vr, vc, n_t, changed, stack, outer, guard, terr,
-                                 vz, plane, span, sr, sc)
-        # ... and so does every triangle the flips made, when each triangle they replaced
-        # fitted exactly and every corner lies on the split triangle's plane
-        flat = split_fit and _flat_cavity(t, old_t, changed, n_changed, tv, vr, vc, terr, vz,
-                                          plane, span)
-        for s in range(old_t, n_t):  # new triangles join the heap
-            terr[s] = -1.0
-            tsum[s] = 0.0
-            heap[n_heap] = s
-            keys[n_heap] = -1.0
-            slot[s] = n_heap
-            n_heap += 1
-        step += 1
-        for j in range(n_changed):
-            # Children of an exact split are keyed without a scan unless a flip changed
-            # them: the flipped triangles (listed after the three) are scanned first.
-            i = n_changed - 1 - j if split_fit else j
-            s = changed[i]
-            if stamp[s] == step:  # flipped twice in this step: one scan is enough
-                continue
-            stamp[s] = step
-            if (flat or (split_fit and i < 3)) and _fit_child(s, tv, vr, vc, valid, h, w, out):
-                out[3] = 0.0
-            else:
-                _scan(s, tv, he, vr, vc, vz, vbg, depth, valid, span, out)
-            total += out[3] - tsum[s]
-            terr[s], tcr[s], tcc[s], tsum[s] = out[0], out[1], out[2], out[3]
-            tfit[s] = out[4] > 0.0
-            rekey(keys, heap, slot, s, terr[s], n_heap)
-    return vr[:n_v].copy(), vc[:n_v].copy(), tv[: 3 * n_t].copy(), n_valid_v, total
+    # arrays sized for `max_vertices` when it is the stop; grown as needed under an error bound
+    state = start_insertion(depth, valid, vr0, vc0, vz0, tv0, he0, span,
+                            max_vertices if max_sum < 0.0 else 0)
+    state = advance(depth, valid, state, max_vertices, max_sum, -np.inf, span, sr, sc)
+    return result(state)
+
+
+@njit(cache=True)
+def result(state):
+    """``vr, vc, tv, n_valid_vertices, total`` of a state, as `greedy_insert` returns them."""
+    counts = state[17]
+    n_v, n_t = counts[0], counts[1]
+    return (state[0][:n_v].copy(), state[1][:n_v].copy(), state[4][: 3 * n_t].copy(), counts[3],
+            state[18][0])

@@ -14,6 +14,7 @@ from ..mesh import Mesh, Stats, count_edges, empty_mesh
 from ..render import relative_error
 from . import kernels as _k
 from .heights import fit_heights
+from .strips import strip_insert, use_strips
 from .walls import drop_walls
 
 __all__ = ["greedy_mesh", "corner_depths", "first_mesh", "delaunay_scales"]
@@ -116,7 +117,8 @@ def grid_size(want: int, n_valid: int, by_error: bool) -> int:
     return min(GRID_MAX, int(want * GRID_SHARE))
 
 
-def first_mesh(depth: np.ndarray, valid: np.ndarray, n_grid: int, scales=(1, 1)):
+def first_mesh(depth: np.ndarray, valid: np.ndarray, n_grid: int, scales=(1, 1), cols=None,
+               seam=None):
     """The mesh greedy insertion starts from: image corners plus about `n_grid` grid pixels.
 
     Grid points sit at the centres of a grid of cells shaped like the image
@@ -125,26 +127,46 @@ def first_mesh(depth: np.ndarray, valid: np.ndarray, n_grid: int, scales=(1, 1))
     are left out. With fewer than 4 grid points the mesh is the image
     rectangle cut in two.
 
+    Parameters
+    ----------
+    cols : (int, int), optional
+        Mesh only the vertical strip of columns ``cols[0]`` to ``cols[1]``
+        (both included): its corners come first, in image coordinates
+        (`rangemesh.greedy.strips`).
+    seam : sequence of (rows, column), optional
+        Valid pixels on the strip's first or last column to start with as
+        vertices besides the corners (the seam's vertices).
+
     Returns
     -------
     vr, vc, vz, tv, he : ndarrays
         As `rangemesh.greedy.kernels.greedy_insert` takes them.
     """
-    h, w = depth.shape
-    corner_z = corner_depths(depth, valid)
+    h = depth.shape[0]
+    c_lo, c_hi = (0, depth.shape[1] - 1) if cols is None else cols
+    w = c_hi - c_lo + 1
+    corner_z = corner_depths(depth[:, c_lo:c_hi + 1], valid[:, c_lo:c_hi + 1])
     vr = np.array([0, h - 1, h - 1, 0], np.int64)
-    vc = np.array([0, 0, w - 1, w - 1], np.int64)
+    vc = np.array([c_lo, c_lo, c_hi, c_hi], np.int64)
     sr, sc = scales
     gr = int(round(np.sqrt(n_grid * h * sr / (w * sc)))) if n_grid >= 4 else 0
     gc = int(round(np.sqrt(n_grid * w * sc / (h * sr)))) if n_grid >= 4 else 0
     if gr >= 2 and gc >= 2:
         rows = ((np.arange(gr) + 0.5) * h / gr).astype(np.int64)
-        cols = ((np.arange(gc) + 0.5) * w / gc).astype(np.int64)
-        r, c = np.meshgrid(np.unique(rows), np.unique(cols), indexing="ij")
+        cols_ = c_lo + ((np.arange(gc) + 0.5) * w / gc).astype(np.int64)
+        r, c = np.meshgrid(np.unique(rows), np.unique(cols_), indexing="ij")
         r, c = r.ravel(), c.ravel()
-        keep = valid[r, c] & ~(((r == 0) | (r == h - 1)) & ((c == 0) | (c == w - 1)))
+        keep = valid[r, c] & ~(((r == 0) | (r == h - 1)) & ((c == c_lo) | (c == c_hi)))
+        if cols is not None:  # nothing on a strip's first or last column but the seam
+            keep &= (c != c_lo) & (c != c_hi)
         vr = np.concatenate([vr, r[keep]])
         vc = np.concatenate([vc, c[keep]])
+    if seam is not None:
+        rows, col = seam
+        rows = np.asarray(rows, np.int64)
+        rows = rows[(rows > 0) & (rows < h - 1)]  # the corners are in already
+        vr = np.concatenate([vr, rows])
+        vc = np.concatenate([vc, np.full(len(rows), col, np.int64)])
     if len(vr) > 4:
         tv, he, n_t = delaunay_sweep(vr * sr, vc * sc)  # same triangles, same orientation
         if n_t == 0:
@@ -264,7 +286,9 @@ def greedy_mesh(depth: np.ndarray, valid: np.ndarray, camera, *, vertices: int |
     span = hi - lo
     want = n_valid if vertices is None else min(int(vertices), n_valid)
     scales = delaunay_scales(camera, (h, w))
-    start = first_mesh(depth, valid, grid_size(want, n_valid, vertices is None), scales)
+    n_grid = grid_size(want, n_valid, vertices is None)
+    strips = use_strips((h, w), want, max_error, n_valid)
+    start = None if strips else first_mesh(depth, valid, n_grid, scales)
     max_sum = -1.0 if max_error is None else float(max_error) / 100.0 * span * n_valid
     runs = 0
     asked = want
@@ -274,8 +298,11 @@ def greedy_mesh(depth: np.ndarray, valid: np.ndarray, camera, *, vertices: int |
     fit_seconds = 0.0  # fitting the depths (with max_error, measuring their error too)
     while True:
         runs += 1
-        vr, vc, tv, _, total = _k.greedy_insert(depth, valid, *start, asked, max_sum, float(span),
-                                                *scales)
+        if strips:  # two strips on two threads (`rangemesh.greedy.strips`)
+            vr, vc, tv, _, total = strip_insert(depth, valid, asked, float(span), scales, n_grid)
+        else:
+            vr, vc, tv, _, total = _k.greedy_insert(depth, valid, *start, asked, max_sum,
+                                                    float(span), *scales)
         verts, faces, pixels, n_walls = _assemble(vr, vc, tv, depth, valid, camera, walls, jump)
         got = len(pixels)
         if vertices is not None:

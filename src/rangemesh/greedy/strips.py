@@ -1,0 +1,372 @@
+"""Greedy insertion on two vertical strips of the image at once: the same mesh on any machine.
+
+The image is cut down one column, the seam. Its vertices are chosen first
+(`seam_rows`, greedy insertion on that column's profile) and stay fixed; each
+strip is then meshed by the kernel of `rangemesh.greedy.kernels`, on the
+whole image but from a first mesh of its own columns, whose hull edges down
+the seam own no pixel. No triangle crosses the seam, so the two strips'
+insertions do not interact: inserting the worst triangle of the image, one
+at a time, is the same as inserting each strip's worst, in the order of
+their keys.
+
+That order is kept without running the strips in lock step. Both advance
+on two threads until their first key falls below a common threshold (a
+*round*): whatever the threads' timing, the state they reach is the one the
+one-at-a-time order passes through. Thresholds are predicted from each
+strip's keys so far (a power law of the count) to reach a growing share of
+the vertices asked; the last few hundred are inserted one at a time, from the
+strip whose key is larger (`merge_tail`), landing exactly on the count. The
+mesh depends only on the image and the request, never on the number of
+threads.
+
+Measured with ``benchmarks/budgets.py`` (see the README): the kernel's time on
+two cores against one thread is given there. A strip's round costs two calls
+into Numba (about 0.1 ms); the seam costs a few vertices on one column.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from concurrent.futures import ThreadPoolExecutor
+
+import numpy as np
+from numba import njit
+
+from . import kernels as _k
+
+__all__ = ["use_strips", "seam_column", "seam_rows", "strip_insert", "merge_tail"]
+
+# Strips pay once the kernel's own time dwarfs a round's overhead and the seam's vertices
+# are a small share: at least this many vertices and columns.
+STRIP_MIN_VERTICES = 2000
+STRIP_MIN_COLUMNS = 64
+# Seam vertices: this times the vertices a column gets in a mesh of uniform density.
+SEAM_DENSITY = 0.7
+# Each round aims at this share of the vertices still to insert; once at most TAIL_SHARE of
+# the request (and at least TAIL_MIN vertices) is left, the rest go one at a time.
+ROUND_SHARE = 0.6
+ROUND_GROWTH = 2.0
+TAIL_SHARE = 0.03
+TAIL_MIN = 64
+MAX_ROUNDS = 16
+# The power law's exponent (vertices ~ key**-e) before a strip has two rounds to fit it on,
+# and its bounds. A small exponent predicts a large step in key and overshoots: on the seven
+# committed 96 x 128 crops at 100 to 3000 vertices, the last round stopped by count in 18 of 35
+# cases with 0.25 as the lower bound, 10 with 0.5, 1 with 0.75 (7.2 rounds a call; 8.3 with 1).
+EXPONENT = 1.0
+EXPONENT_RANGE = (0.75, 4.0)
+
+_pool = None
+
+
+def _threads() -> int:
+    return min(2, os.cpu_count() or 1)
+
+
+def _executor():
+    global _pool
+    if _pool is None:
+        _pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="rangemesh-strip")
+    return _pool
+
+
+def use_strips(shape, vertices: int | None, max_error, n_valid: int) -> bool:
+    """Whether `greedy_mesh` meshes the image as two strips: a vertex count, large enough.
+
+    At most half the valid pixels: the seam's pixels that are not its
+    vertices can never be inserted, so strips cannot give every pixel. The
+    choice depends on the request and the image only, so the mesh is the
+    same on every machine (threads or not).
+    """
+    return (max_error is None and vertices is not None and vertices >= STRIP_MIN_VERTICES
+            and 2 * vertices <= n_valid and shape[1] >= STRIP_MIN_COLUMNS)
+
+
+def seam_column(valid: np.ndarray) -> int:
+    """The column that halves the valid pixels, kept within the middle half of the image."""
+    w = valid.shape[1]
+    per_col = valid.sum(axis=0)
+    cum = np.cumsum(per_col)
+    m = int(np.searchsorted(cum, cum[-1] / 2.0)) if cum[-1] > 0 else w // 2
+    return int(np.clip(m, w // 4, (3 * w) // 4))
+
+
+@njit(cache=True)
+def _seam_kernel(z, ok, k):
+    """Rows of `k` valid pixels of a profile, by greedy insertion (see `seam_rows`)."""
+    h = z.size
+    rows_ok = np.nonzero(ok)[0]
+    n_ok = rows_ok.size
+    chosen = np.zeros(h, np.bool_)
+    if n_ok == 0:
+        return rows_ok
+    chosen[rows_ok[0]] = True
+    chosen[rows_ok[-1]] = True
+    n = 2 if n_ok > 1 else 1
+    while n < min(k, n_ok):
+        # the worst pixel against the linear profile between chosen neighbours; when every
+        # pixel fits, the middle of the longest gap
+        best_err, best_r = -1.0, -1
+        long_gap, long_r = 0, -1
+        a = rows_ok[0]
+        for i in range(1, n_ok):
+            r = rows_ok[i]
+            if not chosen[r]:
+                continue
+            if r - a > 1:
+                for j in range(a + 1, r):
+                    if ok[j] and not chosen[j]:
+                        zl = z[a] + (z[r] - z[a]) * (j - a) / (r - a)
+                        e = abs(z[j] - zl)
+                        if e > best_err:
+                            best_err, best_r = e, j
+                if r - a > long_gap:
+                    mid = (a + r) // 2
+                    for d in range(r - a):  # the valid pixel nearest the middle
+                        if mid + d < r and ok[mid + d] and not chosen[mid + d]:
+                            long_gap, long_r = r - a, mid + d
+                            break
+                        if mid - d > a and ok[mid - d] and not chosen[mid - d]:
+                            long_gap, long_r = r - a, mid - d
+                            break
+            a = r
+        if best_r < 0:
+            break
+        chosen[best_r if best_err > 0.0 else long_r] = True
+        n += 1
+    return np.nonzero(chosen)[0]
+
+
+def seam_rows(depth_col: np.ndarray, valid_col: np.ndarray, k: int) -> np.ndarray:
+    """Rows of the seam's vertices: about `k` valid pixels of one column, its first and last.
+
+    Greedy insertion in one dimension: the pixel farthest from the straight
+    line between its chosen neighbours, until `k` are chosen; once every pixel
+    lies on those lines, the middle of the longest gap. The first and last
+    valid pixels are always chosen, so a strip's triangles with a background
+    corner never hold valid pixels on the seam.
+    """
+    z = np.ascontiguousarray(depth_col, dtype=np.float64)
+    ok = np.ascontiguousarray(valid_col, dtype=np.bool_)
+    return _seam_kernel(z, ok, int(k))
+
+
+@njit(cache=True)
+def merge_tail(depth, valid, a, b, n_target, span, sr, sc):
+    """Insert one vertex at a time into strip `a` or `b`, whichever's first key is larger.
+
+    Stops once the two strips hold `n_target` valid vertices between them
+    (counting the shared seam twice) or nothing is left to insert. Ties go to
+    `a`. Returns the two states.
+    """
+    while True:
+        na = a[17][3]
+        nb = b[17][3]
+        if na + nb >= n_target:
+            break
+        ka = _k.top_key(a)
+        kb = _k.top_key(b)
+        if ka < 0.0 and kb < 0.0:
+            break
+        rem = n_target - na - nb
+        if ka >= kb:  # a goes on while its key is at least b's
+            a = _k.advance(depth, valid, a, na + rem, -1.0, kb, span, sr, sc)
+        else:  # b while its key is above a's
+            b = _k.advance(depth, valid, b, nb + rem, -1.0, np.nextafter(ka, np.inf), span, sr,
+                           sc)
+    return a, b
+
+
+def _power_law(hist):
+    """``(n, key, e)``: a strip's last count and first key, and the exponent of n ~ key**-e."""
+    n1, k1 = hist[-1]
+    e = EXPONENT
+    if len(hist) >= 2:
+        n0, k0 = hist[-2]
+        if k0 > k1 > 0 and n1 > n0 > 0:
+            e = min(max(math.log(n1 / n0) / math.log(k0 / k1), EXPONENT_RANGE[0]),
+                    EXPONENT_RANGE[1])
+    return n1, k1, e
+
+
+def _count_at(law, key):
+    """A strip's predicted vertex count once its first key falls below `key`."""
+    n1, k1, e = law
+    if key >= k1 or k1 <= 0:
+        return float(n1)
+    return n1 * (k1 / key) ** e
+
+
+def _threshold(laws, target):
+    """The key at which the strips' predicted counts add up to `target` (bisection in log)."""
+    hi = max(law[1] for law in laws)
+    if hi <= 0:
+        return -1.0
+    lo = hi * 1e-12
+    for _ in range(50):
+        mid = math.sqrt(lo * hi)
+        if sum(_count_at(law, mid) for law in laws) > target:
+            lo = mid
+        else:
+            hi = mid
+    return hi
+
+
+def strip_insert(depth, valid, vertices, span, scales, n_grid, *, threads=None, rounds=True,
+                 info=None):
+    """Greedy insertion of `vertices` valid vertices, as two strips (see the module).
+
+    Parameters
+    ----------
+    depth, valid : (H, W) ndarrays
+        The prepared image.
+    vertices : int
+        Valid vertices wanted (all of them if the image has fewer).
+    span : float
+        The valid depth range.
+    scales : (int, int)
+        Weights of rows and columns in the Delaunay test.
+    n_grid : int
+        Grid points of the first meshes, between them.
+    threads : int, optional
+        1 runs the strips one after the other; default 2 where the machine
+        has two cores. The mesh is the same either way.
+    rounds : bool, default True
+        False inserts every vertex one at a time (`merge_tail`): the same
+        mesh, on one thread, unless the last round stopped a strip by count
+        (see `_rounds`); for tests.
+    info : dict, optional
+        Receives ``rounds`` (how many ran) and ``capped`` (whether the last
+        one stopped a strip by count).
+
+    Returns
+    -------
+    vr, vc, tv, n_valid_vertices, total
+        As `rangemesh.greedy.kernels.greedy_insert`: one mesh, the seam's
+        vertices once.
+    """
+    from .insertion import first_mesh  # (insertion imports this module)
+
+    h, w = depth.shape
+    sr, sc = scales
+    m = seam_column(valid)
+    k = max(2, int(round(SEAM_DENSITY * math.sqrt(vertices * h * sr / (w * sc)))))
+    rows = seam_rows(depth[:, m], valid[:, m], k)
+    share = m / (w - 1)
+    left = first_mesh(depth, valid, int(n_grid * share), scales, cols=(0, m), seam=(rows, m))
+    right = first_mesh(depth, valid, int(n_grid * (1 - share)), scales, cols=(m, w - 1),
+                       seam=(rows, m))
+    on_seam = left[1] == m
+    shared = int(valid[left[0][on_seam], m].sum())
+    target = vertices + shared  # the two strips' counts add the seam twice
+    n_threads = _threads() if threads is None else threads
+    if n_threads >= 2:  # the first scans visit every pixel: half each
+        fut = _executor().submit(_k.start_insertion, depth, valid, *left, span, vertices)
+        b = _k.start_insertion(depth, valid, *right, span, vertices)
+        a = fut.result()
+    else:
+        a = _k.start_insertion(depth, valid, *left, span, vertices)
+        b = _k.start_insertion(depth, valid, *right, span, vertices)
+    if rounds:
+        a, b, n_rounds, capped = _rounds(depth, valid, a, b, vertices, target, span, sr, sc,
+                                         n_threads)
+        if info is not None:
+            info.update(rounds=n_rounds, capped=capped)
+    a, b = merge_tail(depth, valid, a, b, target, span, sr, sc)
+    return _join(_result(a), _result(b), m, shared)
+
+
+def _result(state):
+    """``vr, vc, tv, n_valid_vertices, total`` of a state (`rangemesh.greedy.kernels.result`).
+
+    In NumPy: Numba's `result`, called from Python once `greedy_insert` had
+    loaded it from the cache as its callee, failed to box its arrays
+    ("'descr' is NULL", numba 0.68).
+    """
+    counts = state[17]
+    n_v, n_t = int(counts[0]), int(counts[1])
+    return state[0][:n_v].copy(), state[1][:n_v].copy(), state[4][: 3 * n_t].copy(), \
+        int(counts[3]), float(state[18][0])
+
+
+def _advance_both(depth, valid, a, b, caps, key, span, sr, sc, n_threads):
+    if n_threads >= 2:
+        fut = _executor().submit(_k.advance, depth, valid, a, caps[0], -1.0, key, span, sr, sc)
+        b = _k.advance(depth, valid, b, caps[1], -1.0, key, span, sr, sc)
+        return fut.result(), b
+    a = _k.advance(depth, valid, a, caps[0], -1.0, key, span, sr, sc)
+    b = _k.advance(depth, valid, b, caps[1], -1.0, key, span, sr, sc)
+    return a, b
+
+
+def _rounds(depth, valid, a, b, vertices, target, span, sr, sc, n_threads):
+    """Advance both strips to common key thresholds until the tail is left (see the module).
+
+    Returns the two states, the number of rounds, and whether the last round
+    stopped a strip by its cap rather than by the threshold. Only then is the
+    state not one that the one-at-a-time order passes through, and the mesh
+    may differ from it (a strip a few vertices short); it is still the same
+    on any number of threads.
+    """
+    tail = max(TAIL_MIN, int(TAIL_SHARE * vertices))
+    hists = [[], []]
+    key = _k.COVER_KEY  # first, every pixel to cover (keys above COVER_KEY)
+    n_rounds, capped = 0, False
+    for _ in range(MAX_ROUNDS):
+        counts = [int(a[17][3]), int(b[17][3])]
+        rem = target - sum(counts)
+        if rem <= tail:
+            break
+        laws = [_power_law(hist) for hist in hists] if hists[0] and hists[1] else None
+        if key is None:
+            # at most twice the count a round: the power law is fitted on the last two rounds,
+            # and early on (large triangles) its exponent changes fast
+            want = min(sum(counts) + ROUND_SHARE * rem, ROUND_GROWTH * sum(counts))
+            key = _threshold(laws, want)
+            if key <= 0:
+                break
+        # Caps that add up to what is left, shared as the predicted growth: a strip whose
+        # count the power law misjudged by more than that stops by count. The state is then
+        # not one the one-at-a-time order passes through, but the next round's is: each
+        # strip's state at a threshold does not depend on how it got there.
+        grow = [max(_count_at(laws[i], key) - counts[i], 0.0) if laws else 1.0
+                for i in range(2)]
+        f = grow[0] / (grow[0] + grow[1]) if grow[0] + grow[1] > 0 else 0.5
+        cap_a = counts[0] + int(round(f * rem))
+        caps = (cap_a, counts[1] + rem - (cap_a - counts[0]))
+        a, b = _advance_both(depth, valid, a, b, caps, key, span, sr, sc, n_threads)
+        n_rounds += 1
+        capped = any(int(s[17][3]) >= c and _k.top_key(s) >= key for s, c in zip((a, b), caps, strict=True))
+        for i, s in enumerate((a, b)):
+            top = _k.top_key(s)
+            if top > 0:
+                hists[i].append((float(s[17][3]), top))
+        if not hists[0] or not hists[1]:  # a strip has nothing left: the tail finishes
+            break
+        if not capped:
+            key = None
+        # else the same threshold again: the strip stopped by count goes on to it, the other
+        # is there already, and all that is left is the first's to take
+    return a, b, n_rounds, capped
+
+
+def _join(ra, rb, m, shared):
+    """One mesh from the two strips' results: B's seam vertices become A's."""
+    vra, vca, tva, na, ta = ra
+    vrb, vcb, tvb, nb, tb = rb
+    seam_a = np.nonzero(vca == m)[0]
+    order = np.argsort(vra[seam_a])
+    seam_a = seam_a[order]
+    on_b = vcb == m
+    new_id = np.empty(len(vrb), np.int64)
+    pos = np.searchsorted(vra[seam_a], vrb[on_b])
+    if not np.array_equal(vra[seam_a][pos], vrb[on_b]):
+        raise RuntimeError("strip_insert: the strips' seams differ")
+    new_id[on_b] = seam_a[pos]
+    own = np.nonzero(~on_b)[0]
+    new_id[own] = len(vra) + np.arange(len(own))
+    vr = np.concatenate([vra, vrb[own]])
+    vc = np.concatenate([vca, vcb[own]])
+    tv = np.concatenate([tva, new_id[tvb]])
+    return vr, vc, tv, int(na + nb - shared), float(ta + tb)

@@ -1,0 +1,169 @@
+"""Greedy insertion as two strips (`rangemesh.greedy.strips`): one mesh whatever the threads.
+
+The reference for the rounds is the one-at-a-time order (``rounds=False``):
+each step inserts into the strip whose first key is larger. Rounds on two
+threads must give that mesh bit for bit; the seam's choice is checked against
+hand values.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import rangemesh
+from rangemesh import MeshParams, scenes, triangulate
+from rangemesh.geometry.pixels import valid_range
+from rangemesh.greedy import insertion, strips
+from rangemesh.pipeline import prepare
+
+from .helpers import assert_valid_mesh
+from .images import load
+
+CROPS = np.load(__import__("pathlib").Path(__file__).parent / "data" / "crops.npz")
+
+
+def _insert(image, background, n, **kw):
+    d, v = prepare(image, MeshParams(), background)
+    lo, hi, nv = valid_range(d, v)
+    grid = insertion.grid_size(n, nv, False)
+    return strips.strip_insert(d, v, n, float(hi - lo), (1, 1), grid, **kw), v
+
+
+def _same(a, b):
+    return all(np.array_equal(x, y) for x, y in zip(a[:3], b[:3], strict=True)) and a[3] == b[3]
+
+
+# --- the seam, by hand -------------------------------------------------------------------
+
+
+def test_seam_rows_by_hand():
+    # a jump between rows 2 and 3: against the line from row 0 to row 7 (z = 10 j / 7), row 3
+    # is farthest (10 - 30/7 = 5.71); then row 2 (line 0 -> 10 over rows 0..3: 6.67 at row 2)
+    z = np.array([0, 0, 0, 10, 10, 10, 10, 10], float)
+    ok = np.ones(8, bool)
+    assert strips.seam_rows(z, ok, 4).tolist() == [0, 2, 3, 7]
+    # every pixel on the lines: the middle of the longest gap (rows 3-7: row 5), then the
+    # first of the equally long ones (rows 0-2: row 1)
+    assert strips.seam_rows(z, ok, 6).tolist() == [0, 1, 2, 3, 5, 7]
+    # the first and last valid pixels always; background never
+    ok[[0, 1, 7]] = False
+    assert strips.seam_rows(z, ok, 2).tolist() == [2, 6]
+    assert strips.seam_rows(z, ok, 3).tolist() == [2, 3, 6]
+    assert strips.seam_rows(z, np.zeros(8, bool), 5).tolist() == []
+
+
+def test_seam_column_by_hand():
+    valid = np.ones((10, 100), bool)
+    assert strips.seam_column(valid) == 49  # 500 of 1000 valid pixels in columns 0-49
+    valid[:, 30:] = False
+    assert strips.seam_column(valid) == 25  # 150 in columns 0-14, kept in the middle half
+
+
+def test_strips_only_for_large_vertex_counts():
+    assert strips.use_strips((480, 640), 2000, None, 4000)
+    assert not strips.use_strips((480, 640), 1999, None, 4000)
+    assert not strips.use_strips((480, 640), 2001, None, 4000)  # more than half the pixels
+    assert not strips.use_strips((480, 640), 2000, 1.0, 4000)  # an error bound: one strip
+    assert not strips.use_strips((480, 63), 2000, None, 4000)
+
+
+def test_every_valid_pixel_when_asked_for_more(shared_data):
+    """Strips cannot give the seam's other pixels: a request beyond the image goes to one strip."""
+    image = load(shared_data, "odetics/chair-range.npy")
+    n_valid = int(rangemesh.fill_gaps(*rangemesh.to_depth_and_mask(image, 0))[1].sum())
+    mesh = triangulate(image, background=0, vertices=20000, method="refine")
+    assert len(mesh.vertices) == n_valid
+
+
+# --- rounds against one at a time --------------------------------------------------------
+
+
+def test_rounds_give_the_one_at_a_time_mesh():
+    """Whenever the last round stopped both strips by the threshold, as it does in most cases."""
+    cases = capped = 0
+    for name, background in [("nyu", 2047), ("cones", 0), ("venus", None), ("chair", 0),
+                             ("tum", 0), ("boxes", 0), ("mug", None)]:
+        for n in (100, 300, 1500, 3000):
+            info = {}
+            two, _ = _insert(CROPS[name], background, n, threads=2, info=info)
+            one, _ = _insert(CROPS[name], background, n, threads=1)
+            assert _same(two, one), (name, n)  # threads never change the mesh
+            assert two[3] == n
+            cases += 1
+            if info["capped"]:
+                capped += 1
+                continue
+            ref, _ = _insert(CROPS[name], background, n, rounds=False)
+            assert _same(two, ref), (name, n, info)
+    # 3 of 28 when written, all at 3000 vertices (a quarter of a crop's pixels, where keys are
+    # nearly flat and the power law misjudges the count); two of them differ from the reference
+    assert capped <= 3, (capped, cases)
+
+
+@pytest.mark.parametrize("rel, background, share", [("middlebury/teddy_disp2.png", 0, 0.03),
+                                                    ("rgbd/open3d_NYU_depth.raw.npy", 2047, 0.1)])
+def test_rounds_on_shared_images(shared_data, rel, background, share):
+    image = load(shared_data, rel)
+    _, valid = rangemesh.to_depth_and_mask(image, background)
+    n = int(share * valid.sum())
+    ref, _ = _insert(image, background, n, rounds=False)
+    two, _ = _insert(image, background, n, threads=2)
+    assert _same(two, ref)
+
+
+# --- the strip mesh ----------------------------------------------------------------------
+
+
+def _strip_mesh(image, background, n, **kw):
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(strips, "STRIP_MIN_VERTICES", 0)
+        mp.setattr(strips, "STRIP_MIN_COLUMNS", 8)
+        return triangulate(image, background=background, vertices=n, method="refine", **kw)
+
+
+def _check_seam(mesh, valid):
+    m = strips.seam_column(valid)
+    cols = mesh.pixels[mesh.faces, 1]
+    # no triangle crosses the seam column
+    assert ((cols <= m).all(axis=1) | (cols >= m).all(axis=1)).all()
+    return m
+
+
+@settings(max_examples=25, deadline=None)
+@given(kind=st.sampled_from(["box", "pyramid", "stairs", "dome"]),
+       noise=st.sampled_from([0.0, 0.5]), seed=st.integers(0, 2**16),
+       n=st.integers(20, 600), hole=st.booleans())
+def test_strip_meshes_are_valid_and_exact(kind, noise, seed, n, hole):
+    image = scenes.make(kind, (40, 72), noise=noise, seed=seed).depth.copy()
+    background = None
+    if hole:  # background on the left edge, so the strips' corners there are background
+        background = 0.0
+        image[5:30, :9] = 0.0
+        image[0, 30:40] = 0.0
+    depth, valid = rangemesh.fill_gaps(*rangemesh.to_depth_and_mask(image, background))
+    n = min(n, int(valid.sum()) // 2)  # strips take at most half the pixels (`use_strips`)
+    mesh = _strip_mesh(image, background, n)
+    assert_valid_mesh(mesh, valid)
+    assert len(mesh.vertices) == n
+    m = _check_seam(mesh, valid)
+    # the seam's first and last valid pixels are vertices: nothing on it is left uncovered
+    on_seam = np.nonzero(valid[:, m])[0]
+    rows = set(mesh.pixels[mesh.pixels[:, 1] == m, 0].tolist())
+    assert {on_seam[0], on_seam[-1]} <= rows
+    if n >= 120:  # (a few vertices cannot trace a silhouette: no bound there, as in one strip)
+        assert rangemesh.evaluate(mesh, image, background=background).uncovered <= 1.0
+
+
+def test_strip_mesh_of_a_shared_image_is_valid(shared_data):
+    image = load(shared_data, "rgbd/open3d_NYU_depth.raw.npy")
+    depth, valid = rangemesh.fill_gaps(*rangemesh.to_depth_and_mask(image, 2047))
+    mesh = triangulate(image, background=2047, vertices=3000, method="refine")
+    assert strips.use_strips(image.shape, 3000, None, int(valid.sum()))
+    assert_valid_mesh(mesh, valid)
+    assert len(mesh.vertices) == 3000
+    _check_seam(mesh, valid)
+    ev = rangemesh.evaluate(mesh, image, background=2047)
+    assert ev.uncovered <= 1.0

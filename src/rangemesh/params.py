@@ -72,7 +72,11 @@ class MeshParams:
         `rangemesh.paper.targets.fit_edge`).
     workers : int, default 1
         Threads sharing stage one's tiles (the paper's parallel stage). The
-        mesh is the same for any number.
+        mesh is the same for any number. ``method='refine'`` does not read
+        it: from 2000 vertices it meshes two strips of the image on two
+        threads where the process may use two cores
+        (`rangemesh.greedy.strips`; ``NUMBA_NUM_THREADS=1`` keeps one), and
+        its mesh too is the same either way.
     heights : {'fit', 'pixel'} or None, default None
         Where vertex depths come from. ``'pixel'``: each vertex copies the
         depth of its pixel (the paper's eq. 4; the only choice of

@@ -30,6 +30,7 @@ import math
 import os
 from concurrent.futures import ThreadPoolExecutor
 
+import numba
 import numpy as np
 from numba import njit
 
@@ -61,7 +62,9 @@ _pool = None
 
 
 def _threads() -> int:
-    return min(2, os.cpu_count() or 1)
+    """Two threads where this process may use two cores, unless ``NUMBA_NUM_THREADS=1``."""
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    return max(1, min(2, cores or 1, numba.config.NUMBA_NUM_THREADS))
 
 
 def _executor():
@@ -230,8 +233,9 @@ def strip_insert(depth, valid, vertices, span, scales, n_grid, *, threads=None, 
     n_grid : int
         Grid points of the first meshes, between them.
     threads : int, optional
-        1 runs the strips one after the other; default 2 where the machine
-        has two cores. The mesh is the same either way.
+        1 runs the strips one after the other; default 2 where this process
+        may use two cores and ``NUMBA_NUM_THREADS`` (Numba's own setting) is
+        not 1. The mesh is the same either way.
     rounds : bool, default True
         False inserts every vertex one at a time (`merge_tail`): the same
         mesh, on one thread, unless the last round stopped a strip by count

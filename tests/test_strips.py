@@ -167,3 +167,27 @@ def test_strip_mesh_of_a_shared_image_is_valid(shared_data):
     _check_seam(mesh, valid)
     ev = rangemesh.evaluate(mesh, image, background=2047)
     assert ev.uncovered <= 1.0
+
+
+def test_error_bound_on_strips(shared_data):
+    """max_error on an image of 100,000 valid pixels or more: strips, the bound held, any threads."""
+    image = load(shared_data, "rgbd/open3d_NYU_depth.raw.npy")
+    depth, valid = rangemesh.fill_gaps(*rangemesh.to_depth_and_mask(image, 2047))
+    assert strips.use_strips(image.shape, None, 0.3, int(valid.sum()))
+    mesh = triangulate(image, background=2047, max_error=0.3, method="refine")
+    assert mesh.stats.target["met"]
+    assert rangemesh.evaluate(mesh, image, background=2047).relative_error <= 0.3
+    assert_valid_mesh(mesh, valid, check_overlap=False)
+    _check_seam(mesh, valid)
+    # the kernels' own sum, the seam's pixels included, is within the bound; threads change nothing
+    d, v = prepare(image, MeshParams(), 2047)
+    lo, hi, nv = valid_range(d, v)
+    max_sum = 0.3 / 100.0 * float(hi - lo) * nv
+    grid = insertion.grid_size(nv, nv, True)
+    two = strips.strip_insert(d, v, nv, float(hi - lo), (1, 1), grid, max_sum=max_sum, threads=2)
+    one = strips.strip_insert(d, v, nv, float(hi - lo), (1, 1), grid, max_sum=max_sum, threads=1)
+    assert _same(two, one)
+    m = strips.seam_column(v)
+    rows = np.unique(two[0][two[1] == m])
+    rows = rows[v[rows, m]]  # (a strip's corner on the seam may be background)
+    assert two[4] + strips._seam_error(d[:, m], v[:, m], rows) <= max_sum

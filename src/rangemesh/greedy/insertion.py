@@ -299,7 +299,8 @@ def greedy_mesh(depth: np.ndarray, valid: np.ndarray, camera, *, vertices: int |
     while True:
         runs += 1
         if strips:  # two strips on two threads (`rangemesh.greedy.strips`)
-            vr, vc, tv, _, total = strip_insert(depth, valid, asked, float(span), scales, n_grid)
+            vr, vc, tv, _, total = strip_insert(depth, valid, asked, float(span), scales, n_grid,
+                                                max_sum=max_sum)
         else:
             vr, vc, tv, _, total = _k.greedy_insert(depth, valid, *start, asked, max_sum,
                                                     float(span), *scales)

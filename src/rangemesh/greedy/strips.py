@@ -42,8 +42,12 @@ __all__ = ["use_strips", "seam_column", "seam_rows", "strip_insert", "merge_tail
 # are a small share: at least this many vertices and columns.
 STRIP_MIN_VERTICES = 2000
 STRIP_MIN_COLUMNS = 64
+STRIP_MIN_PIXELS = 100_000
 # Seam vertices: this times the vertices a column gets in a mesh of uniform density.
 SEAM_DENSITY = 0.7
+# ... and under an error bound, as many as bring the seam's summed error to this share of its
+# column's part of the bound (1-D greedy insertion gets there with few).
+SEAM_ERROR_SHARE = 0.5
 # Each round aims at this share of the vertices still to insert; once at most TAIL_SHARE of
 # the request (and at least TAIL_MIN vertices) is left, the rest go one at a time.
 ROUND_SHARE = 0.6
@@ -75,15 +79,20 @@ def _executor():
 
 
 def use_strips(shape, vertices: int | None, max_error, n_valid: int) -> bool:
-    """Whether `greedy_mesh` meshes the image as two strips: a vertex count, large enough.
+    """Whether `greedy_mesh` meshes the image as two strips.
 
-    At most half the valid pixels: the seam's pixels that are not its
-    vertices can never be inserted, so strips cannot give every pixel. The
-    choice depends on the request and the image only, so the mesh is the
-    same on every machine (threads or not).
+    With a vertex count: from STRIP_MIN_VERTICES, and at most half the valid
+    pixels (the seam's pixels that are not its vertices can never be
+    inserted, so strips cannot give every pixel). With an error bound, whose
+    count is not known beforehand: images of STRIP_MIN_PIXELS valid pixels or
+    more. The choice depends on the request and the image only, so the mesh
+    is the same on every machine (threads or not).
     """
-    return (max_error is None and vertices is not None and vertices >= STRIP_MIN_VERTICES
-            and 2 * vertices <= n_valid and shape[1] >= STRIP_MIN_COLUMNS)
+    if shape[1] < STRIP_MIN_COLUMNS:
+        return False
+    if max_error is not None:
+        return n_valid >= STRIP_MIN_PIXELS
+    return vertices is not None and STRIP_MIN_VERTICES <= vertices <= n_valid // 2
 
 
 def seam_column(valid: np.ndarray) -> int:
@@ -96,7 +105,7 @@ def seam_column(valid: np.ndarray) -> int:
 
 
 @njit(cache=True)
-def _seam_kernel(z, ok, k):
+def _seam_kernel(z, ok, k, max_sum):
     """Rows of `k` valid pixels of a profile, by greedy insertion (see `seam_rows`)."""
     h = z.size
     rows_ok = np.nonzero(ok)[0]
@@ -112,6 +121,7 @@ def _seam_kernel(z, ok, k):
         # pixel fits, the middle of the longest gap
         best_err, best_r = -1.0, -1
         long_gap, long_r = 0, -1
+        total = 0.0
         a = rows_ok[0]
         for i in range(1, n_ok):
             r = rows_ok[i]
@@ -122,6 +132,7 @@ def _seam_kernel(z, ok, k):
                     if ok[j] and not chosen[j]:
                         zl = z[a] + (z[r] - z[a]) * (j - a) / (r - a)
                         e = abs(z[j] - zl)
+                        total += e
                         if e > best_err:
                             best_err, best_r = e, j
                 if r - a > long_gap:
@@ -134,34 +145,37 @@ def _seam_kernel(z, ok, k):
                             long_gap, long_r = r - a, mid - d
                             break
             a = r
-        if best_r < 0:
+        if best_r < 0 or total <= max_sum:
             break
         chosen[best_r if best_err > 0.0 else long_r] = True
         n += 1
     return np.nonzero(chosen)[0]
 
 
-def seam_rows(depth_col: np.ndarray, valid_col: np.ndarray, k: int) -> np.ndarray:
+def seam_rows(depth_col: np.ndarray, valid_col: np.ndarray, k: int,
+              max_sum: float = -1.0) -> np.ndarray:
     """Rows of the seam's vertices: about `k` valid pixels of one column, its first and last.
 
     Greedy insertion in one dimension: the pixel farthest from the straight
-    line between its chosen neighbours, until `k` are chosen; once every pixel
-    lies on those lines, the middle of the longest gap. The first and last
-    valid pixels are always chosen, so a strip's triangles with a background
-    corner never hold valid pixels on the seam.
+    line between its chosen neighbours, until `k` are chosen (or, when
+    `max_sum` is not negative, until the column's summed error is at most
+    that); once every pixel lies on those lines, the middle of the longest
+    gap. The first and last valid pixels are always chosen, so a strip's
+    triangles with a background corner never hold valid pixels on the seam.
     """
     z = np.ascontiguousarray(depth_col, dtype=np.float64)
     ok = np.ascontiguousarray(valid_col, dtype=np.bool_)
-    return _seam_kernel(z, ok, int(k))
+    return _seam_kernel(z, ok, int(k), float(max_sum))
 
 
 @njit(cache=True)
-def merge_tail(depth, valid, a, b, n_target, span, sr, sc):
+def merge_tail(depth, valid, a, b, n_target, max_sum, span, sr, sc):
     """Insert one vertex at a time into strip `a` or `b`, whichever's first key is larger.
 
     Stops once the two strips hold `n_target` valid vertices between them
-    (counting the shared seam twice) or nothing is left to insert. Ties go to
-    `a`. Returns the two states.
+    (counting the shared seam twice), once their summed error is at most
+    `max_sum` (when it is not negative) with no pixel left to cover, or when
+    nothing is left to insert. Ties go to `a`. Returns the two states.
     """
     while True:
         na = a[17][3]
@@ -172,12 +186,17 @@ def merge_tail(depth, valid, a, b, n_target, span, sr, sc):
         kb = _k.top_key(b)
         if ka < 0.0 and kb < 0.0:
             break
+        ta = a[18][0]
+        tb = b[18][0]
+        if max_sum >= 0.0 and ta + tb <= max_sum and max(ka, kb) <= _k.COVER_KEY:
+            break
         rem = n_target - na - nb
         if ka >= kb:  # a goes on while its key is at least b's
-            a = _k.advance(depth, valid, a, na + rem, -1.0, kb, span, sr, sc)
+            a = _k.advance(depth, valid, a, na + rem, max_sum - tb if max_sum >= 0.0 else -1.0,
+                           kb, span, sr, sc)
         else:  # b while its key is above a's
-            b = _k.advance(depth, valid, b, nb + rem, -1.0, np.nextafter(ka, np.inf), span, sr,
-                           sc)
+            b = _k.advance(depth, valid, b, nb + rem, max_sum - ta if max_sum >= 0.0 else -1.0,
+                           np.nextafter(ka, np.inf), span, sr, sc)
     return a, b
 
 
@@ -216,8 +235,8 @@ def _threshold(laws, target):
     return hi
 
 
-def strip_insert(depth, valid, vertices, span, scales, n_grid, *, threads=None, rounds=True,
-                 info=None):
+def strip_insert(depth, valid, vertices, span, scales, n_grid, *, max_sum=-1.0, threads=None,
+                 rounds=True, info=None):
     """Greedy insertion of `vertices` valid vertices, as two strips (see the module).
 
     Parameters
@@ -225,13 +244,21 @@ def strip_insert(depth, valid, vertices, span, scales, n_grid, *, threads=None, 
     depth, valid : (H, W) ndarrays
         The prepared image.
     vertices : int
-        Valid vertices wanted (all of them if the image has fewer).
+        Valid vertices wanted (all of them if the image has fewer); with
+        `max_sum`, at most.
     span : float
         The valid depth range.
     scales : (int, int)
         Weights of rows and columns in the Delaunay test.
     n_grid : int
         Grid points of the first meshes, between them.
+    max_sum : float, default -1
+        When not negative, also stop once the summed error of the valid
+        pixels is at most this (the seam's own pixels included), as
+        `rangemesh.greedy.kernels.greedy_insert` does. Rounds then stop short
+        of the count a power law of the error predicts, and the rest go one
+        at a time; a round that passes the bound leaves a few more vertices
+        than one at a time would.
     threads : int, optional
         1 runs the strips one after the other; default 2 where this process
         may use two cores and ``NUMBA_NUM_THREADS`` (Numba's own setting) is
@@ -255,8 +282,13 @@ def strip_insert(depth, valid, vertices, span, scales, n_grid, *, threads=None, 
     h, w = depth.shape
     sr, sc = scales
     m = seam_column(valid)
-    k = max(2, int(round(SEAM_DENSITY * math.sqrt(vertices * h * sr / (w * sc)))))
-    rows = seam_rows(depth[:, m], valid[:, m], k)
+    if max_sum >= 0.0:
+        # the count is not known: the seam takes half its column's share of the error bound
+        col_share = valid[:, m].sum() / max(valid.sum(), 1)
+        rows = seam_rows(depth[:, m], valid[:, m], h, SEAM_ERROR_SHARE * col_share * max_sum)
+    else:
+        k = max(2, int(round(SEAM_DENSITY * math.sqrt(vertices * h * sr / (w * sc)))))
+        rows = seam_rows(depth[:, m], valid[:, m], k)
     share = m / (w - 1)
     left = first_mesh(depth, valid, int(n_grid * share), scales, cols=(0, m), seam=(rows, m))
     right = first_mesh(depth, valid, int(n_grid * (1 - share)), scales, cols=(m, w - 1),
@@ -265,19 +297,23 @@ def strip_insert(depth, valid, vertices, span, scales, n_grid, *, threads=None, 
     shared = int(valid[left[0][on_seam], m].sum())
     target = vertices + shared  # the two strips' counts add the seam twice
     n_threads = _threads() if threads is None else threads
+    size = vertices if max_sum < 0.0 else 0  # arrays for the count; grown under an error bound
     if n_threads >= 2:  # the first scans visit every pixel: half each
-        fut = _executor().submit(_k.start_insertion, depth, valid, *left, span, vertices)
-        b = _k.start_insertion(depth, valid, *right, span, vertices)
+        fut = _executor().submit(_k.start_insertion, depth, valid, *left, span, size)
+        b = _k.start_insertion(depth, valid, *right, span, size)
         a = fut.result()
     else:
-        a = _k.start_insertion(depth, valid, *left, span, vertices)
-        b = _k.start_insertion(depth, valid, *right, span, vertices)
+        a = _k.start_insertion(depth, valid, *left, span, size)
+        b = _k.start_insertion(depth, valid, *right, span, size)
+    budget = -1.0
+    if max_sum >= 0.0:  # the seam's pixels belong to neither strip: their error comes off
+        budget = max(max_sum - _seam_error(depth[:, m], valid[:, m], rows), 0.0)
     if rounds:
-        a, b, n_rounds, capped = _rounds(depth, valid, a, b, vertices, target, span, sr, sc,
-                                         n_threads)
+        a, b, n_rounds, capped = _rounds(depth, valid, a, b, vertices, target, budget, span, sr,
+                                         sc, n_threads)
         if info is not None:
             info.update(rounds=n_rounds, capped=capped)
-    a, b = merge_tail(depth, valid, a, b, target, span, sr, sc)
+    a, b = merge_tail(depth, valid, a, b, target, budget, span, sr, sc)
     return _join(_result(a), _result(b), m, shared)
 
 
@@ -304,7 +340,30 @@ def _advance_both(depth, valid, a, b, caps, key, span, sr, sc, n_threads):
     return a, b
 
 
-def _rounds(depth, valid, a, b, vertices, target, span, sr, sc, n_threads):
+def _seam_error(z, ok, rows):
+    """Summed error of a column's valid pixels against the lines between its seam vertices."""
+    r = np.nonzero(ok)[0]
+    if len(rows) < 2 or len(r) == 0:
+        return 0.0
+    inside = (r > rows[0]) & (r < rows[-1])
+    return float(np.abs(z[r[inside]] - np.interp(r[inside], rows, z[rows])).sum())
+
+
+def _error_target(hist, budget):
+    """The count at which the summed error is predicted to reach `budget` (a power law)."""
+    n1, t1 = hist[-1]
+    e = EXPONENT
+    if len(hist) >= 2:
+        n0, t0 = hist[-2]
+        if n1 > n0 > 0 and t0 > t1 > 0:
+            e = min(max(math.log(t0 / t1) / math.log(n1 / n0), EXPONENT_RANGE[0]),
+                    EXPONENT_RANGE[1])
+    if t1 <= budget or t1 <= 0:
+        return n1
+    return n1 * (t1 / max(budget, 1e-300)) ** (1.0 / e)
+
+
+def _rounds(depth, valid, a, b, vertices, target, budget, span, sr, sc, n_threads):
     """Advance both strips to common key thresholds until the tail is left (see the module).
 
     Returns the two states, the number of rounds, and whether the last round
@@ -313,14 +372,21 @@ def _rounds(depth, valid, a, b, vertices, target, span, sr, sc, n_threads):
     may differ from it (a strip a few vertices short); it is still the same
     on any number of threads.
     """
-    tail = max(TAIL_MIN, int(TAIL_SHARE * vertices))
     hists = [[], []]
+    errors = []  # (count, summed error) after each round, with an error bound
     key = _k.COVER_KEY  # first, every pixel to cover (keys above COVER_KEY)
     n_rounds, capped = 0, False
     for _ in range(MAX_ROUNDS):
         counts = [int(a[17][3]), int(b[17][3])]
-        rem = target - sum(counts)
-        if rem <= tail:
+        stop = target
+        if budget >= 0.0 and n_rounds > 0:
+            total = float(a[18][0] + b[18][0])
+            errors.append((float(sum(counts)), total))
+            if total <= budget:
+                break
+            stop = min(target, int(_error_target(errors, budget)))
+        rem = stop - sum(counts)
+        if rem <= max(TAIL_MIN, int(TAIL_SHARE * stop)):
             break
         laws = [_power_law(hist) for hist in hists] if hists[0] and hists[1] else None
         if key is None:
@@ -341,7 +407,8 @@ def _rounds(depth, valid, a, b, vertices, target, span, sr, sc, n_threads):
         caps = (cap_a, counts[1] + rem - (cap_a - counts[0]))
         a, b = _advance_both(depth, valid, a, b, caps, key, span, sr, sc, n_threads)
         n_rounds += 1
-        capped = any(int(s[17][3]) >= c and _k.top_key(s) >= key for s, c in zip((a, b), caps, strict=True))
+        capped = any(int(s[17][3]) >= c and _k.top_key(s) >= key
+                     for s, c in zip((a, b), caps, strict=True))
         for i, s in enumerate((a, b)):
             top = _k.top_key(s)
             if top > 0:

@@ -1,4 +1,4 @@
-"""Smoke tests of `benchmarks/peers.py --quick` and `budgets.py`: they run, their numbers are finite."""
+"""Smoke tests of `benchmarks/peers.py --quick`, `budgets.py` and `strips.py`: their numbers are finite."""
 
 import importlib.util
 import json
@@ -51,6 +51,17 @@ def test_budgets_benchmark_runs_on_one_scene():
     ratios = [float(x) for x in cells[2:]]
     assert len(ratios) == 5 and all(math.isfinite(x) and x >= 0 for x in ratios)
     assert f"the bound held on {2 * scenes} of {2 * scenes} cases" in p.stdout
+
+
+def test_strips_benchmark_runs_on_one_scene():
+    # the noisy pyramid at 10 % (3200 vertices): the only budget large enough for strips
+    p = subprocess.run([sys.executable, str(PEERS.with_name("strips.py")), "--only",
+                        "synthetic pyramid noise", "--repeat", "1"],
+                       capture_output=True, text=True, timeout=600)
+    assert p.returncode == 0, p.stderr[-2000:]
+    rows = [line for line in p.stdout.splitlines() if line.startswith("| synthetic pyramid")]
+    assert len(rows) == 1 and "| 10% | 3200 |" in rows[0], p.stdout[-2000:]
+    assert "time: median" in p.stdout
 
 
 def test_peers_meet_the_vertex_count():

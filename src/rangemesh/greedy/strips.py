@@ -14,14 +14,17 @@ on two threads until their first key falls below a common threshold (a
 *round*): whatever the threads' timing, the state they reach is the one the
 one-at-a-time order passes through. Thresholds are predicted from each
 strip's keys so far (a power law of the count) to reach a growing share of
-the vertices asked; the last few hundred are inserted one at a time, from the
-strip whose key is larger (`merge_tail`), landing exactly on the count. The
+the vertices asked; the last 3 % are inserted one at a time, from the strip
+whose key is larger (`merge_tail`), landing exactly on the count. A round
+whose prediction was far off stops a strip by count instead; the next round
+(same threshold) brings it back to that order, unless it was the last. The
 mesh depends only on the image and the request, never on the number of
 threads.
 
-Measured with ``benchmarks/budgets.py`` (see the README): the kernel's time on
-two cores against one thread is given there. A strip's round costs two calls
-into Numba (about 0.1 ms); the seam costs a few vertices on one column.
+Measured with ``benchmarks/strips.py`` against one strip (the README gives the
+figures): on 640 x 480 frames a call takes 0.5-0.8x the time at the same
+error. A round costs about 0.1 ms of hand-over between the threads, which is
+why strips start at STRIP_MIN_VERTICES.
 """
 
 from __future__ import annotations
@@ -35,6 +38,7 @@ import numpy as np
 from numba import njit
 
 from . import kernels as _k
+from .start import first_mesh
 
 __all__ = ["use_strips", "seam_column", "seam_rows", "strip_insert", "merge_tail"]
 
@@ -277,8 +281,6 @@ def strip_insert(depth, valid, vertices, span, scales, n_grid, *, max_sum=-1.0, 
         As `rangemesh.greedy.kernels.greedy_insert`: one mesh, the seam's
         vertices once.
     """
-    from .insertion import first_mesh  # (insertion imports this module)
-
     h, w = depth.shape
     sr, sc = scales
     m = seam_column(valid)

@@ -339,7 +339,7 @@ def _cold_cache(method: str = "paper") -> bool:
 
 def _first_run_notice(args):
     if not (args.quiet or args.json) and _cold_cache(getattr(args, "method", None) or "paper"):
-        print("rangemesh: first run: compiling the Numba kernels once (about 15-30 s); "
+        print("rangemesh: first run: compiling the Numba kernels once (about 15-40 s); "
               "later runs load them from the cache", file=sys.stderr)
 
 

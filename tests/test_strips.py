@@ -191,3 +191,20 @@ def test_error_bound_on_strips(shared_data):
     rows = np.unique(two[0][two[1] == m])
     rows = rows[v[rows, m]]  # (a strip's corner on the seam may be background)
     assert two[4] + strips._seam_error(d[:, m], v[:, m], rows) <= max_sum
+
+
+def test_fit_on_two_threads_is_the_fit_on_one(shared_data):
+    """The fit's full pass split between two threads gives the same depths bit for bit."""
+    from rangemesh.greedy import heights
+
+    image = load(shared_data, "middlebury/teddy_disp2.png")
+    d, v = prepare(image, MeshParams(), 0)
+    mesh = triangulate(image, background=0, vertices=3000, heights="pixel", method="refine")
+    assert len(mesh.faces) >= heights.SPLIT_MIN_FACES
+    two = heights.fit_heights(mesh.pixels, mesh.faces, d, v, mesh.camera)
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(heights, "SPLIT_MIN_FACES", 1 << 60)
+        one = heights.fit_heights(mesh.pixels, mesh.faces, d, v, mesh.camera)
+    assert np.array_equal(one, two)
+    # and the fit moved the depths (the check can fail: not a copy of the pixels')
+    assert not np.array_equal(two, d[mesh.pixels[:, 0], mesh.pixels[:, 1]])

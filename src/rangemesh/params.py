@@ -74,9 +74,10 @@ class MeshParams:
         Threads sharing stage one's tiles (the paper's parallel stage). The
         mesh is the same for any number. ``method='refine'`` does not read
         it: from 2000 vertices it meshes two strips of the image on two
-        threads where the process may use two cores
-        (`rangemesh.greedy.strips`; ``NUMBA_NUM_THREADS=1`` keeps one), and
-        its mesh too is the same either way.
+        threads where the process may use two cores, and shares its fit's
+        pass over the pixels between them (`rangemesh.greedy.threads`;
+        ``NUMBA_NUM_THREADS=1`` keeps one); its mesh too is the same either
+        way.
     heights : {'fit', 'pixel'} or None, default None
         Where vertex depths come from. ``'pixel'``: each vertex copies the
         depth of its pixel (the paper's eq. 4; the only choice of

@@ -24,6 +24,7 @@ from ..camera import Pinhole
 from ..geometry.pixels import valid_range
 from ..geometry.signals import holding_signals
 from .heights_kernels import empty_buffers, face_order, fit_pass, gather_blocks, solve_blocks
+from .threads import executor, threads
 
 __all__ = ["fit_heights"]
 
@@ -61,6 +62,25 @@ ORDER_MIN_PIXELS = 150_000
 # 1e-6 of the depth range of the exact solution (teddy, TUM at 10 % of the pixels), a
 # thousandth of the mesh's error, in 11 iterations instead of 20 at 1e-12.
 CG_RTOL = 1e-8
+
+
+# The full pass of a fit of this many faces or more is shared by two threads, half the faces
+# each (`rangemesh.greedy.threads`): each face's sums land in its own rows, so the result is
+# the same bit for bit.
+SPLIT_MIN_FACES = 4000
+
+
+def _full_pass(f, order, pr, pc, h0, image, valid, thr, resid, ids, block, rhs):
+    """`fit_pass` over every pixel, on two threads for large meshes; returns the pixels used."""
+    n = order.size
+    if n < SPLIT_MIN_FACES or threads() < 2:
+        return fit_pass(f, order, pr, pc, h0, image, valid, thr, resid, ids, block, rhs, 1, 1)
+    m = n // 2  # row slices of C-contiguous arrays: the same Numba types, no copies
+    fut = executor().submit(fit_pass, f, order[:m], pr, pc, h0, image, valid, thr, resid,
+                            ids[:m], block[:m], rhs[:m], 1, 1)
+    used = fit_pass(f, order[m:], pr, pc, h0, image, valid, thr, resid, ids[m:], block[m:],
+                    rhs[m:], 1, 1)
+    return used + fut.result()
 
 
 def sample_strides(n_faces: int) -> tuple[int, int]:
@@ -136,7 +156,7 @@ def fit_heights(pixels: np.ndarray, faces: np.ndarray, depth: np.ndarray, valid:
     sigma = 1.4826 * float(np.median(resid[:used]))
     lo, hi = float(np.min(h0)), float(np.max(h0))
     thr = max(OUTLIER_MADS * sigma, OUTLIER_FLOOR * (hi - lo))
-    fit_pass(f, order, pr, pc, h0, image, valid, thr, resid, ids, block, rhs, 1, 1)
+    _full_pass(f, order, pr, pc, h0, image, valid, thr, resid, ids, block, rhs)
     fitted, converged = solve_blocks(ids, block, rhs, h0, RIDGE, CG_RTOL, 10 * n)
     if not converged:  # ill-conditioned: a direct sparse solve of the same system
         fitted = _direct_solve(ids, block, rhs, h0)

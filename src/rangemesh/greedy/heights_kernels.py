@@ -52,7 +52,7 @@ def face_order(faces, pr, pc, h, w, tile):
     return order
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def fit_pass(faces, order, pr, pc, h0, image, valid, thr, resid, ids, block, rhs, row_stride,
              face_stride):
     """Visit every owned valid pixel of every triangle, the triangles in `order`.

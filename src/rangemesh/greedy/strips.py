@@ -30,15 +30,14 @@ why strips start at STRIP_MIN_VERTICES.
 from __future__ import annotations
 
 import math
-import os
-from concurrent.futures import ThreadPoolExecutor
 
-import numba
 import numpy as np
 from numba import njit
 
 from . import kernels as _k
+from . import threads as _threads
 from .start import first_mesh
+from .threads import executor
 
 __all__ = ["use_strips", "seam_column", "seam_rows", "strip_insert", "merge_tail"]
 
@@ -65,22 +64,6 @@ MAX_ROUNDS = 16
 # cases with 0.25 as the lower bound, 10 with 0.5, 1 with 0.75 (7.2 rounds a call; 8.3 with 1).
 EXPONENT = 1.0
 EXPONENT_RANGE = (0.75, 4.0)
-
-_pool = None
-
-
-def _threads() -> int:
-    """Two threads where this process may use two cores, unless ``NUMBA_NUM_THREADS=1``."""
-    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
-    return max(1, min(2, cores or 1, numba.config.NUMBA_NUM_THREADS))
-
-
-def _executor():
-    global _pool
-    if _pool is None:
-        _pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="rangemesh-strip")
-    return _pool
-
 
 def use_strips(shape, vertices: int | None, max_error, n_valid: int) -> bool:
     """Whether `greedy_mesh` meshes the image as two strips.
@@ -298,10 +281,10 @@ def strip_insert(depth, valid, vertices, span, scales, n_grid, *, max_sum=-1.0, 
     on_seam = left[1] == m
     shared = int(valid[left[0][on_seam], m].sum())
     target = vertices + shared  # the two strips' counts add the seam twice
-    n_threads = _threads() if threads is None else threads
+    n_threads = _threads.threads() if threads is None else threads
     size = vertices if max_sum < 0.0 else 0  # arrays for the count; grown under an error bound
     if n_threads >= 2:  # the first scans visit every pixel: half each
-        fut = _executor().submit(_k.start_insertion, depth, valid, *left, span, size)
+        fut = executor().submit(_k.start_insertion, depth, valid, *left, span, size)
         b = _k.start_insertion(depth, valid, *right, span, size)
         a = fut.result()
     else:
@@ -334,7 +317,7 @@ def _result(state):
 
 def _advance_both(depth, valid, a, b, caps, key, span, sr, sc, n_threads):
     if n_threads >= 2:
-        fut = _executor().submit(_k.advance, depth, valid, a, caps[0], -1.0, key, span, sr, sc)
+        fut = executor().submit(_k.advance, depth, valid, a, caps[0], -1.0, key, span, sr, sc)
         b = _k.advance(depth, valid, b, caps[1], -1.0, key, span, sr, sc)
         return fut.result(), b
     a = _k.advance(depth, valid, a, caps[0], -1.0, key, span, sr, sc)

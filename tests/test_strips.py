@@ -170,7 +170,7 @@ def test_strip_mesh_of_a_shared_image_is_valid(shared_data):
 
 
 def test_error_bound_on_strips(shared_data):
-    """max_error on an image of 100,000 valid pixels or more: strips, the bound held, any threads."""
+    """max_error on an image of 30,000 valid pixels or more: strips, the bound held, any threads."""
     image = load(shared_data, "rgbd/open3d_NYU_depth.raw.npy")
     depth, valid = rangemesh.fill_gaps(*rangemesh.to_depth_and_mask(image, 2047))
     assert strips.use_strips(image.shape, None, 0.3, int(valid.sum()))

@@ -45,12 +45,13 @@ __all__ = ["use_strips", "seam_column", "seam_rows", "strip_insert", "merge_tail
 # are a small share: at least this many vertices and columns.
 STRIP_MIN_VERTICES = 2000
 STRIP_MIN_COLUMNS = 64
-STRIP_MIN_PIXELS = 100_000
+STRIP_MIN_PIXELS = 30_000
 # Seam vertices: this times the vertices a column gets in a mesh of uniform density.
 SEAM_DENSITY = 0.7
 # ... and under an error bound, as many as bring the seam's summed error to this share of its
-# column's part of the bound (1-D greedy insertion gets there with few).
-SEAM_ERROR_SHARE = 0.5
+# column's part of the bound (1-D greedy insertion gets there with few; half of it cost the
+# noisy pyramid at 1 % 128 vertices against one strip's 88).
+SEAM_ERROR_SHARE = 1.0
 # Each round aims at this share of the vertices still to insert; once at most TAIL_SHARE of
 # the request (and at least TAIL_MIN vertices) is left, the rest go one at a time.
 ROUND_SHARE = 0.6
@@ -268,7 +269,7 @@ def strip_insert(depth, valid, vertices, span, scales, n_grid, *, max_sum=-1.0, 
     sr, sc = scales
     m = seam_column(valid)
     if max_sum >= 0.0:
-        # the count is not known: the seam takes half its column's share of the error bound
+        # the count is not known: the seam takes its column's share of the error bound
         col_share = valid[:, m].sum() / max(valid.sum(), 1)
         rows = seam_rows(depth[:, m], valid[:, m], h, SEAM_ERROR_SHARE * col_share * max_sum)
     else:
@@ -293,6 +294,11 @@ def strip_insert(depth, valid, vertices, span, scales, n_grid, *, max_sum=-1.0, 
     budget = -1.0
     if max_sum >= 0.0:  # the seam's pixels belong to neither strip: their error comes off
         budget = max(max_sum - _seam_error(depth[:, m], valid[:, m], rows), 0.0)
+    if rounds and budget >= 0.0:
+        # under an error bound the count is not known: the first STRIP_MIN_VERTICES one at a
+        # time (a bound met by then costs what one strip would, and rounds never pass it)
+        a, b = merge_tail(depth, valid, a, b, min(target, STRIP_MIN_VERTICES + shared), budget,
+                          span, sr, sc)
     if rounds:
         a, b, n_rounds, capped = _rounds(depth, valid, a, b, vertices, target, budget, span, sr,
                                          sc, n_threads)
@@ -364,7 +370,7 @@ def _rounds(depth, valid, a, b, vertices, target, budget, span, sr, sc, n_thread
     for _ in range(MAX_ROUNDS):
         counts = [int(a[17][3]), int(b[17][3])]
         stop = target
-        if budget >= 0.0 and n_rounds > 0:
+        if budget >= 0.0:
             total = float(a[18][0] + b[18][0])
             errors.append((float(sum(counts)), total))
             if total <= budget:

@@ -294,11 +294,6 @@ def strip_insert(depth, valid, vertices, span, scales, n_grid, *, max_sum=-1.0, 
     budget = -1.0
     if max_sum >= 0.0:  # the seam's pixels belong to neither strip: their error comes off
         budget = max(max_sum - _seam_error(depth[:, m], valid[:, m], rows), 0.0)
-    if rounds and budget >= 0.0:
-        # under an error bound the count is not known: the first STRIP_MIN_VERTICES one at a
-        # time (a bound met by then costs what one strip would, and rounds never pass it)
-        a, b = merge_tail(depth, valid, a, b, min(target, STRIP_MIN_VERTICES + shared), budget,
-                          span, sr, sc)
     if rounds:
         a, b, n_rounds, capped = _rounds(depth, valid, a, b, vertices, target, budget, span, sr,
                                          sc, n_threads)

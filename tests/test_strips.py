@@ -63,11 +63,14 @@ def test_seam_column_by_hand():
 
 
 def test_strips_only_for_large_vertex_counts():
-    assert strips.use_strips((480, 640), 2000, None, 4000)
-    assert not strips.use_strips((480, 640), 1999, None, 4000)
-    assert not strips.use_strips((480, 640), 2001, None, 4000)  # more than half the pixels
-    assert not strips.use_strips((480, 640), 2000, 1.0, 4000)  # an error bound: one strip
-    assert not strips.use_strips((480, 63), 2000, None, 4000)
+    assert strips.use_strips((480, 640), 2000, None, 100_000)
+    assert not strips.use_strips((480, 640), 1999, None, 100_000)
+    assert strips.use_strips((480, 640), 50_000, None, 100_000)
+    assert not strips.use_strips((480, 640), 50_001, None, 100_000)  # over half the pixels
+    assert strips.use_strips((480, 640), None, 1.0, 60_000)  # an error bound: any count
+    assert not strips.use_strips((480, 640), None, 1.0, 59_999)  # a small image: one strip
+    assert not strips.use_strips((200, 160), 3200, None, 32_000)
+    assert not strips.use_strips((480, 63), 2000, None, 100_000)
 
 
 def test_every_valid_pixel_when_asked_for_more(shared_data):
@@ -121,6 +124,7 @@ def _strip_mesh(image, background, n, **kw):
     with pytest.MonkeyPatch.context() as mp:
         mp.setattr(strips, "STRIP_MIN_VERTICES", 0)
         mp.setattr(strips, "STRIP_MIN_COLUMNS", 8)
+        mp.setattr(strips, "STRIP_MIN_PIXELS", 0)
         return triangulate(image, background=background, vertices=n, method="refine", **kw)
 
 
@@ -170,7 +174,7 @@ def test_strip_mesh_of_a_shared_image_is_valid(shared_data):
 
 
 def test_error_bound_on_strips(shared_data):
-    """max_error on an image of 30,000 valid pixels or more: strips, the bound held, any threads."""
+    """max_error on an image of 60,000 valid pixels or more: strips, the bound held, any threads."""
     image = load(shared_data, "rgbd/open3d_NYU_depth.raw.npy")
     depth, valid = rangemesh.fill_gaps(*rangemesh.to_depth_and_mask(image, 2047))
     assert strips.use_strips(image.shape, None, 0.3, int(valid.sum()))

@@ -45,7 +45,11 @@ __all__ = ["use_strips", "seam_column", "seam_rows", "strip_insert", "merge_tail
 # are a small share: at least this many vertices and columns.
 STRIP_MIN_VERTICES = 2000
 STRIP_MIN_COLUMNS = 64
-STRIP_MIN_PIXELS = 30_000
+# ... on images of STRIP_MIN_PIXELS valid pixels or more, with a count or an error bound alike:
+# max_error's count is not known beforehand, and on smaller images (the 160 x 200 scenes)
+# strips cost it their set-up at small counts (2-3 ms at 67 vertices, 3x the call), while
+# vertices=N gained little there (0.78-1.05x at 3200 vertices).
+STRIP_MIN_PIXELS = 60_000
 # Seam vertices: this times the vertices a column gets in a mesh of uniform density.
 SEAM_DENSITY = 0.7
 # ... and under an error bound, as many as bring the seam's summed error to this share of its
@@ -69,17 +73,17 @@ EXPONENT_RANGE = (0.75, 4.0)
 def use_strips(shape, vertices: int | None, max_error, n_valid: int) -> bool:
     """Whether `greedy_mesh` meshes the image as two strips.
 
-    With a vertex count: from STRIP_MIN_VERTICES, and at most half the valid
-    pixels (the seam's pixels that are not its vertices can never be
-    inserted, so strips cannot give every pixel). With an error bound, whose
-    count is not known beforehand: images of STRIP_MIN_PIXELS valid pixels or
-    more. The choice depends on the request and the image only, so the mesh
-    is the same on every machine (threads or not).
+    Images of STRIP_MIN_PIXELS valid pixels or more (and STRIP_MIN_COLUMNS
+    columns): under an error bound always, with a vertex count from
+    STRIP_MIN_VERTICES to half the valid pixels (the seam's pixels that are
+    not its vertices can never be inserted, so strips cannot give every
+    pixel). The choice depends on the request and the image only, so the
+    mesh is the same on every machine (threads or not).
     """
-    if shape[1] < STRIP_MIN_COLUMNS:
+    if shape[1] < STRIP_MIN_COLUMNS or n_valid < STRIP_MIN_PIXELS:
         return False
     if max_error is not None:
-        return n_valid >= STRIP_MIN_PIXELS
+        return True
     return vertices is not None and STRIP_MIN_VERTICES <= vertices <= n_valid // 2
 
 

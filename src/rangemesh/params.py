@@ -73,7 +73,8 @@ class MeshParams:
     workers : int, default 1
         Threads sharing stage one's tiles (the paper's parallel stage). The
         mesh is the same for any number. ``method='refine'`` does not read
-        it: from 2000 vertices it meshes two strips of the image on two
+        it: on images of 60,000 valid pixels or more, from 2000 vertices or
+        under an error bound, it meshes two strips of the image on two
         threads where the process may use two cores, and shares its fit's
         pass over the pixels between them (`rangemesh.greedy.threads`;
         ``NUMBA_NUM_THREADS=1`` keeps one); its mesh too is the same either

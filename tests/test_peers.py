@@ -53,14 +53,14 @@ def test_budgets_benchmark_runs_on_one_scene():
     assert f"the bound held on {2 * scenes} of {2 * scenes} cases" in p.stdout
 
 
-def test_strips_benchmark_runs_on_one_scene():
-    # the noisy pyramid at 10 % (3200 vertices): the only budget large enough for strips
-    p = subprocess.run([sys.executable, str(PEERS.with_name("strips.py")), "--only",
-                        "synthetic pyramid noise", "--repeat", "1"],
+def test_strips_benchmark_runs_on_one_image(shared_data):
+    # tsukuba (87,696 valid pixels) at 3 % and 10 %: its budgets large enough for strips
+    p = subprocess.run([sys.executable, str(PEERS.with_name("strips.py")), "--data",
+                        str(shared_data), "--only", "tsukuba", "--repeat", "1"],
                        capture_output=True, text=True, timeout=600)
     assert p.returncode == 0, p.stderr[-2000:]
-    rows = [line for line in p.stdout.splitlines() if line.startswith("| synthetic pyramid")]
-    assert len(rows) == 1 and "| 10% | 3200 |" in rows[0], p.stdout[-2000:]
+    rows = [line for line in p.stdout.splitlines() if line.startswith("| tsukuba")]
+    assert [r.split("|")[2].strip() for r in rows] == ["3%", "10%"], p.stdout[-2000:]
     assert "time: median" in p.stdout
 
 

@@ -141,3 +141,24 @@ def test_expand_inputs(tmp_path):
     assert [p.name for p in expand_inputs([str(tmp_path / "*.png"), tmp_path / "a.png"])] == ["a.png"]
     with pytest.raises(FileNotFoundError):
         expand_inputs([tmp_path / "zzz.png"])
+
+
+def test_local_workers_run_one_thread_each(tmp_path, monkeypatch):
+    """One process per core: method="refine"'s second thread is switched off in the workers."""
+    import dask.distributed
+
+    seen = {}
+
+    class Stop(Exception):
+        pass
+
+    def fake_cluster(**kwargs):
+        seen.update(kwargs)
+        raise Stop
+
+    monkeypatch.setattr(dask.distributed, "LocalCluster", fake_cluster)
+    np.save(tmp_path / "a.npy", np.ones((8, 8)))
+    with pytest.raises(Stop):
+        mesh_many([tmp_path / "a.npy"], tmp_path / "out", workers=1)
+    assert seen["threads_per_worker"] == 1
+    assert seen["env"] == {"NUMBA_NUM_THREADS": "1"}

@@ -295,8 +295,11 @@ def mesh_many(paths, out_dir, params: MeshParams | None = None, *, background=No
     todo = [i for i, o in enumerate(outs) if o is not None]
     cluster = None
     if scheduler is None:
+        # One single-threaded process per core: method="refine"'s second thread
+        # (`rangemesh.greedy.threads`) would only oversubscribe the cores.
         cluster = LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True,
-                               dashboard_address=None, silence_logs=40)
+                               dashboard_address=None, silence_logs=40,
+                               env={"NUMBA_NUM_THREADS": "1"})
         client = Client(cluster)
     else:
         client = _connect(Client, scheduler, timeout=connect_timeout)

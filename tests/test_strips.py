@@ -62,6 +62,17 @@ def test_seam_column_by_hand():
     assert strips.seam_column(valid) == 25  # 150 in columns 0-14, kept in the middle half
 
 
+def test_power_laws_by_hand():
+    # counts against keys: key 100 -> 10 while the count goes 10 -> 100, n ~ key**-1
+    assert strips._power_law([(10, 100.0), (100, 10.0)]) == (100, 10.0, 1.0)
+    # errors against counts: 80 -> 10 while the count goes 10 -> 40, t ~ n**-1.5, so the
+    # error reaches 1.25 at 40 * (10 / 1.25) ** (1 / 1.5) = 160 vertices
+    assert strips._error_target([(10, 80.0), (40, 10.0)], 1.25) == pytest.approx(160.0)
+    # keys that rose: no fit, the default exponent; steep falls are held to the range
+    assert strips._power_law([(10, 10.0), (20, 30.0)])[2] == strips.EXPONENT
+    assert strips._exponent(1.0, 1.0, 2.0, 1e-9) == strips.EXPONENT_RANGE[1]
+
+
 def test_strips_only_for_large_vertex_counts():
     assert strips.use_strips((480, 640), 2000, None, 100_000)
     assert not strips.use_strips((480, 640), 1999, None, 100_000)

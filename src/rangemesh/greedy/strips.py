@@ -192,15 +192,21 @@ def merge_tail(depth, valid, a, b, n_target, max_sum, span, sr, sc):
     return a, b
 
 
+def _exponent(x0, y0, x1, y1):
+    """The exponent e of y ~ x**-e through two points, within EXPONENT_RANGE.
+
+    EXPONENT when the points do not fall that way (y not moving against x).
+    """
+    if min(x0, y0, x1, y1) > 0 and (y1 - y0) * (x1 - x0) < 0:
+        e = math.log(y0 / y1) / math.log(x1 / x0)
+        return min(max(e, EXPONENT_RANGE[0]), EXPONENT_RANGE[1])
+    return EXPONENT
+
+
 def _power_law(hist):
     """``(n, key, e)``: a strip's last count and first key, and the exponent of n ~ key**-e."""
     n1, k1 = hist[-1]
-    e = EXPONENT
-    if len(hist) >= 2:
-        n0, k0 = hist[-2]
-        if k0 > k1 > 0 and n1 > n0 > 0:
-            e = min(max(math.log(n1 / n0) / math.log(k0 / k1), EXPONENT_RANGE[0]),
-                    EXPONENT_RANGE[1])
+    e = _exponent(hist[-2][1], hist[-2][0], k1, n1) if len(hist) >= 2 else EXPONENT
     return n1, k1, e
 
 
@@ -342,12 +348,7 @@ def _seam_error(z, ok, rows):
 def _error_target(hist, budget):
     """The count at which the summed error is predicted to reach `budget` (a power law)."""
     n1, t1 = hist[-1]
-    e = EXPONENT
-    if len(hist) >= 2:
-        n0, t0 = hist[-2]
-        if n1 > n0 > 0 and t0 > t1 > 0:
-            e = min(max(math.log(t0 / t1) / math.log(n1 / n0), EXPONENT_RANGE[0]),
-                    EXPONENT_RANGE[1])
+    e = _exponent(hist[-2][0], hist[-2][1], n1, t1) if len(hist) >= 2 else EXPONENT
     if t1 <= budget or t1 <= 0:
         return n1
     return n1 * (t1 / max(budget, 1e-300)) ** (1.0 / e)

@@ -134,14 +134,10 @@ def _bounded(verts, faces, pixels, depth, valid, camera, shape, max_error, ref, 
 
 
 def _refine(depth, valid, start, strips, asked, max_sum, span, scales, n_grid):
-    """``vr, vc, tv, total`` of greedy insertion, on one strip or two (`strip_insert`)."""
+    """``vr, vc, tv`` of greedy insertion, on one strip or two (`strip_insert`)."""
     if strips:  # two strips on two threads (`rangemesh.greedy.strips`)
-        vr, vc, tv, _, total = strip_insert(depth, valid, asked, span, scales, n_grid,
-                                            max_sum=max_sum)
-    else:
-        vr, vc, tv, _, total = _k.greedy_insert(depth, valid, *start, asked, max_sum, span,
-                                                *scales)
-    return vr, vc, tv, total
+        return strip_insert(depth, valid, asked, span, scales, n_grid, max_sum=max_sum)[:3]
+    return _k.greedy_insert(depth, valid, *start, asked, max_sum, span, *scales)[:3]
 
 
 @holding_signals
@@ -210,8 +206,8 @@ def greedy_mesh(depth: np.ndarray, valid: np.ndarray, camera, *, vertices: int |
     fit_seconds = 0.0  # fitting the depths (with max_error, measuring their error too)
     while True:
         runs += 1
-        vr, vc, tv, total = _refine(depth, valid, start, strips, asked, max_sum, float(span),
-                                    scales, n_grid)
+        vr, vc, tv = _refine(depth, valid, start, strips, asked, max_sum, float(span), scales,
+                             n_grid)
         verts, faces, pixels, n_walls = _assemble(vr, vc, tv, depth, valid, camera, walls, jump)
         got = len(pixels)
         if vertices is not None:

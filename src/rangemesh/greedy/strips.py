@@ -70,6 +70,7 @@ MAX_ROUNDS = 16
 EXPONENT = 1.0
 EXPONENT_RANGE = (0.75, 4.0)
 
+
 def use_strips(shape, vertices: int | None, max_error, n_valid: int) -> bool:
     """Whether `greedy_mesh` meshes the image as two strips.
 
@@ -273,7 +274,7 @@ def strip_insert(depth, valid, vertices, span, scales, n_grid, *, max_sum=-1.0, 
     -------
     vr, vc, tv, n_valid_vertices, total
         As `rangemesh.greedy.kernels.greedy_insert`: one mesh, the seam's
-        vertices once.
+        vertices once; `total` includes the seam's own pixels.
     """
     h, w = depth.shape
     sr, sc = scales
@@ -301,16 +302,17 @@ def strip_insert(depth, valid, vertices, span, scales, n_grid, *, max_sum=-1.0, 
     else:
         a = _k.start_insertion(depth, valid, *left, span, size)
         b = _k.start_insertion(depth, valid, *right, span, size)
-    budget = -1.0
-    if max_sum >= 0.0:  # the seam's pixels belong to neither strip: their error comes off
-        budget = max(max_sum - _seam_error(depth[:, m], valid[:, m], rows), 0.0)
+    # the seam's pixels belong to neither strip: their error comes off the bound
+    seam_error = _seam_error(depth[:, m], valid[:, m], rows)
+    budget = max(max_sum - seam_error, 0.0) if max_sum >= 0.0 else -1.0
     if rounds:
         a, b, n_rounds, capped = _rounds(depth, valid, a, b, vertices, target, budget, span, sr,
                                          sc, n_threads)
         if info is not None:
             info.update(rounds=n_rounds, capped=capped)
     a, b = merge_tail(depth, valid, a, b, target, budget, span, sr, sc)
-    return _join(_result(a), _result(b), m, shared)
+    vr, vc, tv, n, total = _join(_result(a), _result(b), m, shared)
+    return vr, vc, tv, n, total + seam_error
 
 
 def _result(state):

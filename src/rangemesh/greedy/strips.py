@@ -98,8 +98,12 @@ def seam_column(valid: np.ndarray) -> int:
 
 
 @njit(cache=True)
-def _seam_kernel(z, ok, k, max_sum):
-    """Rows of `k` valid pixels of a profile, by greedy insertion (see `seam_rows`)."""
+def _seam_kernel(z, ok, k, max_sum, span):
+    """Rows of `k` valid pixels of a profile, by greedy insertion (see `seam_rows`).
+
+    Errors are compared as the 2-D kernel's keys (units of 2**-32 of `span`), so a change of
+    depth unit cannot reorder two pixels by rounding (SPEC P2).
+    """
     h = z.size
     rows_ok = np.nonzero(ok)[0]
     n_ok = rows_ok.size
@@ -112,7 +116,7 @@ def _seam_kernel(z, ok, k, max_sum):
     while n < min(k, n_ok):
         # the worst pixel against the linear profile between chosen neighbours; when every
         # pixel fits, the middle of the longest gap
-        best_err, best_r = -1.0, -1
+        best_key, best_r = -1.0, -1
         long_gap, long_r = 0, -1
         total = 0.0
         a = rows_ok[0]
@@ -126,8 +130,9 @@ def _seam_kernel(z, ok, k, max_sum):
                         zl = z[a] + (z[r] - z[a]) * (j - a) / (r - a)
                         e = abs(z[j] - zl)
                         total += e
-                        if e > best_err:
-                            best_err, best_r = e, j
+                        key = _k._quantize(e, span)
+                        if key > best_key:
+                            best_key, best_r = key, j
                 if r - a > long_gap:
                     mid = (a + r) // 2
                     for d in range(r - a):  # the valid pixel nearest the middle
@@ -140,13 +145,13 @@ def _seam_kernel(z, ok, k, max_sum):
             a = r
         if best_r < 0 or total <= max_sum:
             break
-        chosen[best_r if best_err > 0.0 else long_r] = True
+        chosen[best_r if best_key > 0.0 else long_r] = True
         n += 1
     return np.nonzero(chosen)[0]
 
 
 def seam_rows(depth_col: np.ndarray, valid_col: np.ndarray, k: int,
-              max_sum: float = -1.0) -> np.ndarray:
+              max_sum: float = -1.0, span: float | None = None) -> np.ndarray:
     """Rows of the seam's vertices: about `k` valid pixels of one column, its first and last.
 
     Greedy insertion in one dimension: the pixel farthest from the straight
@@ -155,10 +160,14 @@ def seam_rows(depth_col: np.ndarray, valid_col: np.ndarray, k: int,
     that); once every pixel lies on those lines, the middle of the longest
     gap. The first and last valid pixels are always chosen, so a strip's
     triangles with a background corner never hold valid pixels on the seam.
+    Errors are ranked in units of 2**-32 of `span` (default: the column's own
+    valid depth range), as the 2-D kernel ranks them.
     """
     z = np.ascontiguousarray(depth_col, dtype=np.float64)
     ok = np.ascontiguousarray(valid_col, dtype=np.bool_)
-    return _seam_kernel(z, ok, int(k), float(max_sum))
+    if span is None:
+        span = float(z[ok].max() - z[ok].min()) if ok.any() else 0.0
+    return _seam_kernel(z, ok, int(k), float(max_sum), float(span))
 
 
 @njit(cache=True)
@@ -282,10 +291,11 @@ def strip_insert(depth, valid, vertices, span, scales, n_grid, *, max_sum=-1.0, 
     if max_sum >= 0.0:
         # the count is not known: the seam takes its column's share of the error bound
         col_share = valid[:, m].sum() / max(valid.sum(), 1)
-        rows = seam_rows(depth[:, m], valid[:, m], h, SEAM_ERROR_SHARE * col_share * max_sum)
+        rows = seam_rows(depth[:, m], valid[:, m], h, SEAM_ERROR_SHARE * col_share * max_sum,
+                         span)
     else:
         k = max(2, int(round(SEAM_DENSITY * math.sqrt(vertices * h * sr / (w * sc)))))
-        rows = seam_rows(depth[:, m], valid[:, m], k)
+        rows = seam_rows(depth[:, m], valid[:, m], k, span=span)
     share = m / (w - 1)
     left = first_mesh(depth, valid, int(n_grid * share), scales, cols=(0, m), seam=(rows, m))
     right = first_mesh(depth, valid, int(n_grid * (1 - share)), scales, cols=(m, w - 1),

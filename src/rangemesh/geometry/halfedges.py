@@ -109,37 +109,34 @@ def build_halfedges(faces, n_vertices):
 def count_edges_kernel(faces, n_vertices):
     """Distinct undirected edges of a face list (any orientation, manifold or not).
 
-    Each edge is counted at its smaller endpoint, by scanning the few edges
-    that vertex starts (a CSR table by smaller endpoint).
+    Each edge is counted at its smaller endpoint: the larger endpoints of the
+    edges a vertex starts (a CSR table by smaller endpoint) are counted once
+    each, with a mark per vertex saying which vertex saw it last (one pass:
+    comparing each with the vertex's earlier ones cost 1.6x at 57,000 faces).
     """
     n_t = faces.shape[0]
-    lo = np.zeros(3 * n_t, np.int64)
-    hi = np.zeros(3 * n_t, np.int64)
+    start = np.zeros(n_vertices + 1, np.int64)
+    for t in range(n_t):
+        for k in range(3):
+            start[min(faces[t, k], faces[t, (k + 1) % 3]) + 1] += 1
+    for v in range(n_vertices):
+        start[v + 1] += start[v]
+    fill = start[:-1].copy()
+    other = np.empty(3 * n_t, np.int64)
     for t in range(n_t):
         for k in range(3):
             a = faces[t, k]
             b = faces[t, (k + 1) % 3]
-            lo[3 * t + k] = min(a, b)
-            hi[3 * t + k] = max(a, b)
-    start = np.zeros(n_vertices + 1, np.int64)
-    for e in range(3 * n_t):
-        start[lo[e] + 1] += 1
-    for v in range(n_vertices):
-        start[v + 1] += start[v]
-    fill = start[:-1].copy()
-    other = np.zeros(3 * n_t, np.int64)
-    for e in range(3 * n_t):
-        other[fill[lo[e]]] = hi[e]
-        fill[lo[e]] += 1
+            lo = min(a, b)
+            other[fill[lo]] = max(a, b)
+            fill[lo] += 1
+    mark = np.full(n_vertices, -1, np.int64)
     count = 0
     for v in range(n_vertices):
         for j in range(start[v], start[v + 1]):
-            seen = False
-            for i in range(start[v], j):
-                if other[i] == other[j]:
-                    seen = True
-                    break
-            if not seen:
+            u = other[j]
+            if mark[u] != v:
+                mark[u] = v
                 count += 1
     return count
 

@@ -210,3 +210,31 @@ def test_heap_rekey_keeps_invariant(rng):
         gain[x] = rng.choice([rng.normal(), 0.25, -np.inf])
         heapq_nb.rekey(keys, heap, slot, x, gain[x], n)
         _check_heap(keys, heap, slot, gain)
+
+
+@given(st.lists(st.tuples(st.integers(0, 7), st.integers(0, 7), st.integers(0, 7)), min_size=1,
+                max_size=30))
+def test_count_edges_matches_a_set_of_vertex_pairs(faces):
+    from rangemesh.mesh import count_edges
+
+    # any face list: repeated faces, either orientation, degenerate corners
+    expected = {frozenset((a, b)) for f in faces for a, b in ((f[0], f[1]), (f[1], f[2]),
+                                                             (f[2], f[0]))}
+    assert count_edges(np.array(faces)) == len(expected)
+
+
+def test_valid_faces_by_hand():
+    from rangemesh.geometry.pixels import valid_faces
+
+    # 5 vertices on a 3x3 image whose pixel (0, 2) is background; vertex 3 sits there.
+    # Triangles (0, 1, 2) and (2, 1, 4) keep; (1, 3, 4) has the background vertex.
+    valid = np.ones((3, 3), bool)
+    valid[0, 2] = False
+    vr = np.array([0, 2, 1, 0, 2])
+    vc = np.array([0, 0, 1, 2, 2])
+    tv = np.array([0, 1, 2, 1, 3, 4, 2, 1, 4])
+    faces, pixels = valid_faces(vr, vc, tv, valid)
+    # vertex 3 is used by the dropped triangle only: 0, 1, 2, 4 become 0, 1, 2, 3
+    assert faces.tolist() == [[0, 1, 2], [2, 1, 3]]
+    assert pixels.tolist() == [[0, 0], [2, 0], [1, 1], [2, 2]]
+    assert faces.dtype == np.int32 and pixels.dtype == np.int32

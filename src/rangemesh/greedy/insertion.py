@@ -7,7 +7,7 @@ import time
 import numpy as np
 
 from ..camera import backproject, pixel_aspect
-from ..geometry.pixels import valid_range
+from ..geometry.pixels import valid_faces, valid_range
 from ..geometry.signals import holding_signals
 from ..mesh import Mesh, Stats, count_edges, empty_mesh
 from ..render import relative_error
@@ -87,19 +87,17 @@ def _assemble(vr, vc, tv, depth, valid, camera, walls, jump):
     Returns the vertices (lifted to 3-D with each pixel's depth), faces,
     pixels and the number of walls dropped.
     """
-    faces = tv.reshape(-1, 3)
-    keep = valid[vr[faces], vc[faces]].all(axis=1)
-    faces = faces[keep]
+    faces, pixels = valid_faces(vr, vc, tv, valid)
     n_walls = 0
     if not walls and len(faces):
-        kept, wall = drop_walls(faces, np.stack([vr, vc], axis=1), depth[vr, vc], jump, camera)
-        faces = faces[kept]
+        kept, wall = drop_walls(faces, pixels, depth[pixels[:, 0], pixels[:, 1]], jump, camera)
         n_walls = int(wall.sum())
-    used = np.zeros(len(vr), bool)
-    used[faces.ravel()] = True
-    new_id = np.cumsum(used) - 1
-    faces = new_id[faces].astype(np.int32)
-    pixels = np.stack([vr[used], vc[used]], axis=1).astype(np.int32)
+        if n_walls:
+            faces = faces[kept]
+            used = np.zeros(len(pixels), bool)
+            used[faces.ravel()] = True
+            faces = (np.cumsum(used) - 1)[faces].astype(np.int32)
+            pixels = pixels[used]
     vertices = backproject(pixels[:, 0], pixels[:, 1], depth[pixels[:, 0], pixels[:, 1]], camera)
     return vertices, faces, pixels, n_walls
 

@@ -92,12 +92,9 @@ def _assemble(vr, vc, tv, depth, valid, camera, walls, jump):
     if not walls and len(faces):
         kept, wall = drop_walls(faces, pixels, depth[pixels[:, 0], pixels[:, 1]], jump, camera)
         n_walls = int(wall.sum())
-        if n_walls:
-            faces = faces[kept]
-            used = np.zeros(len(pixels), bool)
-            used[faces.ravel()] = True
-            faces = (np.cumsum(used) - 1)[faces].astype(np.int32)
-            pixels = pixels[used]
+        if n_walls:  # the same pass again: every kept face is valid, so it drops unused vertices
+            faces, pixels = valid_faces(pixels[:, 0].astype(np.int64), pixels[:, 1].astype(np.int64),
+                                        faces[kept].ravel().astype(np.int64), valid)
     vertices = backproject(pixels[:, 0], pixels[:, 1], depth[pixels[:, 0], pixels[:, 1]], camera)
     return vertices, faces, pixels, n_walls
 

@@ -238,3 +238,46 @@ def test_valid_faces_by_hand():
     assert faces.tolist() == [[0, 1, 2], [2, 1, 3]]
     assert pixels.tolist() == [[0, 0], [2, 0], [1, 1], [2, 2]]
     assert faces.dtype == np.int32 and pixels.dtype == np.int32
+
+
+@given(st.integers(0, 2**31), st.integers(1, 40), st.integers(1, 40), st.floats(0.0, 1.0))
+def test_nearest_valid_is_the_brute_force_nearest(seed, h, w, share):
+    # any pixel, not only a corner: nearest by squared distance, then smallest (row, col);
+    # (-1, -1) on an image with no valid pixel
+    from rangemesh.geometry.pixels import nearest_valid
+
+    rng = np.random.default_rng(seed)
+    valid = rng.random((h, w)) < share
+    r, c = int(rng.integers(h)), int(rng.integers(w))
+    rr, cc = np.nonzero(valid)
+    if len(rr) == 0:
+        assert nearest_valid(valid, r, c) == (-1, -1)
+        return
+    d = (rr - r) ** 2 + (cc - c) ** 2
+    j = min(range(len(d)), key=lambda k: (d[k], rr[k], cc[k]))
+    assert nearest_valid(valid, r, c) == (rr[j], cc[j])
+
+
+def test_grid_pixels_by_hand():
+    from rangemesh.geometry.pixels import grid_pixels
+
+    # 10x10, a 2x2 grid: rows and columns int(0.5 * 10 / 2) = 2 and int(1.5 * 10 / 2) = 7,
+    # the corners first; the background pixel (7, 2) is left out
+    valid = np.ones((10, 10), bool)
+    valid[7, 2] = False
+    vr, vc = grid_pixels(valid, 2, 2, 0, 9, False)
+    assert vr.tolist() == [0, 9, 9, 0, 2, 2, 7]
+    assert vc.tolist() == [0, 0, 9, 9, 2, 7, 7]
+    # 3 rows, 4 grid rows: int(k * 3 / 4) for k = 0.5, 1.5, 2.5, 3.5 gives 0, 1, 1, 2, so
+    # rows 0, 1, 2 once each; columns 1..2 of a 3x4 image, 2 grid columns: 1 + int(0.5) = 1
+    # and 1 + int(1.5) = 2. Corners (0, 1), (2, 1), (2, 2), (0, 2) are not repeated.
+    valid = np.ones((3, 4), bool)
+    vr, vc = grid_pixels(valid, 4, 2, 1, 2, False)
+    assert vr.tolist() == [0, 2, 2, 0, 1, 1]
+    assert vc.tolist() == [1, 1, 2, 2, 1, 2]
+    # a strip's inner grid leaves its first and last columns to the seam: nothing is left
+    vr, vc = grid_pixels(valid, 4, 2, 1, 2, True)
+    assert vr.tolist() == [0, 2, 2, 0] and vc.tolist() == [1, 1, 2, 2]
+    # no grid below 2 rows or columns
+    vr, vc = grid_pixels(valid, 1, 5, 0, 3, False)
+    assert vr.tolist() == [0, 2, 2, 0] and vc.tolist() == [0, 0, 3, 3]

@@ -121,3 +121,80 @@ def valid_faces(vr, vc, tv, valid):
             pixels[new_id[i], 0] = vr[i]
             pixels[new_id[i], 1] = vc[i]
     return faces, pixels
+
+
+@njit(cache=True)
+def nearest_valid(valid, r, c):
+    """The valid pixel nearest pixel (r, c), ties to the smallest (row, col); (-1, -1) if none.
+
+    Square windows around (r, c), doubling until the nearest pixel found lies
+    within the window's reach (every pixel outside it is at least as far as
+    its half-width): O(window), not a distance transform of the whole image.
+    Visited row by row, a strictly nearer pixel replaces the best, so the
+    first of equally near ones stays.
+    """
+    h, w = valid.shape
+    k = 8
+    while True:
+        r0, r1 = max(r - k + 1, 0), min(r + k - 1, h - 1)
+        c0, c1 = max(c - k + 1, 0), min(c + k - 1, w - 1)
+        best, br, bc = -1, -1, -1
+        for i in range(r0, r1 + 1):
+            for j in range(c0, c1 + 1):
+                if valid[i, j]:
+                    d = (i - r) * (i - r) + (j - c) * (j - c)
+                    if best < 0 or d < best:
+                        best, br, bc = d, i, j
+        whole = r0 == 0 and c0 == 0 and r1 == h - 1 and c1 == w - 1
+        if (best >= 0 and best < k * k) or whole:
+            return br, bc
+        k *= 2
+
+
+@njit(cache=True)
+def grid_pixels(valid, n_rows, n_cols, c_lo, c_hi, inner):
+    """The corners of columns `c_lo`..`c_hi`, then the valid centres of an `n_rows` x `n_cols` grid.
+
+    Returns ``(rows, cols)``, int64: (0, c_lo), (H-1, c_lo), (H-1, c_hi),
+    (0, c_hi), then row by row the distinct grid pixels ``((i + 0.5) * H /
+    n_rows, c_lo + (j + 0.5) * W / n_cols)`` (truncated; W the strip's width)
+    that are valid and no corner, and with `inner` none on the first or last
+    column either. No grid when `n_rows` or `n_cols` is below 2.
+    """
+    h = valid.shape[0]
+    w = c_hi - c_lo + 1
+    if n_rows < 2 or n_cols < 2:
+        n_rows = n_cols = 0
+    rows = np.empty(n_rows, np.int64)
+    cols = np.empty(n_cols, np.int64)
+    n_r = 0
+    for i in range(n_rows):  # non-decreasing: distinct values are consecutive
+        x = int((i + 0.5) * h / n_rows)
+        if n_r == 0 or x != rows[n_r - 1]:
+            rows[n_r] = x
+            n_r += 1
+    n_c = 0
+    for j in range(n_cols):
+        x = c_lo + int((j + 0.5) * w / n_cols)
+        if n_c == 0 or x != cols[n_c - 1]:
+            cols[n_c] = x
+            n_c += 1
+    vr = np.empty(4 + n_r * n_c, np.int64)
+    vc = np.empty(4 + n_r * n_c, np.int64)
+    vr[0], vr[1], vr[2], vr[3] = 0, h - 1, h - 1, 0
+    vc[0], vc[1], vc[2], vc[3] = c_lo, c_lo, c_hi, c_hi
+    n = 4
+    for i in range(n_r):
+        r = rows[i]
+        for j in range(n_c):
+            c = cols[j]
+            if not valid[r, c]:
+                continue
+            if (r == 0 or r == h - 1) and (c == c_lo or c == c_hi):
+                continue
+            if inner and (c == c_lo or c == c_hi):
+                continue
+            vr[n] = r
+            vc[n] = c
+            n += 1
+    return vr[:n].copy(), vc[:n].copy()

@@ -8,6 +8,7 @@ line through `triangulate`. The method itself lives in `rangemesh.paper`.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 import time
 
@@ -31,6 +32,12 @@ __all__ = ["triangulate", "resolve_params", "prepare", "run", "Workspace", "chec
            "check_call", "default_method"]
 
 
+@functools.lru_cache(maxsize=1)
+def _defaults() -> MeshParams:
+    """`MeshParams()`, built once (it checks every field: 25 us, twice a call before)."""
+    return MeshParams()
+
+
 def resolve_params(params: MeshParams | None, overrides: dict) -> MeshParams:
     """`params` (or the defaults) with keyword overrides applied and checked.
 
@@ -40,7 +47,7 @@ def resolve_params(params: MeshParams | None, overrides: dict) -> MeshParams:
         If `params` is not a `MeshParams` or an override is not one of its fields.
     """
     if params is None:
-        params = MeshParams()
+        params = _defaults()
     elif not isinstance(params, MeshParams):
         raise TypeError(
             f"params must be a rangemesh.MeshParams or None, got {type(params).__name__}"
@@ -165,7 +172,7 @@ def default_method(params: MeshParams, vertices, max_error, overrides) -> str:
         return "paper"
     if set(overrides) - set(REFINE_FIELDS):
         return "paper"
-    defaults = MeshParams()
+    defaults = _defaults()
     for f in dataclasses.fields(MeshParams):
         if f.name not in REFINE_FIELDS and getattr(params, f.name) != getattr(defaults, f.name):
             return "paper"
@@ -313,7 +320,8 @@ def run(image, params: MeshParams, *, background=None, camera=None, vertices=Non
         ref = to_depth_and_mask(image, background) if max_error is not None else None
         mesh, target = greedy_mesh(depth, valid, camera, vertices=vertices, max_error=max_error,
                                    reference=ref, fit=params.heights != "pixel",
-                                   walls=params.walls, jump=params.jump)
+                                   walls=params.walls, jump=params.jump,
+                                   extent=(lo, hi, n_valid))
     elif vertices is not None:
         mesh, target = targets.fit_vertices(depth, valid, params, camera, int(vertices), tiles=tiles)
     elif max_error is not None:

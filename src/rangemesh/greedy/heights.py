@@ -109,7 +109,7 @@ def _direct_solve(ids, block, rhs, h0):
 
 @holding_signals
 def fit_heights(pixels: np.ndarray, faces: np.ndarray, depth: np.ndarray, valid: np.ndarray,
-                camera) -> np.ndarray:
+                camera, *, extent=None) -> np.ndarray:
     """Least-squares vertex depths for a mesh of `depth` with fixed image positions.
 
     Parameters
@@ -122,6 +122,9 @@ def fit_heights(pixels: np.ndarray, faces: np.ndarray, depth: np.ndarray, valid:
         The prepared image: float64 depth in stored units, bool mask.
     camera : Orthographic or Pinhole
         Decides what is interpolated: depth (orthographic) or inverse depth.
+    extent : (float, float, int), optional
+        ``valid_range(depth, valid)`` (`rangemesh.geometry.pixels`) when the
+        caller has it: a pass over the image less.
 
     Returns
     -------
@@ -133,8 +136,11 @@ def fit_heights(pixels: np.ndarray, faces: np.ndarray, depth: np.ndarray, valid:
     pc = np.ascontiguousarray(pixels[:, 1], dtype=np.int64)
     n = len(pr)
     ortho = not isinstance(camera, Pinhole)  # a pinhole's flat triangles are linear in 1/depth
-    with np.errstate(divide="ignore"):
-        image = depth if ortho else 1.0 / depth  # the interpolated quantity
+    if ortho:
+        image = depth  # the interpolated quantity
+    else:
+        with np.errstate(divide="ignore"):
+            image = 1.0 / depth
     h0 = image[pr, pc]
     if not np.isfinite(h0).all():
         raise ValueError("fit_heights: every vertex must sit on a valid pixel")
@@ -143,7 +149,8 @@ def fit_heights(pixels: np.ndarray, faces: np.ndarray, depth: np.ndarray, valid:
         order = face_order(f, pr, pc, depth.shape[0], depth.shape[1], ORDER_TILE)
     else:
         order = np.arange(len(f), dtype=np.int64)
-    resid, ids, block, rhs = empty_buffers(len(f), int(np.count_nonzero(valid)))
+    lo_z, hi_z, n_valid = valid_range(depth, valid) if extent is None else extent
+    resid, ids, block, rhs = empty_buffers(len(f), int(n_valid))
     # a robust sigma of the errors (1.4826 x their median: they centre on 0), from a sample
     # of the pixels (`sample_strides`)
     rows, every = sample_strides(len(f))
@@ -166,7 +173,7 @@ def fit_heights(pixels: np.ndarray, faces: np.ndarray, depth: np.ndarray, valid:
     # LiDAR scan at 500 vertices): no fitted value leaves the range of the valid pixels' values.
     # (In one Numba pass: ``image[valid]`` copied every valid pixel, 0.5 ms at 640x480. The
     # inverse of the largest depth is the smallest inverse exactly: rounding is monotone.)
-    lo, hi, _ = valid_range(depth, valid)
+    lo, hi = lo_z, hi_z
     if not ortho:
         if lo > 0.0:
             lo, hi = 1.0 / hi, 1.0 / lo

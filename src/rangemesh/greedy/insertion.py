@@ -99,13 +99,13 @@ def _assemble(vr, vc, tv, depth, valid, camera, walls, jump):
     return vertices, faces, pixels, n_walls
 
 
-def _fitted(faces, pixels, depth, valid, camera):
+def _fitted(faces, pixels, depth, valid, camera, extent):
     """The vertices with least-squares depths (`fit_heights`), same pixels and faces."""
-    z = fit_heights(pixels, faces, depth, valid, camera)
+    z = fit_heights(pixels, faces, depth, valid, camera, extent=extent)
     return backproject(pixels[:, 0], pixels[:, 1], z, camera)
 
 
-def _bounded(verts, faces, pixels, depth, valid, camera, shape, max_error, ref, fit):
+def _bounded(verts, faces, pixels, depth, valid, camera, shape, max_error, ref, fit, extent):
     """The vertices to keep under `max_error`, and their relative error against `ref`.
 
     With `fit`, fitted depths are tried first: they meet the bound far more
@@ -119,7 +119,7 @@ def _bounded(verts, faces, pixels, depth, valid, camera, shape, max_error, ref, 
 
     if not fit:
         return verts, error(verts)
-    fitted = _fitted(faces, pixels, depth, valid, camera)
+    fitted = _fitted(faces, pixels, depth, valid, camera, extent)
     fitted_error = error(fitted)
     if fitted_error > max_error:
         copied_error = error(verts)
@@ -138,7 +138,7 @@ def _refine(depth, valid, start, strips, asked, max_sum, span, scales, n_grid):
 @holding_signals
 def greedy_mesh(depth: np.ndarray, valid: np.ndarray, camera, *, vertices: int | None = None,
                 max_error: float | None = None, reference=None, fit: bool = True,
-                walls: bool = True, jump: float = 0.05) -> tuple[Mesh, dict]:
+                walls: bool = True, jump: float = 0.05, extent=None) -> tuple[Mesh, dict]:
     """Mesh a prepared image by inserting its worst pixel until a target is met.
 
     Parameters
@@ -167,6 +167,8 @@ def greedy_mesh(depth: np.ndarray, valid: np.ndarray, camera, *, vertices: int |
         vertices remain in use.
     jump : float, default 0.05
         The jump rule's share of the local depth per pixel (``walls=False``).
+    extent : (float, float, int), optional
+        ``valid_range(depth, valid)`` when the caller has it.
 
     Returns
     -------
@@ -185,7 +187,8 @@ def greedy_mesh(depth: np.ndarray, valid: np.ndarray, camera, *, vertices: int |
         raise ValueError(f"greedy insertion needs an image of at least 2x2 pixels, got {h}x{w}")
     t0 = time.perf_counter()
     ref = (depth, valid) if reference is None else reference
-    lo, hi, n_valid = valid_range(depth, valid)
+    extent = valid_range(depth, valid) if extent is None else extent
+    lo, hi, n_valid = extent
     span = hi - lo
     want = n_valid if vertices is None else min(int(vertices), n_valid)
     scales = delaunay_scales(camera, (h, w))
@@ -228,7 +231,7 @@ def greedy_mesh(depth: np.ndarray, valid: np.ndarray, camera, *, vertices: int |
         if max_error is not None and len(faces):
             t = time.perf_counter()
             verts, achieved = _bounded(verts, faces, pixels, depth, valid, camera, (h, w),
-                                       max_error, ref, fit)
+                                       max_error, ref, fit, extent)
             if fit:
                 fit_seconds += time.perf_counter() - t
             if achieved > max_error and asked > got and runs < MAX_RUNS:
@@ -237,7 +240,7 @@ def greedy_mesh(depth: np.ndarray, valid: np.ndarray, camera, *, vertices: int |
         break
     t1 = time.perf_counter()
     if fit and len(faces) and max_error is None:
-        verts = _fitted(faces, pixels, depth, valid, camera)
+        verts = _fitted(faces, pixels, depth, valid, camera, extent)
         fit_seconds += time.perf_counter() - t1
     seconds = {"insertion": time.perf_counter() - t0 - fit_seconds}
     if fit and len(faces):

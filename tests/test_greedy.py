@@ -526,3 +526,15 @@ def test_corner_depths_are_those_of_the_nearest_valid_pixel(seed, h, w, share):
         d = (rr - r) ** 2 + (cc - c) ** 2
         j = min(range(len(d)), key=lambda k: (d[k], rr[k], cc[k]))
         assert got[i] == depth[rr[j], cc[j]]
+
+
+@given(st.lists(st.one_of(st.floats(0, 1e6), st.sampled_from([0.0, 1.0, float("nan")])),
+                min_size=1, max_size=60))
+def test_the_fits_median_is_numpys(values):
+    # the fit takes its errors' median in place of np.median: the same float, NaN included
+    from rangemesh.greedy.heights import median_inplace
+
+    x = np.array(values, dtype=np.float64)
+    want = np.median(x)
+    got = median_inplace(x.copy())
+    assert (np.isnan(want) and np.isnan(got)) or got == want

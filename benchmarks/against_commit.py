@@ -1,0 +1,127 @@
+"""Whole `triangulate` calls of this checkout against those of an earlier commit, side by side.
+
+Run ``python benchmarks/against_commit.py --base COMMIT`` (``--only NAME`` for
+some images, ``--repeat K``). The package as it was at COMMIT is taken from
+git (``git archive``) into a temporary folder and imported under another name,
+so both versions run in one process, call after call: on this shared, noisy
+machine only alternating calls give ratios worth quoting. For every image of
+``../shared/data`` and every synthetic scene, at 1 %, 3 % and 10 % of its valid
+pixels as vertex counts (``method="refine"``, the LiDAR scan with its beams'
+camera, as in ``budgets.py``), it prints both medians, their ratio (this
+checkout / COMMIT) and whether the meshes are the same bit for bit; then the
+medians of the ratios over all cases, the small images (at most 40,000
+pixels) and the others.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import io
+import statistics
+import subprocess
+import sys
+import tarfile
+import tempfile
+import time
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE))
+
+import budgets  # noqa: E402  (the sibling scripts: images, cameras)
+import peers  # noqa: E402
+
+import rangemesh  # noqa: E402
+
+FRACTIONS = (0.01, 0.03, 0.10)
+SMALL_PIXELS = 40_000
+NAME = "rangemesh_at_base"
+
+
+def import_commit(commit: str, folder: Path):
+    """The package as it was at `commit`, imported as `NAME` from `folder`."""
+    tar = subprocess.run(["git", "-C", str(HERE.parent), "archive", commit, "src/rangemesh"],
+                         check=True, capture_output=True).stdout
+    with tarfile.open(fileobj=io.BytesIO(tar)) as t:
+        t.extractall(folder, filter="data")
+    (folder / "src" / "rangemesh").rename(folder / NAME)  # relative imports only: it runs as is
+    sys.path.insert(0, str(folder))
+    return importlib.import_module(NAME)
+
+
+def cameras(image, data, base):
+    """The image's camera (its beams' for the LiDAR scan) in this checkout and in `base`."""
+    cam = budgets.sensor_camera(image, data)
+    if cam is None:
+        return None, None
+    for rel, _, _ in peers.IMAGES:
+        if Path(rel).name == image.name:
+            beams = data / rel.replace(".range.npy", ".beams.json")
+            return cam, base.camera.Spherical.from_beams(beams)
+    raise RuntimeError(f"no beams for {image.name}")
+
+
+def median_ms(fns, repeat):
+    """Medians (ms) of `repeat` alternating calls of each function."""
+    times = [[] for _ in fns]
+    for _ in range(repeat):
+        for i, fn in enumerate(fns):
+            t = time.perf_counter()
+            fn()
+            times[i].append(time.perf_counter() - t)
+    return [1000.0 * statistics.median(t) for t in times]
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--base", required=True, help="the commit to compare with")
+    ap.add_argument("--data", type=Path, default=None, help="the shared data folder")
+    ap.add_argument("--only", action="append", default=[], help="images whose name holds this")
+    ap.add_argument("--repeat", type=int, default=21,
+                    help="alternating calls on small images (a third on larger ones)")
+    args = ap.parse_args(argv)
+    data = peers.find_data(args.data)
+    images, _ = peers.load_images(data, False)
+    images = [im for im in images if not args.only or any(o in im.name for o in args.only)]
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        base = import_commit(args.base, Path(tmp))
+        print(f"| image | budget | vertices | {args.base} ms | now ms | ratio | same mesh |")
+        print("|---|---:|---:|---:|---:|---:|---|")
+        for image in images:
+            cam_now, cam_base = cameras(image, data, base)
+            _, valid = peers.to_depth_and_mask(image.depth, image.background)
+            n_valid = int(valid.sum())
+            small = image.depth.size <= SMALL_PIXELS
+            repeat = args.repeat if small else max(args.repeat // 3, 3)
+            for frac in FRACTIONS:
+                n = max(int(frac * n_valid), 50)
+
+                def old(n=n, image=image, cam=cam_base):
+                    return base.triangulate(image.depth, background=image.background,
+                                            vertices=n, method="refine", camera=cam)
+
+                def new(n=n, image=image, cam=cam_now):
+                    return rangemesh.triangulate(image.depth, background=image.background,
+                                                 vertices=n, method="refine", camera=cam)
+
+                a, b = old(), new()
+                same = (a.faces.shape == b.faces.shape and (a.faces == b.faces).all()
+                        and a.vertices.shape == b.vertices.shape
+                        and (a.vertices == b.vertices).all())
+                ms_old, ms_new = median_ms((old, new), repeat)
+                rows.append((small, ms_new / ms_old))
+                print(f"| {image.name[:30]} | {frac:.0%} | {n} | {ms_old:.2f} | {ms_new:.2f} | "
+                      f"{ms_new / ms_old:.3f} | {'yes' if same else 'NO'} |", flush=True)
+    for label, sel in (("all", rows), ("small images", [r for r in rows if r[0]]),
+                       ("larger images", [r for r in rows if not r[0]])):
+        if sel:
+            ratios = [r for _, r in sel]
+            print(f"{label}: {len(sel)} cases, time now / {args.base} median "
+                  f"{statistics.median(ratios):.3f} ({min(ratios):.3f}-{max(ratios):.3f})")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -76,14 +76,11 @@ def median_ms(fns, repeat):
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--base", required=True, help="the commit to compare with")
-    ap.add_argument("--data", type=Path, default=None, help="the shared data folder")
-    ap.add_argument("--only", action="append", default=[], help="images whose name holds this")
+    peers.add_image_options(ap)
     ap.add_argument("--repeat", type=int, default=21,
                     help="alternating calls on small images (a third on larger ones)")
     args = ap.parse_args(argv)
-    data = peers.find_data(args.data)
-    images, _ = peers.load_images(data, False)
-    images = [im for im in images if not args.only or any(o in im.name for o in args.only)]
+    data, images = peers.selected_images(args)
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         base = import_commit(args.base, Path(tmp))

@@ -106,14 +106,11 @@ def error_flips(tri, he, pr, pc, z, depth, valid, bend):
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--data", type=Path, default=None, help="the shared data folder")
-    ap.add_argument("--only", action="append", default=[], help="images whose name holds this")
+    peers.add_image_options(ap)
     ap.add_argument("--bend", type=float, default=0.0,
                     help="test an edge only when its quad bends by more than this many mean errors")
     args = ap.parse_args(argv)
-    data = peers.find_data(args.data)
-    images, _ = peers.load_images(data, False)
-    images = [im for im in images if not args.only or any(o in im.name for o in args.only)]
+    data, images = peers.selected_images(args)
     ratios = {"error": [], "band": [], "time": []}
     print("| image | budget | vertices | error after / before | edge band | flips | tested | "
           "flips ms | call ms |")

@@ -311,6 +311,20 @@ def find_data(data: Path | None) -> Path | None:
     return data
 
 
+def add_image_options(ap) -> None:
+    """``--data`` and ``--only`` (repeatable) of the scripts that run over the shared images."""
+    ap.add_argument("--data", type=Path, default=None, help="the shared data folder")
+    ap.add_argument("--only", action="append", default=[],
+                    help="images whose name holds this (repeatable)")
+
+
+def selected_images(args) -> tuple[Path | None, list[Image]]:
+    """The data folder and the images (scenes included) that `add_image_options` selected."""
+    data = find_data(args.data)
+    images, _ = load_images(data, False)
+    return data, [im for im in images if not args.only or any(o in im.name for o in args.only)]
+
+
 def load_images(data: Path | None, quick: bool,
                 only: str | None = None) -> tuple[list[Image], list[str]]:
     """Real images that load, then synthetic scenes with exact discontinuities.

@@ -29,19 +29,15 @@ from rangemesh.greedy import strips  # noqa: E402
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--data", type=Path, default=None, help="the shared data folder")
-    ap.add_argument("--only", action="append", default=[], help="images whose name holds this")
+    peers.add_image_options(ap)
     ap.add_argument("--repeat", type=int, default=3)
     args = ap.parse_args(argv)
-    data = peers.find_data(args.data)
-    images, _ = peers.load_images(data, False)
+    data, images = peers.selected_images(args)
     on = strips.STRIP_MIN_VERTICES
     ratios = {"error": [], "band": [], "time": []}
     print("| image | budget | vertices | error | edge band | one strip ms | two strips ms | time |")
     print("|---|---:|---:|---:|---:|---:|---:|---:|")
     for image in images:
-        if args.only and not any(s in image.name for s in args.only):
-            continue
         _, valid = peers.to_depth_and_mask(image.depth, image.background)
         camera = budgets.sensor_camera(image, data)
         for frac in budgets.FRACTIONS:

@@ -65,7 +65,8 @@ def test_max_error_is_met_with_few_vertices_to_spare():
 
     image = np.load(CROPS)["venus"].astype(float)
     # a property of the insertion: vertex depths copied from their pixels, as inserted
-    m = triangulate(image, max_error=1.0, method="refine", heights="pixel")
+    m = triangulate(image, max_error=1.0, method="refine", heights="pixel",
+                    diagonals="delaunay")
     # the same insertions from the same first mesh, one fewer
     depth, valid = rangemesh.pipeline.prepare(image, rangemesh.MeshParams(), None)
     lo, hi, n_valid = valid_range(depth, valid)
@@ -121,7 +122,8 @@ def test_each_vertex_is_the_worst_pixel_of_the_first_ranked_triangle(scene):
     depth = scenes.make(scene, (40, 50), noise=0.3).depth
     previous = None
     for n in range(5, 45):
-        m = triangulate(depth, vertices=n, method="refine", heights="pixel")
+        m = triangulate(depth, vertices=n, method="refine", heights="pixel",
+                        diagonals="delaunay")
         if previous is not None:
             old = {tuple(p) for p in previous.pixels.tolist()}
             new = [tuple(p) for p in m.pixels.tolist() if tuple(p) not in old]
@@ -160,7 +162,7 @@ def _circumcircle_is_empty(mesh, scales=(1, 1)):
 @given(st.integers(0, 2**31), st.integers(8, 30), st.integers(8, 30), st.integers(4, 80))
 def test_fully_valid_images_give_delaunay_meshes(seed, h, w, n):
     depth = np.random.default_rng(seed).uniform(0, 100, (h, w))
-    m = triangulate(depth, vertices=n, method="refine")
+    m = triangulate(depth, vertices=n, method="refine", diagonals="delaunay")
     assert len(m.vertices) == min(n, h * w)
     assert_valid_mesh(m)
     assert _circumcircle_is_empty(m)
@@ -173,7 +175,8 @@ def test_anisotropic_cameras_give_delaunay_meshes_in_their_units(seed, h, w, n, 
     reverse), checked on the scaled integer pixels by the same empty-circle test."""
     kx, ky, scales = camera
     depth = np.random.default_rng(seed).uniform(0, 100, (h, w))
-    m = triangulate(depth, vertices=n, method="refine", camera=rangemesh.Orthographic(kx, ky))
+    m = triangulate(depth, vertices=n, method="refine", camera=rangemesh.Orthographic(kx, ky),
+                    diagonals="delaunay")
     assert len(m.vertices) == min(n, h * w)
     assert_valid_mesh(m)
     assert _circumcircle_is_empty(m, scales)
@@ -302,26 +305,30 @@ def test_command_line_greedy(tmp_path, capsys, target):
     assert "belongs to --method paper" in capsys.readouterr().err
 
 
+@pytest.mark.parametrize("diagonals", ["delaunay", "error"])
 @pytest.mark.parametrize("marker", [0, 65535, np.nan])
-def test_p1_background_marker_invariance(marker):
+def test_p1_background_marker_invariance(marker, diagonals):
     """SPEC P1 for greedy insertion: 0, 65535 or NaN as the background marker, one mesh."""
     sc = scenes.make("box", (50, 60), noise=0.3)
     depth = sc.depth.copy()
     holes = np.random.default_rng(3).random(depth.shape) < 0.1
     holes[:8, :8] = True  # a background corner
-    ref = triangulate(np.where(holes, np.nan, depth), vertices=400, method="refine")
+    ref = triangulate(np.where(holes, np.nan, depth), vertices=400, method="refine",
+                      diagonals=diagonals)
     img = np.where(holes, marker, depth)
     m = triangulate(img, background=None if marker != marker else marker, vertices=400,
-                    method="refine")
+                    method="refine", diagonals=diagonals)
     assert np.array_equal(m.pixels, ref.pixels) and np.array_equal(m.faces, ref.faces)
 
 
+@pytest.mark.parametrize("diagonals", ["delaunay", "error"])
 @pytest.mark.parametrize("s", [2.0**-7, 2.0**9, 10.0, 0.001])
-def test_p2_unit_invariance(s):
+def test_p2_unit_invariance(s, diagonals):
     """SPEC P2 for greedy insertion: depth times s with kz divided by s, the same mesh."""
     depth = np.load(CROPS)["chair"].astype(float)
-    a = triangulate(depth, background=0, vertices=700, method="refine")
-    b = triangulate(depth * s, background=0, vertices=700, method="refine", camera=(1, 1, 1 / s))
+    a = triangulate(depth, background=0, vertices=700, method="refine", diagonals=diagonals)
+    b = triangulate(depth * s, background=0, vertices=700, method="refine", camera=(1, 1, 1 / s),
+                    diagonals=diagonals)
     assert np.array_equal(a.pixels, b.pixels) and np.array_equal(a.faces, b.faces)
     np.testing.assert_allclose(a.vertices, b.vertices, rtol=1e-12)
 

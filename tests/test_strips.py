@@ -140,6 +140,7 @@ def _strip_mesh(image, background, n, **kw):
 
 
 def _check_seam(mesh, valid):
+    """The insertion's own mesh (with ``diagonals='error'`` the flips that follow may cross)."""
     m = strips.seam_column(valid)
     cols = mesh.pixels[mesh.faces, 1]
     # no triangle crosses the seam column
@@ -160,9 +161,12 @@ def test_strip_meshes_are_valid_and_exact(kind, noise, seed, n, hole):
         image[0, 30:40] = 0.0
     depth, valid = rangemesh.fill_gaps(*rangemesh.to_depth_and_mask(image, background))
     n = min(n, int(valid.sum()) // 2)  # strips take at most half the pixels (`use_strips`)
+    flipped = _strip_mesh(image, background, n, diagonals="error")  # one mesh, flipped
+    assert_valid_mesh(flipped, valid)
+    assert len(flipped.vertices) == n
     mesh = _strip_mesh(image, background, n)
     assert_valid_mesh(mesh, valid)
-    assert len(mesh.vertices) == n
+    assert np.array_equal(mesh.pixels, flipped.pixels)
     m = _check_seam(mesh, valid)
     # the seam's first and last valid pixels are vertices: nothing on it is left uncovered
     on_seam = np.nonzero(valid[:, m])[0]
@@ -226,8 +230,9 @@ def test_fit_on_two_threads_is_the_fit_on_one(shared_data):
     assert not np.array_equal(two, d[mesh.pixels[:, 0], mesh.pixels[:, 1]])
 
 
+@pytest.mark.parametrize("diagonals", ["delaunay", "error"])
 @pytest.mark.parametrize("s", [0.001, 1 / 3.0, 7.3])
-def test_p1_p2_on_strips(shared_data, s):
+def test_p1_p2_on_strips(shared_data, s, diagonals):
     """SPEC P1 and P2 with two strips: another background marker, another depth unit, one mesh.
 
     (The seam's rows ranked by raw errors broke P2 at 3000 vertices on this frame: near-ties
@@ -235,10 +240,11 @@ def test_p1_p2_on_strips(shared_data, s):
     """
     image = load(shared_data, "rgbd/open3d_NYU_depth.raw.npy").astype(float)
     nan = np.where(image == 2047, np.nan, image)
-    ref = triangulate(image, background=2047, vertices=3000, method="refine")
+    ref = triangulate(image, background=2047, vertices=3000, method="refine", diagonals=diagonals)
     assert strips.use_strips(image.shape, 3000, None, int(np.isfinite(nan).sum()))
-    a = triangulate(nan, vertices=3000, method="refine")
-    b = triangulate(nan * s, vertices=3000, method="refine", camera=(1, 1, 1 / s))
+    a = triangulate(nan, vertices=3000, method="refine", diagonals=diagonals)
+    b = triangulate(nan * s, vertices=3000, method="refine", camera=(1, 1, 1 / s),
+                    diagonals=diagonals)
     for m in (a, b):
         assert np.array_equal(m.pixels, ref.pixels) and np.array_equal(m.faces, ref.faces)
     np.testing.assert_allclose(b.vertices, ref.vertices, rtol=1e-9)

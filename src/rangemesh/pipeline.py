@@ -215,6 +215,9 @@ def _check_method(method, params: MeshParams, vertices, max_error, overrides) ->
     elif params.heights == "fit":
         raise ValueError("heights='fit' belongs to method='refine'; the paper's method copies "
                          "each vertex's depth from its pixel")
+    elif params.diagonals is not None:
+        raise ValueError(f"diagonals={params.diagonals!r} belongs to method='refine'; the "
+                         f"paper's method chooses its diagonals with flips=")
     elif not params.walls or "jump" in overrides:
         raise ValueError("walls=False and jump belong to method='refine'")
 
@@ -242,7 +245,7 @@ METHODS = ("paper", "refine")
 # how vertices are chosen, not what the method does; it is still accepted and means "refine".
 ALIASES = {"greedy": "refine"}
 # the MeshParams fields method="refine" reads
-REFINE_FIELDS = ("fill_gaps", "workers", "heights", "walls", "jump", "wrap")
+REFINE_FIELDS = ("fill_gaps", "workers", "heights", "diagonals", "walls", "jump", "wrap")
 
 
 def wraps(params: MeshParams, camera) -> bool:
@@ -320,6 +323,7 @@ def run(image, params: MeshParams, *, background=None, camera=None, vertices=Non
         ref = to_depth_and_mask(image, background) if max_error is not None else None
         mesh, target = greedy_mesh(depth, valid, camera, vertices=vertices, max_error=max_error,
                                    reference=ref, fit=params.heights != "pixel",
+                                   diagonals=params.diagonals or "delaunay",
                                    walls=params.walls, jump=params.jump,
                                    extent=(lo, hi, n_valid))
     elif vertices is not None:
@@ -383,10 +387,12 @@ def triangulate(image, params: MeshParams | None = None, *, background=None, cam
         insertion (`rangemesh.greedy`): the pixel whose triangle ranks
         highest by its errors becomes a vertex, until exactly `vertices`
         vertices or a relative error of `max_error` is reached, in one
-        pass; jumps keep vertices on both sides. Needs one target and
-        takes only ``fill_gaps``, ``heights``, ``walls``, ``jump`` and ``wrap`` of the
-        parameters (vertex depths are fitted by least squares unless
-        ``heights='pixel'``; ``walls=False`` drops the triangles across jumps).
+        pass; jumps keep vertices on both sides. Needs one target and takes
+        only ``fill_gaps``, ``heights``, ``diagonals``, ``walls``, ``jump``
+        and ``wrap`` of the parameters (vertex depths are fitted by least
+        squares unless ``heights='pixel'``; ``diagonals='error'`` gives
+        each quad the diagonal that fits its pixels better; ``walls=False``
+        drops the triangles across jumps).
         ``'paper'``: Garcia & Sappa's pipeline with every parameter below,
         the meshes it has always given. Default (`default_method`):
         ``'refine'`` with a target and no parameter of the paper's method,

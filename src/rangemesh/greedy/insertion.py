@@ -13,6 +13,7 @@ from ..geometry.signals import holding_signals
 from ..mesh import Mesh, Stats, empty_mesh
 from ..render import relative_error
 from . import kernels as _k
+from .diagonals import error_flips, flip_by_error
 from .heights import fit_heights
 from .start import corner_depths, first_mesh
 from .strips import strip_insert, use_strips
@@ -134,17 +135,31 @@ def _bounded(faces, pixels, depth, valid, camera, shape, max_error, ref, fit, ex
     return fitted, fitted_error
 
 
-def _refine(depth, valid, start, strips, asked, max_sum, span, scales, n_grid):
-    """``vr, vc, tv`` of greedy insertion, on one strip or two (`strip_insert`)."""
+def _refine(depth, valid, start, strips, asked, max_sum, span, scales, n_grid, diagonals):
+    """``vr, vc, tv`` of greedy insertion, on one strip or two (`strip_insert`).
+
+    With ``diagonals='error'`` each quad then takes the diagonal that fits
+    its pixels better (`rangemesh.greedy.diagonals.error_flips`).
+    """
     if strips:  # two strips on two threads (`rangemesh.greedy.strips`)
-        return strip_insert(depth, valid, asked, span, scales, n_grid, max_sum=max_sum)[:3]
-    return _k.greedy_insert(depth, valid, *start, asked, max_sum, span, *scales)[:3]
+        vr, vc, tv = strip_insert(depth, valid, asked, span, scales, n_grid, max_sum=max_sum)[:3]
+        if diagonals == "error":  # (the seam's triangles are measured again: one mesh now)
+            tv = error_flips(vr, vc, tv, depth, valid, span)[0]
+        return vr, vc, tv
+    if diagonals != "error":
+        return _k.greedy_insert(depth, valid, *start, asked, max_sum, span, *scales)[:3]
+    # the insertion's own half-edges and triangle sums: no second pass over the pixels
+    vr, vc, tv, he, tsum = _k.greedy_insert_sums(depth, valid, *start, asked, max_sum, span,
+                                                 *scales)
+    flip_by_error(vr, vc, tv, he, tsum, depth, valid, span)
+    return vr, vc, tv
 
 
 @holding_signals
 def greedy_mesh(depth: np.ndarray, valid: np.ndarray, camera, *, vertices: int | None = None,
                 max_error: float | None = None, reference=None, fit: bool = True,
-                walls: bool = True, jump: float = 0.05, extent=None) -> tuple[Mesh, dict]:
+                diagonals: str = "delaunay", walls: bool = True, jump: float = 0.05,
+                extent=None) -> tuple[Mesh, dict]:
     """Mesh a prepared image by inserting its worst pixel until a target is met.
 
     Parameters
@@ -167,6 +182,11 @@ def greedy_mesh(depth: np.ndarray, valid: np.ndarray, camera, *, vertices: int |
         Fit the vertex depths by least squares (`fit_heights`) once the
         triangulation is chosen; else copy each from its pixel. With
         `max_error`, fitted depths are kept only when they meet the bound.
+    diagonals : {'delaunay', 'error'}, default 'delaunay'
+        ``'error'``: once the vertices are chosen, flip each edge whose two
+        triangles fit their pixels better the other way
+        (`rangemesh.greedy.diagonals`); ``'delaunay'``: keep the Delaunay
+        mesh of the insertion.
     walls : bool, default True
         Keep the triangles across depth jumps; ``False`` drops them
         (`rangemesh.greedy.walls`), and insertion goes on until `vertices`
@@ -211,7 +231,7 @@ def greedy_mesh(depth: np.ndarray, valid: np.ndarray, camera, *, vertices: int |
     while True:
         runs += 1
         vr, vc, tv = _refine(depth, valid, start, strips, asked, max_sum, float(span), scales,
-                             n_grid)
+                             n_grid, diagonals)
         faces, pixels, n_walls = _assemble(vr, vc, tv, depth, valid, camera, walls, jump)
         got = len(pixels)
         if vertices is not None:

@@ -739,6 +739,25 @@ def greedy_insert(depth, valid, vr0, vc0, vz0, tv0, he0, max_vertices, max_sum, 
 
 
 @njit(cache=True)
+def greedy_insert_sums(depth, valid, vr0, vc0, vz0, tv0, he0, max_vertices, max_sum, span, sr=1,
+                       sc=1):
+    """`greedy_insert`, also returning each triangle's twin half-edges and error sum.
+
+    Returns ``vr, vc, tv, he, tsum``: `tsum` is the sum of |depth - plane|
+    over the pixels each triangle owns (0 for a triangle with a background
+    corner, and for one keyed without a scan as an exact fit), for
+    `rangemesh.greedy.diagonals.flip_by_error`.
+    """
+    state = start_insertion(depth, valid, vr0, vc0, vz0, tv0, he0, span,
+                            max_vertices if max_sum < 0.0 else 0)
+    state = advance(depth, valid, state, max_vertices, max_sum, -np.inf, span, sr, sc)
+    counts = state[17]
+    n_v, n_t = counts[0], counts[1]
+    return (state[0][:n_v].copy(), state[1][:n_v].copy(), state[4][: 3 * n_t].copy(),
+            state[5][: 3 * n_t].copy(), state[9][:n_t].copy())
+
+
+@njit(cache=True)
 def result(state):
     """``vr, vc, tv, n_valid_vertices, total`` of a state, as `greedy_insert` returns them."""
     counts = state[17]

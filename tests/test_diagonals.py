@@ -1,0 +1,209 @@
+"""Diagonals chosen by the data (`rangemesh.greedy.diagonals`, ``diagonals='error'``).
+
+Expected values: a hand-made valley whose two planes one diagonal fits
+exactly, pixel sums against a brute-force barycentric sum in NumPy, and the
+error of the meshes as `evaluate` renders them (another rasteriser).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import rangemesh
+from rangemesh import evaluate, triangulate
+from rangemesh.geometry.pixels import valid_range
+from rangemesh.greedy import insertion, kernels
+from rangemesh.greedy.diagonals import error_flips, flip_by_error, triangle_error
+
+from .helpers import assert_valid_mesh
+
+CROPS = Path(__file__).parent / "data" / "crops.npz"
+
+
+def _orient(a, b, p):
+    return (b[0] - a[0]) * (p[..., 1] - a[1]) - (b[1] - a[1]) * (p[..., 0] - a[0])
+
+
+def _brute_sum(corners, z, own, depth, valid):
+    """|depth - plane| summed over the pixels inside ABC or on an owned edge, in NumPy."""
+    a, b, c = (np.asarray(p) for p in corners)
+    rr, cc = np.mgrid[: depth.shape[0], : depth.shape[1]]
+    p = np.stack([rr, cc], axis=-1)
+    w = [_orient(a, b, p), _orient(b, c, p), _orient(c, a, p)]  # AB, BC, CA
+    inside = valid.copy()
+    for wk, ok in zip(w, own, strict=True):
+        inside &= (wk > 0) | ((wk == 0) & ok)
+    # the plane through the corners, solved independently of the kernel's weights
+    coef = np.linalg.solve(np.c_[np.array([a, b, c], float), np.ones(3)], np.asarray(z, float))
+    plane = coef[0] * rr + coef[1] * cc + coef[2]
+    return float(np.abs(depth - plane)[inside].sum())
+
+
+@given(st.integers(0, 2**31), st.lists(st.integers(0, 11), min_size=6, max_size=6),
+       st.lists(st.booleans(), min_size=3, max_size=3))
+def test_triangle_error_is_the_sum_over_its_pixels(seed, coords, own):
+    rng = np.random.default_rng(seed)
+    a, b, c = (coords[0], coords[1]), (coords[2], coords[3]), (coords[4], coords[5])
+    area = _orient(np.array(a), np.array(b), np.array(c))
+    if area == 0:
+        return
+    if area < 0:
+        b, c = c, b
+    depth = rng.uniform(0, 10, (12, 12))
+    valid = rng.uniform(size=(12, 12)) > 0.2
+    z = rng.uniform(0, 10, 3)
+    got = triangle_error(*a, z[0], *b, z[1], *c, z[2], *own, depth, valid)
+    assert got == pytest.approx(_brute_sum((a, b, c), z, own, depth, valid), rel=1e-9, abs=1e-9)
+
+
+def _square(depth, diagonal):
+    """The image's four corners as a mesh of two triangles cut along `diagonal`."""
+    h, w = depth.shape
+    vr = np.array([0, h - 1, h - 1, 0], np.int64)
+    vc = np.array([0, 0, w - 1, w - 1], np.int64)
+    # corners 0 (0,0), 1 (H-1,0), 2 (H-1,W-1), 3 (0,W-1); counter-clockwise in (row, column)
+    tv = {"main": [0, 1, 2, 0, 2, 3], "anti": [0, 1, 3, 1, 2, 3]}[diagonal]
+    return vr, vc, np.array(tv, np.int64)
+
+
+def test_a_valley_along_the_other_diagonal_is_flipped_onto_it():
+    # z = |r - c|: two planes meeting along the main diagonal (0,0)-(4,4). Cut along the
+    # anti-diagonal, the two triangles miss the valley (the pixel (2,2) is off by 4); cut
+    # along the main one, each triangle lies on one plane and every pixel fits exactly.
+    r, c = np.mgrid[:5, :5]
+    depth = np.abs(r - c).astype(float)
+    valid = np.ones_like(depth, bool)
+    vr, vc, tv = _square(depth, "anti")
+    tri, flips, tests = error_flips(vr, vc, tv, depth, valid, 4.0)
+    assert (flips, tests) == (1, 1)
+    assert sorted(map(sorted, tri.reshape(-1, 3).tolist())) == [[0, 1, 2], [0, 2, 3]]
+    # and the right diagonal stays
+    vr, vc, tv = _square(depth, "main")
+    tri, flips, tests = error_flips(vr, vc, tv, depth, valid, 4.0)
+    assert flips == 0 and np.array_equal(tri, tv)
+
+
+def test_a_plane_is_never_flipped():
+    r, c = np.mgrid[:6, :7]
+    depth = 2.0 * r - 0.5 * c + 3.0
+    valid = np.ones_like(depth, bool)
+    for diagonal in ("main", "anti"):
+        vr, vc, tv = _square(depth, diagonal)
+        tri, flips, tests = error_flips(vr, vc, tv, depth, valid, float(np.ptp(depth)))
+        assert flips == tests == 0 and np.array_equal(tri, tv)
+
+
+def test_a_quad_with_a_background_corner_is_never_flipped():
+    r, c = np.mgrid[:5, :5]
+    depth = np.abs(r - c).astype(float)
+    valid = np.ones_like(depth, bool)
+    valid[4, 0] = False  # corner 1: the valley's flip would be taken otherwise (test above)
+    vr, vc, tv = _square(depth, "anti")
+    tri, flips, tests = error_flips(vr, vc, tv, depth, valid, 4.0)
+    assert flips == tests == 0 and np.array_equal(tri, tv)
+
+
+@pytest.mark.parametrize("name", ["chair", "venus", "tum", "nyu"])
+@pytest.mark.parametrize("n", [60, 600])
+def test_the_insertions_sums_give_the_flips_of_a_fresh_count(name, n):
+    """`flip_by_error` on the kernel's own half-edges and sums == `error_flips` from scratch."""
+    image = np.load(CROPS)[name].astype(float)
+    background = {"chair": 0, "venus": None, "tum": 0, "nyu": 2047}[name]
+    depth, valid = rangemesh.pipeline.prepare(image, rangemesh.MeshParams(), background)
+    lo, hi, n_valid = valid_range(depth, valid)
+    start = insertion.first_mesh(depth, valid, insertion.grid_size(n, n_valid, False))
+    vr, vc, tv, he, tsum = kernels.greedy_insert_sums(depth, valid, *start, n, -1.0, hi - lo)
+    fresh, flips, _ = error_flips(vr, vc, tv, depth, valid, hi - lo)
+    assert flips > 0  # (else the comparison below says nothing)
+    flip_by_error(vr, vc, tv, he, tsum, depth, valid, hi - lo)
+    assert np.array_equal(tv, fresh)
+
+
+def _errors(image, background=None, **kw):
+    """Both meshes, each with its `evaluate` against the image the flips see (gaps filled)."""
+    depth, valid = rangemesh.fill_gaps(*rangemesh.to_depth_and_mask(image, background))
+    seen = np.where(valid, depth, np.nan)
+    out = {}
+    for diagonals in ("delaunay", "error"):
+        m = triangulate(image, background=background, method="refine", heights="pixel",
+                        diagonals=diagonals, **kw)
+        out[diagonals] = (m, evaluate(m, seen))
+    return out
+
+
+@settings(max_examples=30, deadline=None)
+@given(st.integers(0, 2**31), st.integers(6, 28), st.integers(6, 28), st.integers(4, 60),
+       st.floats(0.0, 0.5))
+def test_flips_never_raise_the_error_and_keep_the_mesh_valid(seed, h, w, n, holes):
+    """Each flip lowers the two triangles' summed error: the whole mesh's can only drop.
+
+    Measured by `evaluate` (a render of the mesh), copied depths as in the flips' test,
+    on images with background holes; the flipped mesh has the same vertices and covers
+    the same pixels.
+    """
+    rng = np.random.default_rng(seed)
+    r, c = np.mgrid[:h, :w]
+    image = np.abs(r - 0.7 * c + rng.uniform(-3, 3)) + rng.normal(0, 0.3, (h, w)) + 5.0
+    image[rng.uniform(size=(h, w)) < holes] = 0.0
+    if (image > 0).sum() < 4:
+        return
+    out = _errors(image, background=0.0, vertices=n)
+    (md, ed), (mf, ef) = out["delaunay"], out["error"]
+    assert_valid_mesh(mf, rangemesh.fill_gaps(*rangemesh.to_depth_and_mask(image, 0.0))[1])
+    assert np.array_equal(md.pixels, mf.pixels)
+    assert ef.relative_error <= ed.relative_error * (1 + 1e-9) + 1e-12
+    assert ef.uncovered == pytest.approx(ed.uncovered)
+
+
+@pytest.mark.parametrize("name", ["chair", "venus", "cones", "tum", "nyu", "mug"])
+def test_flips_lower_the_error_on_real_crops(name):
+    """Copied depths: never higher (each flip lowers it); on these crops, by at least 1 %."""
+    background = {"chair": 0, "venus": None, "cones": 0, "tum": 0, "nyu": 2047,
+                  "mug": None}[name]
+    image = np.load(CROPS)[name].astype(float)
+    out = _errors(image, background=background, vertices=300)
+    assert out["error"][1].relative_error < 0.99 * out["delaunay"][1].relative_error
+
+
+def test_delaunay_keeps_the_insertions_mesh():
+    """``diagonals='delaunay'``: the faces of greedy insertion itself (no flip)."""
+    image = np.load(CROPS)["venus"].astype(float)
+    m = triangulate(image, vertices=200, diagonals="delaunay", heights="pixel")
+    depth, valid = rangemesh.pipeline.prepare(image, rangemesh.MeshParams(), None)
+    lo, hi, n_valid = valid_range(depth, valid)
+    start = insertion.first_mesh(depth, valid, insertion.grid_size(200, n_valid, False))
+    vr, vc, tv, _, _ = kernels.greedy_insert(depth, valid, *start, 200, -1.0, hi - lo)
+    assert np.array_equal(m.faces, tv.reshape(-1, 3))  # venus is all valid: no renumbering
+
+
+def test_diagonals_belongs_to_refine():
+    image = np.load(CROPS)["venus"].astype(float)
+    with pytest.raises(ValueError, match="diagonals"):
+        triangulate(image, method="paper", diagonals="error")
+    with pytest.raises(ValueError, match="diagonals must be one of"):
+        triangulate(image, vertices=50, diagonals="round")
+    # given alone, it picks method='refine' as the other refine fields do
+    m = triangulate(image, vertices=50, diagonals="delaunay")
+    assert m.stats.vertices == 50
+
+
+def test_command_line_diagonals(tmp_path, capsys):
+    from rangemesh.cli import main
+
+    image = np.load(CROPS)["venus"]
+    src = tmp_path / "venus.npy"
+    np.save(src, image)
+    assert main(["mesh", str(src), "--vertices", "300", "--diagonals", "error", "--heights",
+                 "pixel", "-o", str(tmp_path / "e.ply")]) == 0
+    m = rangemesh.read_mesh(tmp_path / "e.ply")
+    ref = triangulate(image.astype(float), vertices=300, diagonals="error", heights="pixel")
+    assert np.array_equal(np.sort(np.sort(m.faces, axis=1), axis=0),
+                          np.sort(np.sort(ref.faces, axis=1), axis=0))
+    capsys.readouterr()
+    assert main(["mesh", str(src), "--method", "paper", "--diagonals", "error"]) == 2
+    assert "--diagonals belongs to --method refine" in capsys.readouterr().err

@@ -21,6 +21,9 @@ against pydelatin (target <= 1.0). Times are medians of ``--repeat`` calls in
 one process, measured side by side (the peers' hole filling, grid building
 and count search are not timed, as in ``benchmarks/peers.py``).
 
+With ``--diagonals error`` rangemesh's meshes take the diagonal that fits each quad's
+pixels better (`rangemesh.greedy.diagonals`) in both variants and in the bound checks.
+
 A second table checks ``max_error=E`` (E = 1 % and 0.3 %) on every image:
 whether the bound holds, and its time against one ``vertices=N`` call at the
 count it landed on (target <= 2).
@@ -55,7 +58,9 @@ def sensor_camera(image, data):
     return None
 
 
-def run(images, repeat, data=None, log=print):
+def run(images, repeat, data=None, log=print, extra=None):
+    """One row of figures per image and budget; `extra` goes to every rangemesh call."""
+    extra = extra or {}
     rows = []
     for image in images:
         masked, valid = peers.to_depth_and_mask(image.depth, image.background)
@@ -66,7 +71,7 @@ def run(images, repeat, data=None, log=print):
             for label, opts in VARIANTS:
                 mesh, ms = peers._timed(lambda opts=opts, image=image, n=n, camera=camera: triangulate(
                     image.depth, background=image.background, vertices=n, method="refine",
-                    camera=camera, **opts), repeat)
+                    camera=camera, **opts, **extra), repeat)
                 got[label] = peers._record(image, f"{frac:.0%}", label, mesh, ms, valid)
             n_mine = max(got[MINE]["vertices"], 4)
             for label, fn in (("pydelatin", peers.peer_delatin),
@@ -88,20 +93,23 @@ def run(images, repeat, data=None, log=print):
 EXACT = 1e-4
 
 
-def error_bounds(images, repeat, data=None, log=print):
+def error_bounds(images, repeat, data=None, log=print, extra=None):
     """max_error=E on every image: bound held, meshings, time against vertices=N at its count."""
     from rangemesh.metrics import evaluate
 
+    extra = extra or {}
     rows = []
     for image in images:
         camera = sensor_camera(image, data)
         for bound in (1.0, 0.3):
             mesh, ms = peers._timed(lambda image=image, bound=bound, camera=camera: triangulate(
-                image.depth, background=image.background, max_error=bound, camera=camera),
+                image.depth, background=image.background, max_error=bound, camera=camera,
+                **extra),
                 repeat)
             n = len(mesh.vertices)
             _, ms_n = peers._timed(lambda image=image, n=n, camera=camera: triangulate(
-                image.depth, background=image.background, vertices=n, camera=camera), repeat)
+                image.depth, background=image.background, vertices=n, camera=camera, **extra),
+                repeat)
             err = evaluate(mesh, image.depth, background=image.background).relative_error
             rows.append((image.name, bound, n, err, mesh.stats.target["meshings"], ms, ms_n))
             log(f"{image.name[:30]:30s} max_error {bound}: {n} vertices, error {err:.3f} % "
@@ -139,19 +147,22 @@ def main(argv=None) -> int:
     ap.add_argument("--repeat", type=int, default=3, help="timed calls per case (default 3)")
     ap.add_argument("--only", default=None, metavar="TEXT",
                     help="only the inputs whose name contains TEXT (e.g. rellis3d)")
+    ap.add_argument("--diagonals", choices=["delaunay", "error"], default=None,
+                    help="rangemesh's diagonals (default: the library's, delaunay)")
     args = ap.parse_args(argv)
+    extra = {} if args.diagonals is None else {"diagonals": args.diagonals}
     data = peers.find_data(args.data)
     images, missing = peers.load_images(data, args.quick, args.only)
     for m in missing:
         print(f"skipped: {m}", file=sys.stderr)
-    rows = run(images, args.repeat, data)
+    rows = run(images, args.repeat, data, extra=extra)
     print("\n| budget | cases | error / quadric | fitted / pixel depths | edge band / pydelatin "
           "| time / pydelatin | worst uncovered % |")
     print("|---|---:|---:|---:|---:|---:|---:|")
     for frac, n, err, fit, band, ms, worst in summary(rows):
         name = "all" if frac is None else f"{frac:.0%} of valid pixels"
         print(f"| {name} | {n} | {err:.2f} | {fit:.2f} | {band:.2f} | {ms:.2f} | {worst:.2f} |")
-    bounds = error_bounds(images, args.repeat, data)
+    bounds = error_bounds(images, args.repeat, data, extra=extra)
     held = sum(err <= bound for _, bound, _, err, *_ in bounds)
     times = [ms / ms_n for *_, ms, ms_n in bounds]
     print(f"\nmax_error: the bound held on {held} of {len(bounds)} cases; meshings at most "

@@ -97,7 +97,7 @@ class MeshParams:
         sensor's units, `rangemesh.greedy.insertion.delaunay_scales`).
         ``None``: ``'delaunay'`` for ``method='refine'``; the paper's
         method chooses its diagonals with `flips`. ``'error'`` lowers the
-        mean error by a median 8 % and the error near jumps by 13 %, at
+        mean error by a median 7 % and the error near jumps by 13 %, at
         about 1.3x the time (``benchmarks/diagonals.py``).
     walls : bool, default True
         Keep the triangles that bridge a depth jump ("walls"). ``False``

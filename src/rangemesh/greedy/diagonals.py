@@ -25,8 +25,13 @@ four outer edges of its quad are tested again, until no flip lowers the sum.
 * Every flip lowers the total strictly, so the flips end; at most
   `MAX_TESTS_PER_EDGE` tests an edge bound the time all the same.
 
-Measured with ``benchmarks/diagonals.py`` (see the module's docstring for the
-figures): what the flips gain over the Delaunay mesh and what they cost.
+Measured with ``benchmarks/diagonals.py`` (69 cases: every shared image and
+scene at 1, 3 and 10 % of its valid pixels, fitted depths after): medians of
+0.93x the mean error and 0.87x the error within 2 px of jumps of the Delaunay
+mesh, at 1.33x the whole call's time (the flips test most edges once, two
+triangles rasterised a test: about half the insertion's work). Testing only
+quads with more than the mean error per pixel saved 28 % of the flips' time
+and gave back a quarter of the gain: not kept.
 """
 
 import numpy as np

@@ -54,6 +54,10 @@ def triangle_error(ar, ac, az, br, bc, bz, cr, cc, cz, own0, own1, own2, depth, 
     The pixels are those `rangemesh.greedy.kernels._scan` visits: inside, or
     on an edge whose flag (`own0` for AB, `own1` for BC, `own2` for CA) is
     True; the plane goes through the corners' depths `az`, `bz`, `cz`.
+
+    The row loop of `_scan` without its worst pixel, in the same arithmetic and
+    order: its sums equal the kernel's `tsum` bit for bit (tested), so cached and
+    fresh sums compare. (Calling `_scan` would track a worst pixel nobody reads.)
     """
     area = orient(ar, ac, br, bc, cr, cc)
     inv = 1.0 / area

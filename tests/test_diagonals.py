@@ -207,3 +207,11 @@ def test_command_line_diagonals(tmp_path, capsys):
     capsys.readouterr()
     assert main(["mesh", str(src), "--method", "paper", "--diagonals", "error"]) == 2
     assert "--diagonals belongs to --method refine" in capsys.readouterr().err
+
+
+def test_greedy_mesh_refuses_an_unknown_choice():
+    from rangemesh.greedy import greedy_mesh
+
+    depth = np.ones((8, 8))
+    with pytest.raises(ValueError, match="diagonals must be"):
+        greedy_mesh(depth, depth > 0, rangemesh.Orthographic(), vertices=10, diagonals="Error")

@@ -325,11 +325,10 @@ def _cold_cache(method: str = "paper") -> bool:
     import os
 
     if method == "refine":
-        from .greedy.diagonals import flip_by_error
         from .greedy.heights_kernels import fit_pass
-        from .greedy.kernels import greedy_insert_sums
+        from .greedy.kernels import greedy_insert
 
-        kernels = (greedy_insert_sums, flip_by_error, fit_pass)
+        kernels = (greedy_insert, fit_pass)  # the default path (diagonals='delaunay')
     else:
         from .geometry.delaunay import sweep_insert
         from .paper.flipping_kernels import flip_loop

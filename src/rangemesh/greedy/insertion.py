@@ -209,6 +209,8 @@ def greedy_mesh(depth: np.ndarray, valid: np.ndarray, camera, *, vertices: int |
     covers the valid pixels without spending vertices on the background.
     """
     h, w = depth.shape
+    if diagonals not in ("delaunay", "error"):
+        raise ValueError(f"diagonals must be 'delaunay' or 'error', got {diagonals!r}")
     if h < 2 or w < 2:
         raise ValueError(f"greedy insertion needs an image of at least 2x2 pixels, got {h}x{w}")
     t0 = time.perf_counter()

@@ -7,7 +7,7 @@ so both versions run in one process, call after call: on this shared, noisy
 machine only alternating calls give ratios worth quoting. For every image of
 ``../shared/data`` and every synthetic scene, at 1 %, 3 % and 10 % of its valid
 pixels as vertex counts (``method="refine"``, the LiDAR scan with its beams'
-camera, as in ``budgets.py``), it prints both medians, their ratio (this
+camera, as in ``budgets.py``; ``--diagonals`` to pass one), it prints both medians, their ratio (this
 checkout / COMMIT) and whether the meshes are the same bit for bit; then the
 medians of the ratios over all cases, the small images (at most 40,000
 pixels) and the others.
@@ -79,9 +79,12 @@ def main(argv=None):
     peers.add_image_options(ap)
     ap.add_argument("--repeat", type=int, default=21,
                     help="alternating calls on small images (a third on larger ones)")
+    ap.add_argument("--diagonals", choices=("delaunay", "error"), default=None,
+                    help="passed to both calls (COMMIT must know it); default: not passed")
     args = ap.parse_args(argv)
     data, images = peers.selected_images(args)
     rows = []
+    extra = {} if args.diagonals is None else {"diagonals": args.diagonals}
     with tempfile.TemporaryDirectory() as tmp:
         base = import_commit(args.base, Path(tmp))
         print(f"| image | budget | vertices | {args.base} ms | now ms | ratio | same mesh |")
@@ -97,11 +100,12 @@ def main(argv=None):
 
                 def old(n=n, image=image, cam=cam_base):
                     return base.triangulate(image.depth, background=image.background,
-                                            vertices=n, method="refine", camera=cam)
+                                            vertices=n, method="refine", camera=cam, **extra)
 
                 def new(n=n, image=image, cam=cam_now):
                     return rangemesh.triangulate(image.depth, background=image.background,
-                                                 vertices=n, method="refine", camera=cam)
+                                                 vertices=n, method="refine", camera=cam,
+                                                 **extra)
 
                 a, b = old(), new()
                 same = (a.faces.shape == b.faces.shape and (a.faces == b.faces).all()

@@ -248,3 +248,60 @@ def test_p1_p2_on_strips(shared_data, s, diagonals):
     for m in (a, b):
         assert np.array_equal(m.pixels, ref.pixels) and np.array_equal(m.faces, ref.faces)
     np.testing.assert_allclose(b.vertices, ref.vertices, rtol=1e-9)
+
+
+# --- diagonals chosen by the error, on strips --------------------------------------------
+
+
+@pytest.mark.parametrize("name, background", [("nyu", 2047), ("cones", 0), ("tum", 0)])
+def test_flipped_strips_are_the_same_on_one_thread_or_two(name, background, monkeypatch):
+    """Each strip flips on its own thread, then the seam: one mesh whatever the threads.
+
+    The joined mesh's twin half-edges, the seam's paired by `_joined_halfedges`,
+    are those a fresh build from its faces finds.
+    """
+    from rangemesh.geometry.halfedges import build_halfedges
+
+    seams = []
+    joined = strips._joined_halfedges
+
+    def checked(a, b, tv, vc, m):
+        he, seam = joined(a, b, tv, vc, m)
+        assert np.array_equal(he, build_halfedges(tv.reshape(-1, 3), len(vc))[1])
+        assert (vc[tv[seam]] == m).all() and (vc[tv[he[seam]]] == m).all()
+        seams.append(len(seam))
+        return he, seam
+
+    monkeypatch.setattr(strips, "_joined_halfedges", checked)
+    two, valid = _insert(CROPS[name], background, 1500, threads=2, diagonals="error")
+    one, _ = _insert(CROPS[name], background, 1500, threads=1, diagonals="error")
+    assert _same(two, one)
+    assert len(seams) == 2 and seams[0] > 10
+    plain, _ = _insert(CROPS[name], background, 1500, threads=2)
+    assert np.array_equal(two[0], plain[0]) and np.array_equal(two[1], plain[1])  # same vertices
+    assert not np.array_equal(two[2], plain[2])  # (flipped)
+
+
+def test_the_seams_flips_lower_the_error(monkeypatch):
+    """After the join the seam's edges are tested too: some flip across it, the error drops.
+
+    Copied depths, measured by `evaluate` (a render); without the seam's pass
+    (`flip_edges` replaced by nothing) no triangle crosses the seam column.
+    """
+    image = CROPS["nyu"].astype(float)
+    valid = rangemesh.fill_gaps(*rangemesh.to_depth_and_mask(image, 2047))[1]
+    seen = np.where(valid, image, np.nan)
+    m = strips.seam_column(valid)
+
+    def crossing(mesh):
+        cols = mesh.pixels[mesh.faces, 1]
+        return int(((cols < m).any(axis=1) & (cols > m).any(axis=1)).sum())
+
+    with_seam = _strip_mesh(image, 2047, 1500, diagonals="error", heights="pixel")
+    monkeypatch.setattr(strips, "flip_edges", lambda *args: (0, 0))
+    without = _strip_mesh(image, 2047, 1500, diagonals="error", heights="pixel")
+    assert crossing(without) == 0 and crossing(with_seam) > 0
+    assert_valid_mesh(with_seam, valid)
+    assert np.array_equal(with_seam.pixels, without.pixels)
+    e_with = rangemesh.evaluate(with_seam, seen).relative_error
+    assert e_with < rangemesh.evaluate(without, seen).relative_error

@@ -47,7 +47,7 @@ from .kernels import _own_edge, _owns, _quantize
 MAX_TESTS_PER_EDGE = 8
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def triangle_error(ar, ac, az, br, bc, bz, cr, cc, cz, own0, own1, own2, depth, valid):
     """Sum of |depth - plane| over the valid pixels of triangle ABC (counter-clockwise).
 
@@ -82,7 +82,7 @@ def triangle_error(ar, ac, az, br, bc, bz, cr, cc, cz, own0, own1, own2, depth, 
     return total
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _face_error(t, tri, he, vr, vc, vz, depth, valid):
     e = 3 * t
     a, b, c = tri[e], tri[e + 1], tri[e + 2]
@@ -129,7 +129,7 @@ def error_flips(vr, vc, tv, depth, valid, span):
     return tri, flips, tests
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _vertex_depths(vr, vc, depth, valid):
     vz = np.zeros(vr.size)
     for v in range(vr.size):
@@ -138,7 +138,7 @@ def _vertex_depths(vr, vc, depth, valid):
     return vz
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def flip_by_error(vr, vc, tri, he, tsum, depth, valid, span):
     """`error_flips` on a mesh whose half-edges and triangle sums are known; in place.
 
@@ -146,25 +146,90 @@ def flip_by_error(vr, vc, tri, he, tsum, depth, valid, span):
     `tsum` each triangle's error sum over the pixels it owns (as
     `triangle_error` with the ownership rules; what greedy insertion keeps,
     `rangemesh.greedy.kernels.greedy_insert_sums`). Returns ``flips, tests``.
+    Runs without the GIL.
     """
-    n_t = tri.size // 3
-    w = depth.shape[1]
-    vz = _vertex_depths(vr, vc, depth, valid)
-    for t in range(n_t):
-        e = 3 * t
-        if not (valid[vr[tri[e]], vc[tri[e]]] and valid[vr[tri[e + 1]], vc[tri[e + 1]]]
-                and valid[vr[tri[e + 2]], vc[tri[e + 2]]]):
-            tsum[t] = -1.0  # a background vertex: never flipped
-    # a stack of half-edges whose interior edges are to be tested; queued[e]: e is in it (a
-    # flip moves outer edges to other slots: a slot is tested for the edge it holds when popped)
+    vz, stack, top, queued = _first_stack(vr, vc, tri, he, tsum, depth, valid)
+    return _flip_stack(vr, vc, vz, tri, he, tsum, depth, valid, span, stack, top, queued)
+
+
+@njit(cache=True, nogil=True)
+def _first_stack(vr, vc, tri, he, tsum, depth, valid):
+    """Vertex depths, and a stack of every interior edge with no background corner.
+
+    Triangles with a background vertex get sum -1 (`_background_out`). The
+    stack holds one half-edge an edge, popped in order of e; ``queued[e]``: e
+    is on it.
+    """
+    vz = _background_out(vr, vc, tri, tsum, depth, valid)
     queued = np.zeros(tri.size, np.bool_)
     stack = np.empty(tri.size, np.int64)
     top = 0
-    for e in range(tri.size - 1, -1, -1):  # popped in order of e
+    for e in range(tri.size - 1, -1, -1):
         if he[e] > e and tsum[e // 3] >= 0.0 and tsum[he[e] // 3] >= 0.0:
             stack[top] = e
             top += 1
             queued[e] = True
+    return vz, stack, top, queued
+
+
+@njit(cache=True, nogil=True)
+def flip_state(depth, valid, state, span):
+    """`flip_by_error` on the mesh of a greedy insertion state (`kernels.advance`), in place.
+
+    Afterwards the state holds the flipped mesh for `kernels.result`, its
+    half-edges and sums; its keys and heap are stale (do not advance it).
+    Returns ``flips, tests``. Runs without the GIL: two strips' states flip on
+    two threads (`rangemesh.greedy.strips`).
+    """
+    counts = state[17]
+    n_v, n_t = counts[0], counts[1]
+    return flip_by_error(state[0][:n_v], state[1][:n_v], state[4][:3 * n_t], state[5][:3 * n_t],
+                         state[9][:n_t], depth, valid, span)
+
+
+@njit(cache=True, nogil=True)
+def flip_edges(vr, vc, tri, he, tsum, depth, valid, span, first):
+    """`flip_by_error` starting from the half-edges `first` only, and the edges flips touch.
+
+    For a mesh whose other edges already passed their tests: two meshes
+    joined along a seam (`rangemesh.greedy.strips`), `first` the seam's
+    half-edges. The sums of the triangles on those edges are computed afresh
+    (the seam's pixels, no triangle's before, now belong to one side); the
+    other sums are taken as given. Returns ``flips, tests``.
+    """
+    vz = _background_out(vr, vc, tri, tsum, depth, valid)
+    for i in range(first.size):
+        for t in (first[i] // 3, he[first[i]] // 3):
+            if t >= 0 and tsum[t] >= 0.0:
+                tsum[t] = _face_error(t, tri, he, vr, vc, vz, depth, valid)
+    queued = np.zeros(tri.size, np.bool_)
+    stack = np.empty(tri.size, np.int64)
+    top = 0
+    for i in range(first.size - 1, -1, -1):  # popped in the order given
+        e = first[i]
+        g = he[e]
+        if g >= 0 and not queued[e] and not queued[g]:
+            stack[top] = e
+            top += 1
+            queued[e] = True
+    return _flip_stack(vr, vc, vz, tri, he, tsum, depth, valid, span, stack, top, queued)
+
+
+@njit(cache=True, nogil=True)
+def _background_out(vr, vc, tri, tsum, depth, valid):
+    """The vertex depths; triangles with a background vertex get sum -1 (never flipped)."""
+    for t in range(tri.size // 3):
+        e = 3 * t
+        if not (valid[vr[tri[e]], vc[tri[e]]] and valid[vr[tri[e + 1]], vc[tri[e + 1]]]
+                and valid[vr[tri[e + 2]], vc[tri[e + 2]]]):
+            tsum[t] = -1.0
+    return _vertex_depths(vr, vc, depth, valid)
+
+
+@njit(cache=True, nogil=True)
+def _flip_stack(vr, vc, vz, tri, he, tsum, depth, valid, span, stack, top, queued):
+    """Test the edges on the stack (`top` of them), flipping those whose error drops."""
+    w = depth.shape[1]
     flips = 0
     tests = 0
     max_tests = MAX_TESTS_PER_EDGE * top
@@ -208,4 +273,3 @@ def flip_by_error(vr, vc, tri, he, tsum, depth, valid, span):
                 top += 1
                 queued[f] = True
     return flips, tests
-

@@ -13,7 +13,7 @@ from ..geometry.signals import holding_signals
 from ..mesh import Mesh, Stats, empty_mesh
 from ..render import relative_error
 from . import kernels as _k
-from .diagonals import error_flips, flip_by_error
+from .diagonals import flip_by_error
 from .heights import fit_heights
 from .start import corner_depths, first_mesh
 from .strips import strip_insert, use_strips
@@ -139,13 +139,12 @@ def _refine(depth, valid, start, strips, asked, max_sum, span, scales, n_grid, d
     """``vr, vc, tv`` of greedy insertion, on one strip or two (`strip_insert`).
 
     With ``diagonals='error'`` each quad then takes the diagonal that fits
-    its pixels better (`rangemesh.greedy.diagonals.error_flips`).
+    its pixels better (`rangemesh.greedy.diagonals.flip_by_error`; on strips,
+    each strip on its thread, then the seam).
     """
     if strips:  # two strips on two threads (`rangemesh.greedy.strips`)
-        vr, vc, tv = strip_insert(depth, valid, asked, span, scales, n_grid, max_sum=max_sum)[:3]
-        if diagonals == "error":  # (the seam's triangles are measured again: one mesh now)
-            tv = error_flips(vr, vc, tv, depth, valid, span)[0]
-        return vr, vc, tv
+        return strip_insert(depth, valid, asked, span, scales, n_grid, max_sum=max_sum,
+                            diagonals=diagonals)[:3]
     if diagonals != "error":
         return _k.greedy_insert(depth, valid, *start, asked, max_sum, span, *scales)[:3]
     # the insertion's own half-edges and triangle sums: no second pass over the pixels

@@ -36,6 +36,7 @@ from numba import njit
 
 from . import kernels as _k
 from . import threads as _threads
+from .diagonals import flip_edges, flip_state
 from .start import first_mesh
 from .threads import executor
 
@@ -244,7 +245,7 @@ def _threshold(laws, target):
 
 
 def strip_insert(depth, valid, vertices, span, scales, n_grid, *, max_sum=-1.0, threads=None,
-                 rounds=True, info=None):
+                 rounds=True, info=None, diagonals="delaunay"):
     """Greedy insertion of `vertices` valid vertices, as two strips (see the module).
 
     Parameters
@@ -278,12 +279,18 @@ def strip_insert(depth, valid, vertices, span, scales, n_grid, *, max_sum=-1.0, 
     info : dict, optional
         Receives ``rounds`` (how many ran) and ``capped`` (whether the last
         one stopped a strip by count).
+    diagonals : {'delaunay', 'error'}, default 'delaunay'
+        ``'error'``: each strip's edges are then flipped by the error
+        (`rangemesh.greedy.diagonals.flip_state`), on both threads, and after
+        the join the seam's edges and those their flips touch
+        (`rangemesh.greedy.diagonals.flip_edges`).
 
     Returns
     -------
     vr, vc, tv, n_valid_vertices, total
         As `rangemesh.greedy.kernels.greedy_insert`: one mesh, the seam's
-        vertices once; `total` includes the seam's own pixels.
+        vertices once; `total` includes the seam's own pixels (the
+        insertion's, before any flip).
     """
     h, w = depth.shape
     sr, sc = scales
@@ -321,7 +328,20 @@ def strip_insert(depth, valid, vertices, span, scales, n_grid, *, max_sum=-1.0, 
         if info is not None:
             info.update(rounds=n_rounds, capped=capped)
     a, b = merge_tail(depth, valid, a, b, target, budget, span, sr, sc)
-    vr, vc, tv, n, total = _join(_result(a), _result(b), m, shared)
+    total = float(a[18][0] + b[18][0])
+    if diagonals == "error":
+        if n_threads >= 2:
+            fut = executor().submit(flip_state, depth, valid, a, span)
+            flip_state(depth, valid, b, span)
+            fut.result()
+        else:
+            flip_state(depth, valid, a, span)
+            flip_state(depth, valid, b, span)
+    vr, vc, tv, n, _ = _join(_result(a), _result(b), m, shared)
+    if diagonals == "error":
+        he, seam = _joined_halfedges(a, b, tv, vc, m)
+        tsum = np.concatenate([a[9][: int(a[17][1])], b[9][: int(b[17][1])]])
+        flip_edges(vr, vc, tv, he, tsum, depth, valid, span, seam)
     return vr, vc, tv, n, total + seam_error
 
 
@@ -423,6 +443,34 @@ def _rounds(depth, valid, a, b, vertices, target, budget, span, sr, sc, n_thread
         # else the same threshold again: the strip stopped by count goes on to it, the other
         # is there already, and all that is left is the first's to take
     return a, b, n_rounds, capped
+
+
+def _joined_halfedges(a, b, tv, vc, m):
+    """Twin half-edges of the joined mesh (`_join`'s `tv`): the strips' own, and the seam's paired.
+
+    Returns ``he, seam``: `seam` holds strip A's half-edges down the seam
+    column `m`, each now the twin of B's half-edge the other way.
+    """
+    n_a = 3 * int(a[17][1])
+    he_b = b[5][: 3 * int(b[17][1])]
+    he = np.concatenate([a[5][:n_a], np.where(he_b >= 0, he_b + n_a, -1)])
+    hull = np.nonzero(he < 0)[0]
+    u, v = tv[hull], tv[hull - hull % 3 + (hull + 1) % 3]
+    down = (vc[u] == m) & (vc[v] == m)
+    hull, u, v = hull[down], u[down], v[down]
+    in_a = hull < n_a
+    n_v = len(vc)
+    key_a = u[in_a] * n_v + v[in_a]  # u -> v in A is v -> u in B
+    key_b = v[~in_a] * n_v + u[~in_a]
+    order = np.argsort(key_b)
+    pos = np.minimum(np.searchsorted(key_b[order], key_a), max(len(key_b) - 1, 0))
+    if len(key_a) != len(key_b) or not np.array_equal(key_b[order][pos], key_a):
+        raise RuntimeError("strip_insert: the strips' edges down the seam differ")
+    seam_a = hull[in_a]
+    seam_b = hull[~in_a][order][pos]
+    he[seam_a] = seam_b
+    he[seam_b] = seam_a
+    return he, seam_a
 
 
 def _join(ra, rb, m, shared):

@@ -61,6 +61,29 @@ def test_triangle_error_is_the_sum_over_its_pixels(seed, coords, own):
     assert got == pytest.approx(_brute_sum((a, b, c), z, own, depth, valid), rel=1e-9, abs=1e-9)
 
 
+def test_triangle_error_stops_once_the_key_is_reached():
+    """With a `stop` key the sum is left after the first row that reaches it, by hand.
+
+    Triangle (0,0), (4,0), (0,4), corners at depth 0 (the plane z = 0): its rows
+    hold 5, 4, 3, 2, 1 pixels. Depth 1 on rows 1 and 3: a sum of 4 + 2 = 6.
+    Keys in units of 2**-32 of the span (1 here).
+    """
+    depth = np.zeros((5, 5))
+    depth[[1, 3]] = 1.0
+    valid = np.ones((5, 5), bool)
+    tri = (0, 0, 0.0, 4, 0, 0.0, 0, 4, 0.0, True, True, True, depth, valid)
+
+    def key(x):
+        return float(np.floor(x * 2.0**32 + 0.5))
+
+    assert triangle_error(*tri) == 6.0
+    assert triangle_error(*tri, 0.0, 1.0, key(10.0)) == 6.0  # never reached: the whole sum
+    assert triangle_error(*tri, 0.0, 1.0, key(3.5)) == 4.0  # reached on row 1: left there
+    assert triangle_error(*tri, 0.0, 1.0, key(4.0)) == 4.0  # reached exactly
+    assert triangle_error(*tri, 0.0, 1.0, key(4.5)) == 6.0  # only on row 3
+    assert triangle_error(*tri, 3.0, 1.0, key(6.5)) == 4.0  # `base` counts: 3 + 4 >= 6.5
+
+
 def _square(depth, diagonal):
     """The image's four corners as a mesh of two triangles cut along `diagonal`."""
     h, w = depth.shape

@@ -95,10 +95,10 @@ class MeshParams:
         (data-dependent triangulation, `rangemesh.greedy.diagonals`).
         ``'delaunay'``: greedy insertion's Delaunay mesh as it is (in the
         sensor's units, `rangemesh.greedy.insertion.delaunay_scales`).
-        ``None``: ``'delaunay'`` for ``method='refine'``; the paper's
+        ``None``: ``'error'`` for ``method='refine'``; the paper's
         method chooses its diagonals with `flips`. ``'error'`` lowers the
         mean error by a median 7 % and the error near jumps by 13 %, at
-        about 1.3x the time (``benchmarks/diagonals.py``).
+        about 1.2x the time of ``'delaunay'`` (``benchmarks/diagonals.py``).
     walls : bool, default True
         Keep the triangles that bridge a depth jump ("walls"). ``False``
         drops them, so separate surfaces stay separate (`method='refine'`

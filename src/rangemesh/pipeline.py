@@ -323,7 +323,7 @@ def run(image, params: MeshParams, *, background=None, camera=None, vertices=Non
         ref = to_depth_and_mask(image, background) if max_error is not None else None
         mesh, target = greedy_mesh(depth, valid, camera, vertices=vertices, max_error=max_error,
                                    reference=ref, fit=params.heights != "pixel",
-                                   diagonals=params.diagonals or "delaunay",
+                                   diagonals=params.diagonals or "error",
                                    walls=params.walls, jump=params.jump,
                                    extent=(lo, hi, n_valid))
     elif vertices is not None:

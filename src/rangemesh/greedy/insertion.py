@@ -157,7 +157,7 @@ def _refine(depth, valid, start, strips, asked, max_sum, span, scales, n_grid, d
 @holding_signals
 def greedy_mesh(depth: np.ndarray, valid: np.ndarray, camera, *, vertices: int | None = None,
                 max_error: float | None = None, reference=None, fit: bool = True,
-                diagonals: str = "delaunay", walls: bool = True, jump: float = 0.05,
+                diagonals: str = "error", walls: bool = True, jump: float = 0.05,
                 extent=None) -> tuple[Mesh, dict]:
     """Mesh a prepared image by inserting its worst pixel until a target is met.
 
@@ -181,7 +181,7 @@ def greedy_mesh(depth: np.ndarray, valid: np.ndarray, camera, *, vertices: int |
         Fit the vertex depths by least squares (`fit_heights`) once the
         triangulation is chosen; else copy each from its pixel. With
         `max_error`, fitted depths are kept only when they meet the bound.
-    diagonals : {'delaunay', 'error'}, default 'delaunay'
+    diagonals : {'error', 'delaunay'}, default 'error'
         ``'error'``: once the vertices are chosen, flip each edge whose two
         triangles fit their pixels better the other way
         (`rangemesh.greedy.diagonals`); ``'delaunay'``: keep the Delaunay

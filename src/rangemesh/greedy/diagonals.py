@@ -28,10 +28,16 @@ four outer edges of its quad are tested again, until no flip lowers the sum.
 Measured with ``benchmarks/diagonals.py`` (69 cases: every shared image and
 scene at 1, 3 and 10 % of its valid pixels, fitted depths after): medians of
 0.93x the mean error and 0.87x the error within 2 px of jumps of the Delaunay
-mesh, at 1.33x the whole call's time (the flips test most edges once, two
-triangles rasterised a test: about half the insertion's work). Testing only
-quads with more than the mean error per pixel saved 28 % of the flips' time
-and gave back a quarter of the gain: not kept.
+mesh, at 1.21x the whole call's time (the flips test most edges once, two
+triangles rasterised a test). They are `method='refine'`'s default: with
+them a call still takes less time than pydelatin's over those cases (median
+0.96x; README, Results).
+Two things keep them cheap: on strips (`rangemesh.greedy.strips`) each
+strip flips on its own thread (`flip_state`), and only the seam's edges are
+tested after the join (`flip_edges`); and a test stops scanning once the
+other diagonal is known to be no better (`triangle_error`'s `stop`).
+Testing only quads with more than the mean error per pixel saved 28 % of
+the flips' time and gave back a quarter of the gain: not kept.
 """
 
 import math

@@ -19,7 +19,8 @@ whose key is larger (`merge_tail`), landing exactly on the count. A round
 whose prediction was far off stops a strip by count instead; the next round
 (same threshold) brings it back to that order, unless it was the last. The
 mesh depends only on the image and the request, never on the number of
-threads.
+threads. With ``diagonals='error'`` each strip's edges are then flipped on
+its own thread, and after the join the seam's (`rangemesh.greedy.diagonals`).
 
 Measured with ``benchmarks/strips.py`` against one strip (the README gives the
 figures): on 640 x 480 frames a call takes 0.5-0.8x the time at the same

@@ -329,8 +329,7 @@ def strip_insert(depth, valid, vertices, span, scales, n_grid, *, max_sum=-1.0, 
         if info is not None:
             info.update(rounds=n_rounds, capped=capped)
     a, b = merge_tail(depth, valid, a, b, target, budget, span, sr, sc)
-    total = float(a[18][0] + b[18][0])
-    if diagonals == "error":
+    if diagonals == "error":  # (the states' summed errors stay the insertion's)
         if n_threads >= 2:
             fut = executor().submit(flip_state, depth, valid, a, span)
             flip_state(depth, valid, b, span)
@@ -338,7 +337,7 @@ def strip_insert(depth, valid, vertices, span, scales, n_grid, *, max_sum=-1.0, 
         else:
             flip_state(depth, valid, a, span)
             flip_state(depth, valid, b, span)
-    vr, vc, tv, n, _ = _join(_result(a), _result(b), m, shared)
+    vr, vc, tv, n, total = _join(_result(a), _result(b), m, shared)
     if diagonals == "error":
         he, seam = _joined_halfedges(a, b, tv, vc, m)
         tsum = np.concatenate([a[9][: int(a[17][1])], b[9][: int(b[17][1])]])

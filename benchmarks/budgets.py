@@ -21,8 +21,9 @@ against pydelatin (target <= 1.0). Times are medians of ``--repeat`` calls in
 one process, measured side by side (the peers' hole filling, grid building
 and count search are not timed, as in ``benchmarks/peers.py``).
 
-With ``--diagonals error`` rangemesh's meshes take the diagonal that fits each quad's
-pixels better (`rangemesh.greedy.diagonals`) in both variants and in the bound checks.
+With ``--diagonals delaunay`` rangemesh's meshes keep greedy insertion's Delaunay diagonals
+instead of the default's error-chosen ones (`rangemesh.greedy.diagonals`), in both variants
+and in the bound checks.
 
 A second table checks ``max_error=E`` (E = 1 % and 0.3 %) on every image:
 whether the bound holds, and its time against one ``vertices=N`` call at the
@@ -148,7 +149,7 @@ def main(argv=None) -> int:
     ap.add_argument("--only", default=None, metavar="TEXT",
                     help="only the inputs whose name contains TEXT (e.g. rellis3d)")
     ap.add_argument("--diagonals", choices=["delaunay", "error"], default=None,
-                    help="rangemesh's diagonals (default: the library's, delaunay)")
+                    help="rangemesh's diagonals (default: the library's, error)")
     args = ap.parse_args(argv)
     extra = {} if args.diagonals is None else {"diagonals": args.diagonals}
     data = peers.find_data(args.data)

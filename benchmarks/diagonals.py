@@ -4,8 +4,9 @@ Run ``python benchmarks/diagonals.py`` (``--only NAME`` for some images,
 ``--repeat K`` for the timed calls of each side, default 5). For every image
 of ``../shared/data`` and every synthetic scene, at 1 %, 3 % and 10 % of its
 valid pixels as vertex counts, it meshes with ``diagonals="delaunay"`` (the
-default) and ``diagonals="error"`` (`rangemesh.greedy.diagonals`: edges
-flipped while the two triangles fit their pixels better), calls alternating
+insertion's own mesh) and ``diagonals="error"`` (the default,
+`rangemesh.greedy.diagonals`: edges flipped while the two triangles fit
+their pixels better), calls alternating
 in one process, everything else at its default (fitted depths), and the
 LiDAR scan with its beams' camera as in ``benchmarks/budgets.py``.
 

@@ -390,6 +390,24 @@ def test_fitted_depths_are_not_pulled_across_a_jump(name):
     assert np.max(np.abs(_fitted_depth(m) - own)) < 0.01 * span
 
 
+def test_fitted_depths_are_not_pulled_across_a_small_step():
+    # A tilted plane (range 7.9) with a step of 0.02 (0.25 % of the range) down a column.
+    # At 40 vertices most pixels lie on their triangles' planes exactly, so the robust
+    # sigma is 0 and only those pixels are fitted: every vertex keeps its own depth, and
+    # the error is the copied depths'. (A bound of 0.5 % of the range kept the step's
+    # pixels in the fit: vertices moved by 0.0093, half the step, and the error grew
+    # from 0.0183 to 0.0228 %.)
+    r, c = np.mgrid[0:60, 0:80]
+    depth = 100.0 + 0.1 * c + np.where(c >= 40, 0.02, 0.0)
+    m = triangulate(depth, vertices=40, method="refine")
+    copied = triangulate(depth, vertices=40, method="refine", heights="pixel")
+    assert np.array_equal(m.pixels, copied.pixels) and np.array_equal(m.faces, copied.faces)
+    own = depth[m.pixels[:, 0], m.pixels[:, 1]]
+    np.testing.assert_allclose(_fitted_depth(m), own, rtol=0, atol=1e-9)
+    assert evaluate(m, depth).relative_error <= evaluate(copied, depth).relative_error * (1 + 1e-9)
+    assert evaluate(copied, depth).relative_error > 0.01  # the step is not meshed exactly
+
+
 @given(st.integers(3, 12), st.integers(1, 20), st.integers(0, 2**32 - 1))
 def test_block_solver_equals_a_dense_solve(n, n_faces, seed):
     # The matrix-free conjugate gradients of the fit, against numpy's dense solve of the

@@ -1,4 +1,4 @@
-"""Smoke tests of `benchmarks/peers.py --quick`, `budgets.py` and `strips.py`: their numbers are finite."""
+"""Smoke tests of `benchmarks/peers.py --quick`, `budgets.py`, `strips.py` and `heights.py`: their numbers are finite."""
 
 import importlib.util
 import json
@@ -51,6 +51,19 @@ def test_budgets_benchmark_runs_on_one_scene():
     ratios = [float(x) for x in cells[2:]]
     assert len(ratios) == 5 and all(math.isfinite(x) and x >= 0 for x in ratios)
     assert f"the bound held on {2 * scenes} of {2 * scenes} cases" in p.stdout
+
+
+def test_heights_benchmark_runs_on_one_scene():
+    # the noisy dome (not meshed exactly): three budgets, each with its two ratios
+    p = subprocess.run([sys.executable, str(PEERS.with_name("heights.py")), "--only",
+                        "synthetic dome noise"], capture_output=True, text=True, timeout=600)
+    assert p.returncode == 0, p.stderr[-2000:]
+    rows = [line.strip("|").split("|") for line in p.stdout.splitlines()
+            if line.startswith(("| 1% |", "| 3% |", "| 10% |"))]
+    assert len(rows) == 3, p.stdout[-2000:]
+    for cells in rows:
+        assert int(cells[1]) >= 1
+        assert all(math.isfinite(float(x)) and float(x) > 0 for x in cells[2:4])
 
 
 def test_strips_benchmark_runs_on_one_image(shared_data):

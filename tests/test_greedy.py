@@ -397,6 +397,8 @@ def test_fitted_depths_are_not_pulled_across_a_small_step():
     # the error is the copied depths'. (A bound of 0.5 % of the range kept the step's
     # pixels in the fit: vertices moved by 0.0093, half the step, and the error grew
     # from 0.0183 to 0.0228 %.)
+    from rangemesh.greedy import heights
+
     r, c = np.mgrid[0:60, 0:80]
     depth = 100.0 + 0.1 * c + np.where(c >= 40, 0.02, 0.0)
     m = triangulate(depth, vertices=40, method="refine")
@@ -406,6 +408,12 @@ def test_fitted_depths_are_not_pulled_across_a_small_step():
     np.testing.assert_allclose(_fitted_depth(m), own, rtol=0, atol=1e-9)
     assert evaluate(m, depth).relative_error <= evaluate(copied, depth).relative_error * (1 + 1e-9)
     assert evaluate(copied, depth).relative_error > 0.01  # the step is not meshed exactly
+    # the copied depths are the solution: returned as they are, without the full pass
+    valid = np.ones(depth.shape, bool)
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(heights, "_full_pass", None)  # calling it would raise
+        z = heights.fit_heights(m.pixels, m.faces, depth, valid, m.camera)
+    np.testing.assert_array_equal(z, own)
 
 
 @given(st.integers(3, 12), st.integers(1, 20), st.integers(0, 2**32 - 1))

@@ -39,8 +39,8 @@ __all__ = ["fit_heights"]
 OUTLIER_MADS = 6.0
 # The bound never falls below OUTLIER_FLOOR of the vertices' value range, a
 # rounding error's size: when most pixels fit their triangles exactly (quantised
-# disparities, dense meshes), only exact pixels are fitted and the vertices stay
-# where they are. A floor of 0.5 % of the range (until 2026-11) kept small steps
+# disparities, dense meshes), only exact pixels would be fitted, so the copied
+# depths are kept as they are (`fit_heights` skips its pass and solve). A floor of 0.5 % of the range (until 2026-11) kept small steps
 # in the fit: at 10 % of the pixels it moved the stereo pairs' vertices off their
 # exact planes (fitted / copied error: aloe 1.71, venus 1.27; now 1.00) and pulled
 # the depth frames' edges (error near jumps 1.03-1.10x the copied depths'). Medians
@@ -190,7 +190,13 @@ def fit_heights(pixels: np.ndarray, faces: np.ndarray, depth: np.ndarray, valid:
         return depth[pr, pc].astype(np.float64)
     sigma = 1.4826 * median_inplace(resid[:used])
     lo, hi = float(np.min(h0)), float(np.max(h0))
-    thr = max(OUTLIER_MADS * sigma, OUTLIER_FLOOR * (hi - lo))
+    floor = OUTLIER_FLOOR * (hi - lo)
+    if OUTLIER_MADS * sigma <= floor:
+        # Most pixels fit the copied depths exactly, and only pixels within rounding of them
+        # would be kept: the copied depths are the least-squares solution, no pass or solve
+        # needed (quantised disparities and exact scenes at dense budgets).
+        return depth[pr, pc].astype(np.float64)
+    thr = OUTLIER_MADS * sigma
     _full_pass(f, order, pr, pc, h0, image, valid, thr, resid, ids, block, rhs)
     fitted, converged = solve_blocks(ids, block, rhs, h0, RIDGE, CG_RTOL, 10 * n)
     if not converged:  # ill-conditioned: a direct sparse solve of the same system

@@ -1,4 +1,7 @@
-"""Smoke tests of `benchmarks/peers.py --quick`, `budgets.py`, `strips.py` and `heights.py`: their numbers are finite."""
+"""Smoke tests of `benchmarks/peers.py --quick`, `budgets.py`, `strips.py`, `heights.py`.
+
+Their numbers are finite.
+"""
 
 import importlib.util
 import json

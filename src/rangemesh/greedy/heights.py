@@ -40,12 +40,13 @@ OUTLIER_MADS = 6.0
 # The bound never falls below OUTLIER_FLOOR of the vertices' value range, a
 # rounding error's size: when most pixels fit their triangles exactly (quantised
 # disparities, dense meshes), only exact pixels would be fitted, so the copied
-# depths are kept as they are (`fit_heights` skips its pass and solve). A floor of 0.5 % of the range (until 2026-11) kept small steps
-# in the fit: at 10 % of the pixels it moved the stereo pairs' vertices off their
-# exact planes (fitted / copied error: aloe 1.71, venus 1.27; now 1.00) and pulled
-# the depth frames' edges (error near jumps 1.03-1.10x the copied depths'). Medians
-# of fitted / copied over the 18 images and scenes not meshed exactly, at 10 %:
-# error 0.985 -> 0.961, near jumps 1.051 -> 1.000; at 1 and 3 % unchanged
+# depths are kept as they are (`fit_heights` skips its pass and solve). A floor
+# of 0.5 % of the range (until 2026-11) kept small steps in the fit: at 10 % of
+# the pixels it moved the stereo pairs' vertices off their exact planes (fitted /
+# copied error: aloe 1.71, venus 1.27; now 1.00) and pulled the depth frames'
+# edges (error near jumps 1.03-1.10x the copied depths'). Medians of fitted /
+# copied over the 18 images and scenes not meshed exactly, at 10 %: error 0.985
+# -> 0.961, near jumps 1.051 -> 1.000; at 1 and 3 % unchanged
 # (``python benchmarks/heights.py [--floor 0.005]``).
 OUTLIER_FLOOR = 1e-9
 # Ridge towards the copied value, relative to a vertex's own weight: it keeps a

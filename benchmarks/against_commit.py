@@ -34,7 +34,6 @@ import peers  # noqa: E402
 
 import rangemesh  # noqa: E402
 
-FRACTIONS = (0.01, 0.03, 0.10)
 SMALL_PIXELS = 40_000
 NAME = "rangemesh_at_base"
 
@@ -92,11 +91,9 @@ def main(argv=None):
         for image in images:
             cam_now, cam_base = cameras(image, data, base)
             _, valid = peers.to_depth_and_mask(image.depth, image.background)
-            n_valid = int(valid.sum())
             small = image.depth.size <= SMALL_PIXELS
             repeat = args.repeat if small else max(args.repeat // 3, 3)
-            for frac in FRACTIONS:
-                n = max(int(frac * n_valid), 50)
+            for frac, n in budgets.vertex_budgets(valid):
 
                 def old(n=n, image=image, cam=cam_base):
                     return base.triangulate(image.depth, background=image.background,

@@ -33,7 +33,6 @@ import peers  # noqa: E402
 
 from rangemesh import evaluate, triangulate  # noqa: E402
 
-FRACTIONS = (0.01, 0.03, 0.10)
 SIDES = ("delaunay", "error")
 
 
@@ -49,8 +48,7 @@ def main(argv=None) -> int:
     for image in images:
         camera = budgets.sensor_camera(image, data)
         _, valid = peers.to_depth_and_mask(image.depth, image.background)
-        for frac in FRACTIONS:
-            n = max(int(frac * valid.sum()), 50)
+        for frac, n in budgets.vertex_budgets(valid):
             meshes, times = {}, {side: [] for side in SIDES}
             for _ in range(args.repeat):
                 for side in SIDES:

@@ -34,8 +34,6 @@ import peers  # noqa: E402
 from rangemesh import evaluate, triangulate  # noqa: E402
 from rangemesh.greedy import heights  # noqa: E402
 
-FRACTIONS = (0.01, 0.03, 0.10)
-
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -46,15 +44,14 @@ def main(argv=None) -> int:
     if args.floor is not None:
         heights.OUTLIER_FLOOR = args.floor
     data, images = peers.selected_images(args)
-    ratios = {frac: {"error": [], "band": []} for frac in FRACTIONS}
+    ratios = {frac: {"error": [], "band": []} for frac in budgets.FRACTIONS}
     print(f"OUTLIER_FLOOR {heights.OUTLIER_FLOOR:g}, OUTLIER_MADS {heights.OUTLIER_MADS:g}\n")
     print("| image | budget | vertices | error, fitted / copied | edge band |")
     print("|---|---:|---:|---:|---:|")
     for image in images:
         camera = budgets.sensor_camera(image, data)
         _, valid = peers.to_depth_and_mask(image.depth, image.background)
-        for frac in FRACTIONS:
-            n = max(int(frac * valid.sum()), 50)
+        for frac, n in budgets.vertex_budgets(valid):
             meshes = {h: triangulate(image.depth, background=image.background, vertices=n,
                                      camera=camera, heights=h) for h in ("fit", "pixel")}
             if not (np.array_equal(meshes["fit"].pixels, meshes["pixel"].pixels)

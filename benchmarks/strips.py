@@ -40,8 +40,7 @@ def main(argv=None):
     for image in images:
         _, valid = peers.to_depth_and_mask(image.depth, image.background)
         camera = budgets.sensor_camera(image, data)
-        for frac in budgets.FRACTIONS:
-            n = max(int(frac * valid.sum()), 50)
+        for frac, n in budgets.vertex_budgets(valid):
             if not strips.use_strips(image.depth.shape, n, None, int(valid.sum())):
                 continue
             meshes, times = {}, {0: [], 1: []}

@@ -69,32 +69,42 @@ def vertex_budgets(valid):
     return [(frac, max(int(frac * n_valid), MIN_VERTICES)) for frac in FRACTIONS]
 
 
-def run(images, repeat, data=None, log=print, extra=None):
-    """One row of figures per image and budget; `extra` goes to every rangemesh call."""
-    extra = extra or {}
-    rows = []
+def budget_cases(images, data):
+    """Every image at every budget: ``(image, camera, masked depth, valid, fraction, count)``.
+
+    The camera is the sensor's where the data ships one (`sensor_camera`); the
+    masked depth and the valid pixels are `peers.to_depth_and_mask`'s.
+    """
     for image in images:
         masked, valid = peers.to_depth_and_mask(image.depth, image.background)
         camera = sensor_camera(image, data)
         for frac, n in vertex_budgets(valid):
-            got = {}
-            for label, opts in VARIANTS:
-                mesh, ms = peers._timed(lambda opts=opts, image=image, n=n, camera=camera: triangulate(
-                    image.depth, background=image.background, vertices=n, method="refine",
-                    camera=camera, **opts, **extra), repeat)
-                got[label] = peers._record(image, f"{frac:.0%}", label, mesh, ms, valid)
-            n_mine = max(got[MINE]["vertices"], 4)
-            for label, fn in (("pydelatin", peers.peer_delatin),
-                              ("quadric decimation", peers.peer_quadric)):
-                mesh, ms = fn(masked, valid, n_mine, repeat)
-                got[label] = peers._record(image, f"{frac:.0%}", label, mesh, ms, valid)
-            rows.append(got)
-            m, d, q = got[MINE], got["pydelatin"], got["quadric decimation"]
-            log(f"{image.name[:30]:30s} {frac:4.0%} {n_mine:7d} | err {m['relative_error']:.4f} "
-                f"pix {got['refine, pixel depths']['relative_error']:.4f} "
-                f"quadric {q['relative_error']:.4f} delatin {d['relative_error']:.4f} | band "
-                f"{m['edge_band_error']:.3f} delatin {d['edge_band_error']:.3f} | ms "
-                f"{m['ms']:.1f} delatin {d['ms']:.1f} | uncovered {m['uncovered']:.2f} %")
+            yield image, camera, masked, valid, frac, n
+
+
+def run(images, repeat, data=None, log=print, extra=None):
+    """One row of figures per image and budget; `extra` goes to every rangemesh call."""
+    extra = extra or {}
+    rows = []
+    for image, camera, masked, valid, frac, n in budget_cases(images, data):
+        got = {}
+        for label, opts in VARIANTS:
+            mesh, ms = peers._timed(lambda opts=opts, image=image, n=n, camera=camera: triangulate(
+                image.depth, background=image.background, vertices=n, method="refine",
+                camera=camera, **opts, **extra), repeat)
+            got[label] = peers._record(image, f"{frac:.0%}", label, mesh, ms, valid)
+        n_mine = max(got[MINE]["vertices"], 4)
+        for label, fn in (("pydelatin", peers.peer_delatin),
+                          ("quadric decimation", peers.peer_quadric)):
+            mesh, ms = fn(masked, valid, n_mine, repeat)
+            got[label] = peers._record(image, f"{frac:.0%}", label, mesh, ms, valid)
+        rows.append(got)
+        m, d, q = got[MINE], got["pydelatin"], got["quadric decimation"]
+        log(f"{image.name[:30]:30s} {frac:4.0%} {n_mine:7d} | err {m['relative_error']:.4f} "
+            f"pix {got['refine, pixel depths']['relative_error']:.4f} "
+            f"quadric {q['relative_error']:.4f} delatin {d['relative_error']:.4f} | band "
+            f"{m['edge_band_error']:.3f} delatin {d['edge_band_error']:.3f} | ms "
+            f"{m['ms']:.1f} delatin {d['ms']:.1f} | uncovered {m['uncovered']:.2f} %")
     return rows
 
 

@@ -45,32 +45,29 @@ def main(argv=None) -> int:
     ratios = {"error": [], "band": [], "time": []}
     print("| image | budget | vertices | error, flips / none | edge band | time | ms without |")
     print("|---|---:|---:|---:|---:|---:|---:|")
-    for image in images:
-        camera = budgets.sensor_camera(image, data)
-        _, valid = peers.to_depth_and_mask(image.depth, image.background)
-        for frac, n in budgets.vertex_budgets(valid):
-            meshes, times = {}, {side: [] for side in SIDES}
-            for _ in range(args.repeat):
-                for side in SIDES:
-                    t = time.perf_counter()
-                    meshes[side] = triangulate(image.depth, background=image.background,
-                                               vertices=n, camera=camera, diagonals=side)
-                    times[side].append(time.perf_counter() - t)
-            if not np.array_equal(meshes["delaunay"].pixels, meshes["error"].pixels):
-                raise RuntimeError(f"{image.name}: the flips changed the vertices")
-            ev = {side: evaluate(meshes[side], image.depth, background=image.background)
-                  for side in SIDES}
-            # below a millionth of the depth range both count as exact (`budgets.EXACT`)
-            err = budgets._ratio(ev["error"].relative_error, ev["delaunay"].relative_error)
-            band = budgets._ratio(np.nan_to_num(ev["error"].edge_band_error),
-                                  np.nan_to_num(ev["delaunay"].edge_band_error))
-            ms = {side: 1000.0 * statistics.median(times[side]) for side in SIDES}
-            ratios["error"].append(err)
-            ratios["band"].append(band)
-            ratios["time"].append(ms["error"] / ms["delaunay"])
-            print(f"| {image.name[:30]} | {frac:.0%} | {len(meshes['error'].pixels)} | {err:.3f} "
-                  f"| {band:.3f} | {ms['error'] / ms['delaunay']:.2f} | {ms['delaunay']:.1f} |",
-                  flush=True)
+    for image, camera, _, _, frac, n in budgets.budget_cases(images, data):
+        meshes, times = {}, {side: [] for side in SIDES}
+        for _ in range(args.repeat):
+            for side in SIDES:
+                t = time.perf_counter()
+                meshes[side] = triangulate(image.depth, background=image.background,
+                                           vertices=n, camera=camera, diagonals=side)
+                times[side].append(time.perf_counter() - t)
+        if not np.array_equal(meshes["delaunay"].pixels, meshes["error"].pixels):
+            raise RuntimeError(f"{image.name}: the flips changed the vertices")
+        ev = {side: evaluate(meshes[side], image.depth, background=image.background)
+              for side in SIDES}
+        # below a millionth of the depth range both count as exact (`budgets.EXACT`)
+        err = budgets._ratio(ev["error"].relative_error, ev["delaunay"].relative_error)
+        band = budgets._ratio(np.nan_to_num(ev["error"].edge_band_error),
+                              np.nan_to_num(ev["delaunay"].edge_band_error))
+        ms = {side: 1000.0 * statistics.median(times[side]) for side in SIDES}
+        ratios["error"].append(err)
+        ratios["band"].append(band)
+        ratios["time"].append(ms["error"] / ms["delaunay"])
+        print(f"| {image.name[:30]} | {frac:.0%} | {len(meshes['error'].pixels)} | {err:.3f} "
+              f"| {band:.3f} | {ms['error'] / ms['delaunay']:.2f} | {ms['delaunay']:.1f} |",
+              flush=True)
     print(f"\nmedians over {len(ratios['error'])} cases: error {statistics.median(ratios['error']):.3f}, "
           f"edge band {statistics.median(ratios['band']):.3f}, "
           f"time {statistics.median(ratios['time']):.2f}")

@@ -48,26 +48,23 @@ def main(argv=None) -> int:
     print(f"OUTLIER_FLOOR {heights.OUTLIER_FLOOR:g}, OUTLIER_MADS {heights.OUTLIER_MADS:g}\n")
     print("| image | budget | vertices | error, fitted / copied | edge band |")
     print("|---|---:|---:|---:|---:|")
-    for image in images:
-        camera = budgets.sensor_camera(image, data)
-        _, valid = peers.to_depth_and_mask(image.depth, image.background)
-        for frac, n in budgets.vertex_budgets(valid):
-            meshes = {h: triangulate(image.depth, background=image.background, vertices=n,
-                                     camera=camera, heights=h) for h in ("fit", "pixel")}
-            if not (np.array_equal(meshes["fit"].pixels, meshes["pixel"].pixels)
-                    and np.array_equal(meshes["fit"].faces, meshes["pixel"].faces)):
-                raise RuntimeError(f"{image.name}: the fit changed the triangulation")
-            ev = {h: evaluate(m, image.depth, background=image.background)
-                  for h, m in meshes.items()}
-            err = budgets._ratio(ev["fit"].relative_error, ev["pixel"].relative_error)
-            band = budgets._ratio(np.nan_to_num(ev["fit"].edge_band_error),
-                                  np.nan_to_num(ev["pixel"].edge_band_error))
-            print(f"| {image.name[:30]} | {frac:.0%} | {len(meshes['fit'].pixels)} | {err:.3f} "
-                  f"| {band:.3f} |", flush=True)
-            # below a millionth of the depth range both count as exact (`budgets.EXACT`)
-            if ev["pixel"].relative_error > budgets.EXACT:
-                ratios[frac]["error"].append(err)
-                ratios[frac]["band"].append(band)
+    for image, camera, _, _, frac, n in budgets.budget_cases(images, data):
+        meshes = {h: triangulate(image.depth, background=image.background, vertices=n,
+                                 camera=camera, heights=h) for h in ("fit", "pixel")}
+        if not (np.array_equal(meshes["fit"].pixels, meshes["pixel"].pixels)
+                and np.array_equal(meshes["fit"].faces, meshes["pixel"].faces)):
+            raise RuntimeError(f"{image.name}: the fit changed the triangulation")
+        ev = {h: evaluate(m, image.depth, background=image.background)
+              for h, m in meshes.items()}
+        err = budgets._ratio(ev["fit"].relative_error, ev["pixel"].relative_error)
+        band = budgets._ratio(np.nan_to_num(ev["fit"].edge_band_error),
+                              np.nan_to_num(ev["pixel"].edge_band_error))
+        print(f"| {image.name[:30]} | {frac:.0%} | {len(meshes['fit'].pixels)} | {err:.3f} "
+              f"| {band:.3f} |", flush=True)
+        # below a millionth of the depth range both count as exact (`budgets.EXACT`)
+        if ev["pixel"].relative_error > budgets.EXACT:
+            ratios[frac]["error"].append(err)
+            ratios[frac]["band"].append(band)
     print("\n| budget | cases | error, fitted / copied | edge band |")
     print("|---|---:|---:|---:|")
     for frac, r in ratios.items():

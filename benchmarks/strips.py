@@ -37,34 +37,31 @@ def main(argv=None):
     ratios = {"error": [], "band": [], "time": []}
     print("| image | budget | vertices | error | edge band | one strip ms | two strips ms | time |")
     print("|---|---:|---:|---:|---:|---:|---:|---:|")
-    for image in images:
-        _, valid = peers.to_depth_and_mask(image.depth, image.background)
-        camera = budgets.sensor_camera(image, data)
-        for frac, n in budgets.vertex_budgets(valid):
-            if not strips.use_strips(image.depth.shape, n, None, int(valid.sum())):
-                continue
-            meshes, times = {}, {0: [], 1: []}
-            for _ in range(args.repeat):
-                for two in (0, 1):  # alternating: the machine's load hits both alike
-                    strips.STRIP_MIN_VERTICES = on if two else 1 << 62
-                    try:
-                        t = time.perf_counter()
-                        meshes[two] = triangulate(image.depth, background=image.background,
-                                                  vertices=n, method="refine", camera=camera)
-                        times[two].append(time.perf_counter() - t)
-                    finally:
-                        strips.STRIP_MIN_VERTICES = on
-            ev = {k: evaluate(m, image.depth, background=image.background,
-                              discontinuities=image.discontinuities) for k, m in meshes.items()}
-            ms = {k: 1e3 * statistics.median(v) for k, v in times.items()}
-            err = ev[1].relative_error / ev[0].relative_error if ev[0].relative_error else None
-            band = ev[1].edge_band_error / ev[0].edge_band_error if ev[0].edge_band_error else None
-            for key, r in (("error", err), ("band", band), ("time", ms[1] / ms[0])):
-                if r is not None:
-                    ratios[key].append(r)
-            fmt = lambda r: "-" if r is None else f"{r:.3f}"  # noqa: E731
-            print(f"| {image.name[:30]} | {frac:.0%} | {n} | {fmt(err)} | {fmt(band)} | "
-                  f"{ms[0]:.1f} | {ms[1]:.1f} | {ms[1] / ms[0]:.2f} |", flush=True)
+    for image, camera, _, valid, frac, n in budgets.budget_cases(images, data):
+        if not strips.use_strips(image.depth.shape, n, None, int(valid.sum())):
+            continue
+        meshes, times = {}, {0: [], 1: []}
+        for _ in range(args.repeat):
+            for two in (0, 1):  # alternating: the machine's load hits both alike
+                strips.STRIP_MIN_VERTICES = on if two else 1 << 62
+                try:
+                    t = time.perf_counter()
+                    meshes[two] = triangulate(image.depth, background=image.background,
+                                              vertices=n, method="refine", camera=camera)
+                    times[two].append(time.perf_counter() - t)
+                finally:
+                    strips.STRIP_MIN_VERTICES = on
+        ev = {k: evaluate(m, image.depth, background=image.background,
+                          discontinuities=image.discontinuities) for k, m in meshes.items()}
+        ms = {k: 1e3 * statistics.median(v) for k, v in times.items()}
+        err = ev[1].relative_error / ev[0].relative_error if ev[0].relative_error else None
+        band = ev[1].edge_band_error / ev[0].edge_band_error if ev[0].edge_band_error else None
+        for key, r in (("error", err), ("band", band), ("time", ms[1] / ms[0])):
+            if r is not None:
+                ratios[key].append(r)
+        fmt = lambda r: "-" if r is None else f"{r:.3f}"  # noqa: E731
+        print(f"| {image.name[:30]} | {frac:.0%} | {n} | {fmt(err)} | {fmt(band)} | "
+              f"{ms[0]:.1f} | {ms[1]:.1f} | {ms[1] / ms[0]:.2f} |", flush=True)
     print()
     for key, r in ratios.items():
         if r:

@@ -416,6 +416,20 @@ def test_fitted_depths_are_not_pulled_across_a_small_step():
     np.testing.assert_array_equal(z, own)
 
 
+@pytest.mark.parametrize("s", [2.0**-7, 2.0**9, 0.001])
+def test_p2_holds_where_the_fit_keeps_the_copied_depths(s):
+    # SPEC P2 on the small step above, where the fit's bound sits at its floor (a share of
+    # the depth range, so it scales with the depths): depth times s with kz divided by s
+    # gives the same mesh, and both keep their copied depths.
+    r, c = np.mgrid[0:60, 0:80]
+    depth = 100.0 + 0.1 * c + np.where(c >= 40, 0.02, 0.0)
+    a = triangulate(depth, vertices=40, method="refine")
+    b = triangulate(depth * s, vertices=40, method="refine", camera=(1, 1, 1 / s))
+    assert np.array_equal(a.pixels, b.pixels) and np.array_equal(a.faces, b.faces)
+    np.testing.assert_allclose(a.vertices, b.vertices, rtol=1e-12)
+    np.testing.assert_array_equal(_fitted_depth(b), depth[b.pixels[:, 0], b.pixels[:, 1]] * s)
+
+
 @given(st.integers(3, 12), st.integers(1, 20), st.integers(0, 2**32 - 1))
 def test_block_solver_equals_a_dense_solve(n, n_faces, seed):
     # The matrix-free conjugate gradients of the fit, against numpy's dense solve of the

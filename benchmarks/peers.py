@@ -155,24 +155,28 @@ def _valid_vertex_count(mesh, valid):
 # ---------------------------------------------------------------- peers
 
 
-def peer_delatin(depth, valid, n, repeat):
-    """Greedy insertion (pydelatin), asked for the count that puts n vertices on valid pixels."""
+def delatin_mesh(tin, shape):
+    """pydelatin's result as a Mesh in the (r, c, depth) frame."""
+    v = np.asarray(tin.vertices, np.float64)
+    # pydelatin's y runs up: row = (H - 1) - y; x is the column
+    rcz = np.c_[(shape[0] - 1) - v[:, 1], v[:, 0], v[:, 2]]
+    pix = np.c_[np.round(rcz[:, 0]), np.round(rcz[:, 1])].astype(np.int32)
+    return _mesh_from(rcz, tin.triangles, shape, pix)
+
+
+def delatin_request(depth, valid, n):
+    """``(filled image, max_points)``: the pydelatin request that puts n vertices on valid pixels.
+
+    It also meshes the filled holes, so the request is searched: grown until
+    enough, then bisected to 1 % of n (the count grows with the request).
+    """
     from pydelatin import Delatin
 
-    h = depth.shape[0]
     arr = _filled(depth, valid)
 
-    def to_mesh(tin):
-        v = np.asarray(tin.vertices, np.float64)
-        # pydelatin's y runs up: row = (H - 1) - y; x is the column
-        rcz = np.c_[(h - 1) - v[:, 1], v[:, 0], v[:, 2]]
-        pix = np.c_[np.round(rcz[:, 0]), np.round(rcz[:, 1])].astype(np.int32)
-        return _mesh_from(rcz, tin.triangles, depth.shape, pix)
-
-    # It also meshes the filled holes: search the request that puts n vertices on valid
-    # pixels (grow until enough, then bisect; the count grows with the request).
     def valid_count(ask):
-        return _valid_vertex_count(to_mesh(Delatin(arr, max_error=0.0, max_points=int(ask))), valid)
+        tin = Delatin(arr, max_error=0.0, max_points=int(ask))
+        return _valid_vertex_count(delatin_mesh(tin, depth.shape), valid)
 
     lo, hi = int(n), int(n)
     limit = int(valid.size)
@@ -188,8 +192,16 @@ def peer_delatin(depth, valid, n, repeat):
         else:
             hi = mid
         ask = hi
+    return arr, ask
+
+
+def peer_delatin(depth, valid, n, repeat):
+    """Greedy insertion (pydelatin), asked for the count that puts n vertices on valid pixels."""
+    from pydelatin import Delatin
+
+    arr, ask = delatin_request(depth, valid, n)
     tin, ms = _timed(lambda: Delatin(arr, max_error=0.0, max_points=ask), repeat)
-    return to_mesh(tin), ms
+    return delatin_mesh(tin, depth.shape), ms
 
 
 def _grid_mesh(depth, valid):

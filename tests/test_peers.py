@@ -1,4 +1,5 @@
-"""Smoke tests of `benchmarks/peers.py --quick`, `budgets.py`, `strips.py`, `heights.py`.
+"""Smoke tests of `benchmarks/peers.py --quick`, `budgets.py`, `strips.py`, `heights.py`,
+`equal_error.py`.
 
 Their numbers are finite.
 """
@@ -67,6 +68,43 @@ def test_heights_benchmark_runs_on_one_scene():
     for cells in rows:
         assert int(cells[1]) >= 1
         assert all(math.isfinite(float(x)) and float(x) > 0 for x in cells[2:4])
+
+
+def test_equal_error_benchmark_runs_on_one_scene():
+    # the noisy dome: at each budget a count for pydelatin and a finite time ratio
+    pytest.importorskip("pydelatin")
+    p = subprocess.run([sys.executable, str(PEERS.with_name("equal_error.py")), "--only",
+                        "synthetic dome noise", "--repeat", "1"], capture_output=True, text=True,
+                       timeout=600)
+    assert p.returncode == 0, p.stderr[-2000:]
+    rows = [line.strip("|").split("|") for line in p.stdout.splitlines()
+            if line.startswith("| synthetic dome noise")]
+    assert len(rows) == 3, p.stdout[-2000:]
+    for cells in rows:
+        assert int(cells[4]) > 0 and math.isfinite(float(cells[-1])) and float(cells[-1]) > 0
+
+
+def test_equal_error_count_reaches_the_error():
+    # independent check of the search: pydelatin's mesh at the count found is at most the
+    # target error, and a fifth fewer vertices is not (the dome's error falls steadily with
+    # the count; the search stops within 1 %)
+    pytest.importorskip("pydelatin")
+    spec = importlib.util.spec_from_file_location("rangemesh_benchmarks_equal_error",
+                                                  PEERS.with_name("equal_error.py"))
+    eq = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(eq)
+    sc = bench.scenes.make("dome", (96, 120))
+    d = sc.depth
+    valid = np.isfinite(d)
+    image = bench.Image("dome", d, None, "", np.zeros(d.shape, bool))
+    target = 0.3  # percent of the depth range
+    m = eq.fewest_for(image, d, valid, 50, target)
+    assert m is not None
+    mesh, _ = bench.peer_delatin(d, valid, m, 1)
+    assert bench.evaluate(mesh, d).relative_error <= target
+    below = (4 * m) // 5
+    mesh, _ = bench.peer_delatin(d, valid, below, 1)
+    assert bench.evaluate(mesh, d).relative_error > target
 
 
 def test_strips_benchmark_runs_on_one_image(shared_data):

@@ -23,7 +23,6 @@ import subprocess
 import sys
 import tarfile
 import tempfile
-import time
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
@@ -59,17 +58,6 @@ def cameras(image, data, base):
             beams = data / rel.replace(".range.npy", ".beams.json")
             return cam, base.camera.Spherical.from_beams(beams)
     raise RuntimeError(f"no beams for {image.name}")
-
-
-def median_ms(fns, repeat):
-    """Medians (ms) of `repeat` alternating calls of each function."""
-    times = [[] for _ in fns]
-    for _ in range(repeat):
-        for i, fn in enumerate(fns):
-            t = time.perf_counter()
-            fn()
-            times[i].append(time.perf_counter() - t)
-    return [1000.0 * statistics.median(t) for t in times]
 
 
 def main(argv=None):
@@ -108,7 +96,7 @@ def main(argv=None):
                 same = (a.faces.shape == b.faces.shape and (a.faces == b.faces).all()
                         and a.vertices.shape == b.vertices.shape
                         and (a.vertices == b.vertices).all())
-                ms_old, ms_new = median_ms((old, new), repeat)
+                _, (ms_old, ms_new) = peers.alternating_ms((old, new), repeat)
                 rows.append((small, ms_new / ms_old))
                 print(f"| {image.name[:30]} | {frac:.0%} | {n} | {ms_old:.2f} | {ms_new:.2f} | "
                       f"{ms_new / ms_old:.3f} | {'yes' if same else 'NO'} |", flush=True)

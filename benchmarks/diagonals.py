@@ -21,7 +21,6 @@ from __future__ import annotations
 import argparse
 import statistics
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
@@ -46,13 +45,11 @@ def main(argv=None) -> int:
     print("| image | budget | vertices | error, flips / none | edge band | time | ms without |")
     print("|---|---:|---:|---:|---:|---:|---:|")
     for image, camera, _, _, frac, n in budgets.budget_cases(images, data):
-        meshes, times = {}, {side: [] for side in SIDES}
-        for _ in range(args.repeat):
-            for side in SIDES:
-                t = time.perf_counter()
-                meshes[side] = triangulate(image.depth, background=image.background,
-                                           vertices=n, camera=camera, diagonals=side)
-                times[side].append(time.perf_counter() - t)
+        outs, ms = peers.alternating_ms(
+            [lambda side=side, image=image, n=n, camera=camera: triangulate(
+                image.depth, background=image.background, vertices=n, camera=camera,
+                diagonals=side) for side in SIDES], args.repeat)
+        meshes, ms = dict(zip(SIDES, outs, strict=True)), dict(zip(SIDES, ms, strict=True))
         if not np.array_equal(meshes["delaunay"].pixels, meshes["error"].pixels):
             raise RuntimeError(f"{image.name}: the flips changed the vertices")
         ev = {side: evaluate(meshes[side], image.depth, background=image.background)
@@ -61,7 +58,6 @@ def main(argv=None) -> int:
         err = budgets._ratio(ev["error"].relative_error, ev["delaunay"].relative_error)
         band = budgets._ratio(np.nan_to_num(ev["error"].edge_band_error),
                               np.nan_to_num(ev["delaunay"].edge_band_error))
-        ms = {side: 1000.0 * statistics.median(times[side]) for side in SIDES}
         ratios["error"].append(err)
         ratios["band"].append(band)
         ratios["time"].append(ms["error"] / ms["delaunay"])

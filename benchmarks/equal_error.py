@@ -28,7 +28,6 @@ from __future__ import annotations
 import argparse
 import statistics
 import sys
-import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -41,38 +40,27 @@ from rangemesh import evaluate, triangulate  # noqa: E402
 
 
 def delatin_error(image, masked, valid, n):
-    """pydelatin's mesh with n vertices on valid pixels, and its mean relative error."""
+    """The mean relative error of pydelatin's mesh with n vertices on valid pixels."""
     arr, ask = peers.delatin_request(masked, valid, n)
     mesh = peers.delatin_mesh(Delatin(arr, max_error=0.0, max_points=ask), masked.shape)
-    return mesh, evaluate(mesh, image.depth, background=image.background).relative_error
+    return evaluate(mesh, image.depth, background=image.background).relative_error
 
 
 def fewest_for(image, masked, valid, n, target):
     """The fewest vertices (to 1 %) at which pydelatin's error is at most `target`, or None."""
     limit = int(valid.sum())
     lo, hi = 0, max(int(n), 4)
-    while delatin_error(image, masked, valid, hi)[1] > target:
+    while delatin_error(image, masked, valid, hi) > target:
         if hi >= limit:
             return None
         lo, hi = hi, min(2 * hi, limit)
     while hi - lo > max(1, hi // 100):
         mid = (lo + hi) // 2
-        if delatin_error(image, masked, valid, mid)[1] > target:
+        if delatin_error(image, masked, valid, mid) > target:
             lo = mid
         else:
             hi = mid
     return hi
-
-
-def alternating(calls, repeat):
-    """Median seconds of each call, timed in turns (the machine's drift hits both alike)."""
-    times = [[] for _ in calls]
-    for _ in range(repeat):
-        for fn, out in zip(calls, times, strict=True):
-            t = time.perf_counter()
-            fn()
-            out.append(time.perf_counter() - t)
-    return [statistics.median(t) for t in times]
 
 
 def main(argv=None) -> int:
@@ -99,12 +87,12 @@ def main(argv=None) -> int:
             print(f"{head} {m} | {m / n:.2f} | both exact: left out | | |")
             continue
         arr, ask = peers.delatin_request(masked, valid, m)
-        ours, theirs = alternating([
+        _, (ours, theirs) = peers.alternating_ms([
             lambda image=image, n=n, camera=camera: triangulate(
                 image.depth, background=image.background, vertices=n, camera=camera),
             lambda arr=arr, ask=ask: Delatin(arr, max_error=0.0, max_points=ask)], args.repeat)
         ratios[frac].append(ours / theirs)
-        print(f"{head} {m} | {m / n:.2f} | {1e3 * ours:.2f} | {1e3 * theirs:.2f} | "
+        print(f"{head} {m} | {m / n:.2f} | {ours:.2f} | {theirs:.2f} | "
               f"{ours / theirs:.2f} |", flush=True)
     print("\n| budget | cases | time / pydelatin at equal error (median) | max |")
     print("|---|---:|---:|---:|")

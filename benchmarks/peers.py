@@ -123,6 +123,22 @@ def _timed(fn, repeat):
     return out, 1000.0 * statistics.median(times)
 
 
+def alternating_ms(fns, repeat):
+    """Call each function in turn, `repeat` rounds: (each one's last output, its median ms).
+
+    Alternating calls share the machine's drift alike: the ratio of two medians is what a
+    change or a peer costs, on a shared and noisy machine.
+    """
+    outs = [None] * len(fns)
+    times = [[] for _ in fns]
+    for _ in range(repeat):
+        for i, fn in enumerate(fns):
+            t = time.perf_counter()
+            outs[i] = fn()
+            times[i].append(time.perf_counter() - t)
+    return outs, [1000.0 * statistics.median(t) for t in times]
+
+
 def _filled(depth, valid):
     """Background replaced by the nearest valid depth (for peers that need a full height map)."""
     if valid.all():

@@ -64,7 +64,7 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--base", required=True, help="the commit to compare with")
     peers.add_image_options(ap)
-    ap.add_argument("--repeat", type=int, default=21,
+    ap.add_argument("--repeat", type=peers.positive_int, default=21,
                     help="alternating calls on small images (a third on larger ones)")
     ap.add_argument("--diagonals", choices=("delaunay", "error"), default=None,
                     help="passed to both calls (COMMIT must know it); default: not passed")

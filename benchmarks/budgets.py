@@ -164,7 +164,7 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(prog="python benchmarks/budgets.py", description=__doc__.split("\n")[0])
     ap.add_argument("--data", type=Path, default=None, help="the shared data folder")
     ap.add_argument("--quick", action="store_true", help="three real images, two scenes")
-    ap.add_argument("--repeat", type=int, default=3, help="timed calls per case (default 3)")
+    ap.add_argument("--repeat", type=peers.positive_int, default=3, help="timed calls per case (default 3)")
     ap.add_argument("--only", default=None, metavar="TEXT",
                     help="only the inputs whose name contains TEXT (e.g. rellis3d)")
     ap.add_argument("--diagonals", choices=["delaunay", "error"], default=None,

@@ -38,7 +38,7 @@ SIDES = ("delaunay", "error")
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     peers.add_image_options(ap)
-    ap.add_argument("--repeat", type=int, default=5, help="timed calls a side (default 5)")
+    ap.add_argument("--repeat", type=peers.positive_int, default=5, help="timed calls a side (default 5)")
     args = ap.parse_args(argv)
     data, images = peers.selected_images(args)
     ratios = {"error": [], "band": [], "time": []}

@@ -67,7 +67,7 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(prog="python benchmarks/equal_error.py",
                                  description=__doc__.splitlines()[0])
     peers.add_image_options(ap)
-    ap.add_argument("--repeat", type=int, default=7, help="timed calls of each (default 7)")
+    ap.add_argument("--repeat", type=peers.positive_int, default=7, help="timed calls of each (default 7)")
     args = ap.parse_args(argv)
     data, images = peers.selected_images(args)
     print("| image | budget | vertices | error % | pydelatin's vertices at that error | ratio "

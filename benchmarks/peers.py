@@ -123,6 +123,17 @@ def _timed(fn, repeat):
     return out, 1000.0 * statistics.median(times)
 
 
+def positive_int(text):
+    """argparse type of ``--repeat``: an integer of at least 1 (a median needs one call)."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be at least 1, got {value}")
+    return value
+
+
 def alternating_ms(fns, repeat):
     """Call each function in turn, `repeat` rounds: (each one's last output, its median ms).
 
@@ -350,7 +361,11 @@ def selected_images(args) -> tuple[Path | None, list[Image]]:
     """The data folder and the images (scenes included) that `add_image_options` selected."""
     data = find_data(args.data)
     images, _ = load_images(data, False)
-    return data, [im for im in images if not args.only or any(o in im.name for o in args.only)]
+    chosen = [im for im in images if not args.only or any(o in im.name for o in args.only)]
+    if not chosen:  # an empty table would look like a run that measured nothing
+        raise SystemExit(f"no image or scene name contains any of {args.only}; names: "
+                         + ", ".join(im.name for im in images))
+    return data, chosen
 
 
 def load_images(data: Path | None, quick: bool,
@@ -568,7 +583,8 @@ def main(argv=None) -> int:
                     help="folder for results.csv, results.json, results.md, figure.png")
     ap.add_argument("--quick", action="store_true",
                     help="3 real images, 2 scenes, 2 budgets, 1 repeat (about a minute)")
-    ap.add_argument("--repeat", type=int, default=None, help="timed calls per case (default 5; 1 quick)")
+    ap.add_argument("--repeat", type=positive_int, default=None,
+                    help="timed calls per case (default 5; 1 quick)")
     ap.add_argument("--no-peers", action="store_true", help="rangemesh variants only")
     ap.add_argument("--no-figure", action="store_true", help="skip the figure")
     ap.add_argument("--only", default=None, metavar="TEXT",

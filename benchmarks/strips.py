@@ -30,7 +30,7 @@ from rangemesh.greedy import strips  # noqa: E402
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     peers.add_image_options(ap)
-    ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--repeat", type=peers.positive_int, default=3)
     args = ap.parse_args(argv)
     data, images = peers.selected_images(args)
     on = strips.STRIP_MIN_VERTICES

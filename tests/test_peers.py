@@ -140,3 +140,17 @@ def test_peer_delatin_orientation_by_hand():
     mesh, _ = bench.peer_delatin(d, np.ones_like(d, bool), 7, 1)
     spike = mesh.vertices[np.argmax(mesh.vertices[:, 2])]
     assert spike.tolist() == [1.0, 5.0, 10.0]
+
+
+def test_benchmark_options_refuse_what_would_measure_nothing():
+    # --repeat below 1 (no call to take a median of) and an --only that matches no input
+    import argparse
+
+    assert bench.positive_int("3") == 3
+    for bad in ("0", "-2", "x", "1.5"):
+        with pytest.raises(argparse.ArgumentTypeError):
+            bench.positive_int(bad)
+    ap = argparse.ArgumentParser()
+    bench.add_image_options(ap)
+    with pytest.raises(SystemExit, match="no image or scene name contains"):
+        bench.selected_images(ap.parse_args(["--only", "no such input"]))

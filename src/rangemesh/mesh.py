@@ -131,9 +131,9 @@ def count_edges(faces: np.ndarray) -> int:
         return 0
     if faces.min() < 0:
         raise ValueError(f"face index {int(faces.min())} is negative")
-    from .geometry.halfedges import count_edges_kernel
+    from . import _core
 
-    return int(count_edges_kernel(faces, int(faces.max()) + 1))
+    return int(_core.count_edges(faces, int(faces.max()) + 1))
 
 
 @dataclass(frozen=True, eq=False)

@@ -6,8 +6,8 @@ import time
 
 import numpy as np
 
+from .._core import count_edges
 from ..camera import backproject, pixel_aspect
-from ..geometry.halfedges import count_edges_kernel
 from ..geometry.pixels import valid_faces, valid_range
 from ..geometry.signals import holding_signals
 from ..mesh import Mesh, Stats, empty_mesh
@@ -275,7 +275,7 @@ def greedy_mesh(depth: np.ndarray, valid: np.ndarray, camera, *, vertices: int |
     if fit and len(faces):
         seconds["fit"] = fit_seconds
     # (the kernel itself: faces made here need no checks, which cost 70 us at 3000 faces)
-    stats = Stats(vertices=got, triangles=len(faces), edges=count_edges_kernel(faces, got),
+    stats = Stats(vertices=got, triangles=len(faces), edges=count_edges(faces, got),
                   sampled_points=got, seconds=seconds)
     if len(faces) == 0:
         stats = Stats(seconds=seconds,

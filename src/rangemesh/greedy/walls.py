@@ -26,8 +26,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._core import build_halfedges, neighbors_from_halfedges
 from ..geometry.fans import prune_dangling
-from ..geometry.halfedges import build_halfedges, neighbors_from_halfedges
 
 __all__ = ["wall_faces", "drop_walls", "pixel_lengths"]
 

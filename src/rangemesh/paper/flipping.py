@@ -14,7 +14,7 @@ import math
 
 import numpy as np
 
-from ..geometry.halfedges import build_halfedges
+from .._core import build_halfedges
 from ..geometry.signals import holding_signals
 from ..mesh import Mesh
 from ..params import MeshParams

@@ -7,10 +7,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._core import build_halfedges, neighbors_from_halfedges
 from ..camera import as_camera, backproject
 from ..geometry.delaunay import delaunay_sweep, legalize_all
 from ..geometry.fans import prune_dangling
-from ..geometry.halfedges import build_halfedges, neighbors_from_halfedges
 from ..geometry.signals import holding_signals
 from ..mesh import Mesh, Stats, count_edges, empty_mesh
 

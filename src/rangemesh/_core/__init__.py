@@ -1,0 +1,9 @@
+"""The compiled core: C++17 kernels (``_ext``), built by scikit-build-core at ``pip install``.
+
+The kernels trust their inputs: the public functions that call them check
+shapes, dtypes and values. Nothing here imports the rest of rangemesh.
+"""
+
+from ._ext import build_halfedges, count_edges, neighbors_from_halfedges
+
+__all__ = ["build_halfedges", "count_edges", "neighbors_from_halfedges"]

@@ -1,0 +1,10 @@
+// One binding function per kernel family; module.cpp calls each.
+#pragma once
+
+#include <nanobind/nanobind.h>
+
+namespace rangemesh::bind {
+
+void bind_geometry(nanobind::module_& m);
+
+}  // namespace rangemesh::bind

@@ -1,0 +1,58 @@
+// NumPy arrays in and out of the kernels: nanobind's ndarray, seen as the kernels' views.
+#pragma once
+
+#include <nanobind/nanobind.h>
+#include <nanobind/ndarray.h>
+
+#include <utility>
+#include <vector>
+
+#include "../views.hpp"
+
+namespace rangemesh::bind {
+
+namespace nb = nanobind;
+
+// C-contiguous arrays on the CPU; nanobind converts other dtypes and layouts on the way in.
+template <class T>
+using In1 = nb::ndarray<const T, nb::ndim<1>, nb::c_contig, nb::device::cpu>;
+template <class T>
+using In2 = nb::ndarray<const T, nb::ndim<2>, nb::c_contig, nb::device::cpu>;
+// Arrays written in place: the caller's own, never a converted copy.
+template <class T>
+using Out1 = nb::ndarray<T, nb::ndim<1>, nb::c_contig, nb::device::cpu>;
+template <class T>
+using Out2 = nb::ndarray<T, nb::ndim<2>, nb::c_contig, nb::device::cpu>;
+
+template <class A>
+auto span(const A& a) {
+    using T = std::remove_reference_t<decltype(*a.data())>;
+    return Span<T>{a.data(), static_cast<index_t>(a.shape(0))};
+}
+
+template <class A>
+auto grid(const A& a) {
+    using T = std::remove_reference_t<decltype(*a.data())>;
+    return Grid<T>{a.data(), static_cast<index_t>(a.shape(0)), static_cast<index_t>(a.shape(1))};
+}
+
+// A NumPy array that takes over `values` (no copy), shaped (n) or (rows, cols).
+template <class T>
+nb::ndarray<nb::numpy, T> to_numpy(std::vector<T>&& values, std::size_t rows, std::size_t cols = 0) {
+    auto* owned = new std::vector<T>(std::move(values));
+    nb::capsule owner(owned, [](void* p) noexcept { delete static_cast<std::vector<T>*>(p); });
+    if (cols == 0) {
+        std::size_t shape[1] = {rows};
+        return nb::ndarray<nb::numpy, T>(owned->data(), 1, shape, owner);
+    }
+    std::size_t shape[2] = {rows, cols};
+    return nb::ndarray<nb::numpy, T>(owned->data(), 2, shape, owner);
+}
+
+template <class T>
+nb::ndarray<nb::numpy, T> to_numpy(std::vector<T>&& values) {
+    const std::size_t n = values.size();
+    return to_numpy(std::move(values), n);
+}
+
+}  // namespace rangemesh::bind

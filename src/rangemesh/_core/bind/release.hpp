@@ -1,0 +1,42 @@
+// Running a kernel with the GIL released and Ctrl-C noted: `run_released(f)`.
+#pragma once
+
+#include <nanobind/nanobind.h>
+
+#include <utility>
+
+#include "../interrupt.hpp"
+
+namespace rangemesh::bind {
+
+// While alive (main thread only), SIGINT raises the kernels' interrupt flag and then runs the
+// handler that was installed before, so Python still learns of the signal.
+class SigintWatch {
+  public:
+    SigintWatch();
+    ~SigintWatch();
+    SigintWatch(const SigintWatch&) = delete;
+    SigintWatch& operator=(const SigintWatch&) = delete;
+
+  private:
+    bool counted_ = false;  // on the main thread, in the nesting count
+    bool active_ = false;   // installed the handler
+};
+
+// Raise the Python exception for a kernel stopped by Ctrl-C: whatever Python's SIGINT handler
+// raises (KeyboardInterrupt by default), or KeyboardInterrupt if it raises nothing.
+[[noreturn]] void raise_interrupted();
+
+// Call `f()` with the GIL released and Ctrl-C watched; returns what `f` returns.
+template <class F>
+auto run_released(F&& f) {
+    SigintWatch watch;
+    try {
+        nanobind::gil_scoped_release released;
+        return std::forward<F>(f)();
+    } catch (const Interrupted&) {
+        raise_interrupted();
+    }
+}
+
+}  // namespace rangemesh::bind

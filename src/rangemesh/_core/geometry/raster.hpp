@@ -1,0 +1,105 @@
+// The row scan of a triangle with integer corners: which pixels of each row are its own.
+//
+// An edge P -> Q has the linear edge function w(r, c) = orient(P, Q, (r, c)): w = v + s (c - c0)
+// on a row, and v grows by dv a row. The columns where w >= 0 start at c0 - floor(v / s)
+// (s > 0) or end at c0 + floor(v / -s) (s < 0). `EdgeWalk` keeps that quotient and its
+// remainder and moves them down a row with integer adds: one division per edge, none per row.
+#pragma once
+
+#include <algorithm>
+#include <cstdlib>
+
+#include "../views.hpp"
+#include "predicates.hpp"
+
+namespace rangemesh {
+
+struct EdgeWalk {
+    index_t s, v, q, m, dv, dq, dm, d;
+
+    static EdgeWalk start(index_t pr, index_t pc, index_t qr, index_t qc, index_t r0, index_t c0) {
+        EdgeWalk e;
+        e.s = qr - pr;
+        e.dv = pc - qc;
+        e.v = orient<index_t>(pr, pc, qr, qc, r0, c0);
+        e.d = std::max<index_t>(std::llabs(e.s), 1);  // an edge along a row (s == 0) uses v alone
+        e.q = floor_div(e.v, e.d);
+        e.m = e.v - e.q * e.d;
+        e.dq = floor_div(e.dv, e.d);
+        e.dm = e.dv - e.dq * e.d;
+        return e;
+    }
+
+    // One row down.
+    void next() {
+        q += dq;
+        m += dm;
+        if (m >= d) {
+            m -= d;
+            q += 1;
+        }
+        v += dv;
+    }
+
+    // Narrow [lo, hi] of this row to where w >= 0 (w > 0 when the edge's pixels are not `own`).
+    void clip(bool own, index_t c0, index_t& lo, index_t& hi) const {
+        if (s > 0) {
+            index_t b = c0 - q;
+            if (m == 0 && !own) b += 1;  // w == 0 on column b exactly when v / s is whole
+            lo = std::max(lo, b);
+        } else if (s < 0) {
+            index_t b = c0 + q;
+            if (m == 0 && !own) b -= 1;
+            hi = std::min(hi, b);
+        } else if (v < 0 || (v == 0 && !own)) {  // along the row: all of it or none
+            lo = hi + 1;
+        }
+    }
+
+    // The edge function at column `c` of this row.
+    index_t at(index_t c, index_t c0) const { return v + s * (c - c0); }
+};
+
+// One row's pixels of a triangle: columns first..last (none when first > last), and the edge
+// functions orient(A, B, p), orient(B, C, p), orient(C, A, p) at p = (row, first); along the
+// row they grow by rB - rA, rC - rB and rA - rC a column.
+struct RowSpan {
+    index_t first, last;
+    index_t w0, w1, w2;
+};
+
+// Walks the rows of triangle ABC (counter-clockwise in (row, column)) top to bottom.
+struct TriangleRows {
+    index_t r0, r1, c0, c1;  // the bounding box
+    EdgeWalk ab, bc, ca;
+
+    TriangleRows(index_t ar, index_t ac, index_t br, index_t bc_, index_t cr, index_t cc)
+        : r0(std::min(ar, std::min(br, cr))),
+          r1(std::max(ar, std::max(br, cr))),
+          c0(std::min(ac, std::min(bc_, cc))),
+          c1(std::max(ac, std::max(bc_, cc))),
+          ab(EdgeWalk::start(ar, ac, br, bc_, r0, c0)),
+          bc(EdgeWalk::start(br, bc_, cr, cc, r0, c0)),
+          ca(EdgeWalk::start(cr, cc, ar, ac, r0, c0)) {}
+
+    void next_row() {
+        ab.next();
+        bc.next();
+        ca.next();
+    }
+
+    // The current row's pixels; an edge whose flag is false leaves its own pixels out, so two
+    // triangles that share an edge can split them.
+    RowSpan columns(bool own_ab, bool own_bc, bool own_ca) const {
+        RowSpan s{c0, c1, 0, 0, 0};
+        ab.clip(own_ab, c0, s.first, s.last);
+        bc.clip(own_bc, c0, s.first, s.last);
+        ca.clip(own_ca, c0, s.first, s.last);
+        s.w0 = ab.at(s.first, c0);
+        s.w1 = bc.at(s.first, c0);
+        s.w2 = ca.at(s.first, c0);
+        return s;
+    }
+};
+
+}  // namespace rangemesh

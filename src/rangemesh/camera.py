@@ -18,6 +18,10 @@ __all__ = ["Orthographic", "Pinhole", "Spherical", "Rays", "backproject", "as_ca
 ORTHOGRAPHIC = 0.0
 PINHOLE = 1.0
 RAYS = 2.0  # a ray per pixel: [2, H, W, range_scale, 0, 0, then the (H, W, 3) rays flat]
+# Bounds on numbers read from a beams file, checked before they size an array: a beams file is
+# a few kilobytes; 2**26 pixels of rays take 1.6 GB (sensors have under 2**19).
+MAX_BEAMS_BYTES = 1 << 24
+MAX_RAY_PIXELS = 1 << 26
 
 
 def _positive(name, value, allow_negative=False):
@@ -224,7 +228,7 @@ class Spherical(_RayCamera):
         return abs(turn - 360.0) <= 0.5 * abs(step)
 
     @classmethod
-    def from_beams(cls, beams, *, range_scale: float = 1.0) -> Spherical:
+    def from_beams(cls, beams, *, range_scale: float = 1.0, image_shape=None) -> Spherical:
         """The camera described by a ``.beams.json`` file (or its parsed dictionary).
 
         The layout (that of ``rellis3d_os1-64_000000.beams.json``; see the
@@ -234,10 +238,20 @@ class Spherical(_RayCamera):
         has azimuth ``azimuth0_deg + azimuth_row_residual_deg[r] + c *
         azimuth_step_deg``. Other keys are ignored.
 
+        Parameters
+        ----------
+        beams : dict or str or os.PathLike
+            The parsed file, or its path.
+        range_scale : float, default 1.0
+        image_shape : (int, int), optional
+            The shape of the image the camera is for: checked before any
+            array is sized by the file's numbers.
+
         Raises
         ------
         ValueError
-            A missing key or a value of the wrong kind, naming it.
+            A missing key or a value of the wrong kind, naming it; a camera
+            for another image shape, or one larger than `MAX_RAY_PIXELS`.
         """
         if not isinstance(beams, dict):
             beams = read_beams(beams)
@@ -248,7 +262,7 @@ class Spherical(_RayCamera):
         try:
             cols = int(beams["cols"])
             az0, step = float(beams["azimuth0_deg"]), float(beams["azimuth_step_deg"])
-        except (TypeError, ValueError):
+        except (TypeError, ValueError, OverflowError):
             raise ValueError("beams: cols, azimuth0_deg and azimuth_step_deg must be numbers") \
                 from None
         if cols < 1 or not (math.isfinite(az0) and math.isfinite(step)) or step == 0:
@@ -258,9 +272,18 @@ class Spherical(_RayCamera):
             el = np.asarray(beams["elevation_deg"], dtype=np.float64)
             off = beams.get("azimuth_row_residual_deg")
             off = None if off is None else np.asarray(off, dtype=np.float64)
-        except (TypeError, ValueError):
+        except (TypeError, ValueError, OverflowError):
             raise ValueError("beams: elevation_deg and azimuth_row_residual_deg must be lists "
                              "of numbers") from None
+        if el.ndim != 1:
+            raise ValueError("beams: elevation_deg must be a list of numbers, one per row")
+        # sizes read from a file are checked before they size the rays
+        if image_shape is not None and (el.size, cols) != tuple(int(n) for n in image_shape):
+            raise ValueError(f"the beams file describes a {el.size}x{cols} image, not this "
+                             f"{image_shape[0]}x{image_shape[1]} one")
+        if el.size * cols > MAX_RAY_PIXELS:
+            raise ValueError(f"beams: {el.size} rows x {cols} cols is more than the "
+                             f"{MAX_RAY_PIXELS} pixels a per-pixel camera may have")
         return cls(el, az0 + step * np.arange(cols), off, range_scale)
 
 
@@ -283,9 +306,17 @@ class Rays(_RayCamera):
         d = np.array(self.directions, dtype=np.float64, copy=True)
         if d.ndim != 3 or d.shape[2] != 3 or min(d.shape[:2]) < 1:
             raise ValueError(f"directions must be (H, W, 3), got shape {d.shape}")
-        norm = np.linalg.norm(d, axis=2, keepdims=True)
-        if not (np.isfinite(d).all() and (norm > 0).all()):
+        if not np.isfinite(d).all():
             raise ValueError("directions must be finite and non-zero")
+        big = np.abs(d).max(axis=2, keepdims=True)
+        if not (big > 0).all():
+            raise ValueError("directions must be finite and non-zero")
+        with np.errstate(over="ignore", under="ignore"):
+            norm = np.linalg.norm(d, axis=2, keepdims=True)
+        # a very long or very short vector's norm overflows or underflows: scale it first
+        far = ~np.isfinite(norm[..., 0]) | (norm[..., 0] < 1e-150)
+        d[far] /= big[far]
+        norm[far] = np.linalg.norm(d[far], axis=1, keepdims=True)
         d /= norm
         d.setflags(write=False)
         object.__setattr__(self, "directions", d)
@@ -313,9 +344,16 @@ def read_beams(path) -> dict:
 
     path = Path(path)
     try:
+        if not path.is_file():
+            raise OSError("not a regular file" if path.exists() else "no such file")
+        if path.stat().st_size > MAX_BEAMS_BYTES:
+            raise OSError(f"{path.stat().st_size} bytes; a beams file has at most "
+                          f"{MAX_BEAMS_BYTES}")
         beams = json.loads(path.read_text())
-    except (OSError, ValueError) as exc:
-        raise ValueError(f"{path}: cannot read it as a beams file ({exc})") from None
+    except (OSError, ValueError, RecursionError) as exc:
+        raise ValueError(f"{path}: cannot read it as a beams file "
+                         f"({type(exc).__name__ if isinstance(exc, RecursionError) else exc})") \
+            from None
     if not isinstance(beams, dict):
         raise ValueError(f"{path}: a beams file holds a JSON object")
     return beams

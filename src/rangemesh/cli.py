@@ -252,19 +252,19 @@ def _params(args) -> MeshParams:
         raise UserError(str(exc)) from None
 
 
-def _camera(args):
+def _camera(args, image_shape=None):
     try:
-        return _make_camera(args)
+        return _make_camera(args, image_shape)
     except (ValueError, TypeError) as exc:
         raise UserError(str(exc)) from None
 
 
-def _make_camera(args):
+def _make_camera(args, image_shape=None):
     if args.beams is not None:
         if args.intrinsics is not None or args.scale is not None:
             raise UserError("--beams, --intrinsics and --scale exclude each other")
         scale = 1.0 if args.depth_scale is None else args.depth_scale
-        return Spherical.from_beams(args.beams, range_scale=scale)
+        return Spherical.from_beams(args.beams, range_scale=scale, image_shape=image_shape)
     if args.intrinsics is not None:
         if args.scale is not None:
             raise UserError("--scale and --intrinsics exclude each other")
@@ -420,7 +420,7 @@ def _check_method(args):
 def _run_mesh(args, image, name, bg, outputs_for):
     _check_method(args)
     params = _params(args)
-    camera = _camera(args)
+    camera = _camera(args, image.shape)
     targets = _targets(args)
     given = [k for k, v in targets.items() if v is not None]
     extra = {"tiles": args.tiles} if (given and args.tiles is not None) else {}
@@ -529,11 +529,16 @@ def _read_scan(args):
     except ValueError as exc:
         raise UserError(_one_line(exc)) from None
     try:
+        cols = beams.get("cols")
         rng, _ = read_lidar_bin(args.image, int(beams["rows"]),
-                                column_shift=beams.get("column_shift"))
+                                column_shift=beams.get("column_shift"),
+                                steps=None if cols is None else int(cols))
     except KeyError:
         raise UserError(f"{args.beams}: a beams file for a .bin scan gives its 'rows'") from None
-    except (OSError, ValueError, TypeError) as exc:
+    except (OverflowError, TypeError) as exc:
+        raise UserError(f"{args.beams}: 'rows', 'cols' and 'column_shift' must be whole numbers "
+                        f"({_one_line(exc)})") from None
+    except (OSError, ValueError) as exc:
         raise UserError(f"{args.image}: {_one_line(exc)}") from None
     return rng
 
@@ -589,9 +594,11 @@ def _cmd_info(args):
 
 def _cmd_eval(args):
     image = _read_image(args.image)
-    bg = _resolve_background(args.background, image)
-    given = any(x is not None for x in (args.scale, args.intrinsics, args.depth_scale))
-    camera = _camera(args) if given else None  # None: the camera the file records
+    # a LiDAR marks no return with range 0, in float images too (as `mesh --beams` takes it)
+    bg = 0.0 if args.background == "auto" and args.beams else _resolve_background(args.background,
+                                                                                     image)
+    given = any(x is not None for x in (args.scale, args.intrinsics, args.depth_scale, args.beams))
+    camera = _camera(args, image.shape) if given else None  # None: the camera the file records
     try:
         mesh = read_mesh(args.mesh, camera=camera, image_shape=image.shape)
         ev = evaluate(mesh, image, background=bg)
@@ -618,6 +625,8 @@ def _cmd_batch(args):
     camera = _camera(args)
     bg = args.background
     bg = None if bg in ("none", "nan") else bg  # 'auto' is resolved image by image
+    if bg == "auto" and args.beams:  # a LiDAR marks no return with range 0, in float images too
+        bg = 0.0
     t0 = time.perf_counter()
     try:
         results = mesh_many(args.inputs, args.output_dir, params, background=bg,

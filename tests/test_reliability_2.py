@@ -187,7 +187,8 @@ def _cameras(shared_data):
 
 
 @pytest.mark.parametrize("kind", ["orthographic", "pinhole", "spherical"])
-def test_ply_header_lines_fit_common_readers_and_keep_the_camera(shared_data, tmp_path, kind):
+def test_ply_header_lines_fit_common_readers_and_keep_the_camera(shared_data, tmp_path, kind,
+                                                                 open3d):
     image, cam = _cameras(shared_data)[kind]
     bg = 0 if kind == "spherical" else None
     mesh = rangemesh.triangulate(image, camera=cam, background=bg, method="refine", vertices=300)
@@ -203,6 +204,16 @@ def test_ply_header_lines_fit_common_readers_and_keep_the_camera(shared_data, tm
     meshio = pytest.importorskip("meshio")
     mi = meshio.read(path)
     np.testing.assert_array_equal(mi.points, mesh.vertices.astype(np.float32))
+    # Open3D aborts the whole process on a header line it cannot take: read in a child process
+    import subprocess
+    import sys
+
+    code = ("import sys, open3d as o3d; m = o3d.io.read_triangle_mesh(sys.argv[1]); "
+            "print(len(m.vertices), len(m.triangles))")
+    p = subprocess.run([sys.executable, "-c", code, str(path)], capture_output=True, text=True,
+                       timeout=120)
+    assert p.returncode == 0, p.stderr[-500:]
+    assert p.stdout.split()[-2:] == [str(len(mesh.vertices)), str(len(mesh.faces))]
 
 
 @pytest.mark.slow
@@ -320,3 +331,16 @@ def test_e17_mesh_stream_gives_triangulates_mesh_with_a_target():
         got = list(rangemesh.mesh_stream(frames, **kw))
         want = [rangemesh.triangulate(f, **kw) for f in frames]
         assert [fingerprint(m) for m in got] == [fingerprint(m) for m in want]
+
+
+@pytest.mark.parametrize("method", ["refine", "paper"])
+def test_e11_depths_beyond_the_kernels_reach_are_one_valueerror(method):
+    z = np.full((30, 30), 1e308)
+    z[10:20] = -1e307
+    with pytest.raises(ValueError, match="reach beyond 1e\\+150"):
+        rangemesh.triangulate(z, vertices=30, method=method)
+    big = np.finfo(float).max
+    z = np.full((40, 40), big)
+    z[5:10, 5:10] = -big
+    with pytest.raises(ValueError, match="reach beyond"):
+        rangemesh.triangulate(z, vertices=30, method=method)

@@ -344,3 +344,50 @@ def test_e11_depths_beyond_the_kernels_reach_are_one_valueerror(method):
     z[5:10, 5:10] = -big
     with pytest.raises(ValueError, match="reach beyond"):
         rangemesh.triangulate(z, vertices=30, method=method)
+
+
+@pytest.mark.parametrize("mutation, key", [
+    ({"cols": "2048"}, "cols"),
+    ({"cols": 2048.9}, "cols"),
+    ({"azimuth_step_deg": "-0.17578125"}, "azimuth_step_deg"),
+    ({"elevation_deg": ["1.0"] * 64}, "elevation_deg"),
+    ({"rows": True}, "rows"),
+    ({"rows": 63}, "rows"),
+])
+def test_e25_beams_values_are_read_strictly(beams_file, mutation, key):
+    beams = json.loads(beams_file.read_text())
+    beams.update(mutation)
+    with pytest.raises(ValueError, match=key):
+        Spherical.from_beams(beams)
+
+
+@pytest.mark.parametrize("shift", [[1.5] * 64, [float("nan")] * 64, ["3"] * 64])
+def test_e25_column_shifts_are_whole_numbers(shared_data, beams_file, tmp_path, capsys, shift):
+    beams = json.loads(beams_file.read_text())
+    beams["column_shift"] = shift
+    bad = tmp_path / "bad.json"
+    bad.write_text(json.dumps(beams))
+    assert main(["mesh", str(shared_data / f"{SCAN}.bin"), "--beams", str(bad), "--vertices", "200",
+                 "-o", str(tmp_path / "x.ply")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "column_shift" in err[0]
+
+
+@pytest.mark.parametrize("shape", [(4, 4, 2), (4, 4, 5)])
+def test_e24_colour_images_of_2_or_5_channels_are_refused_naming_the_shape(shape):
+    from rangemesh.attributes import as_rgb8
+
+    with pytest.raises(ValueError, match=rf"shape \({shape[0]}, {shape[1]}, {shape[2]}\)"):
+        as_rgb8(np.zeros(shape))
+
+
+def test_e23_huge_intensities_and_complex_colours_make_no_warning():
+    from rangemesh.attributes import as_rgb8
+
+    with np.errstate(all="raise"):
+        out = as_rgb8(np.array([[0, 2**64 - 1], [2**63, 7]], np.uint64))
+        assert out[0, 1, 0] == 255 and out[0, 0, 0] == 0
+        out = as_rgb8(np.array([[-1e308, 1e308], [0.0, 0.0]]))
+        assert out[..., 0].tolist() == [[0, 255], [128, 128]]  # by hand: the middle of the range
+    with pytest.raises(ValueError, match="real numbers"):
+        as_rgb8(np.ones((3, 3, 3), complex))

@@ -11,6 +11,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .checks import real_number, whole_number
+
 __all__ = ["Orthographic", "Pinhole", "Spherical", "Rays", "backproject", "as_camera",
            "check_reach", "check_shape", "toward_sensor", "read_beams"]
 
@@ -259,24 +261,20 @@ class Spherical(_RayCamera):
                    if k not in beams]
         if missing:
             raise ValueError(f"beams: missing {', '.join(missing)} (see the README's beams layout)")
-        try:
-            cols = int(beams["cols"])
-            az0, step = float(beams["azimuth0_deg"]), float(beams["azimuth_step_deg"])
-        except (TypeError, ValueError, OverflowError):
-            raise ValueError("beams: cols, azimuth0_deg and azimuth_step_deg must be numbers") \
-                from None
-        if cols < 1 or not (math.isfinite(az0) and math.isfinite(step)) or step == 0:
-            raise ValueError(f"beams: need cols >= 1 and a finite non-zero azimuth step, got "
-                             f"cols={cols}, azimuth_step_deg={step}")
-        try:
-            el = np.asarray(beams["elevation_deg"], dtype=np.float64)
+        try:  # JSON numbers only: strings are never read as numbers, nor 2048.9 as 2048
+            cols = whole_number("beams: cols", beams["cols"], minimum=1)
+            az0 = real_number("beams: azimuth0_deg", beams["azimuth0_deg"])
+            step = real_number("beams: azimuth_step_deg", beams["azimuth_step_deg"])
+            el = beams_numbers("elevation_deg", beams["elevation_deg"])
             off = beams.get("azimuth_row_residual_deg")
-            off = None if off is None else np.asarray(off, dtype=np.float64)
-        except (TypeError, ValueError, OverflowError):
-            raise ValueError("beams: elevation_deg and azimuth_row_residual_deg must be lists "
-                             "of numbers") from None
-        if el.ndim != 1:
-            raise ValueError("beams: elevation_deg must be a list of numbers, one per row")
+            off = None if off is None else beams_numbers("azimuth_row_residual_deg", off)
+            rows = beams.get("rows")
+            if rows is not None and whole_number("beams: rows", rows, minimum=1) != el.size:
+                raise ValueError(f"beams: rows is {rows} but elevation_deg has {el.size} values")
+        except TypeError as exc:
+            raise ValueError(str(exc)) from None
+        if step == 0:
+            raise ValueError("beams: azimuth_step_deg must be non-zero")
         # sizes read from a file are checked before they size the rays
         if image_shape is not None and (el.size, cols) != tuple(int(n) for n in image_shape):
             raise ValueError(f"the beams file describes a {el.size}x{cols} image, not this "
@@ -329,6 +327,28 @@ class Rays(_RayCamera):
     def wraps(self) -> bool:
         """False: a ray table says nothing of which columns are neighbours."""
         return False
+
+
+def beams_numbers(key: str, values, *, whole: bool = False) -> np.ndarray:
+    """A beams file's list of numbers as a 1-D array (int64 when `whole`), or an error naming `key`.
+
+    Raises
+    ------
+    ValueError
+        Not a list of JSON numbers (a string, a bool, a nested list), or a
+        number that is not finite (not whole, with `whole`).
+    """
+    if not isinstance(values, (list, tuple)) or not values:
+        raise ValueError(f"beams: {key} must be a list of numbers, one per row")
+    try:
+        if whole:
+            return np.array([whole_number(f"beams: {key}[{i}]", v)
+                             for i, v in enumerate(values)], dtype=np.int64)
+        return np.array([real_number(f"beams: {key}[{i}]", v) for i, v in enumerate(values)])
+    except TypeError as exc:
+        raise ValueError(str(exc)) from None
+    except OverflowError:
+        raise ValueError(f"beams: {key} holds a number beyond 64 bits") from None
 
 
 def read_beams(path) -> dict:

@@ -21,7 +21,8 @@ import numpy as np
 
 from . import scenes
 from ._version import __version__
-from .camera import Orthographic, Pinhole, Spherical, read_beams
+from .camera import Orthographic, Pinhole, Spherical, beams_numbers, read_beams
+from .checks import whole_number
 from .io import (
     IMAGE_SUFFIXES,
     MESH_SUFFIXES,
@@ -529,15 +530,17 @@ def _read_scan(args):
     except ValueError as exc:
         raise UserError(_one_line(exc)) from None
     try:
+        rows = whole_number("beams: rows", beams["rows"], minimum=1)
         cols = beams.get("cols")
-        rng, _ = read_lidar_bin(args.image, int(beams["rows"]),
-                                column_shift=beams.get("column_shift"),
-                                steps=None if cols is None else int(cols))
+        cols = None if cols is None else whole_number("beams: cols", cols, minimum=1)
+        shift = beams.get("column_shift")
+        shift = None if shift is None else beams_numbers("column_shift", shift, whole=True)
     except KeyError:
         raise UserError(f"{args.beams}: a beams file for a .bin scan gives its 'rows'") from None
-    except (OverflowError, TypeError) as exc:
-        raise UserError(f"{args.beams}: 'rows', 'cols' and 'column_shift' must be whole numbers "
-                        f"({_one_line(exc)})") from None
+    except (TypeError, ValueError) as exc:
+        raise UserError(f"{args.beams}: {_one_line(exc)}") from None
+    try:
+        rng, _ = read_lidar_bin(args.image, rows, column_shift=shift, steps=cols)
     except (OSError, ValueError) as exc:
         raise UserError(f"{args.image}: {_one_line(exc)}") from None
     return rng

@@ -278,8 +278,9 @@ def strip_insert(depth, valid, vertices, span, scales, n_grid, *, max_sum=-1.0, 
         mesh, on one thread, unless the last round stopped a strip by count
         (see `_rounds`); for tests.
     info : dict, optional
-        Receives ``rounds`` (how many ran) and ``capped`` (whether the last
-        one stopped a strip by count).
+        Receives ``rounds`` (how many ran), ``capped`` (whether the last
+        one stopped a strip by count) and, with ``diagonals='error'``,
+        ``flips`` (edges flipped by the error).
     diagonals : {'delaunay', 'error'}, default 'delaunay'
         ``'error'``: each strip's edges are then flipped by the error
         (`rangemesh.greedy.diagonals.flip_state`), on both threads, and after
@@ -332,16 +333,18 @@ def strip_insert(depth, valid, vertices, span, scales, n_grid, *, max_sum=-1.0, 
     if diagonals == "error":  # (the states' summed errors stay the insertion's)
         if n_threads >= 2:
             fut = executor().submit(flip_state, depth, valid, a, span)
-            flip_state(depth, valid, b, span)
-            fut.result()
+            flips_b = flip_state(depth, valid, b, span)[0]
+            flips_a = fut.result()[0]
         else:
-            flip_state(depth, valid, a, span)
-            flip_state(depth, valid, b, span)
+            flips_a = flip_state(depth, valid, a, span)[0]
+            flips_b = flip_state(depth, valid, b, span)[0]
     vr, vc, tv, n, total = _join(_result(a), _result(b), m, shared)
     if diagonals == "error":
         he, seam = _joined_halfedges(a, b, tv, vc, m)
         tsum = np.concatenate([a[9][: int(a[17][1])], b[9][: int(b[17][1])]])
-        flip_edges(vr, vc, tv, he, tsum, depth, valid, span, seam)
+        flips_seam = flip_edges(vr, vc, tv, he, tsum, depth, valid, span, seam)[0]
+        if info is not None:
+            info["flips"] = int(flips_a + flips_b + flips_seam)
     return vr, vc, tv, n, total + seam_error
 
 

@@ -229,7 +229,7 @@ def test_command_line_diagonals(tmp_path, capsys):
                           np.sort(np.sort(ref.faces, axis=1), axis=0))
     capsys.readouterr()
     assert main(["mesh", str(src), "--method", "paper", "--diagonals", "error"]) == 2
-    assert "--diagonals belongs to --method refine" in capsys.readouterr().err
+    assert "--diagonals is an option of --method refine" in capsys.readouterr().err
 
 
 def test_greedy_mesh_refuses_an_unknown_choice():

@@ -43,7 +43,7 @@ def test_vertex_count_is_exact_and_the_mesh_valid(name, image, background, n):
     m = triangulate(image, background=background, vertices=n, method="refine")
     valid = _valid(image, background)
     assert m.stats.vertices == len(m.vertices) == min(n, int(valid.sum()))
-    assert m.stats.target["met"]
+    assert m.stats.target.met
     assert_valid_mesh(m, valid)
     # valid pixels are covered (ten vertices cannot trace a silhouette: no bound there)
     if n >= 120:
@@ -55,7 +55,7 @@ def test_vertex_count_is_exact_and_the_mesh_valid(name, image, background, n):
 def test_max_error_holds(name, image, background, bound):
     m = triangulate(image, background=background, max_error=bound, method="refine")
     assert evaluate(m, image, background=background).relative_error <= bound
-    assert m.stats.target["met"] and m.stats.target["meshings"] <= 2
+    assert m.stats.target.met and m.stats.target.meshings <= 2
 
 
 def test_max_error_is_met_with_few_vertices_to_spare():
@@ -214,7 +214,7 @@ def test_scenes_with_holes(seed, name, holes, n):
     valid = np.isfinite(depth)
     assert_valid_mesh(m, valid)
     if not m.is_empty:
-        assert len(m.vertices) == min(n, int(valid.sum())) or m.stats.target.get("note")
+        assert len(m.vertices) == min(n, int(valid.sum())) or m.stats.target.note
 
 
 @pytest.mark.parametrize("rel, background", REAL_IMAGES, ids=[r[0].split("/")[-1] for r in REAL_IMAGES])
@@ -228,27 +228,30 @@ def test_real_images(shared_data, rel, background):
     assert ev.uncovered <= 1.0
 
 
-def test_greedy_is_the_default_for_a_target_and_refuses_paper_parameters():
+def test_refine_is_the_default_and_refuses_paper_parameters():
     depth = scenes.make("dome", (30, 30)).depth
 
     def is_greedy(mesh):  # the paper's grid search reports its grid; greedy insertion does not
-        return "tiles" not in mesh.stats.target
+        return mesh.stats.target is None or mesh.stats.target.tiles is None
 
     assert is_greedy(triangulate(depth, vertices=100))
     assert is_greedy(triangulate(depth, max_error=2.0))
     assert is_greedy(triangulate(depth, vertices=100, walls=False, heights="pixel"))
+    assert is_greedy(triangulate(depth))  # without a target too: the default target
     assert not is_greedy(triangulate(depth, vertices=100, method="paper"))
-    # a parameter only the paper's method reads selects it, as a keyword or in params
-    assert not is_greedy(triangulate(depth, vertices=100, flips="error"))
-    assert not is_greedy(triangulate(depth, vertices=100, tiles=2))
-    assert not is_greedy(triangulate(depth, rangemesh.MeshParams(delta=15), vertices=100))
-    assert not is_greedy(triangulate(depth, vertices=100, max_edge=8))
+    assert not is_greedy(triangulate(depth, vertices=100, flips="error", method="paper"))
+    assert not is_greedy(triangulate(depth, vertices=100, tiles=2, method="paper"))
+    # the deprecated params= keeps the method it chose before: the paper's for its parameters
+    with pytest.warns(DeprecationWarning):
+        assert not is_greedy(triangulate(depth, rangemesh.MeshParams(delta=15), vertices=100))
+    assert not is_greedy(triangulate(depth, vertices=100, max_edge=8, method="paper"))
     # without a target, the paper's method with its grid (the meshes it always gave)
-    assert triangulate(depth).stats.grid_shape == rangemesh.MeshParams().grid_shape
-    with pytest.raises(ValueError, match="needs a target"):
-        triangulate(depth, method="refine")
-    with pytest.raises(ValueError, match="method='paper'"):
+    assert triangulate(depth, method="paper").stats.grid_shape == rangemesh.MeshParams().grid_shape
+    assert triangulate(depth, method="refine").stats.target.default
+    with pytest.raises(ValueError, match="flips is an option of method='paper'"):
         triangulate(depth, vertices=50, method="refine", flips="error")
+    with pytest.raises(ValueError, match="tiles is an option of method='paper'"):
+        triangulate(depth, vertices=50, tiles=2)  # method= alone chooses the method
     with pytest.raises(ValueError, match="method"):
         triangulate(depth, vertices=50, method="delatin")
 
@@ -258,11 +261,10 @@ def test_the_earlier_name_greedy_still_means_refine(tmp_path, capsys):
 
     depth = np.load(CROPS)["venus"]
     new = triangulate(depth, vertices=120, method="refine")
-    old = triangulate(depth, vertices=120, method="greedy")
+    with pytest.warns(DeprecationWarning, match="earlier name"):
+        old = triangulate(depth, vertices=120, method="greedy")
     assert np.array_equal(new.vertices, old.vertices) and np.array_equal(new.faces, old.faces)
-    assert "tiles" not in old.stats.target  # not the paper's grid search
-    with pytest.raises(ValueError, match="method='refine' needs a target"):
-        triangulate(depth, method="greedy")
+    assert old.stats.target.tiles is None  # not the paper's grid search
     src = tmp_path / "venus.npy"
     np.save(src, depth)
     outs = []
@@ -273,15 +275,16 @@ def test_the_earlier_name_greedy_still_means_refine(tmp_path, capsys):
         outs.append(rangemesh.read_mesh(out))
     assert np.array_equal(outs[0].vertices, outs[1].vertices)
     assert np.array_equal(outs[0].faces, outs[1].faces)
+    capsys.readouterr()
     assert main(["mesh", str(src), "--method", "greedy", "--vertices", "30", "--tiles", "2"]) == 2
-    assert "--method refine takes" in capsys.readouterr().err
+    assert "--tiles is an option of --method paper" in capsys.readouterr().err
 
 
 def test_exact_count_when_the_mesh_already_fits_exactly():
     """A piecewise-planar image is exact with few vertices; more are still inserted as asked."""
     depth = scenes.make("stairs", (40, 50)).depth
     m = triangulate(depth, vertices=900, method="refine")
-    assert len(m.vertices) == 900 and m.stats.target["met"]
+    assert len(m.vertices) == 900 and m.stats.target.met
     assert evaluate(m, depth).relative_error < 1e-9
 
 
@@ -302,7 +305,7 @@ def test_command_line_greedy(tmp_path, capsys, target):
         assert evaluate(m, np.load(CROPS)["venus"]).relative_error <= 1.5
     # paper options are refused with --method refine, in one line
     assert main(["mesh", str(src), "--method", "refine", "--vertices", "30", "--tiles", "2"]) == 2
-    assert "belongs to --method paper" in capsys.readouterr().err
+    assert "--tiles is an option of --method paper" in capsys.readouterr().err
 
 
 @pytest.mark.parametrize("diagonals", ["delaunay", "error"])
@@ -549,13 +552,12 @@ def test_the_fit_does_not_depend_on_the_order_it_visits_the_faces(monkeypatch):
 
 def test_the_paper_method_refuses_fitted_depths():
     depth = scenes.make("crease", (30, 40)).depth
-    with pytest.raises(ValueError, match="heights='fit' belongs to method='refine'"):
-        triangulate(depth, heights="fit")
+    with pytest.raises(ValueError, match="heights is an option of method='refine'"):
+        triangulate(depth, heights="fit", method="paper")
     with pytest.raises(ValueError, match="heights must be one of"):
         triangulate(depth, vertices=30, method="refine", heights="least-squares")
-    a = triangulate(depth, tiles=2, samples=5)
-    b = triangulate(depth, tiles=2, samples=5, heights="pixel")
-    assert np.array_equal(a.vertices, b.vertices) and np.array_equal(a.faces, b.faces)
+    with pytest.raises(ValueError, match="heights is an option of method='refine'"):
+        triangulate(depth, tiles=2, samples=5, heights="pixel", method="paper")
 
 
 @given(st.integers(0, 2**31), st.integers(1, 70), st.integers(1, 70), st.floats(0.001, 1.0))

@@ -197,7 +197,7 @@ def test_error_bound_on_strips(shared_data):
     depth, valid = rangemesh.fill_gaps(*rangemesh.to_depth_and_mask(image, 2047))
     assert strips.use_strips(image.shape, None, 0.3, int(valid.sum()))
     mesh = triangulate(image, background=2047, max_error=0.3, method="refine")
-    assert mesh.stats.target["met"]
+    assert mesh.stats.target.met
     assert rangemesh.evaluate(mesh, image, background=2047).relative_error <= 0.3
     assert_valid_mesh(mesh, valid, check_overlap=False)
     # the kernels' own sum, the seam's pixels included, is within the bound; threads change nothing

@@ -236,12 +236,15 @@ _READ = {
     "fill_gaps": lambda a: False if a.no_fill_gaps else None,
     "wrap": lambda a: getattr(a, "wrap", None),
     "walls": lambda a: False if getattr(a, "no_walls", False) else None,
-    "flips": lambda a: None if a.flips is _UNSET else ("none" if a.flips is None else a.flips),
+    "flips": lambda a: "disparity" if a.flips is _UNSET else a.flips,
 }
 
 
 def _options(args) -> dict:
-    """The options given on the command line, by their `triangulate` names; None where not given."""
+    """The options given on the command line, by their `triangulate` names.
+
+    None where not given (``flips``: ``'disparity'``, its default, as `triangulate` takes it).
+    """
     return {name: _READ[name](args) if name in _READ else getattr(args, name, None)
             for name in OPTIONS}
 
@@ -261,7 +264,9 @@ def _resolve(args):
               "in the next release", file=sys.stderr)
         args.method = "refine"
     options = _options(args)
-    message = misplaced_option(args.method, [k for k, v in options.items() if v is not None],
+    given = [k for k, v in options.items()
+             if v is not None and not (k == "flips" and args.flips is _UNSET)]
+    message = misplaced_option(args.method, given,
                                spell=lambda name, m: (_flag(name), f"--method {m}"))
     if message:
         raise UserError(message)

@@ -264,7 +264,8 @@ def resolve_call(params, method, vertices, max_error, options: dict, overrides: 
     method, vertices, max_error
         As `triangulate` takes them.
     options : dict
-        The keyword options of `OPTIONS`, None where not given.
+        The keyword options of `OPTIONS`, None where not given (``flips``:
+        ``'disparity'`` where not given).
     overrides : dict
         Deprecated ``**overrides`` (``workers``: the old name of ``threads``).
     stacklevel : int
@@ -287,7 +288,11 @@ def resolve_call(params, method, vertices, max_error, options: dict, overrides: 
         An unknown keyword, or `params` not a `MeshParams`.
     """
     method = _method_name(method, stacklevel)
-    given = {k: v for k, v in options.items() if v is not None}
+    # None means "not given" except for flips, where it means no flips (as in MeshParams)
+    given = {k: v for k, v in options.items() if v is not None and k != "flips"}
+    flips = options.get("flips", "disparity")
+    if flips != "disparity":
+        given["flips"] = "none" if flips is None else flips
     if overrides:
         unknown = set(overrides) - {"workers"}
         if unknown:
@@ -458,7 +463,7 @@ def triangulate(image, params: MeshParams | None = None, *,
                 walls: bool | None = None, jump: float | None = None,
                 tiles: int | tuple[int, int] | None = None,
                 samples: int | tuple[int, int] | None = None, sampling: str | None = None,
-                flips: str | None = None, levels: int | None = None,
+                flips: str | None = "disparity", levels: int | None = None,
                 curvature_floor: float | None = None, delta: float | None = None,
                 epsilon: float | None = None, max_angle: float | None = None,
                 min_bend: float | None = None, gain_threshold: float | None = None,
@@ -536,9 +541,9 @@ def triangulate(image, params: MeshParams | None = None, *,
         not with a target, which chooses them.
     sampling : {'adaptive', 'uniform'}, optional
         ``'paper'`` only. Log-curvature sampling (default) or the uniform baseline.
-    flips : {'disparity', 'error', 'none'}, optional
-        ``'paper'`` only. The paper's disparity tests (default), its
-        error-based variant, or no flips.
+    flips : {'disparity', 'error', None}, default 'disparity'
+        ``'paper'`` only. The paper's disparity tests, its error-based
+        variant, or no flips (None, or ``'none'``).
     levels : int, optional
         ``'paper'`` only. Resolutions summed into the curvature (default 2).
     curvature_floor : float, optional

@@ -102,8 +102,8 @@ def check_image(image, background=None):
         raise ValueError(f"image must not be empty, got shape {arr.shape}")
     if isinstance(background, str):
         if background != "auto":
-            raise ValueError(f"background must be a number, NaN, None or 'auto', "
-                             f"got {background!r}")
+            raise TypeError(f"background must be a number, NaN, None or 'auto', "
+                            f"got {background!r}")
         background = guess_background(arr)  # by the dtype as given, before any conversion
     arr = kernel_array(arr)
     if mask is not None and mask.any():

@@ -114,6 +114,7 @@ def test_the_table_covers_every_setting():
     assert set(OPTION_METHOD) | shared == (fields - {"workers"}) | {"threads"}
 
 
+@pytest.mark.filterwarnings("ignore:The TBB threading layer")  # Numba's, on first parallel use
 @pytest.mark.parametrize("option", sorted(OPTION_METHOD))
 def test_each_option_is_taken_by_its_method(option):
     owner = OPTION_METHOD[option]
@@ -153,6 +154,7 @@ def test_params_warns_and_gives_the_same_mesh():
     same_mesh(old, triangulate(crease(), vertices=20))
 
 
+@pytest.mark.filterwarnings("ignore:The TBB threading layer")  # Numba's, on first parallel use
 def test_workers_and_greedy_warn_and_give_the_same_mesh():
     with pytest.warns(DeprecationWarning, match="threads="):
         old = triangulate(crease(), method="paper", workers=2)

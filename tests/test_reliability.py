@@ -162,17 +162,27 @@ def test_d6_cli_refuses_at_once(chair_file, capsys):
     ({"max_error": "1"}, "max_error"),
     ({"max_edge": "5"}, "max_edge"),
     ({"levels": "1"}, "levels"),
-    ({"levels": None}, "levels"),
     ({"tiles": "44"}, "tiles"),          # D8: not (4, 4)
     ({"samples": "10"}, "samples"),      # D8: not (1, 0)
     ({"fill_gaps": "no"}, "fill_gaps"),  # D8: not True
     ({"fill_gaps": "False"}, "fill_gaps"),
     ({"delta": "20"}, "delta"),
-    ({"workers": "2"}, "workers"),
+    ({"threads": "2"}, "threads"),
 ])
 def test_d7_d8_wrong_types_name_the_parameter(kwargs, name):
     with pytest.raises(TypeError, match=name):
-        rangemesh.triangulate(np.ones((30, 30)), **kwargs)
+        rangemesh.triangulate(np.ones((30, 30)), method="paper", **kwargs)
+
+
+def test_d8_none_is_the_default_in_calls_and_refused_in_meshparams():
+    # a keyword left at None takes the method's default; MeshParams has no "not given"
+    a = rangemesh.triangulate(np.add.outer(np.arange(30.0), np.arange(30.0)), method="paper",
+                              levels=None)
+    b = rangemesh.triangulate(np.add.outer(np.arange(30.0), np.arange(30.0)), method="paper",
+                              levels=2)
+    assert np.array_equal(a.faces, b.faces)
+    with pytest.raises(TypeError, match="levels"):
+        rangemesh.MeshParams(levels=None)
 
 
 def test_d7_ragged_list_names_the_image():
@@ -199,7 +209,7 @@ def test_d9_flags_take_numpy_bools():
 @pytest.mark.parametrize("target", [{"vertices": 500}, {"max_error": 1.0}, {"vertices": 2000}])
 def test_d10_max_edge_with_a_target_covers_the_image(target):
     z = scenes.crease((120, 120)).depth  # every pixel valid
-    m = rangemesh.triangulate(z, background=0, max_edge=5, **target)
+    m = rangemesh.triangulate(z, background=0, max_edge=5, method="paper", **target)
     assert rangemesh.evaluate(m, z, background=0).uncovered == 0.0
     p = m.pixels[m.faces].astype(float)
     assert np.sqrt(((p - np.roll(p, 1, axis=1)) ** 2).sum(-1)).max() <= 5.0

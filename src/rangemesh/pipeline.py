@@ -141,7 +141,7 @@ def prepare(image, params: MeshParams, background=None, *,
     image : (H, W) array_like
     params : MeshParams
         Only ``fill_gaps`` is read.
-    background : float, optional
+    background : float, 'auto' or None, optional
     workspace : Workspace, optional
         Write into its buffers (same shape as the image) instead of new arrays.
 
@@ -151,6 +151,11 @@ def prepare(image, params: MeshParams, background=None, *,
     valid : (H, W) ndarray of bool
     """
     arr, background = check_image(image, background)
+    return _prepare_checked(arr, params, background, workspace)
+
+
+def _prepare_checked(arr, params: MeshParams, background, workspace):
+    """`prepare` of an image `check_image` has checked (and its background resolved)."""
     if workspace is None:
         check_memory(arr.shape)
         depth = np.zeros(arr.shape, np.float64)
@@ -304,6 +309,8 @@ def resolve_call(params, method, vertices, max_error, options: dict, overrides: 
         if "threads" in given:
             raise TypeError("give threads= only (workers= is its old name)")
         given["threads"] = overrides["workers"]
+    if "threads" in given:  # checked under its own name: MeshParams calls it workers
+        whole_number("threads", given["threads"], minimum=1)
     fields = {_FIELD_OF.get(k, k): v for k, v in given.items()}
     if fields.get("flips") == "none":
         fields["flips"] = None
@@ -393,9 +400,8 @@ def run(image, params: MeshParams, *, background="auto", camera=None, vertices=N
     """
     camera = as_camera(camera)
     t0 = time.perf_counter()
-    if isinstance(background, str):  # 'auto': one rule, by the image's dtype
-        image, background = check_image(image, background)
-    depth, valid = prepare(image, params, background, workspace=workspace)
+    image, background = check_image(image, background)  # resolves 'auto' by the dtype
+    depth, valid = _prepare_checked(image, params, background, workspace)
     check_shape(camera, depth.shape)
     lo, hi, n_valid = valid_range(depth, valid)
     if n_valid:

@@ -96,12 +96,12 @@ def test_batch_output_equals_single_meshing(batch_run, shared_data):
 def test_rerun_skips_and_overwrite_redoes(batch_run, capsys):
     src, out, results = batch_run
     rc = main(["batch", str(src / "cones_disp2.png"), str(src / "teddy_disp2.png"), "-o", str(out),
-               "--workers", "1", "--json"])
+               "--method", "paper", "--workers", "1", "--json"])
     doc = json.loads(capsys.readouterr().out)
     assert rc == 0 and doc["summary"]["skipped"] == 2 and doc["summary"]["meshed"] == 0
     before = (out / "cones_disp2.ply").stat().st_mtime_ns
     rc = main(["batch", str(src / "cones_disp2.png"), "-o", str(out), "--workers", "1",
-               "--overwrite", "--quiet"])
+               "--method", "paper", "--overwrite", "--quiet"])  # the fixture's method
     assert rc == 0 and (out / "cones_disp2.ply").stat().st_mtime_ns != before
 
 

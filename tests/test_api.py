@@ -298,3 +298,21 @@ def test_mesh_many_runs_from_a_plain_script(tmp_path):
                          timeout=240, cwd=tmp_path)
     assert run.returncode == 0, run.stderr[-2000:]
     assert run.stdout.count("STATUS meshed") == 1  # the workers did not run the script
+
+
+def test_with_fields_is_dataclasses_replace():
+    from rangemesh.mesh import with_fields
+
+    mesh = triangulate(crease(), vertices=12)
+    for obj, change in ((mesh.stats, {"method": "paper", "seconds": {"total": 1.0}}),
+                        (mesh, {"stats": mesh.stats})):
+        fast, slow = with_fields(obj, **change), dataclasses.replace(obj, **change)
+        assert type(fast) is type(slow)
+        assert fast.__dict__.keys() == slow.__dict__.keys()
+        assert all(fast.__dict__[k] is slow.__dict__[k] for k in fast.__dict__)
+
+
+def test_target_record_refuses_unknown_keys():
+    with pytest.raises(TypeError, match="extra"):
+        Target.from_record({"target": "vertices", "requested": 3, "achieved": 3, "met": True,
+                            "extra": 1}, vertices=3)

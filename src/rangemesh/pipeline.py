@@ -22,7 +22,7 @@ from .geometry.seam import seam_strip, unrolled_columns
 from .geometry.signals import holding_signals
 from .greedy import greedy_mesh
 from .greedy.walls import wall_faces
-from .mesh import Mesh, Stats, Target, count_edges, empty_mesh
+from .mesh import Mesh, Stats, Target, count_edges, empty_mesh, with_fields
 from .paper import targets
 from .paper.sampling import fill_gaps_inplace, sample_grid, sampling_weights
 from .paper.stages import mesh_grid
@@ -309,11 +309,13 @@ def resolve_call(params, method, vertices, max_error, options: dict, overrides: 
         if "threads" in given:
             raise TypeError("give threads= only (workers= is its old name)")
         given["threads"] = overrides["workers"]
-    if "threads" in given:  # checked under its own name: MeshParams calls it workers
-        whole_number("threads", given["threads"], minimum=1)
-    fields = {_FIELD_OF.get(k, k): v for k, v in given.items()}
-    if fields.get("flips") == "none":
-        fields["flips"] = None
+    fields = {}
+    if given:
+        if "threads" in given:  # checked under its own name: MeshParams calls it workers
+            whole_number("threads", given["threads"], minimum=1)
+        fields = {_FIELD_OF.get(k, k): v for k, v in given.items()}
+        if fields.get("flips") == "none":
+            fields["flips"] = None
     if params is not None:
         # the deprecated spelling keeps the method and the mesh it gave before
         if not isinstance(params, MeshParams):
@@ -333,9 +335,10 @@ def resolve_call(params, method, vertices, max_error, options: dict, overrides: 
         if message:
             raise ValueError(message)
         return params, method, "tiles" in fields
-    message = misplaced_option(method, given)
-    if message:
-        raise ValueError(f"{message} (method is chosen by method= alone)")
+    if given:
+        message = misplaced_option(method, given)
+        if message:
+            raise ValueError(f"{message} (method is chosen by method= alone)")
     params = _params_of(fields)
     _targets_given(params, vertices, max_error, fields)
     return params, method, "tiles" in fields
@@ -457,8 +460,8 @@ def run(image, params: MeshParams, *, background="auto", camera=None, vertices=N
     seconds["total"] = t4 - t0
     record = Target.from_record(target, vertices=mesh.stats.vertices,
                                 default=default_target) if target else None
-    stats = dataclasses.replace(mesh.stats, seconds=seconds, target=record, method=method)
-    return dataclasses.replace(mesh, stats=stats)
+    return with_fields(mesh, stats=with_fields(mesh.stats, seconds=seconds, target=record,
+                                               method=method))
 
 
 def triangulate(image, params: MeshParams | None = None, *,

@@ -269,6 +269,11 @@ def test_summary_says_what_each_method_did(tmp_path, capsys):
           "--max-edge", "8"])
     err = capsys.readouterr().err
     assert "x1 " not in err and "target max_edge 8.0" in err
+    main(["mesh", str(img), "-o", str(tmp_path / "v.ply"), "--method", "paper",
+          "--vertices", "60", "--max-edge", "6"])
+    err = capsys.readouterr().err
+    grid = err.split("grid ")[1].split(" ")[0]
+    assert min(int(x) for x in grid.split("x")) > 1, err  # the searched grid, not points x 1
 
 
 def test_version_and_help(capsys):

@@ -396,8 +396,10 @@ def _did(s) -> str:
                 f"error, heights {s.heights}")
     if s.grid_shape is None or 0 in s.grid_shape:
         return f"paper: {s.flipped_edges} flips"
-    return (f"paper: grid {s.grid_shape[0]}x{s.grid_shape[1]} ({s.sampled_points} valid "
-            f"samples), {s.flipped_edges} flips")
+    gr, gc = s.grid_shape
+    points = (f"refined to {s.sampled_points} points for max_edge" if s.sampled_points > gr * gc
+              else f"{s.sampled_points} valid samples")
+    return f"paper: grid {gr}x{gc} ({points}), {s.flipped_edges} flips"
 
 
 def _mesh_lines(mesh, ev, outputs):

@@ -460,8 +460,12 @@ def run(image, params: MeshParams, *, background="auto", camera=None, vertices=N
     seconds["total"] = t4 - t0
     record = Target.from_record(target, vertices=mesh.stats.vertices,
                                 default=default_target) if target else None
-    return with_fields(mesh, stats=with_fields(mesh.stats, seconds=seconds, target=record,
-                                               method=method))
+    changes = {"seconds": seconds, "target": record, "method": method}
+    if record is not None and record.tiles is not None:
+        # the grid the search chose; with max_edge the mesh's points are a list, not a grid
+        (v, h), (rs, z) = record.tiles, record.samples
+        changes["grid_shape"] = ((rs - 1) * v + 1, (z - 1) * h + 1)
+    return with_fields(mesh, stats=with_fields(mesh.stats, **changes))
 
 
 def triangulate(image, params: MeshParams | None = None, *,

@@ -106,6 +106,10 @@ DIAGONAL_CHOICES = (None, "error", "delaunay")
 class MeshParams:
     """Parameters of the Garcia & Sappa pipeline, with the paper's defaults.
 
+    The settings the stages take (`rangemesh.sample_grid`, `flip_edges`, ...).
+    `rangemesh.triangulate` takes them as keywords (``method='paper'``,
+    ``tiles=4``); passing a `MeshParams` to it is deprecated.
+
     Parameters
     ----------
     tiles : int or (int, int), default (4, 4)
@@ -152,8 +156,9 @@ class MeshParams:
         or error target, it also chooses the samples per tile (see
         `rangemesh.paper.targets.fit_edge`).
     workers : int, default 1
-        Threads sharing stage one's tiles (the paper's parallel stage). The
-        mesh is the same for any number. ``method='refine'`` does not read
+        Threads sharing stage one's tiles (the paper's parallel stage);
+        ``threads=`` of `rangemesh.triangulate` (in calls, workers are
+        processes: `rangemesh.mesh_many`). The mesh is the same for any number. ``method='refine'`` does not read
         it: on images of 60,000 valid pixels or more, from 2000 vertices or
         under an error bound, it meshes two strips of the image on two
         threads where the process may use two cores, and shares its fit's

@@ -1,8 +1,11 @@
 """The one path from a range image to a mesh: check, prepare, mesh, assemble.
 
-Every caller goes through `run`: `triangulate` for one image,
-`rangemesh.batch.mesh_stream` for frames (with reused buffers), the command
-line through `triangulate`. The method itself lives in `rangemesh.paper`.
+Every caller goes through `resolve_call` (the options, checked, and the
+method: ``method=`` alone chooses it, `rangemesh.params.OPTION_METHOD` says
+which method takes which option) and `run`: `triangulate` for one image,
+`rangemesh.batch.mesh_stream` for frames (with reused buffers),
+`rangemesh.batch.mesh_many` for files, the command line. The methods live in
+`rangemesh.greedy` (``'refine'``) and `rangemesh.paper` (``'paper'``).
 """
 
 from __future__ import annotations

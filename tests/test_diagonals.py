@@ -16,7 +16,7 @@ from hypothesis import strategies as st
 
 import rangemesh
 from rangemesh import evaluate, triangulate
-from rangemesh.geometry.pixels import valid_range
+from rangemesh._core import valid_range
 from rangemesh.greedy import insertion, kernels
 from rangemesh.greedy.diagonals import error_flips, flip_by_error, triangle_error
 

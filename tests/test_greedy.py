@@ -60,7 +60,7 @@ def test_max_error_holds(name, image, background, bound):
 
 def test_max_error_is_met_with_few_vertices_to_spare():
     """One pass, by construction: stopping one insertion earlier would miss the bound."""
-    from rangemesh.geometry.pixels import valid_range
+    from rangemesh._core import valid_range
     from rangemesh.greedy import insertion, kernels
 
     image = np.load(CROPS)["venus"].astype(float)

@@ -4,6 +4,7 @@ import numpy as np
 from hypothesis import given
 from hypothesis import strategies as st
 
+from rangemesh import _core
 from rangemesh.camera import Orthographic, Pinhole
 from rangemesh.geometry import heap as heapq_nb
 from rangemesh.geometry import raster
@@ -123,7 +124,7 @@ def test_rasterize_matches_a_box_loop(tris, shift):
     face = np.full((h, w), -1, np.int64)
     fr = np.array([[p[0] for p in tri] for tri in corners], np.float64)
     fc = np.array([[p[1] for p in tri] for tri in corners], np.float64)
-    raster.rasterize(fr, fc, vals, h, w, out, face)
+    _core.rasterize(fr, fc, vals, out, face)
     want, want_face = _box_raster(corners, vals, h, w)
     np.testing.assert_array_equal(face, want_face)
     np.testing.assert_array_equal(out, want)
@@ -224,7 +225,7 @@ def test_count_edges_matches_a_set_of_vertex_pairs(faces):
 
 
 def test_valid_faces_by_hand():
-    from rangemesh.geometry.pixels import valid_faces
+    from rangemesh._core import valid_faces
 
     # 5 vertices on a 3x3 image whose pixel (0, 2) is background; vertex 3 sits there.
     # Triangles (0, 1, 2) and (2, 1, 4) keep; (1, 3, 4) has the background vertex.
@@ -244,7 +245,7 @@ def test_valid_faces_by_hand():
 def test_nearest_valid_is_the_brute_force_nearest(seed, h, w, share):
     # any pixel, not only a corner: nearest by squared distance, then smallest (row, col);
     # (-1, -1) on an image with no valid pixel
-    from rangemesh.geometry.pixels import nearest_valid
+    from rangemesh._core import nearest_valid
 
     rng = np.random.default_rng(seed)
     valid = rng.random((h, w)) < share
@@ -259,7 +260,7 @@ def test_nearest_valid_is_the_brute_force_nearest(seed, h, w, share):
 
 
 def test_grid_pixels_by_hand():
-    from rangemesh.geometry.pixels import grid_pixels
+    from rangemesh._core import grid_pixels
 
     # 10x10, a 2x2 grid: rows and columns int(0.5 * 10 / 2) = 2 and int(1.5 * 10 / 2) = 7,
     # the corners first; the background pixel (7, 2) is left out

@@ -15,7 +15,7 @@ from hypothesis import strategies as st
 
 import rangemesh
 from rangemesh import MeshParams, scenes, triangulate
-from rangemesh.geometry.pixels import valid_range
+from rangemesh._core import valid_range
 from rangemesh.greedy import insertion, strips
 from rangemesh.pipeline import prepare
 

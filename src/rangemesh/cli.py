@@ -311,12 +311,12 @@ def _say(args, lines):
 
 def _kernel_modules():
     """Every module that holds Numba kernels."""
-    from .geometry import delaunay, fans, halfedges, heap, pixels, raster, vectors
+    from .geometry import halfedges, heap, raster, vectors
     from .greedy import diagonals, heights_kernels, strips
     from .greedy import kernels as greedy_kernels
     from .paper import flipping_kernels, sampling_kernels
 
-    return (vectors, pixels, raster, heap, halfedges, delaunay, fans, sampling_kernels,
+    return (vectors, raster, heap, halfedges, sampling_kernels,
             flipping_kernels, greedy_kernels, diagonals, heights_kernels, strips)
 
 
@@ -331,11 +331,10 @@ def _cold_cache(method: str = "paper") -> bool:
 
         kernels = (greedy_insert_sums, flip_by_error, fit_pass)  # the default path
     else:
-        from .geometry.delaunay import sweep_insert
         from .paper.flipping_kernels import flip_loop
         from .paper.sampling_kernels import sample_tiles
 
-        kernels = (flip_loop, sweep_insert, sample_tiles)
+        kernels = (flip_loop, sample_tiles)
     try:
         return not all(os.path.exists(k._cache._cache_file._index_path) for k in kernels)
     except AttributeError:  # another Numba's internals: say nothing rather than guess

@@ -1,4 +1,7 @@
-"""Raster lines and rasterised triangles: Bresenham, the edge error along a line, depth rendering."""
+"""Raster lines and row scans: Bresenham, the edge error along a line, a triangle's row spans.
+
+The depth render itself is compiled: `rangemesh._core.rasterize`.
+"""
 
 import math
 
@@ -98,102 +101,6 @@ def edge_error(va, vb, pixels, vertices, depth, valid, cam):
         ez = qz - t * dz
         total += math.sqrt(ex * ex + ey * ey + ez * ez)
     return total
-
-
-# Triangles whose box holds more pixels than this are walked over their row spans when their
-# corners are pixel centres: below it the walk's set-up costs more than the box's empty half
-# (a render of a 16,000-vertex mesh of teddy: 1.1-1.9x slower with every triangle walked;
-# with this bound 0.95-1.0x, and 0.6-0.8x on meshes of 1,000-2,000 vertices).
-SPAN_MIN_BOX = 64
-
-
-@njit(cache=True)
-def _on_pixels(r0, c0, r1, c1, r2, c2, height, width):
-    """Whether the triangle's corners are all pixel centres of the image (integer, inside)."""
-    for x, n in ((r0, height), (r1, height), (r2, height), (c0, width), (c1, width), (c2, width)):
-        if not (0.0 <= x <= n - 1 and x == math.floor(x)):
-            return False
-    return True
-
-
-@njit(cache=True)
-def rasterize(face_r, face_c, face_val, height, width, out_val, out_face):
-    """Interpolate per-vertex values over each triangle's pixels in the image plane.
-
-    `face_r`, `face_c`, `face_val` are (F, 3) float64. A pixel is covered when
-    its centre (integer coordinates) lies inside or on the border of the
-    triangle; the first triangle that covers a pixel sets it. Degenerate
-    triangles cover nothing. `out_val` (NaN-filled) and `out_face` (-1-filled)
-    are written in place.
-
-    A triangle whose corners are pixel centres (every mesh made from an image)
-    is walked over its exact row spans (`triangle_rows`), any other over its
-    bounding box; both give the same pixels and the same values, bit for bit.
-    The spans skip the box's empty half.
-    """
-    for t in range(face_r.shape[0]):
-        r0, r1, r2 = face_r[t, 0], face_r[t, 1], face_r[t, 2]
-        c0, c1, c2 = face_c[t, 0], face_c[t, 1], face_c[t, 2]
-        area = orient(r0, c0, r1, c1, r2, c2)
-        if area == 0.0 or not math.isfinite(area):
-            continue
-        sgn = 1.0 if area > 0 else -1.0
-        rmin = max(int(math.ceil(min(r0, min(r1, r2)))), 0)
-        rmax = min(int(math.floor(max(r0, max(r1, r2)))), height - 1)
-        cmin = max(int(math.ceil(min(c0, min(c1, c2)))), 0)
-        cmax = min(int(math.floor(max(c0, max(c1, c2)))), width - 1)
-        if ((rmax - rmin + 1) * (cmax - cmin + 1) > SPAN_MIN_BOX
-                and _on_pixels(r0, c0, r1, c1, r2, c2, height, width)):
-            _raster_spans(t, int(r0), int(c0), int(r1), int(c1), int(r2), int(c2), sgn,
-                          face_val, out_val, out_face)
-            continue
-        for r in range(rmin, rmax + 1):
-            for c in range(cmin, cmax + 1):
-                if out_face[r, c] != -1:
-                    continue
-                w0 = sgn * orient(r1, c1, r2, c2, r, c)
-                w1 = sgn * orient(r2, c2, r0, c0, r, c)
-                w2 = sgn * orient(r0, c0, r1, c1, r, c)
-                if w0 < 0 or w1 < 0 or w2 < 0:
-                    continue
-                s = w0 + w1 + w2
-                out_val[r, c] = (w0 * face_val[t, 0] + w1 * face_val[t, 1]
-                                 + w2 * face_val[t, 2]) / s
-                out_face[r, c] = t
-
-
-@njit(cache=True)
-def _raster_spans(t, r0, c0, r1, c1, r2, c2, sgn, face_val, out_val, out_face):
-    """`rasterize` of one triangle with integer corners, row span by row span.
-
-    The weights are the box loop's (``w0`` of corner 0, ...), read from the
-    walk's integer edge functions: the same floats, so the same values.
-    """
-    if sgn > 0:  # counter-clockwise 0, 1, 2: edges 0->1, 1->2, 2->0 weigh corners 2, 0, 1
-        rmin, rmax, cmin, cmax, edges = triangle_rows(r0, c0, r1, c1, r2, c2)
-        k0, k1, k2 = 1, 2, 0  # the walk's edge that gives w0, w1, w2
-        slopes = (r1 - r0, r2 - r1, r0 - r2)  # each edge's growth a column
-    else:  # walked as 0, 2, 1: edges 0->2, 2->1, 1->0 weigh corners 1, 0, 2
-        rmin, rmax, cmin, cmax, edges = triangle_rows(r0, c0, r2, c2, r1, c1)
-        k0, k1, k2 = 1, 0, 2
-        slopes = (r2 - r0, r1 - r2, r0 - r1)
-    f0, f1, f2 = face_val[t, 0], face_val[t, 1], face_val[t, 2]
-    d0, d1, d2 = float(slopes[k0]), float(slopes[k1]), float(slopes[k2])
-    for r in range(rmin, rmax + 1):
-        if r > rmin:
-            edges = next_row(edges)
-        first, last, e0, e1, e2 = row_columns(edges, True, True, True, cmin, cmax)
-        e = (e0, e1, e2)
-        # integers, exact in float64: the values the box loop computes
-        w0, w1, w2 = float(e[k0]), float(e[k1]), float(e[k2])
-        for c in range(first, last + 1):
-            if out_face[r, c] == -1:
-                s = w0 + w1 + w2
-                out_val[r, c] = (w0 * f0 + w1 * f1 + w2 * f2) / s
-                out_face[r, c] = t
-            w0 += d0
-            w1 += d1
-            w2 += d2
 
 
 @njit(cache=True)

@@ -20,8 +20,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._core import valid_range
 from ..camera import Pinhole
-from ..geometry.pixels import valid_range
 from ..geometry.signals import holding_signals
 from .heights_kernels import empty_buffers, face_order, fit_pass, gather_blocks, solve_blocks
 from .threads import executor, threads
@@ -152,7 +152,7 @@ def fit_heights(pixels: np.ndarray, faces: np.ndarray, depth: np.ndarray, valid:
     camera : Orthographic or Pinhole
         Decides what is interpolated: depth (orthographic) or inverse depth.
     extent : (float, float, int), optional
-        ``valid_range(depth, valid)`` (`rangemesh.geometry.pixels`) when the
+        ``valid_range(depth, valid)`` (`rangemesh._core`) when the
         caller has it: a pass over the image less.
 
     Returns

@@ -6,9 +6,8 @@ import time
 
 import numpy as np
 
-from .._core import count_edges
+from .._core import count_edges, valid_faces, valid_range
 from ..camera import backproject, pixel_aspect
-from ..geometry.pixels import valid_faces, valid_range
 from ..geometry.signals import holding_signals
 from ..mesh import Mesh, Stats, empty_mesh
 from ..render import relative_error

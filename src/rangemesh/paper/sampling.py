@@ -12,7 +12,7 @@ import math
 
 import numpy as np
 
-from ..geometry.pixels import valid_range
+from .._core import valid_range
 from ..geometry.signals import holding_signals
 from ..params import MeshParams
 from . import sampling_kernels as _k

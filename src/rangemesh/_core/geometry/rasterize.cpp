@@ -15,9 +15,11 @@ namespace {
 // corners are pixel centres: below it the walk's set-up costs more than the box's empty half.
 constexpr index_t span_min_box = 64;
 
-// One triangle's corners, and the sign that makes its weights positive inside.
-struct Corners {
-    double r[3], c[3];
+// One triangle: its index, corners, corner values, and the sign that makes its weights
+// positive inside.
+struct Triangle {
+    index_t t;
+    double r[3], c[3], f[3];
     double sign;
 };
 
@@ -26,27 +28,32 @@ bool on_pixel(double x, index_t n) {
     return 0.0 <= x && x <= static_cast<double>(n - 1) && x == std::floor(x);
 }
 
-// ceil(x) (floor(x) with `up` false) clamped to [lo, hi] as an integer: only pixels inside the
-// image matter, and the clamp keeps a far-off corner from overflowing the conversion.
-index_t clamped(double x, bool up, index_t lo, index_t hi) {
-    const double v = up ? std::ceil(x) : std::floor(x);
-    if (v < static_cast<double>(lo)) return up ? lo : lo - 1;
-    if (v > static_cast<double>(hi)) return up ? hi + 1 : hi;
-    return static_cast<index_t>(v);
+// The first pixel index >= x on an axis of n pixels; n when there is none. (Only pixels of the
+// image matter, and the bounds keep a far-off corner from overflowing the conversion.)
+index_t first_from(double x, index_t n) {
+    if (x <= 0.0) return 0;
+    if (x > static_cast<double>(n - 1)) return n;
+    return static_cast<index_t>(std::ceil(x));
 }
 
-// Write pixel (r, c) from weights w0, w1, w2 of corners 0, 1, 2 unless a triangle did already.
-void put(const RenderTarget& out, index_t r, index_t c, index_t t, double w0, double w1, double w2,
-         double f0, double f1, double f2) {
+// The last pixel index <= x on an axis of n pixels; -1 when there is none.
+index_t last_to(double x, index_t n) {
+    if (x < 0.0) return -1;
+    if (x >= static_cast<double>(n - 1)) return n - 1;
+    return static_cast<index_t>(std::floor(x));
+}
+
+// Write pixel (r, c) from the weights w0, w1, w2 of corners 0, 1, 2, unless a triangle did.
+void put(const RenderTarget& out, index_t r, index_t c, const Triangle& k, double w0, double w1, double w2) {
     if (out.face(r, c) != -1) return;
     const double s = w0 + w1 + w2;
-    out.value(r, c) = (w0 * f0 + w1 * f1 + w2 * f2) / s;
-    out.face(r, c) = t;
+    out.value(r, c) = (w0 * k.f[0] + w1 * k.f[1] + w2 * k.f[2]) / s;
+    out.face(r, c) = k.t;
 }
 
 // The box loop: every pixel centre of [rmin, rmax] x [cmin, cmax] tested by its three weights.
-void raster_box(const Corners& k, index_t rmin, index_t rmax, index_t cmin, index_t cmax, index_t t,
-                double f0, double f1, double f2, const RenderTarget& out) {
+void raster_box(const Triangle& k, index_t rmin, index_t rmax, index_t cmin, index_t cmax,
+                const RenderTarget& out) {
     for (index_t r = rmin; r <= rmax; ++r) {
         const double x = static_cast<double>(r);
         for (index_t c = cmin; c <= cmax; ++c) {
@@ -56,22 +63,22 @@ void raster_box(const Corners& k, index_t rmin, index_t rmax, index_t cmin, inde
             const double w1 = k.sign * orient(k.r[2], k.c[2], k.r[0], k.c[0], x, y);
             const double w2 = k.sign * orient(k.r[0], k.c[0], k.r[1], k.c[1], x, y);
             if (w0 < 0 || w1 < 0 || w2 < 0) continue;
-            put(out, r, c, t, w0, w1, w2, f0, f1, f2);
+            put(out, r, c, k, w0, w1, w2);
         }
     }
 }
 
 // The row-span walk of a triangle with pixel-centre corners. The weights are the box loop's
 // (w0 of corner 0, ...), read from the walk's integer edge functions: the same floats.
-void raster_spans(const Corners& k, index_t t, double f0, double f1, double f2, const RenderTarget& out) {
+void raster_spans(const Triangle& k, const RenderTarget& out) {
     index_t r[3], c[3];
     for (int i = 0; i < 3; ++i) {
         r[i] = static_cast<index_t>(k.r[i]);
         c[i] = static_cast<index_t>(k.c[i]);
     }
     // Walked counter-clockwise: as 0, 1, 2 (edges 0->1, 1->2, 2->0 weigh corners 2, 0, 1) or
-    // as 0, 2, 1 (edges 0->2, 2->1, 1->0 weigh corners 1, 0, 2). `w[i]` is corner i's weight,
-    // `slope[i]` its growth a column.
+    // as 0, 2, 1 (edges 0->2, 2->1, 1->0 weigh corners 1, 0, 2). w0, w1, w2 are the weights of
+    // corners 0, 1, 2 and d0, d1, d2 their growth a column.
     const bool ccw = k.sign > 0;
     TriangleRows rows = ccw ? TriangleRows(r[0], c[0], r[1], c[1], r[2], c[2])
                             : TriangleRows(r[0], c[0], r[2], c[2], r[1], c[1]);
@@ -86,7 +93,7 @@ void raster_spans(const Corners& k, index_t t, double f0, double f1, double f2, 
         double w1 = static_cast<double>(ccw ? s.w2 : s.w0);
         double w2 = static_cast<double>(ccw ? s.w0 : s.w2);
         for (index_t col = s.first; col <= s.last; ++col) {
-            put(out, row, col, t, w0, w1, w2, f0, f1, f2);
+            put(out, row, col, k, w0, w1, w2);
             w0 += d0;
             w1 += d1;
             w2 += d2;
@@ -102,21 +109,25 @@ void rasterize(const FaceValues& faces, const RenderTarget& out) {
     require(faces.c.rows == faces.r.rows && faces.value.rows == faces.r.rows, "rasterize: face arrays differ");
     for (index_t t = 0; t < faces.r.rows; ++t) {
         poll_interrupt();
-        Corners k{{faces.r(t, 0), faces.r(t, 1), faces.r(t, 2)}, {faces.c(t, 0), faces.c(t, 1), faces.c(t, 2)}, 0.0};
+        Triangle k{t,
+                   {faces.r(t, 0), faces.r(t, 1), faces.r(t, 2)},
+                   {faces.c(t, 0), faces.c(t, 1), faces.c(t, 2)},
+                   {faces.value(t, 0), faces.value(t, 1), faces.value(t, 2)},
+                   0.0};
         const double area = orient(k.r[0], k.c[0], k.r[1], k.c[1], k.r[2], k.c[2]);
         if (area == 0.0 || !std::isfinite(area)) continue;  // also: every corner is finite
         k.sign = area > 0 ? 1.0 : -1.0;
-        const double f0 = faces.value(t, 0), f1 = faces.value(t, 1), f2 = faces.value(t, 2);
-        const index_t rmin = clamped(std::min(k.r[0], std::min(k.r[1], k.r[2])), true, 0, height - 1);
-        const index_t rmax = clamped(std::max(k.r[0], std::max(k.r[1], k.r[2])), false, 0, height - 1);
-        const index_t cmin = clamped(std::min(k.c[0], std::min(k.c[1], k.c[2])), true, 0, width - 1);
-        const index_t cmax = clamped(std::max(k.c[0], std::max(k.c[1], k.c[2])), false, 0, width - 1);
+        // the box's pixels inside the image
+        const index_t rmin = first_from(std::min(k.r[0], std::min(k.r[1], k.r[2])), height);
+        const index_t rmax = last_to(std::max(k.r[0], std::max(k.r[1], k.r[2])), height);
+        const index_t cmin = first_from(std::min(k.c[0], std::min(k.c[1], k.c[2])), width);
+        const index_t cmax = last_to(std::max(k.c[0], std::max(k.c[1], k.c[2])), width);
         const bool on_pixels = on_pixel(k.r[0], height) && on_pixel(k.r[1], height) && on_pixel(k.r[2], height) &&
                                on_pixel(k.c[0], width) && on_pixel(k.c[1], width) && on_pixel(k.c[2], width);
         if ((rmax - rmin + 1) * (cmax - cmin + 1) > span_min_box && on_pixels)
-            raster_spans(k, t, f0, f1, f2, out);
+            raster_spans(k, out);
         else
-            raster_box(k, rmin, rmax, cmin, cmax, t, f0, f1, f2, out);
+            raster_box(k, rmin, rmax, cmin, cmax, out);
     }
 }
 

@@ -275,6 +275,7 @@ Triangulation delaunay_sweep(const PointSet& pts) {
 index_t legalize_all(Span<index_t> triangles, Span<index_t> halfedges, const PointSet& pts) {
     require(triangles.size == halfedges.size && triangles.size % 3 == 0, "legalize_all: bad half-edge arrays");
     std::vector<index_t> stack;
+    stack.reserve(triangles.size + 16);
     for (index_t e = 0; e < triangles.size; ++e)
         if (halfedges[e] > e) stack.push_back(e);
     index_t flips = 0;

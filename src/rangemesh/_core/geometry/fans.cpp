@@ -1,5 +1,7 @@
 #include "fans.hpp"
 
+#include <algorithm>
+#include <numeric>
 #include <vector>
 
 #include "../interrupt.hpp"
@@ -15,9 +17,7 @@ struct Corners {
 
     explicit Corners(index_t n) : parent(n) { reset(); }
 
-    void reset() {
-        for (index_t i = 0; i < static_cast<index_t>(parent.size()); ++i) parent[i] = i;
-    }
+    void reset() { std::iota(parent.begin(), parent.end(), index_t{0}); }
 
     index_t find(index_t i) {
         index_t root = i;
@@ -40,7 +40,7 @@ struct Corners {
 };
 
 // Drop the live triangles with no live neighbour; returns how many.
-index_t drop_lonely(const LiveTriangles& mesh) {
+index_t drop_lonely(LiveTriangles mesh) {
     index_t dropped = 0;
     for (index_t t = 0; t < mesh.simplices.rows; ++t) {
         if (!mesh.alive[t]) continue;
@@ -58,7 +58,7 @@ index_t drop_lonely(const LiveTriangles& mesh) {
 }
 
 // Join the corners of live triangles that share an edge and a vertex: the fans.
-void join_fans(const LiveTriangles& mesh, Corners& fans) {
+void join_fans(LiveTriangles mesh, Corners& fans) {
     fans.reset();
     for (index_t t = 0; t < mesh.simplices.rows; ++t) {
         if (!mesh.alive[t]) continue;
@@ -76,14 +76,26 @@ void join_fans(const LiveTriangles& mesh, Corners& fans) {
     }
 }
 
+// Each vertex's largest fan, by the root of its corners and its size (scratch for one round).
+struct BestFans {
+    std::vector<index_t> size;  // triangles in the fan of each root corner
+    std::vector<index_t> best_root, best_size;
+
+    BestFans(index_t n_t, index_t n_vertices) : size(3 * n_t), best_root(n_vertices), best_size(n_vertices) {}
+};
+
 // Drop every live triangle with a corner outside its vertex's largest fan; returns how many.
-index_t drop_small_fans(const LiveTriangles& mesh, Corners& fans, index_t n_vertices) {
+index_t drop_small_fans(LiveTriangles mesh, Corners& fans, BestFans& scratch) {
     const index_t n_t = mesh.simplices.rows;
-    std::vector<index_t> size(3 * n_t, 0);
+    std::vector<index_t>& size = scratch.size;
+    std::vector<index_t>& best_root = scratch.best_root;
+    std::vector<index_t>& best_size = scratch.best_size;
+    std::fill(size.begin(), size.end(), 0);
+    std::fill(best_root.begin(), best_root.end(), -1);
+    std::fill(best_size.begin(), best_size.end(), 0);
     for (index_t t = 0; t < n_t; ++t)
         if (mesh.alive[t])
             for (int k = 0; k < 3; ++k) size[fans.find(3 * t + k)] += 1;
-    std::vector<index_t> best_root(n_vertices, -1), best_size(n_vertices, 0);
     for (index_t t = 0; t < n_t; ++t) {
         if (!mesh.alive[t]) continue;
         for (int k = 0; k < 3; ++k) {
@@ -112,7 +124,7 @@ index_t drop_small_fans(const LiveTriangles& mesh, Corners& fans, index_t n_vert
 
 }  // namespace
 
-index_t prune_dangling(const LiveTriangles& mesh, index_t n_vertices) {
+index_t prune_dangling(LiveTriangles mesh, index_t n_vertices) {
     const index_t n_t = mesh.simplices.rows;
     require(mesh.neighbors.rows == n_t && mesh.alive.size == n_t, "prune_dangling: arrays differ in length");
     for (index_t t = 0; t < n_t; ++t)
@@ -121,12 +133,13 @@ index_t prune_dangling(const LiveTriangles& mesh, index_t n_vertices) {
                         mesh.neighbors(t, k) < n_t,
                     "prune_dangling: a vertex or neighbour id out of range");
     Corners fans(3 * n_t);
+    BestFans scratch(n_t, n_vertices);
     index_t removed = 0;
     for (bool changed = true; changed;) {
         poll_interrupt();
         const index_t lonely = drop_lonely(mesh);
         join_fans(mesh, fans);
-        const index_t small = drop_small_fans(mesh, fans, n_vertices);
+        const index_t small = drop_small_fans(mesh, fans, scratch);
         removed += lonely + small;
         changed = lonely + small > 0;
     }

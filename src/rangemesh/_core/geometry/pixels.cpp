@@ -44,30 +44,38 @@ ValidFaces valid_faces(Span<const index_t> vr, Span<const index_t> vc, Span<cons
                        Grid<const bool> valid) {
     const index_t n_t = tv.size / 3, n_v = vr.size;
     require(vc.size == n_v, "valid_faces: vr and vc differ in length");
-    const auto on_valid = [&](index_t v) {
-        require(v >= 0 && v < n_v, "valid_faces: a vertex id out of range");
-        return valid(vr[v], vc[v]);
-    };
-    std::vector<bool> keep(n_t, false), used(n_v, false);
+    std::vector<unsigned char> on_valid(n_v), keep(n_t, 0), used(n_v, 0);
+    for (index_t v = 0; v < n_v; ++v) {
+        require(vr[v] >= 0 && vr[v] < valid.rows && vc[v] >= 0 && vc[v] < valid.cols,
+                "valid_faces: a vertex outside the image");
+        on_valid[v] = valid(vr[v], vc[v]);
+    }
+    index_t n_keep = 0;
     for (index_t t = 0; t < n_t; ++t) {
         const index_t a = tv[3 * t], b = tv[3 * t + 1], c = tv[3 * t + 2];
-        if (on_valid(a) && on_valid(b) && on_valid(c)) {
-            keep[t] = true;
-            used[a] = used[b] = used[c] = true;
+        require(a >= 0 && a < n_v && b >= 0 && b < n_v && c >= 0 && c < n_v, "valid_faces: a vertex id out of range");
+        if (on_valid[a] && on_valid[b] && on_valid[c]) {
+            keep[t] = 1;
+            used[a] = used[b] = used[c] = 1;
+            ++n_keep;
         }
     }
-    // used vertices keep their order
+    // the used vertices keep their order
     std::vector<index_t> new_id(n_v, -1);
+    index_t n_used = 0;
+    for (index_t v = 0; v < n_v; ++v)
+        if (used[v]) new_id[v] = n_used++;
     ValidFaces out;
-    for (index_t v = 0; v < n_v; ++v) {
-        if (!used[v]) continue;
-        new_id[v] = static_cast<index_t>(out.pixels.size() / 2);
-        out.pixels.push_back(static_cast<std::int32_t>(vr[v]));
-        out.pixels.push_back(static_cast<std::int32_t>(vc[v]));
-    }
-    for (index_t t = 0; t < n_t; ++t) {
+    out.faces.resize(3 * n_keep);
+    out.pixels.resize(2 * n_used);
+    for (index_t t = 0, k = 0; t < n_t; ++t) {
         if (!keep[t]) continue;
-        for (int j = 0; j < 3; ++j) out.faces.push_back(static_cast<std::int32_t>(new_id[tv[3 * t + j]]));
+        for (int j = 0; j < 3; ++j) out.faces[k++] = static_cast<std::int32_t>(new_id[tv[3 * t + j]]);
+    }
+    for (index_t v = 0; v < n_v; ++v) {
+        if (new_id[v] < 0) continue;
+        out.pixels[2 * new_id[v]] = static_cast<std::int32_t>(vr[v]);
+        out.pixels[2 * new_id[v] + 1] = static_cast<std::int32_t>(vc[v]);
     }
     return out;
 }

@@ -19,11 +19,14 @@ void mask_image(Grid<const T> image, bool has_background, double background, Gri
                 Grid<bool> valid) {
     for (index_t r = 0; r < image.rows; ++r) {
         poll_interrupt();
+        const T* in = image.row(r);
+        double* d = depth.row(r);
+        bool* v = valid.row(r);
         for (index_t c = 0; c < image.cols; ++c) {
-            const double x = static_cast<double>(image(r, c));
+            const double x = static_cast<double>(in[c]);
             const bool ok = std::isfinite(x) && !(has_background && x == background);
-            valid(r, c) = ok;
-            depth(r, c) = ok ? x : 0.0;
+            v[c] = ok;
+            d[c] = ok ? x : 0.0;
         }
     }
 }

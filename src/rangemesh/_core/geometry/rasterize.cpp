@@ -43,34 +43,40 @@ index_t last_to(double x, index_t n) {
     return static_cast<index_t>(std::floor(x));
 }
 
-// Write pixel (r, c) from the weights w0, w1, w2 of corners 0, 1, 2, unless a triangle did.
-void put(const RenderTarget& out, index_t r, index_t c, const Triangle& k, double w0, double w1, double w2) {
-    if (out.face(r, c) != -1) return;
+// One row of the render.
+struct RenderRow {
+    double* value;
+    index_t* face;
+};
+
+// Write column c from the weights w0, w1, w2 of corners 0, 1, 2, unless a triangle did.
+void put(RenderRow out, index_t c, const Triangle& k, double w0, double w1, double w2) {
+    if (out.face[c] != -1) return;
     const double s = w0 + w1 + w2;
-    out.value(r, c) = (w0 * k.f[0] + w1 * k.f[1] + w2 * k.f[2]) / s;
-    out.face(r, c) = k.t;
+    out.value[c] = (w0 * k.f[0] + w1 * k.f[1] + w2 * k.f[2]) / s;
+    out.face[c] = k.t;
 }
 
 // The box loop: every pixel centre of [rmin, rmax] x [cmin, cmax] tested by its three weights.
-void raster_box(const Triangle& k, index_t rmin, index_t rmax, index_t cmin, index_t cmax,
-                const RenderTarget& out) {
+void raster_box(const Triangle k, index_t rmin, index_t rmax, index_t cmin, index_t cmax, RenderTarget out) {
     for (index_t r = rmin; r <= rmax; ++r) {
+        const RenderRow row{out.value.row(r), out.face.row(r)};
         const double x = static_cast<double>(r);
         for (index_t c = cmin; c <= cmax; ++c) {
-            if (out.face(r, c) != -1) continue;
+            if (row.face[c] != -1) continue;
             const double y = static_cast<double>(c);
             const double w0 = k.sign * orient(k.r[1], k.c[1], k.r[2], k.c[2], x, y);
             const double w1 = k.sign * orient(k.r[2], k.c[2], k.r[0], k.c[0], x, y);
             const double w2 = k.sign * orient(k.r[0], k.c[0], k.r[1], k.c[1], x, y);
             if (w0 < 0 || w1 < 0 || w2 < 0) continue;
-            put(out, r, c, k, w0, w1, w2);
+            put(row, c, k, w0, w1, w2);
         }
     }
 }
 
 // The row-span walk of a triangle with pixel-centre corners. The weights are the box loop's
 // (w0 of corner 0, ...), read from the walk's integer edge functions: the same floats.
-void raster_spans(const Triangle& k, const RenderTarget& out) {
+void raster_spans(const Triangle k, RenderTarget out) {
     index_t r[3], c[3];
     for (int i = 0; i < 3; ++i) {
         r[i] = static_cast<index_t>(k.r[i]);
@@ -88,12 +94,13 @@ void raster_spans(const Triangle& k, const RenderTarget& out) {
     for (index_t row = rows.r0; row <= rows.r1; ++row) {
         if (row > rows.r0) rows.next_row();
         const RowSpan s = rows.columns(true, true, true);
+        const RenderRow line{out.value.row(row), out.face.row(row)};
         // integers, exact in float64: the values the box loop computes
         double w0 = static_cast<double>(s.w1);
         double w1 = static_cast<double>(ccw ? s.w2 : s.w0);
         double w2 = static_cast<double>(ccw ? s.w0 : s.w2);
         for (index_t col = s.first; col <= s.last; ++col) {
-            put(out, row, col, k, w0, w1, w2);
+            put(line, col, k, w0, w1, w2);
             w0 += d0;
             w1 += d1;
             w2 += d2;
@@ -103,7 +110,7 @@ void raster_spans(const Triangle& k, const RenderTarget& out) {
 
 }  // namespace
 
-void rasterize(const FaceValues& faces, const RenderTarget& out) {
+void rasterize(FaceValues faces, RenderTarget out) {
     const index_t height = out.value.rows, width = out.value.cols;
     require(out.face.rows == height && out.face.cols == width, "rasterize: render buffers differ in shape");
     require(faces.c.rows == faces.r.rows && faces.value.rows == faces.r.rows, "rasterize: face arrays differ");

@@ -20,6 +20,6 @@ struct RenderTarget {
 // degenerate ones cover nothing); the first triangle that covers a pixel sets it. A triangle
 // with pixel-centre corners is walked over its exact row spans, any other over its bounding
 // box; both give the same pixels and the same values, bit for bit.
-void rasterize(const FaceValues& faces, const RenderTarget& out);
+void rasterize(FaceValues faces, RenderTarget out);
 
 }  // namespace rangemesh

@@ -391,3 +391,14 @@ def test_e23_huge_intensities_and_complex_colours_make_no_warning():
         assert out[..., 0].tolist() == [[0, 255], [128, 128]]  # by hand: the middle of the range
     with pytest.raises(ValueError, match="real numbers"):
         as_rgb8(np.ones((3, 3, 3), complex))
+
+
+@pytest.mark.parametrize("el, az, what", [
+    ([0.0, -1.0], np.zeros(8), "azimuth must change strictly"),
+    ([0.0, 0.0], np.arange(8.0), "elevation must change strictly"),
+    ([1e300, 0.0], np.arange(8.0), "within -90 .. 90"),
+    ([0.0, -1.0], np.arange(0, 720, 10.0), "more than once"),
+])
+def test_e29_degenerate_spherical_cameras_are_refused(el, az, what):
+    with pytest.raises(ValueError, match=what):
+        Spherical(el, az)

@@ -486,8 +486,11 @@ def _check_outputs(args, inputs=()):
         for i in inputs:
             if _same_file(p, Path(i)):
                 raise UserError(f"{p}: is the input {i}; an output never replaces an input")
-    if len(outputs) == 2 and _same_file(*outputs):
-        raise UserError(f"--output and --preview are the same file {outputs[0]}")
+    for i, p in enumerate(outputs):
+        for q in outputs[i + 1:]:
+            if _same_file(p, q):
+                raise UserError(f"{q}: two outputs would be the same file ({p} and {q}); "
+                                f"name them apart")
     if args.output and Path(args.output).suffix.lower() not in MESH_SUFFIXES:
         raise UserError(f"{args.output}: unknown mesh format; use one of {', '.join(MESH_SUFFIXES)}")
     if args.output and Path(args.output).suffix.lower() != ".ply" and (args.ascii or args.pixels):
@@ -596,7 +599,7 @@ def _cmd_info(args):
 
 
 def _cmd_eval(args):
-    image = _read_image(args.image)
+    image = _read_scan(args)  # an image file, or a LiDAR .bin with --beams, as `mesh` reads
     # a LiDAR marks no return with range 0, in float images too (as `mesh --beams` takes it)
     bg = 0.0 if args.background == "auto" and args.beams else _resolve_background(args.background,
                                                                                      image)

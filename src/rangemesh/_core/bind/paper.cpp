@@ -101,6 +101,9 @@ void bind_paper(nb::module_& m) {
            In1<double> cam) {
             const MeshPoints points{grid(pixels), grid(vertices)};
             const RangeImage image = range_image(depth, valid, cam);
+            if (!image.consistent() || !points.fit(image) || va < 0 || vb < 0 || va >= points.size() ||
+                vb >= points.size())
+                throw nb::value_error("edge_error: vertices, pixels, image and camera must agree");
             return run_released([&] { return edge_error(va, vb, points, image); });
         },
         nb::arg("va"), nb::arg("vb"), nb::arg("pixels"), nb::arg("vertices"), nb::arg("depth"), nb::arg("valid"),
@@ -116,6 +119,12 @@ void bind_paper(nb::module_& m) {
     m.def(
         "lift",
         [](index_t r, index_t c, double d, In1<double> cam) {
+            const Span<const double> packed = span(cam);
+            const bool rays = packed.size >= CAMERA_HEADER && packed[0] == RAYS;
+            if (packed.size < CAMERA_HEADER ||
+                (rays && (r < 0 || c < 0 || c >= static_cast<index_t>(packed[2]) ||
+                          CAMERA_HEADER + 3 * (r * static_cast<index_t>(packed[2]) + c) + 2 >= packed.size)))
+                throw nb::value_error("lift: a packed camera, and a pixel of its image for a per-pixel camera");
             const Vec3 p = lift(span(cam), r, c, d);
             return nb::make_tuple(p.x, p.y, p.z);
         },

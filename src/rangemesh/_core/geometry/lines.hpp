@@ -39,12 +39,32 @@ struct RangeImage {
     Span<const double> cam;
 
     Vec3 lift(index_t r, index_t c) const { return rangemesh::lift(cam, r, c, depth(r, c)); }
+
+    bool contains(index_t r, index_t c) const { return 0 <= r && r < depth.rows && 0 <= c && c < depth.cols; }
+
+    // Whether the views agree: valid has depth's shape and the camera's array its layout.
+    bool consistent() const {
+        if (valid.rows != depth.rows || valid.cols != depth.cols || cam.size < CAMERA_HEADER) return false;
+        if (cam[0] != RAYS) return cam[0] == ORTHOGRAPHIC || cam[0] == PINHOLE;
+        return static_cast<index_t>(cam[1]) == depth.rows && static_cast<index_t>(cam[2]) == depth.cols &&
+               cam.size == CAMERA_HEADER + 3 * depth.rows * depth.cols;
+    }
 };
 
 // A mesh's vertices as the kernels read them: (V, 2) pixels (row, column) and (V, 3) 3-D points.
 struct MeshPoints {
     Grid<const index_t> pixels;
     Grid<const double> vertices;
+
+    index_t size() const { return vertices.rows; }
+
+    // Whether there is a pixel for each vertex and every pixel lies in `image`.
+    bool fit(const RangeImage& image) const {
+        if (pixels.rows != vertices.rows || pixels.cols != 2 || vertices.cols != 3) return false;
+        for (index_t v = 0; v < pixels.rows; ++v)
+            if (!image.contains(pixels(v, 0), pixels(v, 1))) return false;
+        return true;
+    }
 };
 
 // E(A, B), SPEC 3.1: the sum of the 3-D distances from the valid pixels of the raster line AB to

@@ -286,6 +286,8 @@ index_t FlipStage::run(const FlipRecord& record) {
 Verdict disparity_verdict(Span<const index_t> triangles, Span<const index_t> halfedges,
                           Grid<const double> normals, Grid<const double> vertices, index_t e0,
                           const DisparityTests& tests) {
+    require(0 <= e0 && e0 < halfedges.size && halfedges[e0] != -1, "disparity_verdict: e0 must be an inner half-edge");
+    require(normals.rows * 3 == triangles.size && normals.cols == 3, "disparity_verdict: one normal a triangle");
     // Spans and normals are computed as late as the tests allow: a value a test does not need is
     // never computed (the verdict is the same as computing all).
     const Quad q(halfedges, e0);
@@ -321,6 +323,13 @@ index_t flip_loop(const FlipMesh& mesh, const RangeImage& image, const FlipSetti
                   const FlipRecord& record) {
     require(mesh.halfedges.size == mesh.triangles.size && mesh.triangles.size % 3 == 0,
             "flip_loop: triangles and halfedges must be 3F long each");
+    require(image.consistent() && mesh.points.fit(image), "flip_loop: the vertices' pixels must lie in the image");
+    for (index_t e = 0; e < mesh.triangles.size; ++e) {
+        require(0 <= mesh.triangles[e] && mesh.triangles[e] < mesh.points.size(), "flip_loop: a vertex id out of range");
+        const index_t twin = mesh.halfedges[e];
+        require(twin == -1 || (0 <= twin && twin < mesh.halfedges.size && mesh.halfedges[twin] == e),
+                "flip_loop: half-edge twins must pair up");
+    }
     require(record.verdicts.size == N_VERDICTS, "flip_loop: one counter per verdict");
     require(record.log.cols == 3, "flip_loop: the log has three columns");
     FlipStage stage(mesh, image, settings);

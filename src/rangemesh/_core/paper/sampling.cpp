@@ -12,6 +12,7 @@
 namespace rangemesh::paper {
 
 index_t fill_gaps_inplace(Grid<double> depth, Grid<bool> valid) {
+    require(valid.rows == depth.rows && valid.cols == depth.cols, "fill_gaps_inplace: valid must have depth's shape");
     struct Fill {
         index_t r, c;
         double value;
@@ -77,8 +78,10 @@ void add_second_diffs(Grid<const double> d, Grid<const bool> v, double jump, ind
 void add_curvature(Grid<const double> depth, Grid<const bool> valid, double jump, index_t levels,
                    Grid<double> curvature) {
     const index_t h = depth.rows, w = depth.cols;
+    require(valid.rows == h && valid.cols == w && curvature.rows == h && curvature.cols == w,
+            "add_curvature: valid and the curvature must have depth's shape");
     std::vector<double> coarse;
-    for (index_t level = 0; level < levels; ++level) {
+    for (index_t level = 0; level < std::min<index_t>(levels, 62); ++level) {  // 2^62 exceeds any image
         const index_t step = index_t{1} << level;
         const index_t hs = floor_div(h + step - 1, step), ws = floor_div(w + step - 1, step);
         if (hs < 3 && ws < 3) break;
@@ -170,6 +173,14 @@ void sample_tiles(Grid<const double> f, const Tiling& tiling, const SampleGrid& 
             "sample_tiles: at least one tile and two samples a tile each way");
     require(grid.rows == (tiling.rs - 1) * tiling.n_rows() + 1 && grid.cols == (tiling.zs - 1) * tiling.n_cols() + 1,
             "sample_tiles: the grid's shape must match the tiles and samples");
+    for (index_t v = 0; v < tiling.n_rows(); ++v)
+        require(0 <= tiling.row_bounds[v] && tiling.row_bounds[v] < tiling.row_bounds[v + 1] &&
+                    tiling.row_bounds[v + 1] < f.rows,
+                "sample_tiles: row borders must increase inside the image");
+    for (index_t h = 0; h < tiling.n_cols(); ++h)
+        require(0 <= tiling.col_bounds[h] && tiling.col_bounds[h] < tiling.col_bounds[h + 1] &&
+                    tiling.col_bounds[h + 1] < f.cols,
+                "sample_tiles: column borders must increase inside the image");
     const index_t n_tiles = tiling.n_rows() * tiling.n_cols();
     const index_t n_threads = std::clamp<index_t>(workers, 1, n_tiles);
     if (n_threads == 1) {

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <exception>
 #include <thread>
 #include <vector>
@@ -20,8 +21,12 @@ index_t fill_gaps_inplace(Grid<double> depth, Grid<bool> valid) {
     std::vector<Fill> fills;
     for (index_t r = 1; r < depth.rows - 1; ++r) {
         poll_interrupt();
+        const bool* row = valid.row(r);
         for (index_t c = 1; c < depth.cols - 1; ++c) {
-            if (valid(r, c)) continue;
+            // jump to the row's next background pixel (a false bool is a zero byte): most are valid
+            const void* hole = std::memchr(row + c, 0, static_cast<std::size_t>(depth.cols - 1 - c));
+            if (hole == nullptr) break;
+            c = static_cast<const bool*>(hole) - row;
             bool ok = true;
             for (index_t dr = -1; dr <= 1; ++dr)
                 for (index_t dc = -1; dc <= 1; ++dc)
@@ -114,8 +119,8 @@ void invert_cdf(const std::vector<double>& cum, index_t n, index_t count, std::v
         while (k < n - 2 && cum[k + 1] < y) ++k;
         const double lo = cum[k], hi = cum[k + 1];
         const double x = static_cast<double>(k) + (y - lo) / (hi - lo);
-        require(std::isfinite(x), "sample_tiles: the weights must be positive and finite");
-        out[j] = static_cast<index_t>(std::floor(x + 0.5));
+        require(x >= 0.0 && std::isfinite(x), "sample_tiles: the weights must be positive and finite");
+        out[j] = static_cast<index_t>(x + 0.5);  // floor(x + 0.5): x >= 0, so truncation (no libm call)
     }
 }
 
@@ -140,16 +145,18 @@ void sample_tile(Grid<const double> f, const Tiling& t, index_t v, index_t h, co
     s.curve_cols.resize(nr * zs);
     for (index_t i = 0; i < nr; ++i) {  // each pixel row at zs columns
         const double* row = f.row(r0 + i);
-        s.cum[0] = 0.0;
-        for (index_t k = 1; k < nc; ++k) s.cum[k] = s.cum[k - 1] + row[c0 + k];
+        double sum = 0.0;  // cum[k - 1] kept in a register: the same sums, no reload per pixel
+        s.cum[0] = sum;
+        for (index_t k = 1; k < nc; ++k) s.cum[k] = sum = sum + row[c0 + k];
         invert_cdf(s.cum, nc, zs, s.pos_c);
         for (index_t j = 0; j < zs; ++j) s.curve_cols[i * zs + j] = c0 + s.pos_c[j];
     }
     const index_t last_i = v == t.n_rows() - 1 ? rs : rs - 1;
     const index_t last_j = h == t.n_cols() - 1 ? zs : zs - 1;
     for (index_t j = 0; j < last_j; ++j) {  // each curve (r, curve_cols(r, j)) at rs rows
-        s.cum[0] = 0.0;
-        for (index_t k = 1; k < nr; ++k) s.cum[k] = s.cum[k - 1] + f(r0 + k, s.curve_cols[k * zs + j]);
+        double sum = 0.0;
+        s.cum[0] = sum;
+        for (index_t k = 1; k < nr; ++k) s.cum[k] = sum = sum + f(r0 + k, s.curve_cols[k * zs + j]);
         invert_cdf(s.cum, nr, rs, s.pos_r);
         for (index_t i = 0; i < last_i; ++i)
             grid.set(v * (rs - 1) + i, h * (zs - 1) + j, r0 + s.pos_r[i], s.curve_cols[s.pos_r[i] * zs + j]);

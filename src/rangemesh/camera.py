@@ -1,7 +1,7 @@
 """Camera models: how a pixel ``(r, c)`` with depth ``z`` becomes a 3-D point.
 
 The move from the image to 3-D happens here and in the matching kernel
-``rangemesh.geometry.vectors.lift``, nowhere else.
+``lift`` of the compiled core (``_core/geometry/vectors.hpp``), nowhere else.
 """
 
 from __future__ import annotations

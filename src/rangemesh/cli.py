@@ -315,10 +315,9 @@ def _kernel_modules():
     from .geometry import delaunay, fans, halfedges, heap, pixels, raster, vectors
     from .greedy import diagonals, heights_kernels, strips
     from .greedy import kernels as greedy_kernels
-    from .paper import flipping_kernels, sampling_kernels
 
-    return (vectors, pixels, raster, heap, halfedges, delaunay, fans, sampling_kernels,
-            flipping_kernels, greedy_kernels, diagonals, heights_kernels, strips)
+    return (vectors, pixels, raster, heap, halfedges, delaunay, fans, greedy_kernels, diagonals,
+            heights_kernels, strips)
 
 
 def _cold_cache(method: str = "paper") -> bool:
@@ -333,10 +332,8 @@ def _cold_cache(method: str = "paper") -> bool:
         kernels = (greedy_insert_sums, flip_by_error, fit_pass)  # the default path
     else:
         from .geometry.delaunay import sweep_insert
-        from .paper.flipping_kernels import flip_loop
-        from .paper.sampling_kernels import sample_tiles
 
-        kernels = (flip_loop, sweep_insert, sample_tiles)
+        kernels = (sweep_insert,)  # the paper's other stages are compiled ahead (the core)
     try:
         return not all(os.path.exists(k._cache._cache_file._index_path) for k in kernels)
     except AttributeError:  # another Numba's internals: say nothing rather than guess

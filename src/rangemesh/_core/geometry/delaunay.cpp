@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numeric>
+#include <utility>
 
 #include "../interrupt.hpp"
 #include "halfedges.hpp"
@@ -159,6 +160,7 @@ class Sweep {
         hash_[hash_key(e)] = e;
     }
 
+    // The triangles made, trimmed to their count.
     Triangulation finish() && {
         mesh_.triangles.resize(3 * n_t_);
         mesh_.halfedges.resize(3 * n_t_);

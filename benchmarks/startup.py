@@ -26,9 +26,8 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-import peers  # noqa: E402
-
 import numpy as np  # noqa: E402
+import peers  # noqa: E402
 
 
 def _wall(cmd, env=None, cwd=None) -> float:

@@ -4,6 +4,18 @@ The kernels trust their inputs: the public functions that call them check
 shapes, dtypes and values. Nothing here imports the rest of rangemesh.
 """
 
-from ._ext import build_halfedges, count_edges, neighbors_from_halfedges
+from ._ext import (
+    build_halfedges,
+    count_edges,
+    face_order,
+    fit_blocks,
+    fit_heights,
+    fit_sample_errors,
+    gather_blocks,
+    median_inplace,
+    neighbors_from_halfedges,
+    solve_blocks,
+)
 
-__all__ = ["build_halfedges", "count_edges", "neighbors_from_halfedges"]
+__all__ = ["build_halfedges", "count_edges", "face_order", "fit_blocks", "fit_heights", "fit_sample_errors",
+           "gather_blocks", "median_inplace", "neighbors_from_halfedges", "solve_blocks"]

@@ -23,7 +23,6 @@ import numpy as np
 from .. import _core
 from ..camera import Pinhole
 from ..geometry.pixels import valid_range
-from ..geometry.signals import holding_signals
 from .threads import threads as available_threads
 
 __all__ = ["fit_heights"]
@@ -99,7 +98,6 @@ def _direct_solve(ids, block, rhs, h0):
     return spsolve((m + sparse.diags(ridge, format="csr")).tocsc(), b)
 
 
-@holding_signals
 def fit_heights(pixels: np.ndarray, faces: np.ndarray, depth: np.ndarray, valid: np.ndarray,
                 camera, *, extent=None, threads: int | None = None) -> np.ndarray:
     """Least-squares vertex depths for a mesh of `depth` with fixed image positions.

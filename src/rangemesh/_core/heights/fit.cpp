@@ -1,6 +1,7 @@
 #include "fit.hpp"
 
 #include <algorithm>
+#include <memory>
 
 #include "median.hpp"
 #include "pass.hpp"
@@ -14,14 +15,17 @@ FitResult fit_heights(const FitMesh& mesh, const FitImage& image, Span<const ind
     require(order.size == mesh.faces.rows, "fit: the order visits every face");
     FitResult result;
     // a robust sigma of the errors (1.4826 x their median: they centre on 0), from a sample
-    std::vector<double> errors(std::max<index_t>(settings.capacity, 0));
-    const Span<double> room{errors.data(), static_cast<index_t>(errors.size())};
+    // room for an error a valid pixel, left uninitialised: the sample writes a few of them, and
+    // pages never written are never touched (zeroing them cost more than the sample's pass)
+    const index_t capacity = std::max<index_t>(settings.capacity, 0);
+    const std::unique_ptr<double[]> errors(new double[capacity]);
+    const Span<double> room{errors.get(), capacity};
     index_t sampled = sample_errors(mesh, image, order, settings.sample, room);
     const bool every_pixel = settings.sample.row_stride == 1 && settings.sample.face_stride == 1;
     if (sampled == 0 && !every_pixel)  // the sample missed every valid pixel
         sampled = sample_errors(mesh, image, order, Sample{}, room);
     if (sampled == 0) return result;
-    const double sigma = 1.4826 * median_inplace(Span<double>{errors.data(), sampled});
+    const double sigma = 1.4826 * median_inplace(Span<double>{errors.get(), sampled});
     const auto [lo, hi] = std::minmax_element(mesh.values.begin(), mesh.values.end());
     const double floor = settings.outlier_floor * (*hi - *lo);
     result.threshold = settings.outlier_mads * sigma;

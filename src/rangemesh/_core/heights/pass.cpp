@@ -41,15 +41,16 @@ Corners ccw_corners(const FitMesh& mesh, index_t t) {
 
 // Calls visit(la, lb, lc, value, error) for each valid pixel the face owns on the rows that are
 // multiples of `row_stride`: la, lb, lc the barycentric weights of corners a, b, c, `value` the
-// pixel's and `error` its distance to the mesh at the vertices' copied values.
+// pixel's and `error` its distance to the mesh at the vertices' copied values. Returns how many
+// calls returned true (counted here, in a register: a count behind a reference stayed in memory).
 template <class Visit>
-void visit_pixels(const FitMesh& mesh, const FitImage& image, Corners v, index_t row_stride, Visit&& visit) {
+index_t visit_pixels(const FitMesh& mesh, const FitImage& image, Corners v, index_t row_stride, Visit&& visit) {
     const index_t ar = mesh.rows[v.a], ac = mesh.cols[v.a];
     const index_t br = mesh.rows[v.b], bc = mesh.cols[v.b];
     const index_t cr = mesh.rows[v.c], cc = mesh.cols[v.c];
     const double az = mesh.values[v.a], bz = mesh.values[v.b], cz = mesh.values[v.c];
     const index_t area = orient<index_t>(ar, ac, br, bc, cr, cc);
-    if (area == 0) return;
+    if (area == 0) return 0;
     const double inv = 1.0 / static_cast<double>(area);
     const bool own_ab = refine::owns(ar, ac, br, bc);
     const bool own_bc = refine::owns(br, bc, cr, cc);
@@ -57,29 +58,33 @@ void visit_pixels(const FitMesh& mesh, const FitImage& image, Corners v, index_t
     TriangleRows walk(ar, ac, br, bc, cr, cc);
     if (walk.r0 < 0 || walk.c0 < 0 || walk.r1 >= image.values.rows || walk.c1 >= image.values.cols)
         throw std::invalid_argument("fit_pass: a vertex lies outside the image");
-    // the edge functions grow by these a column; float64 holds them exactly
-    const double f0 = static_cast<double>(br - ar), f1 = static_cast<double>(cr - br);
-    const double f2 = static_cast<double>(ar - cr);
+    // the edge functions grow by these a column (integers, held exactly as float64 too: the
+    // floats the weights are made of, without keeping six of them in registers)
+    const index_t d0 = br - ar, d1 = cr - br, d2 = ar - cr;
+    index_t count = 0;
     for (index_t r = walk.r0; r <= walk.r1; ++r) {
         if (r > walk.r0) walk.next_row();
+        if ((r - walk.r0) % 64 == 63) poll_interrupt();  // a face can span a whole image
         if (r % row_stride != 0) continue;
         const RowSpan span = walk.columns(own_ab, own_bc, own_ca);
         if (span.first > span.last) continue;
         const bool* valid = image.valid.row(r);
         const double* values = image.values.row(r);
-        double w0 = static_cast<double>(span.w0), w1 = static_cast<double>(span.w1);
-        double w2 = static_cast<double>(span.w2);
+        index_t w0 = span.w0, w1 = span.w1, w2 = span.w2;
         for (index_t col = span.first; col <= span.last; ++col) {
             if (valid[col]) {
-                const double la = w1 * inv, lb = w2 * inv, lc = w0 * inv;
+                const double la = static_cast<double>(w1) * inv;
+                const double lb = static_cast<double>(w2) * inv;
+                const double lc = static_cast<double>(w0) * inv;
                 const double value = values[col];
-                visit(la, lb, lc, value, std::fabs(value - (la * az + lb * bz + lc * cz)));
+                count += visit(la, lb, lc, value, std::fabs(value - (la * az + lb * bz + lc * cz)));
             }
-            w0 += f0;
-            w1 += f1;
-            w2 += f2;
+            w0 += d0;
+            w1 += d1;
+            w2 += d2;
         }
     }
+    return count;
 }
 
 // The blocks of the faces order[first..last) (blocks[i] for face order[i]); returns the pixels used.
@@ -92,9 +97,8 @@ index_t accumulate(const FitMesh& mesh, const FitImage& image, Span<const index_
         // the sums of this face, kept in registers and written once
         double m00 = 0.0, m01 = 0.0, m02 = 0.0, m11 = 0.0, m12 = 0.0, m22 = 0.0;
         double q0 = 0.0, q1 = 0.0, q2 = 0.0;
-        visit_pixels(mesh, image, v, 1, [&](double la, double lb, double lc, double value, double error) {
-            if (!(error <= threshold)) return;
-            ++used;
+        used += visit_pixels(mesh, image, v, 1, [&](double la, double lb, double lc, double value, double error) {
+            if (!(error <= threshold)) return false;
             m00 += la * la;
             m01 += la * lb;
             m02 += la * lc;
@@ -104,6 +108,7 @@ index_t accumulate(const FitMesh& mesh, const FitImage& image, Span<const index_
             q0 += la * value;
             q1 += lb * value;
             q2 += lc * value;
+            return true;
         });
         blocks[i] = FaceBlock{{v.a, v.b, v.c}, {{m00, m01, m02}, {m01, m11, m12}, {m02, m12, m22}}, {q0, q1, q2}};
     }
@@ -126,6 +131,7 @@ index_t sample_errors(const FitMesh& mesh, const FitImage& image, Span<const ind
         visit_pixels(mesh, image, ccw_corners(mesh, order[i]), sample.row_stride,
                      [&](double, double, double, double, double error) {
                          if (k < errors.size) errors[k++] = error;  // overlapping faces could visit a pixel twice
+                         return false;
                      });
     }
     return k;

@@ -23,7 +23,7 @@ import numpy as np
 from .. import _core
 from ..camera import Pinhole
 from ..geometry.pixels import valid_range
-from .threads import threads as available_threads
+from .threads import threads
 
 __all__ = ["fit_heights"]
 
@@ -84,6 +84,11 @@ def sample_strides(n_faces: int) -> tuple[int, int]:
     if n_faces < RESIDUAL_STRIDE * RESIDUAL_MIN:
         return RESIDUAL_STRIDE, 1
     return 1, max(RESIDUAL_STRIDE, n_faces // RESIDUAL_SAMPLE)
+
+
+def _default_threads() -> int:
+    """The pass's threads when the caller names none: `rangemesh.greedy.threads.threads`."""
+    return threads()
 
 
 def _direct_solve(ids, block, rhs, h0):
@@ -150,7 +155,7 @@ def fit_heights(pixels: np.ndarray, faces: np.ndarray, depth: np.ndarray, valid:
         np.ascontiguousarray(image, dtype=np.float64), np.ascontiguousarray(valid, dtype=bool),
         row_stride=rows, face_stride=every, capacity=int(n_valid), outlier_mads=OUTLIER_MADS,
         outlier_floor=OUTLIER_FLOOR, ridge=RIDGE, rtol=CG_RTOL, max_iter=10 * n,
-        threads=available_threads() if threads is None else threads)
+        threads=_default_threads() if threads is None else threads)
     if fitted is None:
         # No valid pixel, or most pixels fit the copied depths exactly and only pixels within
         # rounding of them would be kept: the copied depths are the least-squares solution

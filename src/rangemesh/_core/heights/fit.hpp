@@ -13,17 +13,17 @@
 
 namespace rangemesh::heights {
 
-// The caller's choices (greedy/heights.py explains each).
+// The caller's choices; greedy/heights.py holds the library's values and the reasons for them.
 struct FitSettings {
-    Sample sample;              // the pixels whose errors' median sets the outlier bound
-    index_t capacity = 0;       // at most this many sampled errors: the image's valid pixels
-    double outlier_mads = 6.0;  // the bound, in robust standard deviations
-    double outlier_floor = 0.0; // ... and the share of the vertices' value range at or below
-                                // which the copied values are kept as they are
-    double ridge = 1e-3;        // the pull towards the copied values (`solve_blocks`)
-    double rtol = 1e-8;         // conjugate gradients' relative residual
-    index_t max_iter = 0;       // and most steps
-    int threads = 1;            // for the pass over the pixels
+    Sample sample;                // the pixels whose errors' median sets the outlier bound
+    index_t capacity = 0;         // at most this many sampled errors: the image's valid pixels
+    double outlier_mads = 0.0;    // the bound, in robust standard deviations
+    double outlier_floor = 0.0;   // the share of the vertices' value range at or below which the
+                                  // bound keeps the copied values as they are
+    double ridge = 0.0;           // the pull towards the copied values (`solve_blocks`)
+    double rtol = 0.0;            // conjugate gradients' relative residual
+    index_t max_iter = 0;         // and most steps
+    int threads = 1;              // for the pass over the pixels
 };
 
 enum class FitOutcome {

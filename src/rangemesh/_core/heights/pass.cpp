@@ -57,7 +57,7 @@ index_t visit_pixels(const FitMesh& mesh, const FitImage& image, Corners v, inde
     const bool own_ca = refine::owns(cr, cc, ar, ac);
     TriangleRows walk(ar, ac, br, bc, cr, cc);
     if (walk.r0 < 0 || walk.c0 < 0 || walk.r1 >= image.values.rows || walk.c1 >= image.values.cols)
-        throw std::invalid_argument("fit_pass: a vertex lies outside the image");
+        throw std::invalid_argument("fit: a vertex lies outside the image");
     // the edge functions grow by these a column (integers, held exactly as float64 too: the
     // floats the weights are made of, without keeping six of them in registers)
     const index_t d0 = br - ar, d1 = cr - br, d2 = ar - cr;
@@ -94,7 +94,7 @@ index_t accumulate(const FitMesh& mesh, const FitImage& image, Span<const index_
     for (index_t i = first; i < last; ++i) {
         poll_interrupt();
         const Corners v = ccw_corners(mesh, order[i]);
-        // the sums of this face, kept in registers and written once
+        // the sums of this face, in locals, written to its block once
         double m00 = 0.0, m01 = 0.0, m02 = 0.0, m11 = 0.0, m12 = 0.0, m22 = 0.0;
         double q0 = 0.0, q1 = 0.0, q2 = 0.0;
         used += visit_pixels(mesh, image, v, 1, [&](double la, double lb, double lc, double value, double error) {

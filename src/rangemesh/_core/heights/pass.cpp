@@ -64,7 +64,6 @@ index_t visit_pixels(const FitMesh& mesh, const FitImage& image, Corners v, inde
     index_t count = 0;
     for (index_t r = walk.r0; r <= walk.r1; ++r) {
         if (r > walk.r0) walk.next_row();
-        if ((r - walk.r0) % 64 == 63) poll_interrupt();  // a face can span a whole image
         if (r % row_stride != 0) continue;
         const RowSpan span = walk.columns(own_ab, own_bc, own_ca);
         if (span.first > span.last) continue;
@@ -92,6 +91,8 @@ index_t accumulate(const FitMesh& mesh, const FitImage& image, Span<const index_
                    Span<FaceBlock> blocks, index_t first, index_t last) {
     index_t used = 0;
     for (index_t i = first; i < last; ++i) {
+        // once a face: a poll every 64 rows of a face cost the pass 10 % (teddy at 1 %), and a
+        // face of a whole 6000 x 6000 image takes about 0.1 s
         poll_interrupt();
         const Corners v = ccw_corners(mesh, order[i]);
         // the sums of this face, in locals, written to its block once

@@ -169,3 +169,38 @@ def test_the_kernels_refuse_a_vertex_outside_the_image():
         _core.fit_blocks(*args, 1.0)
     with pytest.raises(RuntimeError, match="vertex id is out of range"):
         _core.fit_blocks(np.array([[0, 1, 7]], np.int64), *args[1:], 1.0)
+
+
+def test_a_fit_that_does_not_converge_is_solved_directly(monkeypatch):
+    # With a relative residual of 0 asked, conjugate gradients stop at their step limit: the
+    # kernel hands back the system, and fit_heights solves it by sparse LU instead.
+    sc = scenes.make("box", (40, 50), noise=0.3)
+    m = triangulate(sc.depth, vertices=60, method="refine", heights="pixel")
+    valid = np.ones(sc.depth.shape, bool)
+    want = heights.fit_heights(m.pixels, m.faces, sc.depth, valid, m.camera)
+    outcomes = []
+    core_fit = _core.fit_heights
+
+    def fit(*args, **kwargs):
+        outcome, fitted, system = core_fit(*args, **kwargs)
+        outcomes.append(outcome)
+        if outcome == "not converged":
+            ids, block, rhs = system
+            assert ids.shape == (len(m.faces), 3) and block.shape == (len(m.faces), 3, 3)
+        return outcome, fitted, system
+
+    solved = []
+    direct_solve = heights._direct_solve
+
+    def direct(*args):
+        solved.append(direct_solve(*args))
+        return solved[-1]
+
+    monkeypatch.setattr(_core, "fit_heights", fit)
+    monkeypatch.setattr(heights, "_direct_solve", direct)
+    monkeypatch.setattr(heights, "CG_RTOL", 0.0)
+    got = heights.fit_heights(m.pixels, m.faces, sc.depth, valid, m.camera)
+    assert outcomes == ["not converged"] and len(solved) == 1
+    lo, hi = sc.depth.min(), sc.depth.max()
+    np.testing.assert_array_equal(got, np.clip(solved[0], lo, hi))  # the direct solve's depths
+    np.testing.assert_allclose(got, want, rtol=0, atol=1e-6 * np.ptp(sc.depth))

@@ -14,9 +14,8 @@ FitResult fit_heights(const FitMesh& mesh, const FitImage& image, Span<const ind
     check_mesh(mesh, image);
     require(order.size == mesh.faces.rows, "fit: the order visits every face");
     FitResult result;
-    // a robust sigma of the errors (1.4826 x their median: they centre on 0), from a sample
-    // room for an error a valid pixel, left uninitialised: the sample writes a few of them, and
-    // pages never written are never touched (zeroing them cost more than the sample's pass)
+    // room for an error a valid pixel, left uninitialised: a sample writes a few thousand of
+    // them, and zeroing would touch every page
     const index_t capacity = std::max<index_t>(settings.capacity, 0);
     const std::unique_ptr<double[]> errors(new double[capacity]);
     const Span<double> room{errors.get(), capacity};
@@ -25,7 +24,9 @@ FitResult fit_heights(const FitMesh& mesh, const FitImage& image, Span<const ind
     if (sampled == 0 && !every_pixel)  // the sample missed every valid pixel
         sampled = sample_errors(mesh, image, order, Sample{}, room);
     if (sampled == 0) return result;
+    // a robust sigma of the errors (1.4826 x their median: they centre on 0)
     const double sigma = 1.4826 * median_inplace(Span<double>{errors.get(), sampled});
+    require(mesh.values.size > 0, "fit: pixels were sampled, so there are vertices");
     const auto [lo, hi] = std::minmax_element(mesh.values.begin(), mesh.values.end());
     const double floor = settings.outlier_floor * (*hi - *lo);
     result.threshold = settings.outlier_mads * sigma;

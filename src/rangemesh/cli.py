@@ -313,10 +313,10 @@ def _say(args, lines):
 def _kernel_modules():
     """Every module that holds Numba kernels."""
     from .geometry import halfedges, heap, raster, vectors
-    from .greedy import diagonals, heights_kernels, strips
+    from .greedy import diagonals, strips
     from .greedy import kernels as greedy_kernels
 
-    return (vectors, raster, heap, halfedges, greedy_kernels, diagonals, heights_kernels, strips)
+    return (vectors, raster, heap, halfedges, greedy_kernels, diagonals, strips)
 
 
 def _cold_cache(method: str = "paper") -> bool:
@@ -326,10 +326,9 @@ def _cold_cache(method: str = "paper") -> bool:
     if method != "refine":
         return False  # the paper's method runs on the compiled core alone
     from .greedy.diagonals import flip_by_error
-    from .greedy.heights_kernels import fit_pass
     from .greedy.kernels import greedy_insert_sums
 
-    kernels = (greedy_insert_sums, flip_by_error, fit_pass)  # the default path
+    kernels = (greedy_insert_sums, flip_by_error)  # the default path
     try:
         return not all(os.path.exists(k._cache._cache_file._index_path) for k in kernels)
     except AttributeError:  # another Numba's internals: say nothing rather than guess

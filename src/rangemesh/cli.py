@@ -327,9 +327,8 @@ def _cold_cache(method: str = "paper") -> bool:
     if method == "refine":
         from .greedy.diagonals import flip_by_error
         from .greedy.heights_kernels import fit_pass
-        from .greedy.kernels import greedy_insert_sums
 
-        kernels = (greedy_insert_sums, flip_by_error, fit_pass)  # the default path
+        kernels = (flip_by_error, fit_pass)  # the default path (the insertion is compiled C++)
     else:
         from .geometry.delaunay import sweep_insert
         from .paper.flipping_kernels import flip_loop

@@ -4,6 +4,13 @@ The kernels trust their inputs: the public functions that call them check
 shapes, dtypes and values. Nothing here imports the rest of rangemesh.
 """
 
-from ._ext import build_halfedges, count_edges, neighbors_from_halfedges
+from ._ext import (
+    build_halfedges,
+    count_edges,
+    greedy_insert,
+    greedy_insert_sums,
+    neighbors_from_halfedges,
+)
 
-__all__ = ["build_halfedges", "count_edges", "neighbors_from_halfedges"]
+__all__ = ["build_halfedges", "count_edges", "greedy_insert", "greedy_insert_sums",
+           "neighbors_from_halfedges"]

@@ -15,4 +15,5 @@ NB_MODULE(_ext, m) {
         }
     });
     rangemesh::bind::bind_geometry(m);
+    rangemesh::bind::bind_refine(m);
 }

@@ -6,13 +6,12 @@ import time
 
 import numpy as np
 
-from .._core import count_edges
+from .._core import count_edges, greedy_insert, greedy_insert_sums
 from ..camera import backproject, pixel_aspect
 from ..geometry.pixels import valid_faces, valid_range
 from ..geometry.signals import holding_signals
 from ..mesh import Mesh, Stats, empty_mesh
 from ..render import relative_error
-from . import kernels as _k
 from .diagonals import flip_by_error
 from .heights import fit_heights
 from .start import corner_depths, first_mesh
@@ -146,10 +145,9 @@ def _refine(depth, valid, start, strips, asked, max_sum, span, scales, n_grid, d
         return strip_insert(depth, valid, asked, span, scales, n_grid, max_sum=max_sum,
                             diagonals=diagonals)[:3]
     if diagonals != "error":
-        return _k.greedy_insert(depth, valid, *start, asked, max_sum, span, *scales)[:3]
+        return greedy_insert(depth, valid, *start, asked, max_sum, span, *scales)[:3]
     # the insertion's own half-edges and triangle sums: no second pass over the pixels
-    vr, vc, tv, he, tsum = _k.greedy_insert_sums(depth, valid, *start, asked, max_sum, span,
-                                                 *scales)
+    vr, vc, tv, he, tsum = greedy_insert_sums(depth, valid, *start, asked, max_sum, span, *scales)
     flip_by_error(vr, vc, tv, he, tsum, depth, valid, span)
     return vr, vc, tv
 

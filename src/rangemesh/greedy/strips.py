@@ -265,7 +265,7 @@ def strip_insert(depth, valid, vertices, span, scales, n_grid, *, max_sum=-1.0, 
     max_sum : float, default -1
         When not negative, also stop once the summed error of the valid
         pixels is at most this (the seam's own pixels included), as
-        `rangemesh.greedy.kernels.greedy_insert` does. Rounds then stop short
+        `rangemesh._core.greedy_insert` does. Rounds then stop short
         of the count a power law of the error predicts, and the rest go one
         at a time; a round that passes the bound leaves a few more vertices
         than one at a time would.
@@ -289,7 +289,7 @@ def strip_insert(depth, valid, vertices, span, scales, n_grid, *, max_sum=-1.0, 
     Returns
     -------
     vr, vc, tv, n_valid_vertices, total
-        As `rangemesh.greedy.kernels.greedy_insert`: one mesh, the seam's
+        As `rangemesh._core.greedy_insert`: one mesh, the seam's
         vertices once; `total` includes the seam's own pixels (the
         insertion's, before any flip).
     """

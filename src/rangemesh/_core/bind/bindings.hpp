@@ -6,5 +6,6 @@
 namespace rangemesh::bind {
 
 void bind_geometry(nanobind::module_& m);
+void bind_refine(nanobind::module_& m);
 
 }  // namespace rangemesh::bind

@@ -16,9 +16,9 @@ from hypothesis import strategies as st
 
 import rangemesh
 from rangemesh import _core, evaluate, triangulate
+from rangemesh._core import error_flips, flip_by_error, triangle_error
 from rangemesh.geometry.pixels import valid_range
 from rangemesh.greedy import insertion
-from rangemesh.greedy.diagonals import error_flips, flip_by_error, triangle_error
 
 from .helpers import assert_valid_mesh
 

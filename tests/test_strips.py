@@ -288,7 +288,7 @@ def test_the_seams_flips_lower_the_error(monkeypatch):
     """After the join the seam's edges are tested too: some flip across it, the error drops.
 
     Copied depths, measured by `evaluate` (a render); without the seam's pass
-    (`flip_edges` replaced by nothing) no triangle crosses the seam column.
+    (`flip_from_edges` replaced by nothing) no triangle crosses the seam column.
     """
     image = CROPS["nyu"].astype(float)
     valid = rangemesh.fill_gaps(*rangemesh.to_depth_and_mask(image, 2047))[1]
@@ -300,7 +300,7 @@ def test_the_seams_flips_lower_the_error(monkeypatch):
         return int(((cols < m).any(axis=1) & (cols > m).any(axis=1)).sum())
 
     with_seam = _strip_mesh(image, 2047, 1500, diagonals="error", heights="pixel")
-    monkeypatch.setattr(strips, "flip_edges", lambda *args: (0, 0))
+    monkeypatch.setattr(strips, "flip_from_edges", lambda *args: (0, 0))
     without = _strip_mesh(image, 2047, 1500, diagonals="error", heights="pixel")
     assert crossing(without) == 0 and crossing(with_seam) > 0
     assert_valid_mesh(with_seam, valid)

@@ -312,12 +312,12 @@ def _say(args, lines):
 def _kernel_modules():
     """Every module that holds Numba kernels."""
     from .geometry import delaunay, fans, halfedges, heap, pixels, raster, vectors
-    from .greedy import diagonals, heights_kernels, strips
+    from .greedy import heights_kernels, strips
     from .greedy import kernels as greedy_kernels
     from .paper import flipping_kernels, sampling_kernels
 
     return (vectors, pixels, raster, heap, halfedges, delaunay, fans, sampling_kernels,
-            flipping_kernels, greedy_kernels, diagonals, heights_kernels, strips)
+            flipping_kernels, greedy_kernels, heights_kernels, strips)
 
 
 def _cold_cache(method: str = "paper") -> bool:
@@ -325,10 +325,9 @@ def _cold_cache(method: str = "paper") -> bool:
     import os
 
     if method == "refine":
-        from .greedy.diagonals import flip_by_error
         from .greedy.heights_kernels import fit_pass
 
-        kernels = (flip_by_error, fit_pass)  # the default path (the insertion is compiled C++)
+        kernels = (fit_pass,)  # the default path (the insertion and flips are compiled C++)
     else:
         from .geometry.delaunay import sweep_insert
         from .paper.flipping_kernels import flip_loop

@@ -5,12 +5,18 @@ shapes, dtypes and values. Nothing here imports the rest of rangemesh.
 """
 
 from ._ext import (
+    MAX_TESTS_PER_EDGE,
     build_halfedges,
     count_edges,
+    error_flips,
+    flip_by_error,
+    flip_from_edges,
     greedy_insert,
     greedy_insert_sums,
     neighbors_from_halfedges,
+    triangle_error,
 )
 
-__all__ = ["build_halfedges", "count_edges", "greedy_insert", "greedy_insert_sums",
-           "neighbors_from_halfedges"]
+__all__ = ["MAX_TESTS_PER_EDGE", "build_halfedges", "count_edges", "error_flips", "flip_by_error",
+           "flip_from_edges", "greedy_insert", "greedy_insert_sums", "neighbors_from_halfedges",
+           "triangle_error"]

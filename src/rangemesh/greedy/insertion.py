@@ -6,13 +6,12 @@ import time
 
 import numpy as np
 
-from .._core import count_edges, greedy_insert, greedy_insert_sums
+from .._core import count_edges, flip_by_error, greedy_insert, greedy_insert_sums
 from ..camera import backproject, pixel_aspect
 from ..geometry.pixels import valid_faces, valid_range
 from ..geometry.signals import holding_signals
 from ..mesh import Mesh, Stats, empty_mesh
 from ..render import relative_error
-from .diagonals import flip_by_error
 from .heights import fit_heights
 from .start import corner_depths, first_mesh
 from .strips import strip_insert, use_strips
@@ -138,7 +137,7 @@ def _refine(depth, valid, start, strips, asked, max_sum, span, scales, n_grid, d
     """``vr, vc, tv`` of greedy insertion, on one strip or two (`strip_insert`).
 
     With ``diagonals='error'`` each quad then takes the diagonal that fits
-    its pixels better (`rangemesh.greedy.diagonals.flip_by_error`; on strips,
+    its pixels better (`rangemesh.greedy.diagonals`; on strips,
     each strip on its thread, then the seam).
     """
     if strips:  # two strips on two threads (`rangemesh.greedy.strips`)

@@ -35,9 +35,9 @@ import math
 import numpy as np
 from numba import njit
 
+from .._core import flip_by_error, flip_from_edges
 from . import kernels as _k
 from . import threads as _threads
-from .diagonals import flip_edges, flip_state
 from .start import first_mesh
 from .threads import executor
 
@@ -282,9 +282,9 @@ def strip_insert(depth, valid, vertices, span, scales, n_grid, *, max_sum=-1.0, 
         one stopped a strip by count).
     diagonals : {'delaunay', 'error'}, default 'delaunay'
         ``'error'``: each strip's edges are then flipped by the error
-        (`rangemesh.greedy.diagonals.flip_state`), on both threads, and after
+        (`rangemesh.greedy.diagonals`), on both threads, and after
         the join the seam's edges and those their flips touch
-        (`rangemesh.greedy.diagonals.flip_edges`).
+        (`rangemesh._core.flip_from_edges`).
 
     Returns
     -------
@@ -331,18 +331,29 @@ def strip_insert(depth, valid, vertices, span, scales, n_grid, *, max_sum=-1.0, 
     a, b = merge_tail(depth, valid, a, b, target, budget, span, sr, sc)
     if diagonals == "error":  # (the states' summed errors stay the insertion's)
         if n_threads >= 2:
-            fut = executor().submit(flip_state, depth, valid, a, span)
-            flip_state(depth, valid, b, span)
+            fut = executor().submit(_flip_state, depth, valid, a, span)
+            _flip_state(depth, valid, b, span)
             fut.result()
         else:
-            flip_state(depth, valid, a, span)
-            flip_state(depth, valid, b, span)
+            _flip_state(depth, valid, a, span)
+            _flip_state(depth, valid, b, span)
     vr, vc, tv, n, total = _join(_result(a), _result(b), m, shared)
     if diagonals == "error":
         he, seam = _joined_halfedges(a, b, tv, vc, m)
         tsum = np.concatenate([a[9][: int(a[17][1])], b[9][: int(b[17][1])]])
-        flip_edges(vr, vc, tv, he, tsum, depth, valid, span, seam)
+        flip_from_edges(vr, vc, tv, he, tsum, depth, valid, span, seam)
     return vr, vc, tv, n, total + seam_error
+
+
+def _flip_state(depth, valid, state, span):
+    """`rangemesh._core.flip_by_error` on the mesh of an insertion state, in place.
+
+    Afterwards the state holds the flipped mesh, its half-edges and sums; its
+    keys and heap are stale (do not advance it). Runs without the GIL.
+    """
+    n_v, n_t = int(state[17][0]), int(state[17][1])
+    return flip_by_error(state[0][:n_v], state[1][:n_v], state[4][:3 * n_t], state[5][:3 * n_t],
+                         state[9][:n_t], depth, valid, span)
 
 
 def _result(state):

@@ -1,4 +1,8 @@
 // Python bindings of the refine method's kernels: greedy insertion, its strips, its diagonals.
+#include <limits>
+
+#include "../geometry/halfedges.hpp"
+#include "../refine/diagonals.hpp"
 #include "../refine/insertion.hpp"
 #include "bindings.hpp"
 #include "numpy.hpp"
@@ -8,7 +12,10 @@ namespace rangemesh::bind {
 
 namespace {
 
+using refine::EdgeOwnership;
 using refine::FirstMesh;
+using refine::FlipCount;
+using refine::FlipMesh;
 using refine::Image;
 using refine::Insertion;
 using refine::Stop;
@@ -38,9 +45,83 @@ Insertion insert_all(const Image& image, const FirstMesh& first, index_t max_ver
     return ins;
 }
 
+FlipMesh flip_mesh(const In1<index_t>& vr, const In1<index_t>& vc, Out1<index_t>& tri, Out1<index_t>& he,
+                   Out1<double>& sums) {
+    return FlipMesh{span(vr), span(vc), span(tri), span(he), span(sums)};
+}
+
+nb::tuple counts(FlipCount c) { return nb::make_tuple(c.flips, c.tests); }
+
 }  // namespace
 
 void bind_refine(nb::module_& m) {
+    m.attr("MAX_TESTS_PER_EDGE") = refine::MAX_TESTS_PER_EDGE;
+    m.def(
+        "triangle_error",
+        [](index_t ar, index_t ac, double az, index_t br, index_t bc, double bz, index_t cr, index_t cc, double cz,
+           bool own0, bool own1, bool own2, In2<double> depth, In2<bool> valid, double base, double unit,
+           double stop) {
+            const Image image = image_of(depth, valid, unit);
+            return run_released([&] {
+                return refine::triangle_error(image, {ar, ac, az}, {br, bc, bz}, {cr, cc, cz}, EdgeOwnership{own0, own1, own2},
+                                              base, stop);
+            });
+        },
+        nb::arg("ar"), nb::arg("ac"), nb::arg("az"), nb::arg("br"), nb::arg("bc"), nb::arg("bz"), nb::arg("cr"),
+        nb::arg("cc"), nb::arg("cz"), nb::arg("own0"), nb::arg("own1"), nb::arg("own2"), nb::arg("depth"),
+        nb::arg("valid"), nb::arg("base") = 0.0, nb::arg("span") = 0.0,
+        nb::arg("stop") = std::numeric_limits<double>::infinity(),
+        "Sum of |depth - plane| over the valid pixels of triangle ABC (counter-clockwise): inside, or "
+        "on an edge whose flag (``own0`` AB, ``own1`` BC, ``own2`` CA) is true; the plane through the "
+        "corners' depths. With a key ``stop`` the sum is left after a row once "
+        "``quantize(base + sum, span) >= stop``.");
+    m.def(
+        "flip_by_error",
+        [](In1<index_t> vr, In1<index_t> vc, Out1<index_t> tri, Out1<index_t> he, Out1<double> tsum,
+           In2<double> depth, In2<bool> valid, double unit) {
+            const Image image = image_of(depth, valid, unit);
+            const FlipMesh mesh = flip_mesh(vr, vc, tri, he, tsum);
+            return counts(run_released([&] { return refine::flip_by_error(image, mesh); }));
+        },
+        nb::arg("vr"), nb::arg("vc"), nb::arg("tri"), nb::arg("he"), nb::arg("tsum"), nb::arg("depth"),
+        nb::arg("valid"), nb::arg("span"),
+        "Flip the edges of a half-edge mesh in place while a flip lowers the error of its two "
+        "triangles; ``tsum`` holds each triangle's error sum over the pixels it owns (as "
+        "``greedy_insert_sums`` gives it). Returns ``flips, tests``.");
+    m.def(
+        "flip_from_edges",
+        [](In1<index_t> vr, In1<index_t> vc, Out1<index_t> tri, Out1<index_t> he, Out1<double> tsum,
+           In2<double> depth, In2<bool> valid, double unit, In1<index_t> first) {
+            const Image image = image_of(depth, valid, unit);
+            const FlipMesh mesh = flip_mesh(vr, vc, tri, he, tsum);
+            return counts(run_released([&] { return refine::flip_from_edges(image, mesh, span(first)); }));
+        },
+        nb::arg("vr"), nb::arg("vc"), nb::arg("tri"), nb::arg("he"), nb::arg("tsum"), nb::arg("depth"),
+        nb::arg("valid"), nb::arg("span"), nb::arg("first"),
+        "``flip_by_error`` starting from the half-edges ``first`` only, and the edges flips touch "
+        "(two meshes joined along a seam, ``first`` the seam's half-edges); the sums of the "
+        "triangles on those edges are computed afresh. Returns ``flips, tests``.");
+    m.def(
+        "error_flips",
+        [](In1<index_t> vr, In1<index_t> vc, In1<index_t> tv, In2<double> depth, In2<bool> valid, double unit) {
+            const Image image = image_of(depth, valid, unit);
+            std::vector<index_t> tri, he;
+            FlipCount c;
+            run_released([&] {
+                const index_t n_t = tv.shape(0) / 3;
+                build_halfedges(Grid<const index_t>{tv.data(), n_t, 3}, static_cast<index_t>(vr.shape(0)), tri, he);
+                std::vector<double> sums(n_t, 0.0);
+                const FlipMesh mesh{span(vr), span(vc), {tri.data(), 3 * n_t}, {he.data(), 3 * n_t},
+                                    {sums.data(), n_t}};
+                refine::face_errors(image, mesh);
+                c = refine::flip_by_error(image, mesh);
+            });
+            return nb::make_tuple(to_numpy(std::move(tri)), c.flips, c.tests);
+        },
+        nb::arg("vr"), nb::arg("vc"), nb::arg("tv"), nb::arg("depth"), nb::arg("valid"), nb::arg("span"),
+        "Flip the edges of a mesh (``tv`` 3T vertex ids, counter-clockwise, edge-manifold; not "
+        "changed) while a flip lowers the error of its two triangles, the sums computed from "
+        "scratch. Returns the flipped ``tri``, ``flips``, ``tests``.");
     m.def(
         "greedy_insert",
         [](In2<double> depth, In2<bool> valid, In1<index_t> vr0, In1<index_t> vc0, In1<double> vz0,

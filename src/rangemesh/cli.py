@@ -312,12 +312,12 @@ def _say(args, lines):
 def _kernel_modules():
     """Every module that holds Numba kernels."""
     from .geometry import delaunay, fans, halfedges, heap, pixels, raster, vectors
-    from .greedy import heights_kernels, strips
+    from .greedy import heights_kernels
     from .greedy import kernels as greedy_kernels
     from .paper import flipping_kernels, sampling_kernels
 
     return (vectors, pixels, raster, heap, halfedges, delaunay, fans, sampling_kernels,
-            flipping_kernels, greedy_kernels, heights_kernels, strips)
+            flipping_kernels, greedy_kernels, heights_kernels)
 
 
 def _cold_cache(method: str = "paper") -> bool:

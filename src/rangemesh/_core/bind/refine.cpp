@@ -1,9 +1,15 @@
 // Python bindings of the refine method's kernels: greedy insertion, its strips, its diagonals.
+#include <nanobind/stl/pair.h>
+#include <nanobind/stl/tuple.h>
+#include <nanobind/stl/vector.h>
+
 #include <limits>
+#include <tuple>
 
 #include "../geometry/halfedges.hpp"
 #include "../refine/diagonals.hpp"
 #include "../refine/insertion.hpp"
+#include "../refine/strips.hpp"
 #include "bindings.hpp"
 #include "numpy.hpp"
 #include "release.hpp"
@@ -51,6 +57,19 @@ FlipMesh flip_mesh(const In1<index_t>& vr, const In1<index_t>& vc, Out1<index_t>
 }
 
 nb::tuple counts(FlipCount c) { return nb::make_tuple(c.flips, c.tests); }
+
+// A first mesh as Python passes it: vr, vc, vz, tv, he.
+using FirstArrays = std::tuple<In1<index_t>, In1<index_t>, In1<double>, In1<index_t>, In1<index_t>>;
+
+FirstMesh first_of(const FirstArrays& a) {
+    return FirstMesh{span(std::get<0>(a)), span(std::get<1>(a)), span(std::get<2>(a)), span(std::get<3>(a)),
+                     span(std::get<4>(a))};
+}
+
+nb::tuple strip_arrays(refine::StripMesh&& s) {
+    return nb::make_tuple(to_numpy(std::move(s.vr)), to_numpy(std::move(s.vc)), to_numpy(std::move(s.triangles)),
+                          to_numpy(std::move(s.halfedges)), to_numpy(std::move(s.sums)), s.valid_vertices, s.total);
+}
 
 }  // namespace
 
@@ -101,6 +120,55 @@ void bind_refine(nb::module_& m) {
         "``flip_by_error`` starting from the half-edges ``first`` only, and the edges flips touch "
         "(two meshes joined along a seam, ``first`` the seam's half-edges); the sums of the "
         "triangles on those edges are computed afresh. Returns ``flips, tests``.");
+    m.def(
+        "seam_rows",
+        [](In1<double> z, In1<bool> ok, index_t k, double max_sum, double unit) {
+            std::vector<index_t> rows;
+            run_released([&] { rows = refine::seam_rows(span(z), span(ok), k, max_sum, unit); });
+            return to_numpy(std::move(rows));
+        },
+        nb::arg("z"), nb::arg("ok"), nb::arg("k"), nb::arg("max_sum"), nb::arg("span"),
+        "Rows of about ``k`` valid pixels (``ok``) of a depth profile ``z``, by greedy insertion in "
+        "one dimension (errors in units of ``span / 2**32``), or fewer once the summed error is at "
+        "most ``max_sum`` (when not negative); the first and last valid pixels always.");
+    m.def(
+        "strip_insert",
+        [](In2<double> depth, In2<bool> valid, FirstArrays left, FirstArrays right, index_t vertices,
+           index_t target, index_t reserve, double budget, double unit, index_t sr, index_t sc, int threads,
+           bool rounds, bool flip) {
+            const Image image = image_of(depth, valid, unit);
+            const refine::StripRequest req{vertices, target, reserve, budget, sr, sc, threads, rounds, flip};
+            refine::Strips out =
+                run_released([&] { return refine::strip_insert(image, first_of(left), first_of(right), req); });
+            return nb::make_tuple(strip_arrays(std::move(out.left)), strip_arrays(std::move(out.right)), out.rounds,
+                                  out.capped);
+        },
+        nb::arg("depth"), nb::arg("valid"), nb::arg("left"), nb::arg("right"), nb::arg("vertices"),
+        nb::arg("target"), nb::arg("reserve"), nb::arg("budget"), nb::arg("span"), nb::arg("sr"), nb::arg("sc"),
+        nb::arg("threads"), nb::arg("rounds"), nb::arg("flip"),
+        "Greedy insertion on two strips from their first meshes ``left`` and ``right`` (each "
+        "``vr, vc, vz, tv, he``), on ``threads`` native threads (the same mesh for 1 or 2): rounds "
+        "to common key thresholds (unless ``rounds`` is false), then one vertex at a time until the "
+        "strips hold ``target`` valid vertices (the seam's twice) or their summed error is at most "
+        "``budget`` (when not negative); with ``flip`` each strip's edges are then flipped by the "
+        "error. Returns ``left, right, rounds, capped``, each strip as ``vr, vc, tv, he, tsum, "
+        "n_valid_vertices, total``.");
+    m.def("_strip_exponent", &refine::strip_exponent, "The strips' power-law exponent through two points (tests).");
+    m.def(
+        "_strip_power_law",
+        [](const std::vector<std::pair<double, double>>& hist) {
+            require(!hist.empty(), "_strip_power_law: a history");
+            const refine::PowerLaw law = refine::strip_power_law(hist);
+            return std::make_tuple(law.n, law.k, law.e);
+        },
+        "``(n, key, e)`` of a strip's (count, first key) history (tests).");
+    m.def(
+        "_strip_error_target",
+        [](const std::vector<std::pair<double, double>>& hist, double budget) {
+            require(!hist.empty(), "_strip_error_target: a history");
+            return refine::strip_error_target(hist, budget);
+        },
+        "The count at which a (count, summed error) history reaches ``budget`` (tests).");
     m.def(
         "error_flips",
         [](In1<index_t> vr, In1<index_t> vc, In1<index_t> tv, In2<double> depth, In2<bool> valid, double unit) {

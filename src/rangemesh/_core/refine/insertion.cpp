@@ -185,20 +185,19 @@ void Insertion::insert(index_t t, index_t p, const Plane* guard) {
     for (int i = 0; i < n_outer; ++i) legalize(outer[i], guard);
 }
 
-// Lawson flips from half-edge `e0`, whose opposite vertex is the new point P.
+// Lawson flips from half-edge `e0`, whose opposite vertex is the new point P. Half-edge a runs
+// A -> B in triangle ABC (C = P), its twin b runs B -> A in BAD:
 //
-//          C = P                       C = P
-//         /  ^                        / | ^
-//      ar/    \al                    /  |  \
-//       v  a   \                    v   |   \
-//      A ------> B      flip      A   a^|b   B
-//       \ <----- ^     ----->       \   |v   ^
-//      bn\  b   /bp                  \  |   /
-//         v    /                      v | /
-//           D                           D
+//            C                          C
+//          /   .                      / | .
+//        /   a   .                  /   |   .
+//      A ---------> B     flip    A  a  |  b  B
+//        .   b   /       ----->     .   |   /
+//          .   /                      . | /
+//            D                          D
 //
-// A -> B (slot a) and its twin B -> A (slot b) become D -> C's slots: a's triangle is DBC, b's
-// CAD. With `guard` (the split triangle fits exactly, its corners in the plane), an edge whose
+// Afterwards slot a runs D -> B in triangle DBC, slot b C -> A in CAD, and the new diagonal
+// takes the slots prv(a) (C -> D) and prv(b) (D -> C). With `guard` (the split triangle fits exactly, its corners in the plane), an edge whose
 // far triangle fits exactly or holds no pixel to insert is flipped only when D lies on that
 // plane: flipping it would join two planes in one triangle.
 void Insertion::legalize(index_t e0, const Plane* guard) {

@@ -4,11 +4,8 @@ import math
 from fractions import Fraction
 
 import numpy as np
-from numba import njit
 
 from rangemesh.camera import backproject
-from rangemesh.geometry.raster import line_pixel
-from rangemesh.geometry.vectors import lift
 
 
 def bresenham(a, b):
@@ -237,26 +234,39 @@ def curvature_numpy(depth, valid, levels=2):
 
 
 
-@njit(cache=False)
-def edge_error_closed_form(va, vb, pixels, vertices, depth, valid, cam):
-    """The edge error as first written: one closed-form `line_pixel` call per pixel."""
-    ra, ca = pixels[va, 0], pixels[va, 1]
-    rb, cb = pixels[vb, 0], pixels[vb, 1]
+def line_pixel_closed_form(r0, c0, r1, c1, k):
+    """Pixel k of the raster line r0,c0 -> r1,c1 in closed form: one step a pixel on the major
+    axis, on the minor axis the nearest pixel with halves rounded toward the first endpoint."""
+    dr, dc = r1 - r0, c1 - c0
+    n = max(abs(dr), abs(dc))
+    if n == 0:
+        return r0, c0
+    sr, sc = (1 if dr >= 0 else -1), (1 if dc >= 0 else -1)
+    minor = (2 * k * min(abs(dr), abs(dc)) + n - 1) // (2 * n)
+    if abs(dr) >= abs(dc):
+        return r0 + sr * k, c0 + sc * minor
+    return r0 + sr * minor, c0 + sc * k
+
+
+def edge_error_closed_form(va, vb, pixels, vertices, depth, valid, camera):
+    """The edge error as first written: a closed-form pixel a step, each lifted by `backproject`."""
+    ra, ca = (int(x) for x in pixels[va])
+    rb, cb = (int(x) for x in pixels[vb])
     if rb < ra or (rb == ra and cb < ca):
         va, vb = vb, va
         ra, ca, rb, cb = rb, cb, ra, ca
-    px, py, pz = vertices[va, 0], vertices[va, 1], vertices[va, 2]
-    dx = vertices[vb, 0] - px
-    dy = vertices[vb, 1] - py
-    dz = vertices[vb, 2] - pz
+    px, py, pz = (float(x) for x in vertices[va])
+    dx = float(vertices[vb, 0]) - px
+    dy = float(vertices[vb, 1]) - py
+    dz = float(vertices[vb, 2]) - pz
     dd = dx * dx + dy * dy + dz * dz
     n = max(abs(rb - ra), abs(cb - ca))
     total = 0.0
     for k in range(n + 1):
-        r, c = line_pixel(ra, ca, rb, cb, k)
+        r, c = line_pixel_closed_form(ra, ca, rb, cb, k)
         if not valid[r, c]:
             continue
-        x, y, z = lift(r, c, depth[r, c], cam)
+        x, y, z = (float(v) for v in backproject([r], [c], [depth[r, c]], camera)[0])
         qx, qy, qz = x - px, y - py, z - pz
         t = 0.0
         if dd > 0.0:

@@ -15,5 +15,6 @@ NB_MODULE(_ext, m) {
         }
     });
     rangemesh::bind::bind_geometry(m);
+    rangemesh::bind::bind_paper(m);
     rangemesh::bind::bind_refine(m);
 }

@@ -1,104 +1,13 @@
-"""Raster lines and rasterised triangles: Bresenham, the edge error along a line, depth rendering."""
+"""Rasterised triangles: depth rendering and the row scan of a triangle.
+
+Raster lines and the edge error along them live in the core (``_core/geometry/lines.hpp``).
+"""
 
 import math
 
 from numba import njit
 
-from .vectors import lift, orient
-
-
-@njit(cache=True)
-def line_pixel(r0, c0, r1, c1, k):
-    """Pixel k (0-based, from the first endpoint) of the raster line r0,c0 -> r1,c1.
-
-    Bresenham's line written in closed form: one pixel per step along the major
-    axis; on the minor axis the nearest pixel, halves rounded toward the first
-    endpoint (what the textbook loop with ``if D > 0`` gives). The line has
-    ``max(|dr|, |dc|) + 1`` pixels.
-    """
-    dr = r1 - r0
-    dc = c1 - c0
-    adr = abs(dr)
-    adc = abs(dc)
-    sr = 1 if dr >= 0 else -1
-    sc = 1 if dc >= 0 else -1
-    if adr >= adc:
-        n = adr
-        if n == 0:
-            return r0, c0
-        return r0 + sr * k, c0 + sc * ((2 * k * adc + n - 1) // (2 * n))
-    n = adc
-    return r0 + sr * ((2 * k * adr + n - 1) // (2 * n)), c0 + sc * k
-
-
-@njit(cache=True)
-def edge_error(va, vb, pixels, vertices, depth, valid, cam):
-    """SPEC 3.1: sum of 3-D distances from the valid pixels of the raster line AB to segment AB.
-
-    The line is always drawn from the endpoint with the smaller ``(r, c)``, so
-    ``E(A, B) == E(B, A)`` exactly.
-    """
-    ra = pixels[va, 0]
-    ca = pixels[va, 1]
-    rb = pixels[vb, 0]
-    cb = pixels[vb, 1]
-    if rb < ra or (rb == ra and cb < ca):
-        va, vb = vb, va
-        ra, ca, rb, cb = rb, cb, ra, ca
-    px = vertices[va, 0]
-    py = vertices[va, 1]
-    pz = vertices[va, 2]
-    dx = vertices[vb, 0] - px
-    dy = vertices[vb, 1] - py
-    dz = vertices[vb, 2] - pz
-    dd = dx * dx + dy * dy + dz * dz
-    # Bresenham, incremental form (the same pixels as `line_pixel`, without a division
-    # per pixel): one step along the major axis, a minor step when the error says so.
-    dr = rb - ra
-    dc = cb - ca
-    adr = abs(dr)
-    adc = abs(dc)
-    sr = 1 if dr >= 0 else -1
-    sc = 1 if dc >= 0 else -1
-    if adr >= adc:
-        n, dmin = adr, adc
-    else:
-        n, dmin = adc, adr
-    # minor offset at step k is floor((2 k dmin + n - 1) / (2 n)); track its remainder
-    acc = n - 1
-    total = 0.0
-    r = ra
-    c = ca
-    for k in range(n + 1):
-        if k > 0:
-            acc += 2 * dmin
-            bump = acc >= 2 * n
-            if bump:
-                acc -= 2 * n
-            if adr >= adc:
-                r += sr
-                if bump:
-                    c += sc
-            else:
-                c += sc
-                if bump:
-                    r += sr
-        if not valid[r, c]:
-            continue
-        x, y, z = lift(r, c, depth[r, c], cam)
-        qx = x - px
-        qy = y - py
-        qz = z - pz
-        t = 0.0
-        if dd > 0.0:
-            t = (qx * dx + qy * dy + qz * dz) / dd
-            t = min(max(t, 0.0), 1.0)
-        ex = qx - t * dx
-        ey = qy - t * dy
-        ez = qz - t * dz
-        total += math.sqrt(ex * ex + ey * ey + ez * ez)
-    return total
-
+from .vectors import orient
 
 # Triangles whose box holds more pixels than this are walked over their row spans when their
 # corners are pixel centres: below it the walk's set-up costs more than the box's empty half

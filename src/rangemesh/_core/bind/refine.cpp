@@ -26,11 +26,7 @@ using refine::Image;
 using refine::Insertion;
 using refine::Stop;
 
-template <class T>
-std::vector<T> copy(Span<const T> s) {
-    return std::vector<T>(s.begin(), s.end());
-}
-
+// A kernel's array, copied out of its state.
 template <class T>
 std::vector<T> copy(Span<T> s) {
     return std::vector<T>(s.begin(), s.end());
@@ -173,6 +169,7 @@ void bind_refine(nb::module_& m) {
         "error_flips",
         [](In1<index_t> vr, In1<index_t> vc, In1<index_t> tv, In2<double> depth, In2<bool> valid, double unit) {
             const Image image = image_of(depth, valid, unit);
+            require(tv.shape(0) % 3 == 0, "error_flips: three corners a triangle");
             std::vector<index_t> tri, he;
             FlipCount c;
             run_released([&] {

@@ -7,6 +7,7 @@
 // (rows counting `sr`, columns `sc`), and rescans only the triangles that changed.
 #pragma once
 
+#include <limits>
 #include <vector>
 
 #include "image.hpp"
@@ -27,7 +28,7 @@ struct FirstMesh {
 struct Stop {
     index_t max_vertices;
     double max_sum = -1.0;
-    double min_key = -1e308;
+    double min_key = -std::numeric_limits<double>::infinity();
 };
 
 // The corners of a triangle that fits exactly, kept while it is split: no flip may join two

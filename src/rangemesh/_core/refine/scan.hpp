@@ -32,11 +32,12 @@ struct TriangleKey {
 // vertices asked beyond an exact mesh go to the largest triangles and spread over the image.
 double spread_key(index_t area, index_t h, index_t w);
 
-// The pixel nearest the centroid of ABC when it is valid and strictly inside (on no edge, so
-// inserting it splits ABC in three), else {-1, -1}.
 struct Pixel {
     index_t r, c;
 };
+
+// The pixel nearest the centroid of ABC when it is valid and strictly inside (on no edge, so
+// inserting it splits ABC in three), else {-1, -1}.
 Pixel centroid_pixel(index_t ar, index_t ac, index_t br, index_t bc, index_t cr, index_t cc,
                      Grid<const bool> valid);
 

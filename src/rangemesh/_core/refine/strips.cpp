@@ -136,11 +136,6 @@ void run_both(bool two, A&& fa, B&& fb) {
     if (failed) std::rethrow_exception(failed);
 }
 
-// A point of a strip's history: its count, and its first key (or the summed error).
-struct Sample {
-    double n, y;
-};
-
 }  // namespace
 
 double strip_exponent(double x0, double y0, double x1, double y1) {

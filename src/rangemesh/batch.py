@@ -357,7 +357,7 @@ def mesh_many(paths, out_dir, params: MeshParams | None = None, *, background=No
         # (`rangemesh.greedy.threads`) would only oversubscribe the cores.
         cluster = LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True,
                                dashboard_address=":0", silence_logs=40,  # any free port
-                               env={"NUMBA_NUM_THREADS": "1"})
+                               env={"NUMBA_NUM_THREADS": "1", "RANGEMESH_THREADS": "1"})
         client = Client(cluster)
     else:
         client = _connect(Client, scheduler, timeout=connect_timeout)

@@ -313,26 +313,15 @@ def _say(args, lines):
 def _kernel_modules():
     """Every module that holds Numba kernels."""
     from .geometry import halfedges, heap, raster, vectors
-    from .greedy import diagonals, strips
-    from .greedy import kernels as greedy_kernels
 
-    return (vectors, raster, heap, halfedges, greedy_kernels, diagonals, strips)
+    return (vectors, raster, heap, halfedges)
 
 
 def _cold_cache(method: str = "paper") -> bool:
     """True when the method's main kernels have no entry in Numba's on-disk cache."""
     import os
 
-    if method != "refine":
-        return False  # the paper's method runs on the compiled core alone
-    from .greedy.diagonals import flip_by_error
-    from .greedy.kernels import greedy_insert_sums
-
-    kernels = (greedy_insert_sums, flip_by_error)  # the default path
-    try:
-        return not all(os.path.exists(k._cache._cache_file._index_path) for k in kernels)
-    except AttributeError:  # another Numba's internals: say nothing rather than guess
-        return False
+    return False  # every kernel of both methods is compiled C++ now
 
 
 def _first_run_notice(args):

@@ -78,7 +78,7 @@ class MeshParams:
         under an error bound, it meshes two strips of the image on two
         threads where the process may use two cores, and shares its fit's
         pass over the pixels between them (`rangemesh.greedy.threads`;
-        ``NUMBA_NUM_THREADS=1`` keeps one); its mesh too is the same either
+        ``RANGEMESH_THREADS=1`` keeps one); its mesh too is the same either
         way.
     heights : {'fit', 'pixel'} or None, default None
         Where vertex depths come from. ``'pixel'``: each vertex copies the

@@ -51,7 +51,7 @@ def first_mesh(depth: np.ndarray, valid: np.ndarray, n_grid: int, scales=(1, 1),
     Returns
     -------
     vr, vc, vz, tv, he : ndarrays
-        As `rangemesh.greedy.kernels.greedy_insert` takes them.
+        As `rangemesh._core.greedy_insert` takes them.
     """
     h = depth.shape[0]
     c_lo, c_hi = (0, depth.shape[1] - 1) if cols is None else cols

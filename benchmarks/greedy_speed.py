@@ -2,7 +2,7 @@
 
     python benchmarks/greedy_speed.py
 
-Prints the median of 7 calls of `rangemesh.greedy.kernels.greedy_insert` (on
+Prints the median of 7 calls of `rangemesh._core.greedy_insert` (on
 the prepared image, background filled) and of ``pydelatin.Delatin(max_points=N)``
 (on the float32 image), measured side by side in one process.
 """
@@ -16,9 +16,8 @@ from pathlib import Path
 
 import numpy as np
 
-from rangemesh import MeshParams
-from rangemesh.geometry.pixels import valid_range
-from rangemesh.greedy import kernels
+from rangemesh import MeshParams, _core
+from rangemesh._core import valid_range
 from rangemesh.greedy.insertion import first_mesh
 from rangemesh.pipeline import prepare
 
@@ -48,11 +47,11 @@ def main() -> int:
         depth, valid = prepare(z, MeshParams(), background)
         filled = _filled(depth, valid)  # pydelatin needs every pixel
         lo, hi, _ = valid_range(depth, valid)
-        kernels.greedy_insert(depth, valid, *first_mesh(depth, valid, 0), 50, -1.0, hi - lo)
+        _core.greedy_insert(depth, valid, *first_mesh(depth, valid, 0), 50, -1.0, hi - lo)
         z32 = filled.astype(np.float32)
         span = hi - lo
         for n in (1369, 5000):
-            ours = median_ms(lambda n=n, d=depth, v=valid, s=span: kernels.greedy_insert(
+            ours = median_ms(lambda n=n, d=depth, v=valid, s=span: _core.greedy_insert(
                 d, v, *first_mesh(d, v, min(256, n // 16)), n, -1.0, s))
             theirs = median_ms(lambda n=n, z=z32: pydelatin.Delatin(z, max_points=n))
             print(f"| {Path(rel).name} | {n} | {ours:.1f} | {theirs:.1f} | {ours / theirs:.2f} |")

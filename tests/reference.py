@@ -4,11 +4,8 @@ import math
 from fractions import Fraction
 
 import numpy as np
-from numba import njit
 
 from rangemesh.camera import backproject
-from rangemesh.geometry.raster import line_pixel
-from rangemesh.geometry.vectors import lift
 
 
 def bresenham(a, b):
@@ -237,26 +234,39 @@ def curvature_numpy(depth, valid, levels=2):
 
 
 
-@njit(cache=False)
-def edge_error_closed_form(va, vb, pixels, vertices, depth, valid, cam):
-    """The edge error as first written: one closed-form `line_pixel` call per pixel."""
-    ra, ca = pixels[va, 0], pixels[va, 1]
-    rb, cb = pixels[vb, 0], pixels[vb, 1]
+def line_pixel_closed_form(r0, c0, r1, c1, k):
+    """Pixel k of the raster line r0,c0 -> r1,c1 in closed form: one step a pixel on the major
+    axis, on the minor axis the nearest pixel with halves rounded toward the first endpoint."""
+    dr, dc = r1 - r0, c1 - c0
+    n = max(abs(dr), abs(dc))
+    if n == 0:
+        return r0, c0
+    sr, sc = (1 if dr >= 0 else -1), (1 if dc >= 0 else -1)
+    minor = (2 * k * min(abs(dr), abs(dc)) + n - 1) // (2 * n)
+    if abs(dr) >= abs(dc):
+        return r0 + sr * k, c0 + sc * minor
+    return r0 + sr * minor, c0 + sc * k
+
+
+def edge_error_closed_form(va, vb, pixels, vertices, depth, valid, camera):
+    """The edge error as first written: a closed-form pixel a step, each lifted by `backproject`."""
+    ra, ca = (int(x) for x in pixels[va])
+    rb, cb = (int(x) for x in pixels[vb])
     if rb < ra or (rb == ra and cb < ca):
         va, vb = vb, va
         ra, ca, rb, cb = rb, cb, ra, ca
-    px, py, pz = vertices[va, 0], vertices[va, 1], vertices[va, 2]
-    dx = vertices[vb, 0] - px
-    dy = vertices[vb, 1] - py
-    dz = vertices[vb, 2] - pz
+    px, py, pz = (float(x) for x in vertices[va])
+    dx = float(vertices[vb, 0]) - px
+    dy = float(vertices[vb, 1]) - py
+    dz = float(vertices[vb, 2]) - pz
     dd = dx * dx + dy * dy + dz * dz
     n = max(abs(rb - ra), abs(cb - ca))
     total = 0.0
     for k in range(n + 1):
-        r, c = line_pixel(ra, ca, rb, cb, k)
+        r, c = line_pixel_closed_form(ra, ca, rb, cb, k)
         if not valid[r, c]:
             continue
-        x, y, z = lift(r, c, depth[r, c], cam)
+        x, y, z = (float(v) for v in backproject([r], [c], [depth[r, c]], camera)[0])
         qx, qy, qz = x - px, y - py, z - pz
         t = 0.0
         if dd > 0.0:
@@ -265,3 +275,85 @@ def edge_error_closed_form(va, vb, pixels, vertices, depth, valid, cam):
         ex, ey, ez = qx - t * dx, qy - t * dy, qz - t * dz
         total += math.sqrt(ex * ex + ey * ey + ez * ez)
     return total
+
+
+def prune_dangling(simplices, neighbors, alive, n_vertices):
+    """Rounds of SPEC 2.3's pruning, from the definition; returns the new `alive` and the count.
+
+    A round: one pass in triangle order dropping each live triangle with no live neighbour
+    (a triangle dropped earlier in the pass counts as dead); then, at every vertex, the fans
+    (its live triangles, joined when they share an edge through it) are found by a search,
+    and every triangle outside its vertex's largest fan goes, ties kept by the fan holding
+    the smallest corner slot ``3 t + k``. Rounds repeat until one drops nothing.
+    """
+    alive = [bool(a) for a in alive]
+    tris = [tuple(int(x) for x in s) for s in simplices]
+    removed = 0
+    while True:
+        dropped = 0
+        for t in range(len(tris)):
+            if alive[t] and not any(nb >= 0 and alive[nb] for nb in neighbors[t]):
+                alive[t] = False
+                dropped += 1
+        best = {}  # vertex -> the triangles of its kept fan
+        for v in range(n_vertices):
+            mine = [t for t, tri in enumerate(tris) if alive[t] and v in tri]
+            fans, seen = [], set()
+            for t in mine:
+                if t in seen:
+                    continue
+                fan, todo = [], [t]
+                seen.add(t)
+                while todo:
+                    u = todo.pop()
+                    fan.append(u)
+                    for w in mine:
+                        if w not in seen and len(set(tris[u]) & set(tris[w])) == 2:
+                            seen.add(w)
+                            todo.append(w)
+                slot = min(3 * u + tris[u].index(v) for u in fan)
+                fans.append((-len(fan), slot, set(fan)))
+            if fans:
+                best[v] = min(fans, key=lambda f: (f[0], f[1]))[2]
+        for t, tri in enumerate(tris):
+            if alive[t] and any(t not in best[v] for v in tri):
+                alive[t] = False
+                dropped += 1
+        removed += dropped
+        if dropped == 0:
+            return np.array(alive), removed
+
+
+def delaunay_violations(pr, pc, triangles):
+    """Whether a triangle list is a Delaunay triangulation of all the points, by brute force.
+
+    Returns a list of what is wrong (empty when nothing is): a triangle that is not
+    counter-clockwise, a point strictly inside some triangle's circumcircle (exact integer
+    in-circle test, all pairs), a point that is no vertex, or a total area that differs from
+    the convex hull's (so the triangles tile the hull).
+    """
+    from scipy.spatial import ConvexHull
+
+    pts = [(int(r), int(c)) for r, c in zip(pr, pc, strict=True)]
+    faces = [tuple(int(x) for x in triangles[3 * t:3 * t + 3]) for t in range(len(triangles) // 3)]
+    bad = []
+    area2 = 0
+    for a, b, c in faces:
+        (ar, ac), (br, bc), (cr, cc) = pts[a], pts[b], pts[c]
+        o = (br - ar) * (cc - ac) - (bc - ac) * (cr - ar)
+        if o <= 0:
+            bad.append(f"face {(a, b, c)} is not counter-clockwise")
+        area2 += o
+        for d, (dr, dc) in enumerate(pts):
+            m = [[x - dr, y - dc, (x - dr) ** 2 + (y - dc) ** 2] for x, y in (pts[a], pts[b], pts[c])]
+            det = (m[0][0] * (m[1][1] * m[2][2] - m[2][1] * m[1][2])
+                   - m[0][1] * (m[1][0] * m[2][2] - m[2][0] * m[1][2])
+                   + m[0][2] * (m[1][0] * m[2][1] - m[2][0] * m[1][1]))
+            if det > 0:
+                bad.append(f"point {d} inside the circle of {(a, b, c)}")
+    if {v for f in faces for v in f} != set(range(len(pts))):
+        bad.append("a point is no vertex")
+    hull = ConvexHull(np.array(pts, float))
+    if area2 != round(2 * hull.volume):
+        bad.append(f"the faces' area {area2 / 2} is not the hull's {hull.volume}")
+    return bad

@@ -15,10 +15,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import rangemesh
-from rangemesh import evaluate, triangulate
-from rangemesh.geometry.pixels import valid_range
-from rangemesh.greedy import insertion, kernels
-from rangemesh.greedy.diagonals import error_flips, flip_by_error, triangle_error
+from rangemesh import _core, evaluate, triangulate
+from rangemesh._core import error_flips, flip_by_error, triangle_error, valid_range
+from rangemesh.greedy import insertion
 
 from .helpers import assert_valid_mesh
 
@@ -140,7 +139,7 @@ def test_the_insertions_sums_give_the_flips_of_a_fresh_count(name, n):
     depth, valid = rangemesh.pipeline.prepare(image, rangemesh.MeshParams(), background)
     lo, hi, n_valid = valid_range(depth, valid)
     start = insertion.first_mesh(depth, valid, insertion.grid_size(n, n_valid, False))
-    vr, vc, tv, he, tsum = kernels.greedy_insert_sums(depth, valid, *start, n, -1.0, hi - lo)
+    vr, vc, tv, he, tsum = _core.greedy_insert_sums(depth, valid, *start, n, -1.0, hi - lo)
     fresh, flips, _ = error_flips(vr, vc, tv, depth, valid, hi - lo)
     assert flips > 0  # (else the comparison below says nothing)
     flip_by_error(vr, vc, tv, he, tsum, depth, valid, hi - lo)
@@ -200,7 +199,7 @@ def test_delaunay_keeps_the_insertions_mesh():
     depth, valid = rangemesh.pipeline.prepare(image, rangemesh.MeshParams(), None)
     lo, hi, n_valid = valid_range(depth, valid)
     start = insertion.first_mesh(depth, valid, insertion.grid_size(200, n_valid, False))
-    vr, vc, tv, _, _ = kernels.greedy_insert(depth, valid, *start, 200, -1.0, hi - lo)
+    vr, vc, tv, _, _ = _core.greedy_insert(depth, valid, *start, 200, -1.0, hi - lo)
     assert np.array_equal(m.faces, tv.reshape(-1, 3))  # venus is all valid: no renumbering
 
 

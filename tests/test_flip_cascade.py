@@ -6,8 +6,7 @@ import numpy as np
 import pytest
 
 import rangemesh
-from rangemesh.geometry.halfedges import build_halfedges
-from rangemesh.paper import flipping_kernels as fk
+from rangemesh._core import build_halfedges, flip_loop
 from rangemesh.paper.flipping import Verdict, _gain_quantum
 
 from . import golden
@@ -28,10 +27,11 @@ def _kernel_run(mesh, depth, valid, mode, p):
     tri, he = build_halfedges(mesh.faces.astype(np.int64), len(mesh.vertices))
     verdicts = np.zeros(len(Verdict), np.int64)
     log = np.zeros((100_000, 3), np.int64)
-    fk.flip_loop(tri, he, mesh.pixels.astype(np.int64), mesh.vertices, depth, valid,
-                 mesh.camera.as_array(), {"disparity": 0, "error": 1}[mode], -np.inf,
-                 math.radians(p.delta), math.radians(p.epsilon), math.radians(p.max_angle),
-                 math.radians(p.min_bend), _gain_quantum(mesh.vertices), np.inf, verdicts, log)
+    flip_loop(tri, he, mesh.pixels.astype(np.int64), mesh.vertices, depth, valid,
+              mesh.camera.as_array(), rule={"disparity": 0, "error": 1}[mode], threshold=-np.inf,
+              delta=math.radians(p.delta), epsilon=math.radians(p.epsilon),
+              max_angle=math.radians(p.max_angle), min_bend=math.radians(p.min_bend),
+              quantum=_gain_quantum(mesh.vertices), max_edge2=np.inf, verdicts=verdicts, log=log)
     n = int(verdicts.sum())
     assert n < len(log)
     names = [Verdict(v).name.lower() for v in log[:n, 2]]

@@ -29,8 +29,8 @@ import math
 import numpy as np
 import pytest
 
-from rangemesh.geometry.halfedges import build_halfedges
-from rangemesh.paper import flipping_kernels as fk
+from rangemesh import Orthographic
+from rangemesh._core import build_halfedges, disparity_verdict, flip_loop
 from rangemesh.paper.flipping import Verdict
 
 A, B, C, D, P1, P2, P3, P4 = range(8)
@@ -52,9 +52,9 @@ def _verdict(vertices, **params):
         n = np.cross(vertices[b] - vertices[a], vertices[c] - vertices[a])
         normals[t] = n / np.linalg.norm(n)
     assert triangles[0] == A and triangles[1] == B  # half-edge 0 is A -> B
-    v = fk.disparity_verdict(triangles, halfedges, normals, vertices, 0,
-                             math.radians(p["delta"]), math.radians(p["epsilon"]),
-                             math.radians(p["max_angle"]), math.radians(p["min_bend"]))
+    v = disparity_verdict(triangles, halfedges, normals, vertices, 0,
+                          math.radians(p["delta"]), math.radians(p["epsilon"]),
+                          math.radians(p["max_angle"]), math.radians(p["min_bend"]))
     return Verdict(v)
 
 
@@ -153,29 +153,25 @@ def test_the_final_test_flips_when_the_edge_has_the_larger_disparity(lifted, exp
     assert _verdict(v) is expected
 
 
-@pytest.mark.parametrize("mode", [fk.MODE_ERROR, fk.MODE_DISPARITY])
-def test_t1_refuses_to_restore_an_edge_that_was_flipped_away(mode):
-    # The flat patch, edge AB. Had C and D been joined before (CD flipped away to AB), joining
-    # them again would cycle: T1 rejects before any other test, in either flip rule.
-    # Without that record, the error rule flips and the disparity rule gets to T2.
-    v = _patch(2, [0] * 8)
-    triangles, halfedges = build_halfedges(FACES, len(v))
-    normals = np.tile([0.0, 0.0, 1.0], (len(FACES), 1))
-    pixels = v[:, :2].astype(np.int64) * 2  # only read for the edge-length bound (inf here)
-    edge_he = np.array([0], np.int64)       # edge 0 is half-edge 0, A -> B
+def _flip_log(vertices, **params):
+    """The first decisions of the whole flip stage on the patch, with no pixel to measure."""
+    p = DEFAULTS | params
+    triangles, halfedges = build_halfedges(FACES, len(vertices))
+    pixels = vertices[:, :2].astype(np.int64)
+    depth, valid = np.zeros((5, 3)), np.zeros((5, 3), bool)
+    verdicts, log = np.zeros(len(Verdict), np.int64), np.zeros((2, 3), np.int64)
+    flip_loop(triangles, halfedges, pixels, vertices, depth, valid, Orthographic().as_array(),
+              rule=0, threshold=-np.inf, delta=math.radians(p["delta"]),
+              epsilon=math.radians(p["epsilon"]), max_angle=math.radians(p["max_angle"]),
+              min_bend=math.radians(p["min_bend"]), quantum=2.0**-32, max_edge2=np.inf,
+              verdicts=verdicts, log=log)
+    return [(int(a), int(b), Verdict(v)) for a, b, v in log]
 
-    def verdict(former_pairs):
-        former = np.full(16, -1, np.int64)
-        for a, b in former_pairs:
-            key = min(a, b) * len(v) + max(a, b)
-            former[fk._set_slot(former, key)] = key
-        return Verdict(fk.decide(0, edge_he, triangles, halfedges, pixels, v, normals, former,
-                                 mode, *(math.radians(DEFAULTS[k]) for k in
-                                         ("delta", "epsilon", "max_angle", "min_bend")),
-                                 np.inf))
 
-    free = Verdict.FLIPPED if mode == fk.MODE_ERROR else Verdict.T2_DISPARITY_CHANGE
-    assert verdict([]) is free
-    assert verdict([(A, B), (C, P1)]) is free  # other former edges do not matter
-    assert verdict([(C, D)]) is Verdict.T1_DEADLOCK
-    assert verdict([(D, C)]) is Verdict.T1_DEADLOCK
+def test_t1_refuses_to_restore_an_edge_that_was_flipped_away():
+    # The patch of the final test with A lifted, moved to pixels (rows 0..4, columns 0..2):
+    # the final test flips AB to CD. No pixel is valid, so every edge error and every gain is
+    # 0 and the queue pops by edge id: AB (id 0) first, then CD, which keeps AB's id. Flipping
+    # CD would restore AB, an edge flipped away: T1 refuses it before any other test.
+    v = _patch(2, [0.2, 0, 0, 0, 0.5, 0.5, 0, 0]) + [2.0, 1.0, 0.0]
+    assert _flip_log(v) == [(A, B, Verdict.FLIPPED), (C, D, Verdict.T1_DEADLOCK)]

@@ -60,8 +60,9 @@ def test_max_error_holds(name, image, background, bound):
 
 def test_max_error_is_met_with_few_vertices_to_spare():
     """One pass, by construction: stopping one insertion earlier would miss the bound."""
-    from rangemesh.geometry.pixels import valid_range
-    from rangemesh.greedy import insertion, kernels
+    from rangemesh import _core
+    from rangemesh._core import valid_range
+    from rangemesh.greedy import insertion
 
     image = np.load(CROPS)["venus"].astype(float)
     # a property of the insertion: vertex depths copied from their pixels, as inserted
@@ -71,8 +72,8 @@ def test_max_error_is_met_with_few_vertices_to_spare():
     depth, valid = rangemesh.pipeline.prepare(image, rangemesh.MeshParams(), None)
     lo, hi, n_valid = valid_range(depth, valid)
     start = insertion.first_mesh(depth, valid, insertion.grid_size(n_valid, n_valid, True))
-    vr, vc, tv, _, _ = kernels.greedy_insert(depth, valid, *start, m.stats.vertices - 1, -1.0,
-                                             hi - lo)
+    vr, vc, tv, _, _ = _core.greedy_insert(depth, valid, *start, m.stats.vertices - 1, -1.0,
+                                           hi - lo)
     faces = tv.reshape(-1, 3)
     pixels = np.stack([vr, vc], axis=1).astype(np.int32)
     fewer = rangemesh.Mesh(np.c_[pixels.astype(float), depth[vr, vc]], faces.astype(np.int32),
@@ -412,10 +413,21 @@ def test_fitted_depths_are_not_pulled_across_a_small_step():
     assert evaluate(m, depth).relative_error <= evaluate(copied, depth).relative_error * (1 + 1e-9)
     assert evaluate(copied, depth).relative_error > 0.01  # the step is not meshed exactly
     # the copied depths are the solution: returned as they are, without the full pass
+    from rangemesh import _core
+
     valid = np.ones(depth.shape, bool)
+    outcomes = []
+
+    def fit(*args, **kwargs):
+        outcome, fitted, system = _core_fit(*args, **kwargs)
+        outcomes.append(outcome)
+        return outcome, fitted, system
+
+    _core_fit = _core.fit_heights
     with pytest.MonkeyPatch.context() as mp:
-        mp.setattr(heights, "_full_pass", None)  # calling it would raise
+        mp.setattr(_core, "fit_heights", fit)
         z = heights.fit_heights(m.pixels, m.faces, depth, valid, m.camera)
+    assert outcomes == ["copied"]
     np.testing.assert_array_equal(z, own)
 
 
@@ -438,8 +450,8 @@ def test_block_solver_equals_a_dense_solve(n, n_faces, seed):
     # The matrix-free conjugate gradients of the fit, against numpy's dense solve of the
     # same normal equations assembled here by hand: M = sum of the faces' J^T J blocks
     # plus diag(ridge), ridge = 1e-3 max(diag(M), 1), right-hand side b + ridge * h0.
+    from rangemesh._core import solve_blocks
     from rangemesh.greedy.heights import RIDGE, _direct_solve
-    from rangemesh.greedy.heights_kernels import solve_blocks
 
     rng = np.random.default_rng(seed)
     ids = np.stack([rng.choice(n, 3, replace=False) for _ in range(n_faces)]).astype(np.int64)
@@ -471,7 +483,7 @@ def test_the_fit_samples_its_errors_from_every_kth_face_or_row(vertices):
     # order, or of every 4th row: the same errors as a full pass over the faces order[::k]
     # alone, or over the image with every other row masked out (each face owns its pixels
     # by its own edges' orientation, whatever its neighbours).
-    from rangemesh.greedy.heights_kernels import empty_buffers, face_order, fit_pass
+    from rangemesh._core import face_order, fit_sample_errors
 
     sc = scenes.make("box", (60, 80), noise=0.5)
     m = triangulate(sc.depth, vertices=vertices, method="refine", heights="pixel")
@@ -482,9 +494,7 @@ def test_the_fit_samples_its_errors_from_every_kth_face_or_row(vertices):
     order = face_order(faces, pr, pc, 60, 80, 8)
 
     def errors(f, o, mask, rows, every):
-        bufs = empty_buffers(len(f), sc.depth.size)
-        used = fit_pass(f, o, pr, pc, h0, sc.depth, mask, -1.0, *bufs, rows, every)
-        return np.sort(bufs[0][:used])
+        return np.sort(fit_sample_errors(f, o, pr, pc, h0, sc.depth, mask, rows, every, sc.depth.size))
 
     every_row = np.zeros_like(valid)
     every_row[::4] = True
@@ -515,7 +525,7 @@ def test_the_fit_samples_about_2000_faces_when_it_has_many():
 def test_face_order_sorts_by_the_cell_of_the_top_left_corner(seed, n, h, w, tile):
     # against numpy: the stable sort by (row // tile, col // tile) of each face's smallest row
     # and smallest column, cells in row-major order
-    from rangemesh.greedy.heights_kernels import face_order
+    from rangemesh._core import face_order
 
     rng = np.random.default_rng(seed)
     pr = rng.integers(0, h, 30)
@@ -533,6 +543,7 @@ def test_the_fit_does_not_depend_on_the_order_it_visits_the_faces(monkeypatch):
     # A 400x400 image is visited in `face_order`; with the order switched off (the faces as
     # they come) the same system is solved: the same depths but for rounding. Noiseless
     # planes: the outlier threshold is its floor either way, whatever pixels were sampled.
+    from rangemesh import _core
     from rangemesh.greedy import heights
 
     sc = scenes.make("box", (400, 400))
@@ -544,9 +555,9 @@ def test_the_fit_does_not_depend_on_the_order_it_visits_the_faces(monkeypatch):
     monkeypatch.setattr(heights, "ORDER_MIN_PIXELS", sc.depth.size + 1)
     as_they_come = heights.fit_heights(*args)
     np.testing.assert_allclose(ordered, as_they_come, rtol=0, atol=1e-9 * np.ptp(sc.depth))
-    assert not np.array_equal(heights.face_order(np.ascontiguousarray(m.faces, np.int64),
-                                                 m.pixels[:, 0].astype(np.int64),
-                                                 m.pixels[:, 1].astype(np.int64), 400, 400, 8),
+    assert not np.array_equal(_core.face_order(np.ascontiguousarray(m.faces, np.int64),
+                                               m.pixels[:, 0].astype(np.int64),
+                                               m.pixels[:, 1].astype(np.int64), 400, 400, 8),
                               np.arange(len(m.faces)))  # the orders did differ
 
 
@@ -575,15 +586,3 @@ def test_corner_depths_are_those_of_the_nearest_valid_pixel(seed, h, w, share):
         d = (rr - r) ** 2 + (cc - c) ** 2
         j = min(range(len(d)), key=lambda k: (d[k], rr[k], cc[k]))
         assert got[i] == depth[rr[j], cc[j]]
-
-
-@given(st.lists(st.one_of(st.floats(0, 1e6), st.sampled_from([0.0, 1.0, float("nan")])),
-                min_size=1, max_size=60))
-def test_the_fits_median_is_numpys(values):
-    # the fit takes its errors' median in place of np.median: the same float, NaN included
-    from rangemesh.greedy.heights import median_inplace
-
-    x = np.array(values, dtype=np.float64)
-    want = np.median(x)
-    got = median_inplace(x.copy())
-    assert (np.isnan(want) and np.isnan(got)) or got == want

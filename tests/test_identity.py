@@ -6,9 +6,8 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 import rangemesh
-from rangemesh import scenes
-from rangemesh.camera import Orthographic, Pinhole, backproject
-from rangemesh.geometry import raster
+from rangemesh import _core, scenes
+from rangemesh.camera import Orthographic, Pinhole, Spherical, backproject
 from rangemesh.paper.sampling import curvature, fill_gaps
 from rangemesh.paper.triangulation import delaunay_mesh, triangulate_points
 from rangemesh.pipeline import call_options
@@ -97,16 +96,17 @@ def test_sweep_mesh_equals_qhull_mesh(shared_data, rel, background):
     assert np.array_equal(a.faces, b.faces) and np.array_equal(a.pixels, b.pixels)
 
 
-@given(st.integers(0, 2**31), st.sampled_from([0, 1, 2]))
+@given(st.integers(0, 2**31), st.sampled_from([0, 1, 2, 3]))
 def test_incremental_bresenham_edge_error_equals_closed_form(seed, cam_kind):
     rng = np.random.default_rng(seed)
     depth = rng.uniform(1, 50, (40, 40))
     valid = rng.random((40, 40)) > 0.2
-    cam = [Orthographic(), Orthographic(0.5, 2.0, -1.5), Pinhole(25.0, 30.0, 14.0, 15.0, 0.01)][cam_kind]
+    cam = [Orthographic(), Orthographic(0.5, 2.0, -1.5), Pinhole(25.0, 30.0, 14.0, 15.0, 0.01),
+           Spherical(np.linspace(15, -15, 40), np.linspace(0, 351, 40), range_scale=0.5)][cam_kind]
     pix = rng.integers(0, 40, (2, 2)).astype(np.int64)
     verts = backproject(pix[:, 0], pix[:, 1], depth[pix[:, 0], pix[:, 1]], cam)
-    a = raster.edge_error(0, 1, pix, verts, depth, valid, cam.as_array())
-    b = ref.edge_error_closed_form(0, 1, pix, verts, depth, valid, cam.as_array())
+    a = _core.edge_error(0, 1, pix, verts, depth, valid, cam.as_array())
+    b = ref.edge_error_closed_form(0, 1, pix, verts, depth, valid, cam)
     assert a == b
 
 

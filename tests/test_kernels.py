@@ -4,7 +4,8 @@ import numpy as np
 from hypothesis import given
 from hypothesis import strategies as st
 
-from rangemesh.camera import Orthographic, Pinhole
+from rangemesh import _core
+from rangemesh.camera import Orthographic, Pinhole, Spherical, backproject
 from rangemesh.geometry import heap as heapq_nb
 from rangemesh.geometry import raster
 from rangemesh.geometry.vectors import orient
@@ -18,7 +19,7 @@ coord = st.integers(0, 40)
 def test_line_pixels_match_textbook_bresenham(r0, c0, r1, c1):
     a, b = sorted([(r0, c0), (r1, c1)])
     n = max(abs(b[0] - a[0]), abs(b[1] - a[1]))
-    got = [tuple(raster.line_pixel(a[0], a[1], b[0], b[1], k)) for k in range(n + 1)]
+    got = [_core.line_pixel(a[0], a[1], b[0], b[1], k) for k in range(n + 1)]
     assert got == ref.bresenham(a, b)
 
 
@@ -123,7 +124,7 @@ def test_rasterize_matches_a_box_loop(tris, shift):
     face = np.full((h, w), -1, np.int64)
     fr = np.array([[p[0] for p in tri] for tri in corners], np.float64)
     fc = np.array([[p[1] for p in tri] for tri in corners], np.float64)
-    raster.rasterize(fr, fc, vals, h, w, out, face)
+    _core.rasterize(fr, fc, vals, out, face)
     want, want_face = _box_raster(corners, vals, h, w)
     np.testing.assert_array_equal(face, want_face)
     np.testing.assert_array_equal(out, want)
@@ -146,11 +147,9 @@ def test_edge_error_matches_reference(seed, data):
     a = tuple(rng.integers(0, 30, 2))
     b = tuple(rng.integers(0, 30, 2))
     pixels = np.array([a, b], np.int64)
-    from rangemesh.camera import backproject
-
     verts = backproject(pixels[:, 0], pixels[:, 1], depth[pixels[:, 0], pixels[:, 1]], cam)
-    got = raster.edge_error(0, 1, pixels, verts, depth, valid, cam.as_array())
-    back = raster.edge_error(1, 0, pixels, verts, depth, valid, cam.as_array())
+    got = _core.edge_error(0, 1, pixels, verts, depth, valid, cam.as_array())
+    back = _core.edge_error(1, 0, pixels, verts, depth, valid, cam.as_array())
     want = ref.edge_error(a, b, depth, valid, cam)
     assert got == back  # symmetric, bit for bit
     np.testing.assert_allclose(got, want, rtol=1e-9, atol=1e-9)
@@ -162,10 +161,30 @@ def test_edge_error_by_hand():
     valid = np.ones_like(depth, bool)
     pixels = np.array([[0, 0], [0, 4]], np.int64)
     verts = np.array([[0.0, 0.0, 0.0], [0.0, 4.0, 3.0]])
-    got = raster.edge_error(0, 1, pixels, verts, depth, valid, Orthographic().as_array())
+    got = _core.edge_error(0, 1, pixels, verts, depth, valid, Orthographic().as_array())
     # distance of (0,c,z) to the line z = 3c/4 in the (c, z) plane is |3c - 4z| / 5
     want = sum(abs(3 * c - 4 * z) / 5 for c, z in zip(range(5), depth[0], strict=True))
     assert np.isclose(got, want)
+
+
+@given(st.integers(0, 2**31), st.sampled_from([0, 1, 2]))
+def test_lift_is_backproject(seed, cam_kind):
+    """The core's camera lift gives `camera.backproject`'s points, bit for bit."""
+    rng = np.random.default_rng(seed)
+    cam = [Orthographic(0.5, 2.0, -1.5), Pinhole(525.0, 520.0, 14.5, 15.0, 0.001),
+           Spherical(np.linspace(15, -15, 30), np.linspace(0, 348, 30), range_scale=0.25)][cam_kind]
+    r, c = rng.integers(0, 30, 20), rng.integers(0, 30, 20)
+    d = rng.uniform(0.1, 5000.0, 20)
+    want = backproject(r, c, d, cam)
+    got = np.array([_core.lift(int(r[i]), int(c[i]), d[i], cam.as_array()) for i in range(20)])
+    assert np.array_equal(got.view(np.int64), want.view(np.int64))
+
+
+def test_lift_by_hand():
+    # pinhole: x = (c - cx) z / fx, y = (r - cy) z / fy, z = depth * scale
+    assert _core.lift(240, 420, 2000.0, np.array([1.0, 500, 500, 320, 240, 0.001])) == (0.4, 0.0, 2.0)
+    # orthographic: (kx r, ky c, kz d)
+    assert _core.lift(2, 3, 10.0, np.array([0.0, 0.5, 0.5, 2.0, 0, 0])) == (1.0, 1.5, 20.0)
 
 
 def test_heap_pops_in_gain_order_with_id_ties():
@@ -224,7 +243,7 @@ def test_count_edges_matches_a_set_of_vertex_pairs(faces):
 
 
 def test_valid_faces_by_hand():
-    from rangemesh.geometry.pixels import valid_faces
+    from rangemesh._core import valid_faces
 
     # 5 vertices on a 3x3 image whose pixel (0, 2) is background; vertex 3 sits there.
     # Triangles (0, 1, 2) and (2, 1, 4) keep; (1, 3, 4) has the background vertex.
@@ -244,7 +263,7 @@ def test_valid_faces_by_hand():
 def test_nearest_valid_is_the_brute_force_nearest(seed, h, w, share):
     # any pixel, not only a corner: nearest by squared distance, then smallest (row, col);
     # (-1, -1) on an image with no valid pixel
-    from rangemesh.geometry.pixels import nearest_valid
+    from rangemesh._core import nearest_valid
 
     rng = np.random.default_rng(seed)
     valid = rng.random((h, w)) < share
@@ -259,7 +278,7 @@ def test_nearest_valid_is_the_brute_force_nearest(seed, h, w, share):
 
 
 def test_grid_pixels_by_hand():
-    from rangemesh.geometry.pixels import grid_pixels
+    from rangemesh._core import grid_pixels
 
     # 10x10, a 2x2 grid: rows and columns int(0.5 * 10 / 2) = 2 and int(1.5 * 10 / 2) = 7,
     # the corners first; the background pixel (7, 2) is left out

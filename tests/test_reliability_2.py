@@ -391,3 +391,76 @@ def test_e23_huge_intensities_and_complex_colours_make_no_warning():
         assert out[..., 0].tolist() == [[0, 255], [128, 128]]  # by hand: the middle of the range
     with pytest.raises(ValueError, match="real numbers"):
         as_rgb8(np.ones((3, 3, 3), complex))
+
+
+@pytest.mark.parametrize("el, az, what", [
+    ([0.0, -1.0], np.zeros(8), "azimuth must change strictly"),
+    ([0.0, 0.0], np.arange(8.0), "elevation must change strictly"),
+    ([1e300, 0.0], np.arange(8.0), "within -90 .. 90"),
+    ([0.0, -1.0], np.arange(0, 720, 10.0), "more than once"),
+])
+def test_e29_degenerate_spherical_cameras_are_refused(el, az, what):
+    with pytest.raises(ValueError, match=what):
+        Spherical(el, az)
+
+
+def test_e8_outputs_that_are_the_same_file_are_refused(tmp_path, capsys):
+    img = tmp_path / "d.npy"
+    np.save(img, np.add.outer(np.arange(20.0), np.arange(30.0)))
+    col = tmp_path / "c.npy"
+    np.save(col, np.zeros((20, 30, 3), np.uint8))
+    obj = tmp_path / "m.obj"
+    # the OBJ's texture is m.texture.png: a preview of that name would overwrite it
+    assert main(["mesh", str(img), "--color", str(col), "--vertices", "30", "-o", str(obj),
+                 "--preview", str(tmp_path / "m.texture.png")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "two outputs would be the same file" in err[0]
+    assert not obj.exists()
+
+
+def test_e28_eval_reads_the_bin_scan_that_mesh_reads(shared_data, beams_file, tmp_path, capsys):
+    scan = shared_data / f"{SCAN}.bin"
+    out = tmp_path / "s.ply"
+    assert main(["mesh", str(scan), "--beams", str(beams_file), "--vertices", "1000", "-o", str(out),
+                 "--json"]) == 0
+    made = json.loads(capsys.readouterr().out)
+    assert main(["eval", str(scan), str(out), "--beams", str(beams_file), "--json"]) == 0
+    got = json.loads(capsys.readouterr().out)
+    assert got["relative_error"] == pytest.approx(made["evaluation"]["relative_error"], rel=1e-3)
+    assert got["uncovered"] == pytest.approx(made["evaluation"]["uncovered"], abs=1e-6)
+
+
+def _ascii_ply(tmp_path, mesh, name="m.ply"):
+    path = tmp_path / name
+    write_mesh(mesh, path, ascii=True)
+    return path
+
+
+def test_e26_non_integer_face_indices_are_refused(tmp_path):
+    mesh = rangemesh.triangulate(np.full((4, 5), 10.0), method="refine", vertices=6)
+    path = _ascii_ply(tmp_path, mesh)
+    text = path.read_text().replace("property list uchar int vertex_indices",
+                                    "property list uchar double vertex_indices")
+    lines = text.splitlines()
+    first_face = len(lines) - len(mesh.faces)
+    a, b, c = mesh.faces[0]
+    lines[first_face] = f"3 {a} {b} {c}.5"
+    path.write_text("\n".join(lines) + "\n")
+    with pytest.raises(ValueError, match="whole numbers"):
+        read_mesh(path)
+    lines[first_face] = f"3 {a} {b} {c}.0"  # whole values in a double list are indices
+    path.write_text("\n".join(lines) + "\n")
+    assert np.array_equal(read_mesh(path).faces, mesh.faces)
+
+
+@pytest.mark.parametrize("comment", ["pinhole 0 0 0 0 0", "orthographic 0 1 1", "rays",
+                                     "spherical 4 5 1.0 0 nan 1 2 3 4 0 0 0 0"])
+def test_e26_a_camera_comment_that_cannot_be_read_is_said(tmp_path, comment):
+    mesh = rangemesh.triangulate(np.full((4, 5), 10.0), method="refine", vertices=6)
+    path = _ascii_ply(tmp_path, mesh)
+    path.write_text(path.read_text().replace("rangemesh camera orthographic 1.0 1.0 1.0",
+                                             "rangemesh camera " + comment))
+    with pytest.raises(ValueError, match="records a camera that cannot be read back"):
+        read_mesh(path)
+    # with the camera given, the file reads
+    assert len(read_mesh(path, camera=rangemesh.Orthographic()).faces) == len(mesh.faces)

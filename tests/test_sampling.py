@@ -3,7 +3,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from rangemesh import MeshParams, curvature, fill_gaps, sample_grid, sampling_weights
+from rangemesh import MeshParams, _core, curvature, fill_gaps, sample_grid, sampling_weights
 from rangemesh.paper.sampling import tile_bounds
 
 from . import reference as ref
@@ -109,6 +109,31 @@ def test_sample_grid_matches_reference(seed, tv, th, rs, zs):
     # tile borders: the first and last grid rows/cols lie on the image border
     assert (got[0, :, 0] == 0).all() and (got[-1, :, 0] == h - 1).all()
     assert (got[:, 0, 1] == 0).all() and (got[:, -1, 1] == w - 1).all()
+
+
+@given(st.integers(0, 10_000), st.integers(1, 7), st.integers(1, 7), st.integers(2, 5),
+       st.integers(2, 5))
+def test_sample_tiles_gives_the_same_grid_on_any_number_of_threads(seed, tv, th, rs, zs):
+    # each thread takes a fixed share of the tiles and writes only its own samples
+    rng = np.random.default_rng(seed)
+    h, w = rng.integers(tv + 1, 40), rng.integers(th + 1, 40)
+    f = rng.uniform(0.1, 5.0, (h, w))
+    rb, cb = tile_bounds(h, tv), tile_bounds(w, th)
+    want = ref.sample_grid(f, (tv, th), (rs, zs))
+    for workers in (1, 2, 3, 64):
+        grid = np.full(want.shape, -1, np.int32)
+        _core.sample_tiles(f, rb, cb, rs, zs, grid, workers)
+        assert np.array_equal(grid, want), workers
+
+
+def test_sample_grid_workers_change_nothing():
+    rng = np.random.default_rng(7)
+    d = rng.uniform(0, 100, (60, 80))
+    v = rng.random((60, 80)) > 0.1
+    p = MeshParams(tiles=(5, 6), samples=(6, 5))
+    one = sample_grid(d, v, p)
+    assert np.array_equal(sample_grid(d, v, p, workers=2), one)
+    assert np.array_equal(sample_grid(d, v, p, workers=3), one)
 
 
 def test_adaptive_samples_crowd_at_a_jump():

@@ -14,8 +14,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import rangemesh
-from rangemesh import MeshParams, scenes, triangulate
-from rangemesh.geometry.pixels import valid_range
+from rangemesh import MeshParams, _core, scenes, triangulate
+from rangemesh._core import valid_range
 from rangemesh.greedy import insertion, strips
 from rangemesh.pipeline import prepare
 
@@ -63,14 +63,19 @@ def test_seam_column_by_hand():
 
 
 def test_power_laws_by_hand():
+    """The rounds' predictions (compiled with the driver, strips.cpp), by hand."""
     # counts against keys: key 100 -> 10 while the count goes 10 -> 100, n ~ key**-1
-    assert strips._power_law([(10, 100.0), (100, 10.0)]) == (100, 10.0, 1.0)
+    assert _core._strip_power_law([(10, 100.0), (100, 10.0)]) == (100, 10.0, 1.0)
     # errors against counts: 80 -> 10 while the count goes 10 -> 40, t ~ n**-1.5, so the
     # error reaches 1.25 at 40 * (10 / 1.25) ** (1 / 1.5) = 160 vertices
-    assert strips._error_target([(10, 80.0), (40, 10.0)], 1.25) == pytest.approx(160.0)
-    # keys that rose: no fit, the default exponent; steep falls are held to the range
-    assert strips._power_law([(10, 10.0), (20, 30.0)])[2] == strips.EXPONENT
-    assert strips._exponent(1.0, 1.0, 2.0, 1e-9) == strips.EXPONENT_RANGE[1]
+    assert _core._strip_error_target([(10, 80.0), (40, 10.0)], 1.25) == pytest.approx(160.0)
+    # keys that rose: no fit, the default exponent 1; steep falls are held to at most 4
+    assert _core._strip_power_law([(10, 10.0), (20, 30.0)])[2] == 1.0
+    assert _core._strip_exponent(1.0, 1.0, 2.0, 1e-9) == 4.0
+    # shallow falls to at least 0.75: y halves while x grows 16-fold, e = 0.25
+    assert _core._strip_exponent(1.0, 2.0, 16.0, 1.0) == 0.75
+    # below the budget already: the count stays
+    assert _core._strip_error_target([(10, 80.0), (40, 1.0)], 1.25) == 40.0
 
 
 def test_strips_only_for_large_vertex_counts():
@@ -222,12 +227,10 @@ def test_fit_on_two_threads_is_the_fit_on_one(shared_data):
     image = load(shared_data, "middlebury/teddy_disp2.png")
     d, v = prepare(image, MeshParams(), 0)
     mesh = triangulate(image, background=0, vertices=3000, heights="pixel", method="refine")
-    assert len(mesh.faces) >= heights.SPLIT_MIN_FACES
-    two = heights.fit_heights(mesh.pixels, mesh.faces, d, v, mesh.camera)
-    with pytest.MonkeyPatch.context() as mp:
-        mp.setattr(heights, "SPLIT_MIN_FACES", 1 << 60)
-        one = heights.fit_heights(mesh.pixels, mesh.faces, d, v, mesh.camera)
-    assert np.array_equal(one, two)
+    assert len(mesh.faces) >= 4000  # where the pass is split
+    two = heights.fit_heights(mesh.pixels, mesh.faces, d, v, mesh.camera, threads=2)
+    one = heights.fit_heights(mesh.pixels, mesh.faces, d, v, mesh.camera, threads=1)
+    assert np.array_equal(one.view(np.int64), two.view(np.int64))
     # and the fit moved the depths (the check can fail: not a copy of the pixels')
     assert not np.array_equal(two, d[mesh.pixels[:, 0], mesh.pixels[:, 1]])
 
@@ -262,7 +265,7 @@ def test_flipped_strips_are_the_same_on_one_thread_or_two(name, background, monk
     The joined mesh's twin half-edges, the seam's paired by `_joined_halfedges`,
     are those a fresh build from its faces finds.
     """
-    from rangemesh.geometry.halfedges import build_halfedges
+    from rangemesh._core import build_halfedges
 
     seams = []
     joined = strips._joined_halfedges
@@ -288,7 +291,7 @@ def test_the_seams_flips_lower_the_error(monkeypatch):
     """After the join the seam's edges are tested too: some flip across it, the error drops.
 
     Copied depths, measured by `evaluate` (a render); without the seam's pass
-    (`flip_edges` replaced by nothing) no triangle crosses the seam column.
+    (`flip_from_edges` replaced by nothing) no triangle crosses the seam column.
     """
     image = CROPS["nyu"].astype(float)
     valid = rangemesh.fill_gaps(*rangemesh.to_depth_and_mask(image, 2047))[1]
@@ -300,7 +303,7 @@ def test_the_seams_flips_lower_the_error(monkeypatch):
         return int(((cols < m).any(axis=1) & (cols > m).any(axis=1)).sum())
 
     with_seam = _strip_mesh(image, 2047, 1500, diagonals="error", heights="pixel")
-    monkeypatch.setattr(strips, "flip_edges", lambda *args: (0, 0))
+    monkeypatch.setattr(strips, "flip_from_edges", lambda *args: (0, 0))
     without = _strip_mesh(image, 2047, 1500, diagonals="error", heights="pixel")
     assert crossing(without) == 0 and crossing(with_seam) > 0
     assert_valid_mesh(with_seam, valid)

@@ -1,7 +1,7 @@
 """Camera models: how a pixel ``(r, c)`` with depth ``z`` becomes a 3-D point.
 
 The move from the image to 3-D happens here and in the matching kernel
-``rangemesh.geometry.vectors.lift``, nowhere else.
+``lift`` of the compiled core (``_core/geometry/vectors.hpp``), nowhere else.
 """
 
 from __future__ import annotations
@@ -194,6 +194,17 @@ class Spherical(_RayCamera):
         az = _angles("azimuth", self.azimuth)
         off = np.zeros(el.size) if self.row_azimuth is None else self.row_azimuth
         off = _angles("row_azimuth", off, el.size)
+        # every column and row its own ray: a degenerate table maps pixels onto one line
+        if (np.abs(el) > 90.0).any():
+            raise ValueError("elevation must be within -90 .. 90 degrees")
+        for name, a in (("elevation", el), ("azimuth", az)):
+            d = np.diff(a)
+            if a.size > 1 and not ((d > 0).all() or (d < 0).all()):
+                raise ValueError(f"{name} must change strictly one way from each row or column "
+                                 f"to the next (equal neighbours map pixels onto one ray)")
+        if az.size > 1 and abs(float(az[-1] - az[0])) >= 360.0:
+            raise ValueError(f"azimuth spans {abs(float(az[-1] - az[0])):g} degrees: columns "
+                             f"must not go round more than once")
         object.__setattr__(self, "elevation", el)
         object.__setattr__(self, "azimuth", az)
         object.__setattr__(self, "row_azimuth", off)

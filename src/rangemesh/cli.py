@@ -340,35 +340,14 @@ def _say(args, lines):
 
 def _kernel_modules():
     """Every module that holds Numba kernels."""
-    from .geometry import delaunay, fans, halfedges, heap, pixels, raster, vectors
-    from .greedy import diagonals, heights_kernels, strips
-    from .greedy import kernels as greedy_kernels
-    from .paper import flipping_kernels, sampling_kernels
+    from .geometry import halfedges, heap, raster, vectors
 
-    return (vectors, pixels, raster, heap, halfedges, delaunay, fans, sampling_kernels,
-            flipping_kernels, greedy_kernels, diagonals, heights_kernels, strips)
+    return (vectors, raster, heap, halfedges)
 
 
 def _cold_cache(method: str = "paper") -> bool:
     """True when the method's main kernels have no entry in Numba's on-disk cache."""
-    import os
-
-    if method == "refine":
-        from .greedy.diagonals import flip_by_error
-        from .greedy.heights_kernels import fit_pass
-        from .greedy.kernels import greedy_insert_sums
-
-        kernels = (greedy_insert_sums, flip_by_error, fit_pass)  # the default path
-    else:
-        from .geometry.delaunay import sweep_insert
-        from .paper.flipping_kernels import flip_loop
-        from .paper.sampling_kernels import sample_tiles
-
-        kernels = (flip_loop, sweep_insert, sample_tiles)
-    try:
-        return not all(os.path.exists(k._cache._cache_file._index_path) for k in kernels)
-    except AttributeError:  # another Numba's internals: say nothing rather than guess
-        return False
+    return False  # every kernel of both methods is compiled C++ now
 
 
 def _first_run_notice(args):
@@ -392,8 +371,9 @@ def _did(s) -> str:
     """What the method did, in a few words (the summary line and the preview)."""
     if s.method == "refine":
         strips = " on 2 strips" if s.strips == 2 else ""
-        return (f"refine: {s.insertions} insertions{strips}, {s.flipped_edges} flips by the "
-                f"error, heights {s.heights}")
+        flips = "flips by the error not counted" if s.flipped_edges is None else \
+            f"{s.flipped_edges} flips by the error"
+        return f"refine: {s.insertions} insertions{strips}, {flips}, heights {s.heights}"
     if s.grid_shape is None or 0 in s.grid_shape:
         return f"paper: {s.flipped_edges} flips"
     gr, gc = s.grid_shape
@@ -492,8 +472,11 @@ def _check_outputs(args, inputs=()):
         for i in inputs:
             if _same_file(p, Path(i)):
                 raise UserError(f"{p}: is the input {i}; an output never replaces an input")
-    if len(outputs) == 2 and _same_file(*outputs):
-        raise UserError(f"--output and --preview are the same file {outputs[0]}")
+    for i, p in enumerate(outputs):
+        for q in outputs[i + 1:]:
+            if _same_file(p, q):
+                raise UserError(f"{q}: two outputs would be the same file ({p} and {q}); "
+                                f"name them apart")
     if args.output and Path(args.output).suffix.lower() not in MESH_SUFFIXES:
         raise UserError(f"{args.output}: unknown mesh format; use one of {', '.join(MESH_SUFFIXES)}")
     if args.output and Path(args.output).suffix.lower() != ".ply" and (args.ascii or args.pixels):
@@ -615,7 +598,7 @@ def _cmd_info(args):
 
 
 def _cmd_eval(args):
-    image = _read_image(args.image)
+    image = _read_scan(args)  # an image file, or a LiDAR .bin with --beams, as `mesh` reads
     # a LiDAR marks no return with range 0, in float images too (as `mesh --beams` takes it)
     bg = 0.0 if args.background == "auto" and args.beams else _resolve_background(args.background,
                                                                                      image)

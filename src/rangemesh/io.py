@@ -587,8 +587,17 @@ def read_mesh(path: str | os.PathLike, *, camera=None, image_shape=None) -> Mesh
             ply = PlyData.read(str(path))
             v = ply["vertex"].data
             vertices = np.stack([v["x"], v["y"], v["z"]], axis=1).astype(np.float64)
-            faces = np.stack(ply["face"].data["vertex_indices"]).astype(np.int32) \
+            faces = np.stack(ply["face"].data["vertex_indices"]) \
                 if len(ply["face"].data) else np.zeros((0, 3), np.int32)
+            if not np.issubdtype(faces.dtype, np.integer):
+                whole = np.isfinite(faces).all() and (faces == np.round(faces)).all()
+                if not whole:
+                    raise ValueError("face indices must be whole numbers")
+            with np.errstate(invalid="ignore"):
+                big = faces.size and (faces.max() > np.iinfo(np.int32).max or faces.min() < 0)
+            if big:
+                raise ValueError(f"a face index is out of range (0 .. {np.iinfo(np.int32).max})")
+            faces = faces.astype(np.int32)
             if "row" in v.dtype.names and "col" in v.dtype.names:
                 pixels = np.stack([v["row"], v["col"]], axis=1).astype(np.int32)
             if {"red", "green", "blue"} <= set(v.dtype.names):
@@ -604,6 +613,9 @@ def read_mesh(path: str | os.PathLike, *, camera=None, image_shape=None) -> Mesh
                     camera_words += parts[2:]
             if camera_words:
                 recorded = _camera_from_text(camera_words, image_shape or shape)
+                if recorded is None and camera is None:
+                    raise ValueError(f"the file records a camera that cannot be read back "
+                                     f"({' '.join(camera_words)[:60]}); give camera=")
         else:
             tm = trimesh.load(path, process=False, force="mesh")
             vertices = np.asarray(tm.vertices, np.float64)
@@ -691,10 +703,13 @@ def _camera_from_text(parts, image_shape=(0, 0)):
         values = [float(p) for p in parts[1:]]
     except ValueError:
         return None  # another writer's comment, or a damaged one: the caller's camera decides
-    if parts[0] == "pinhole" and len(values) == 5:
-        return Pinhole(*values[:4], depth_scale=values[4])
-    if parts[0] == "orthographic" and len(values) == 3:
-        return Orthographic(*values)
+    try:  # a damaged value (0, NaN, a degenerate table) reads as no camera
+        if parts[0] == "pinhole" and len(values) == 5:
+            return Pinhole(*values[:4], depth_scale=values[4])
+        if parts[0] == "orthographic" and len(values) == 3:
+            return Orthographic(*values)
+    except ValueError:
+        return None
     if parts[0] != "spherical" or len(values) < 5 or not all(map(math.isfinite, values[:2])):
         return None
     h, w = int(values[0]), int(values[1])
@@ -708,4 +723,7 @@ def _camera_from_text(parts, image_shape=(0, 0)):
                          f"{shape[0]}x{shape[1]} one")
     if h * w > MAX_RAY_PIXELS:
         raise ValueError(f"the file's camera has {h}x{w} pixels, more than {MAX_RAY_PIXELS}")
-    return Spherical(rest[:h], az0 + step * np.arange(w), rest[h:], scale)
+    try:
+        return Spherical(rest[:h], az0 + step * np.arange(w), rest[h:], scale)
+    except ValueError:
+        return None

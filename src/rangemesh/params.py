@@ -158,13 +158,13 @@ class MeshParams:
     workers : int, default 1
         Threads sharing stage one's tiles (the paper's parallel stage);
         ``threads=`` of `rangemesh.triangulate` (in calls, workers are
-        processes: `rangemesh.mesh_many`). The mesh is the same for any number. ``method='refine'`` does not read
-        it: on images of 60,000 valid pixels or more, from 2000 vertices or
-        under an error bound, it meshes two strips of the image on two
-        threads where the process may use two cores, and shares its fit's
-        pass over the pixels between them (`rangemesh.greedy.threads`;
-        ``NUMBA_NUM_THREADS=1`` keeps one); its mesh too is the same either
-        way.
+        processes: `rangemesh.mesh_many`). The mesh is the same for any
+        number. ``method='refine'`` does not read it: on images of 60,000
+        valid pixels or more, from 2000 vertices or under an error bound, it
+        meshes two strips of the image on two threads where the process may
+        use two cores, and shares its fit's pass over the pixels between them
+        (`rangemesh.greedy.threads`; ``RANGEMESH_THREADS=1`` keeps one); its
+        mesh too is the same either way.
     heights : {'fit', 'pixel'} or None, default None
         Where vertex depths come from. ``'pixel'``: each vertex copies the
         depth of its pixel (the paper's eq. 4; the only choice of

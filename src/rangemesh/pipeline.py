@@ -18,9 +18,9 @@ import warnings
 
 import numpy as np
 
+from ._core import valid_range
 from .camera import Spherical, as_camera, check_reach, check_shape
 from .checks import real_number, whole_number
-from .geometry.pixels import valid_range
 from .geometry.seam import seam_strip, unrolled_columns
 from .geometry.signals import holding_signals
 from .greedy import greedy_mesh

@@ -11,8 +11,8 @@ import numbers
 
 import numpy as np
 
+from ._core import mask_image
 from .checks import kernel_array
-from .geometry.pixels import mask_image
 from .geometry.signals import holding_signals
 
 __all__ = ["to_depth_and_mask", "check_image", "mask_into", "guess_background"]

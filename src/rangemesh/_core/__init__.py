@@ -4,6 +4,7 @@ The kernels trust their inputs: the public functions that call them check
 shapes, dtypes and values. Nothing here imports the rest of rangemesh.
 """
 
-from ._ext import build_halfedges, count_edges, neighbors_from_halfedges
+from . import _ext
+from ._ext import *  # noqa: F403 - the extension's functions are this package's names
 
-__all__ = ["build_halfedges", "count_edges", "neighbors_from_halfedges"]
+__all__ = [name for name in dir(_ext) if not name.startswith("_")]

@@ -6,14 +6,11 @@ import time
 
 import numpy as np
 
-from .._core import count_edges
+from .._core import count_edges, flip_by_error, greedy_insert, greedy_insert_sums, valid_faces, valid_range
 from ..camera import backproject, pixel_aspect
-from ..geometry.pixels import valid_faces, valid_range
 from ..geometry.signals import holding_signals
 from ..mesh import Mesh, Stats, empty_mesh
 from ..render import relative_error
-from . import kernels as _k
-from .diagonals import flip_by_error
 from .heights import fit_heights
 from .start import corner_depths, first_mesh
 from .strips import strip_insert, use_strips
@@ -140,19 +137,20 @@ def _refine(depth, valid, start, strips, asked, max_sum, span, scales, n_grid, d
     """``vr, vc, tv`` of greedy insertion, on one strip or two (`strip_insert`).
 
     With ``diagonals='error'`` each quad then takes the diagonal that fits
-    its pixels better (`rangemesh.greedy.diagonals.flip_by_error`; on strips,
-    each strip on its thread, then the seam); `info` receives ``flips``.
+    its pixels better (`rangemesh.greedy.diagonals`; on strips, each strip
+    on its thread, then the seam); `info` receives ``flips`` (None on strips:
+    the core does not report the strips' own flips).
     """
     info = {} if info is None else info
     info["flips"] = 0
     if strips:  # two strips on two threads (`rangemesh.greedy.strips`)
+        info["flips"] = None
         return strip_insert(depth, valid, asked, span, scales, n_grid, max_sum=max_sum,
-                            diagonals=diagonals, info=info)[:3]
+                            diagonals=diagonals)[:3]
     if diagonals != "error":
-        return _k.greedy_insert(depth, valid, *start, asked, max_sum, span, *scales)[:3]
+        return greedy_insert(depth, valid, *start, asked, max_sum, span, *scales)[:3]
     # the insertion's own half-edges and triangle sums: no second pass over the pixels
-    vr, vc, tv, he, tsum = _k.greedy_insert_sums(depth, valid, *start, asked, max_sum, span,
-                                                 *scales)
+    vr, vc, tv, he, tsum = greedy_insert_sums(depth, valid, *start, asked, max_sum, span, *scales)
     info["flips"] = int(flip_by_error(vr, vc, tv, he, tsum, depth, valid, span)[0])
     return vr, vc, tv
 

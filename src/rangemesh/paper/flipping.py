@@ -1,7 +1,7 @@
 """Stage three: discontinuity-preserving edge flips (paper II.B.2-3, SPEC 3).
 
 The Python side converts the mesh to half-edges and the thresholds to
-radians; the work runs in `rangemesh.paper.flipping_kernels.flip_loop`.
+radians; the work runs in the compiled core (`rangemesh._core.flip_loop`).
 Each edge popped from the queue gets one `Verdict`; ``stats.flip_tests``
 counts them.
 """
@@ -14,37 +14,33 @@ import math
 
 import numpy as np
 
-from .._core import build_halfedges
-from ..geometry.signals import holding_signals
+from .._core import FLIP_RULES, FLIP_VERDICTS, build_halfedges, flip_loop
 from ..mesh import Mesh
 from ..params import MeshParams
-from . import flipping_kernels as _k
 
 __all__ = ["flip_edges", "Verdict"]
-
-_MODES = {"disparity": _k.MODE_DISPARITY, "error": _k.MODE_ERROR}
 
 
 class Verdict(enum.IntEnum):
     """What the flip stage decided for an edge popped from its queue.
 
-    The values are the kernel's constants (`rangemesh.paper.flipping_kernels`)
+    The values are the core's verdicts (``rangemesh._core.FLIP_VERDICTS``)
     and the indices of its counters; the names are the keys of
     ``stats.flip_tests``.
     """
 
-    T1_DEADLOCK = _k.T1_DEADLOCK  #: C and D were neighbours before: flipping could cycle
-    T2_DISPARITY_CHANGE = _k.T2_DISPARITY_CHANGE  #: |disp(AB) - disp(CD)| < epsilon
-    T3_DEGENERATE = _k.T3_DEGENERATE  #: a new triangle is degenerate on a smooth region
-    T4_BEND = _k.T4_BEND  #: the new triangles bend by no more than min_bend
-    T5_CREASE = _k.T5_CREASE  #: a crease along AB would be lost
-    FINAL_TEST = _k.FINAL_TEST  #: disp(AB) <= disp(CD): the final test keeps AB
-    FLIPPED = _k.FLIPPED  #: the edge was flipped
-    MAX_EDGE = _k.MAX_EDGE  #: CD would be longer than max_edge
+    T1_DEADLOCK = FLIP_VERDICTS["T1_DEADLOCK"]  #: C and D were neighbours before: flipping could cycle
+    T2_DISPARITY_CHANGE = FLIP_VERDICTS["T2_DISPARITY_CHANGE"]  #: |disp(AB) - disp(CD)| < epsilon
+    T3_DEGENERATE = FLIP_VERDICTS["T3_DEGENERATE"]  #: a new triangle is degenerate on a smooth region
+    T4_BEND = FLIP_VERDICTS["T4_BEND"]  #: the new triangles bend by no more than min_bend
+    T5_CREASE = FLIP_VERDICTS["T5_CREASE"]  #: a crease along AB would be lost
+    FINAL_TEST = FLIP_VERDICTS["FINAL_TEST"]  #: disp(AB) <= disp(CD): the final test keeps AB
+    FLIPPED = FLIP_VERDICTS["FLIPPED"]  #: the edge was flipped
+    MAX_EDGE = FLIP_VERDICTS["MAX_EDGE"]  #: CD would be longer than max_edge
 
 
-if len(Verdict) != _k.N_VERDICTS:  # pragma: no cover - an import-time invariant
-    raise RuntimeError("Verdict and the flip kernel's verdict constants disagree")
+if len(Verdict) != len(FLIP_VERDICTS):  # pragma: no cover - an import-time invariant
+    raise RuntimeError("Verdict and the core's flip verdicts disagree")
 
 
 def _gain_quantum(vertices: np.ndarray) -> float:
@@ -60,7 +56,6 @@ def _gain_quantum(vertices: np.ndarray) -> float:
     return math.ldexp(1.0, math.frexp(extent)[1] - 32)
 
 
-@holding_signals
 def flip_edges(mesh: Mesh, depth: np.ndarray, valid: np.ndarray,
                params: MeshParams | None = None) -> Mesh:
     """Flip edges of a mesh to follow jump and crease edges.
@@ -126,11 +121,10 @@ def flip_edges(mesh: Mesh, depth: np.ndarray, valid: np.ndarray,
         )
     n_v = len(mesh.vertices)
     triangles, halfedges = build_halfedges(mesh.faces.astype(np.int64), n_v)
-    mode = _MODES[params.flips]
     threshold = -np.inf if params.gain_threshold is None else params.gain_threshold
     verdicts = np.zeros(len(Verdict), np.int64)
     max_edge2 = np.inf if params.max_edge is None else params.max_edge ** 2
-    flips = _k.flip_loop(
+    flips = flip_loop(
         triangles,
         halfedges,
         mesh.pixels.astype(np.int64),
@@ -138,16 +132,16 @@ def flip_edges(mesh: Mesh, depth: np.ndarray, valid: np.ndarray,
         np.ascontiguousarray(depth, dtype=np.float64),
         np.ascontiguousarray(valid, dtype=np.bool_),
         mesh.camera.as_array(),
-        mode,
-        float(threshold),
-        math.radians(params.delta),
-        math.radians(params.epsilon),
-        math.radians(params.max_angle),
-        math.radians(params.min_bend),
-        _gain_quantum(mesh.vertices),
-        max_edge2,
-        verdicts,
-        np.zeros((0, 3), np.int64),  # no decision log
+        rule=FLIP_RULES[params.flips],
+        threshold=float(threshold),
+        delta=math.radians(params.delta),
+        epsilon=math.radians(params.epsilon),
+        max_angle=math.radians(params.max_angle),
+        min_bend=math.radians(params.min_bend),
+        quantum=_gain_quantum(mesh.vertices),
+        max_edge2=float(max_edge2),
+        verdicts=verdicts,
+        log=np.zeros((0, 3), np.int64),  # no decision log
     )
     faces = triangles.reshape(-1, 3).astype(np.int32)
     tests = {v.name.lower(): int(verdicts[v]) for v in Verdict}

@@ -9,13 +9,14 @@ background value ever reaches arithmetic (SPEC P1).
 from __future__ import annotations
 
 import math
+import os
 
 import numpy as np
 
-from ..geometry.pixels import valid_range
+from .. import _core
+from .._core import valid_range
 from ..geometry.signals import holding_signals
 from ..params import MeshParams
-from . import sampling_kernels as _k
 
 __all__ = [
     "fill_gaps",
@@ -31,7 +32,6 @@ __all__ = [
 _PAPER_SCALE = 255.0
 
 
-@holding_signals
 def fill_gaps(depth: np.ndarray, valid: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Fill single-pixel holes: one pass, paper II.A.1, SPEC 1.1.
 
@@ -58,7 +58,7 @@ def fill_gaps(depth: np.ndarray, valid: np.ndarray) -> tuple[np.ndarray, np.ndar
     """
     out_d = np.where(valid, depth, 0.0).astype(np.float64, order="C", copy=False)
     out_v = np.array(valid, dtype=np.bool_, order="C", copy=True)
-    _k.fill_gaps_inplace(out_d, out_v)
+    _core.fill_gaps_inplace(out_d, out_v)
     return out_d, out_v
 
 
@@ -70,7 +70,6 @@ def valid_span(depth: np.ndarray, valid: np.ndarray) -> float:
     return float(hi - lo) if n else 0.0
 
 
-@holding_signals
 def curvature(depth: np.ndarray, valid: np.ndarray, levels: int = 2) -> np.ndarray:
     """Multiresolution curvature image ``K``, paper II.A.1 and SPEC 1.2-1.3.
 
@@ -103,11 +102,10 @@ def curvature(depth: np.ndarray, valid: np.ndarray, levels: int = 2) -> np.ndarr
     d = np.ascontiguousarray(depth, dtype=np.float64)
     # The kernel never reads a background depth, so no masked copy is needed.
     K = np.zeros(d.shape)
-    _k.curvature_kernel(d, v, valid_span(d, v), int(levels), K)
+    _core.add_curvature(d, v, valid_span(d, v), int(levels), K)
     return K
 
 
-@holding_signals
 def sampling_weights(depth: np.ndarray, valid: np.ndarray, params: MeshParams, *,
                      out: np.ndarray | None = None) -> np.ndarray:
     """Per-pixel weight ``f`` that stage one integrates (paper eq. 1, SPEC 1.4).
@@ -140,7 +138,7 @@ def sampling_weights(depth: np.ndarray, valid: np.ndarray, params: MeshParams, *
     v = np.ascontiguousarray(valid, dtype=np.bool_)
     d = np.ascontiguousarray(depth, dtype=np.float64)
     span = valid_span(d, v)
-    _k.curvature_kernel(d, v, span, int(params.levels), out)
+    _core.add_curvature(d, v, span, int(params.levels), out)
     if span > 0.0:
         factor = _PAPER_SCALE / span
         if math.isfinite(factor):
@@ -155,10 +153,9 @@ def sampling_weights(depth: np.ndarray, valid: np.ndarray, params: MeshParams, *
     return np.log(out, out=out)
 
 
-@holding_signals
 def fill_gaps_inplace(depth: np.ndarray, valid: np.ndarray) -> None:
     """`fill_gaps` on our own C-contiguous float64/bool buffers, in place (no copies)."""
-    _k.fill_gaps_inplace(depth, valid)
+    _core.fill_gaps_inplace(depth, valid)
 
 
 def tile_bounds(n: int, tiles: int, *, name: str = "tiles") -> np.ndarray:
@@ -233,7 +230,6 @@ def check_grid_size(params: MeshParams, shape) -> None:
         )
 
 
-@holding_signals
 def sample_grid(depth: np.ndarray, valid: np.ndarray, params: MeshParams | None = None,
                 *, weights: np.ndarray | None = None, workers: int = 1) -> np.ndarray:
     """The sample grid of stage one (paper II.A.2-3, SPEC 1.5-1.8).
@@ -254,8 +250,8 @@ def sample_grid(depth: np.ndarray, valid: np.ndarray, params: MeshParams | None 
         Precomputed ``sampling_weights`` (reused across budgets by callers that
         try several grids).
     workers : int, default 1
-        Threads sharing the tiles (Numba ``prange``); the grid is the same for
-        any number.
+        Threads sharing the tiles (each takes a fixed share of them); the grid
+        is the same for any number.
 
     Returns
     -------
@@ -279,15 +275,6 @@ def sample_grid(depth: np.ndarray, valid: np.ndarray, params: MeshParams | None 
     f = sampling_weights(depth, valid, params) if weights is None else weights
     f = np.ascontiguousarray(f, dtype=np.float64)
     grid = np.zeros(params.grid_shape + (2,), np.int32)
-    if workers > 1:
-        import numba  # only here: the parallel kernel is compiled only when asked for
-
-        before = numba.get_num_threads()
-        numba.set_num_threads(min(int(workers), numba.config.NUMBA_NUM_THREADS))
-        try:
-            _k.sample_tiles_parallel(f, rb, cb, rs, zs, grid)
-        finally:
-            numba.set_num_threads(before)
-    else:
-        _k.sample_tiles(f, rb, cb, rs, zs, grid)
+    threads = max(min(int(workers), os.cpu_count() or 1), 1)  # more threads than cores only wait
+    _core.sample_tiles(f, rb, cb, rs, zs, grid, threads)
     return grid

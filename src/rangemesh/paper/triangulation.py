@@ -7,10 +7,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._core import build_halfedges, neighbors_from_halfedges
+from .._core import build_halfedges, delaunay_sweep, legalize_all, neighbors_from_halfedges, prune_dangling
 from ..camera import as_camera, backproject
-from ..geometry.delaunay import delaunay_sweep, legalize_all
-from ..geometry.fans import prune_dangling
 from ..geometry.signals import holding_signals
 from ..mesh import Mesh, Stats, count_edges, empty_mesh
 
@@ -31,7 +29,7 @@ def triangulate_points(pts: np.ndarray, engine: str = "sweep") -> tuple[np.ndarr
     pts : (N, 2) ndarray of int
         Distinct ``(row, col)`` points; their order defines the tie-break.
     engine : {'sweep', 'qhull'}, default 'sweep'
-        ``'sweep'``: our Numba sweep-hull with exact integer predicates.
+        ``'sweep'``: our compiled sweep-hull with exact integer predicates.
         ``'qhull'``: ``scipy.spatial.Delaunay``; kept as an independent
         reference. Both end in the same triangulation.
 
@@ -59,11 +57,9 @@ def triangulate_points(pts: np.ndarray, engine: str = "sweep") -> tuple[np.ndarr
     if n < 3:
         return empty, empty
     if engine == "sweep":
-        triangles, halfedges, n_t = delaunay_sweep(pr, pc)
-        if n_t == 0:
+        triangles, halfedges = delaunay_sweep(pr, pc)
+        if len(triangles) == 0:
             return empty, empty
-        triangles = triangles.copy()
-        halfedges = halfedges.copy()
     elif engine == "qhull":
         from scipy.spatial import Delaunay, QhullError  # the reference engine only
 

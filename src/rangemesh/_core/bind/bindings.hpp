@@ -6,5 +6,8 @@
 namespace rangemesh::bind {
 
 void bind_geometry(nanobind::module_& m);
+void bind_paper(nanobind::module_& m);
+void bind_heights(nanobind::module_& m);
+void bind_refine(nanobind::module_& m);
 
 }  // namespace rangemesh::bind

@@ -1,0 +1,135 @@
+// Python bindings of the paper method's kernels and the primitives they share (lift, edge error).
+#include "../geometry/lines.hpp"
+#include "../paper/flipping.hpp"
+#include "../paper/sampling.hpp"
+#include "bindings.hpp"
+#include "numpy.hpp"
+#include "release.hpp"
+
+
+namespace rangemesh::bind {
+
+namespace {
+
+RangeImage range_image(const In2<double>& depth, const In2<bool>& valid, const In1<double>& cam) {
+    return {grid(depth), grid(valid), span(cam)};
+}
+
+}  // namespace
+
+void bind_paper(nb::module_& m) {
+    using namespace paper;
+
+    nb::dict verdicts;
+    verdicts["T1_DEADLOCK"] = index_t{T1_DEADLOCK};
+    verdicts["T2_DISPARITY_CHANGE"] = index_t{T2_DISPARITY_CHANGE};
+    verdicts["T3_DEGENERATE"] = index_t{T3_DEGENERATE};
+    verdicts["T4_BEND"] = index_t{T4_BEND};
+    verdicts["T5_CREASE"] = index_t{T5_CREASE};
+    verdicts["FINAL_TEST"] = index_t{FINAL_TEST};
+    verdicts["FLIPPED"] = index_t{FLIPPED};
+    verdicts["MAX_EDGE"] = index_t{MAX_EDGE};
+    m.attr("FLIP_VERDICTS") = verdicts;
+    nb::dict rules;
+    rules["disparity"] = index_t{RULE_DISPARITY};
+    rules["error"] = index_t{RULE_ERROR};
+    m.attr("FLIP_RULES") = rules;
+
+    m.def(
+        "flip_loop",
+        [](Out1<index_t> triangles, Out1<index_t> halfedges, In2<index_t> pixels, In2<double> vertices,
+           In2<double> depth, In2<bool> valid, In1<double> cam, index_t rule, double threshold, double delta,
+           double epsilon, double max_angle, double min_bend, double quantum, double max_edge2,
+           Out1<index_t> verdicts, Out2<index_t> log) {
+            const FlipMesh mesh{span(triangles), span(halfedges), {grid(pixels), grid(vertices)}};
+            const FlipSettings settings{static_cast<FlipRule>(rule), {delta, epsilon, max_angle, min_bend},
+                                        threshold, quantum, max_edge2};
+            const FlipRecord record{span(verdicts), grid(log)};
+            const RangeImage image = range_image(depth, valid, cam);
+            return run_released([&] { return flip_loop(mesh, image, settings, record); });
+        },
+        nb::arg("triangles"), nb::arg("halfedges"), nb::arg("pixels"), nb::arg("vertices"), nb::arg("depth"),
+        nb::arg("valid"), nb::arg("cam"), nb::kw_only(), nb::arg("rule"), nb::arg("threshold"), nb::arg("delta"),
+        nb::arg("epsilon"), nb::arg("max_angle"), nb::arg("min_bend"), nb::arg("quantum"), nb::arg("max_edge2"),
+        nb::arg("verdicts"), nb::arg("log"),
+        "Stage three (SPEC 3.3-3.6) on int64 half-edge arrays, in place; returns the flips taken. "
+        "Angles in radians; ``verdicts`` (int64, one per verdict) counts in place; the first "
+        "``len(log)`` decisions go to ``log`` (int64, (n, 3)): endpoints (smaller first), verdict.");
+    m.def(
+        "disparity_verdict",
+        [](In1<index_t> triangles, In1<index_t> halfedges, In2<double> normals, In2<double> vertices, index_t e0,
+           double delta, double epsilon, double max_angle, double min_bend) {
+            const DisparityTests tests{delta, epsilon, max_angle, min_bend};
+            return index_t{run_released([&] {
+                return disparity_verdict(span(triangles), span(halfedges), grid(normals), grid(vertices), e0, tests);
+            })};
+        },
+        nb::arg("triangles"), nb::arg("halfedges"), nb::arg("normals"), nb::arg("vertices"), nb::arg("e0"),
+        nb::arg("delta"), nb::arg("epsilon"), nb::arg("max_angle"), nb::arg("min_bend"),
+        "The verdict of the paper's tests T2-T5 and final test on the inner edge of half-edge ``e0``.");
+    m.def(
+        "fill_gaps_inplace",
+        [](Out2<double> depth, Out2<bool> valid) {
+            return run_released([&] { return fill_gaps_inplace(grid(depth), grid(valid)); });
+        },
+        nb::arg("depth"), nb::arg("valid"),
+        "SPEC 1.1 in place on C-contiguous float64 depth and bool valid; returns the pixels filled.");
+    m.def(
+        "add_curvature",
+        [](In2<double> depth, In2<bool> valid, double jump, index_t levels, Out2<double> curvature) {
+            run_released([&] { add_curvature(grid(depth), grid(valid), jump, levels, grid(curvature)); });
+        },
+        nb::arg("depth"), nb::arg("valid"), nb::arg("jump"), nb::arg("levels"), nb::arg("curvature"),
+        "Adds the multiresolution curvature (SPEC 1.2-1.3) of ``levels`` levels to ``curvature``.");
+    m.def(
+        "sample_tiles",
+        [](In2<double> f, In1<index_t> row_bounds, In1<index_t> col_bounds, index_t rs, index_t zs,
+           nb::ndarray<std::int32_t, nb::ndim<3>, nb::c_contig, nb::device::cpu> grid_out, index_t workers) {
+            const Tiling tiling{span(row_bounds), span(col_bounds), rs, zs};
+            const SampleGrid samples{grid_out.data(), static_cast<index_t>(grid_out.shape(0)),
+                                     static_cast<index_t>(grid_out.shape(1))};
+            if (grid_out.shape(2) != 2) throw nb::value_error("sample_tiles: the grid's last axis must be 2");
+            run_released([&] { sample_tiles(grid(f), tiling, samples, workers); });
+        },
+        nb::arg("f"), nb::arg("row_bounds"), nb::arg("col_bounds"), nb::arg("rs"), nb::arg("zs"), nb::arg("grid"),
+        nb::arg("workers") = 1,
+        "Fills the (Gr, Gc, 2) int32 sample grid from the weights ``f``, tile by tile; ``workers`` "
+        "threads share the tiles and give the same grid for any number.");
+    m.def(
+        "edge_error",
+        [](index_t va, index_t vb, In2<index_t> pixels, In2<double> vertices, In2<double> depth, In2<bool> valid,
+           In1<double> cam) {
+            const MeshPoints points{grid(pixels), grid(vertices)};
+            const RangeImage image = range_image(depth, valid, cam);
+            if (!image.consistent() || !points.fit(image) || va < 0 || vb < 0 || va >= points.size() ||
+                vb >= points.size())
+                throw nb::value_error("edge_error: vertices, pixels, image and camera must agree");
+            return run_released([&] { return edge_error(va, vb, points, image); });
+        },
+        nb::arg("va"), nb::arg("vb"), nb::arg("pixels"), nb::arg("vertices"), nb::arg("depth"), nb::arg("valid"),
+        nb::arg("cam"), "E(A, B) of SPEC 3.1: the 3-D distances of the valid pixels of the raster line AB to AB.");
+    m.def(
+        "line_pixel",
+        [](index_t r0, index_t c0, index_t r1, index_t c1, index_t k) {
+            const Pixel p = line_pixel(r0, c0, r1, c1, k);
+            return nb::make_tuple(p.r, p.c);
+        },
+        nb::arg("r0"), nb::arg("c0"), nb::arg("r1"), nb::arg("c1"), nb::arg("k"),
+        "Pixel ``k`` (from the first endpoint) of the Bresenham line (r0, c0) -> (r1, c1).");
+    m.def(
+        "lift",
+        [](index_t r, index_t c, double d, In1<double> cam) {
+            const Span<const double> packed = span(cam);
+            const bool rays = packed.size >= CAMERA_HEADER && packed[0] == RAYS;
+            if (packed.size < CAMERA_HEADER ||
+                (rays && (r < 0 || c < 0 || c >= static_cast<index_t>(packed[2]) ||
+                          CAMERA_HEADER + 3 * (r * static_cast<index_t>(packed[2]) + c) + 2 >= packed.size)))
+                throw nb::value_error("lift: a packed camera, and a pixel of its image for a per-pixel camera");
+            const Vec3 p = lift(span(cam), r, c, d);
+            return nb::make_tuple(p.x, p.y, p.z);
+        },
+        nb::arg("r"), nb::arg("c"), nb::arg("d"), nb::arg("cam"),
+        "The 3-D point of pixel (r, c) with stored depth d under the packed camera ``cam``.");
+}
+
+}  // namespace rangemesh::bind

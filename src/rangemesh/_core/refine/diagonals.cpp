@@ -1,0 +1,180 @@
+#include "diagonals.hpp"
+
+#include <vector>
+
+#include "../geometry/halfedges.hpp"
+#include "../geometry/predicates.hpp"
+#include "../geometry/raster.hpp"
+#include "../interrupt.hpp"
+#include "ownership.hpp"
+
+namespace rangemesh::refine {
+
+double triangle_error(const Image& image, const Point& a, const Point& b, const Point& c, EdgeOwnership own,
+                      double base, double stop) {
+    const index_t area = orient(a.r, a.c, b.r, b.c, c.r, c.c);
+    const double inv = 1.0 / static_cast<double>(area);
+    const bool stops = stop < std::numeric_limits<double>::infinity();
+    // a cheap bound first: only a sum of at least (stop - 0.5) key steps can quantise to stop
+    const double cut = stops ? (stop - 0.5) * image.span / KEY_STEPS : std::numeric_limits<double>::infinity();
+    double total = 0.0;
+    TriangleRows rows(a.r, a.c, b.r, b.c, c.r, c.c);
+    const double f0 = static_cast<double>(b.r - a.r);
+    const double f1 = static_cast<double>(c.r - b.r);
+    const double f2 = static_cast<double>(a.r - c.r);
+    for (index_t r = rows.r0; r <= rows.r1; ++r) {
+        if (r > rows.r0) rows.next_row();
+        const RowSpan span = rows.columns(own.ab, own.bc, own.ca);
+        if (span.first > span.last) continue;
+        const double* drow = image.depth.row(r);
+        const bool* vrow = image.valid.row(r);
+        double w0 = static_cast<double>(span.w0), w1 = static_cast<double>(span.w1),
+               w2 = static_cast<double>(span.w2);
+        for (index_t col = span.first; col <= span.last; ++col) {
+            if (vrow[col]) total += std::abs(drow[col] - (w1 * a.z + w2 * b.z + w0 * c.z) * inv);
+            w0 += f0;
+            w1 += f1;
+            w2 += f2;
+        }
+        if (base + total >= cut && quantize(base + total, image.span) >= stop) return total;
+    }
+    return total;
+}
+
+namespace {
+
+// The flips' working state: the mesh, its vertex depths, the stack of edges to test.
+class Flipper {
+  public:
+    Flipper(const Image& image, const FlipMesh& mesh) : image_(image), m_(mesh) {
+        require(mesh.vc.size == mesh.vr.size && mesh.halfedges.size == mesh.triangles.size &&
+                    mesh.triangles.size == 3 * mesh.sums.size,
+                "flips: one column a vertex, one twin a half-edge, one sum a triangle");
+        const index_t n_v = mesh.vr.size;
+        for (index_t k = 0; k < mesh.triangles.size; ++k)
+            require(0 <= mesh.triangles[k] && mesh.triangles[k] < n_v && mesh.halfedges[k] < mesh.triangles.size,
+                    "flips: corners and twins in range");
+        // the vertex depths; triangles with a background vertex get sum -1 (never flipped)
+        vz_.assign(n_v, 0.0);
+        for (index_t v = 0; v < n_v; ++v)
+            if (valid(v)) vz_[v] = image.depth(mesh.vr[v], mesh.vc[v]);
+        const index_t n_t = mesh.sums.size;
+        for (index_t t = 0; t < n_t; ++t)
+            if (!all_valid(t)) mesh.sums[t] = -1.0;
+        queued_.assign(mesh.triangles.size, 0);
+        stack_.reserve(mesh.triangles.size);
+    }
+
+    bool valid(index_t v) const { return image_.valid(m_.vr[v], m_.vc[v]); }
+    bool all_valid(index_t t) const {
+        return valid(m_.triangles[3 * t]) && valid(m_.triangles[3 * t + 1]) && valid(m_.triangles[3 * t + 2]);
+    }
+
+    Point point(index_t v) const { return {m_.vr[v], m_.vc[v], vz_[v]}; }
+
+    bool owns(index_t e, const Point& p, const Point& q) const {
+        return own_edge(m_.halfedges[e], p.r, p.c, q.r, q.c, image_.cols());
+    }
+
+    // The error sum of triangle t over the pixels it owns.
+    double face_error(index_t t) const {
+        const index_t e = 3 * t;
+        const Point a = point(m_.triangles[e]), b = point(m_.triangles[e + 1]), c = point(m_.triangles[e + 2]);
+        return triangle_error(image_, a, b, c, {owns(e, a, b), owns(e + 1, b, c), owns(e + 2, c, a)});
+    }
+
+    // Put e on the stack unless its edge is there already.
+    void push(index_t e) {
+        const index_t g = m_.halfedges[e];
+        if (g >= 0 && !queued_[e] && !queued_[g]) {
+            stack_.push_back(e);
+            queued_[e] = 1;
+        }
+    }
+
+    // Every interior edge between two triangles that may flip, popped in order of e.
+    void push_all() {
+        for (index_t e = m_.triangles.size - 1; e >= 0; --e) {
+            const index_t g = m_.halfedges[e];
+            if (g > e && m_.sums[e / 3] >= 0.0 && m_.sums[g / 3] >= 0.0) {
+                stack_.push_back(e);
+                queued_[e] = 1;
+            }
+        }
+    }
+
+    // The half-edges `first`, popped in the order given, their triangles' sums afresh.
+    void push_first(Span<const index_t> first) {
+        for (const index_t e : first) {
+            require(0 <= e && e < m_.triangles.size, "flips: first half-edges in range");
+            for (const index_t g : {e, m_.halfedges[e]})
+                if (g >= 0 && m_.sums[g / 3] >= 0.0) m_.sums[g / 3] = face_error(g / 3);
+        }
+        for (index_t i = first.size - 1; i >= 0; --i) push(first[i]);
+    }
+
+    // Test the edges on the stack, flipping those whose error drops.
+    FlipCount run() {
+        FlipCount count;
+        const index_t max_tests = MAX_TESTS_PER_EDGE * static_cast<index_t>(stack_.size());
+        const double span = image_.span;
+        const Span<index_t> tri = m_.triangles, he = m_.halfedges;
+        while (!stack_.empty() && count.tests < max_tests) {
+            if (count.tests % 256 == 0) poll_interrupt();
+            const index_t e0 = stack_.back();
+            stack_.pop_back();
+            queued_[e0] = 0;
+            if (he[e0] < 0) continue;
+            const Quad q(Span<const index_t>{he.data, he.size}, e0);
+            const index_t t0 = q.e0 / 3, t1 = q.e1 / 3;
+            if (m_.sums[t0] < 0.0 || m_.sums[t1] < 0.0) continue;
+            const double old = quantize(m_.sums[t0] + m_.sums[t1], span);
+            if (old == 0.0) continue;  // nothing to gain
+            const Point a = point(tri[q.e0]), b = point(tri[q.b0]), c = point(tri[q.c0]), d = point(tri[q.c1]);
+            // ABC + BAD -> DCA + CDB: both counter-clockwise only when the quad is convex
+            if (orient(d.r, d.c, c.r, c.c, a.r, a.c) <= 0 || orient(c.r, c.c, d.r, d.c, b.r, b.c) <= 0) continue;
+            ++count.tests;
+            const bool own_dc = refine::owns(d.r, d.c, c.r, c.c);
+            // each scan stops once the other diagonal is known to be no better
+            const double s0 = triangle_error(image_, d, c, a, {own_dc, owns(q.c0, c, a), owns(q.b1, a, d)}, 0.0, old);
+            if (quantize(s0, span) >= old) continue;
+            const double s1 = triangle_error(image_, c, d, b, {!own_dc, owns(q.c1, d, b), owns(q.b0, b, c)}, s0, old);
+            if (quantize(s0 + s1, span) >= old) continue;
+            flip_quad(tri, he, q.e0);
+            m_.sums[t0] = s0;
+            m_.sums[t1] = s1;
+            ++count.flips;
+            // the quad's four outer edges: their other triangles now face new ones
+            for (const index_t f : {nxt(q.e0), prv(q.e0), nxt(q.e1), prv(q.e1)}) push(f);
+        }
+        return count;
+    }
+
+  private:
+    const Image& image_;
+    FlipMesh m_;
+    std::vector<double> vz_;
+    std::vector<unsigned char> queued_;
+    std::vector<index_t> stack_;
+};
+
+}  // namespace
+
+FlipCount flip_by_error(const Image& image, const FlipMesh& mesh) {
+    Flipper f(image, mesh);
+    f.push_all();
+    return f.run();
+}
+
+FlipCount flip_from_edges(const Image& image, const FlipMesh& mesh, Span<const index_t> first) {
+    Flipper f(image, mesh);
+    f.push_first(first);
+    return f.run();
+}
+
+void face_errors(const Image& image, const FlipMesh& mesh) {
+    Flipper f(image, mesh);  // sums -1 where a corner is background
+    for (index_t t = 0; t < mesh.sums.size; ++t) mesh.sums[t] = f.all_valid(t) ? f.face_error(t) : 0.0;
+}
+
+}  // namespace rangemesh::refine

@@ -1,0 +1,316 @@
+#include "insertion.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+
+#include "../geometry/halfedges.hpp"
+#include "../geometry/heap.hpp"
+#include "../geometry/predicates.hpp"
+#include "../interrupt.hpp"
+#include "ownership.hpp"
+
+namespace rangemesh::refine {
+
+bool Plane::holds(index_t pr, index_t pc, double pz, double span) const {
+    const double x = static_cast<double>(pr), y = static_cast<double>(pc);
+    const double zp = (orient(r[1], c[1], r[2], c[2], x, y) * z[0] + orient(r[2], c[2], r[0], c[0], x, y) * z[1] +
+                       orient(r[0], c[0], r[1], c[1], x, y) * z[2]) /
+                      orient(r[0], c[0], r[1], c[1], r[2], c[2]);
+    return quantize(std::abs(pz - zp), span) == 0.0;
+}
+
+Insertion::Insertion(const Image& image, const FirstMesh& first, index_t reserve, index_t sr, index_t sc)
+    : image_(image), sr_(sr), sc_(sc) {
+    const index_t n_v = first.vr.size;
+    require(first.vc.size == n_v && first.vz.size == n_v, "first mesh: one row, column and depth a vertex");
+    require(first.triangles.size % 3 == 0 && first.halfedges.size == first.triangles.size,
+            "first mesh: three corners and three twins a triangle");
+    for (index_t i = 0; i < n_v; ++i)
+        require(0 <= first.vr[i] && first.vr[i] < image.rows() && 0 <= first.vc[i] && first.vc[i] < image.cols(),
+                "first mesh: vertices on the image's pixels");
+    for (index_t k = 0; k < first.triangles.size; ++k)
+        require(0 <= first.triangles[k] && first.triangles[k] < n_v && first.halfedges[k] < first.triangles.size,
+                "first mesh: corners and twins in range");
+    n_t_ = first.triangles.size / 3;
+    const index_t cap_v = std::max({index_t(1024), 2 * n_v, n_v + reserve + 8});
+    const index_t cap_t = 2 * cap_v + 8;
+    vr_.reserve(cap_v);
+    vc_.reserve(cap_v);
+    vz_.reserve(cap_v);
+    vbg_.reserve(cap_v);
+    for (index_t i = 0; i < n_v; ++i) {
+        const bool background = !image.valid(first.vr[i], first.vc[i]);
+        if (background && i >= 4)
+            throw std::invalid_argument("greedy_insert: only the first four vertices may be background");
+        vr_.push_back(first.vr[i]);
+        vc_.push_back(first.vc[i]);
+        vz_.push_back(first.vz[i]);
+        vbg_.push_back(background);
+        if (!background) ++n_valid_v_;
+    }
+    tv_.assign(first.triangles.begin(), first.triangles.end());
+    he_.assign(first.halfedges.begin(), first.halfedges.end());
+    tv_.resize(3 * cap_t, 0);
+    he_.resize(3 * cap_t, -1);
+    keyed_.resize(cap_t);
+    stamp_.resize(cap_t, 0);
+    keys_.resize(cap_t, 0.0);
+    heap_.resize(cap_t, 0);
+    slot_.resize(cap_t, 0);
+    const HeapView heap{{keys_.data(), cap_t}, {heap_.data(), cap_t}, {slot_.data(), cap_t}};
+    for (index_t t = 0; t < n_t_; ++t) {
+        poll_interrupt();
+        keyed_[t] = scan(t);
+        total_ += keyed_[t].sum;
+        heap_[n_heap_] = t;
+        keys_[n_heap_] = keyed_[t].key;
+        slot_[t] = n_heap_;
+        heap.sift_up(n_heap_);
+        ++n_heap_;
+    }
+}
+
+TriangleKey Insertion::scan(index_t t) const {
+    const index_t e = 3 * t;
+    const Corner a = corner(tv_[e]), b = corner(tv_[e + 1]), c = corner(tv_[e + 2]);
+    // pixels on an edge: the image border's always, a shared edge's by one side only
+    const index_t w = image_.cols();
+    const EdgeOwnership own{own_edge(he_[e], a.r, a.c, b.r, b.c, w), own_edge(he_[e + 1], b.r, b.c, c.r, c.c, w),
+                            own_edge(he_[e + 2], c.r, c.c, a.r, a.c, w)};
+    return scan_triangle(image_, a, b, c, own);
+}
+
+// A child of an exactly fitting triangle split at its centroid fits the parent's plane: its key
+// is `spread_key` and its pixel its centroid, no scan needed. False when that centroid is no
+// valid inside pixel (the child must then be scanned).
+bool Insertion::fit_child(index_t t, TriangleKey& out) const {
+    const index_t ia = tv_[3 * t], ib = tv_[3 * t + 1], ic = tv_[3 * t + 2];
+    const Pixel p = centroid_pixel(vr_[ia], vc_[ia], vr_[ib], vc_[ib], vr_[ic], vc_[ic], image_.valid);
+    if (p.r < 0) return false;
+    out.key = spread_key(orient(vr_[ia], vc_[ia], vr_[ib], vc_[ib], vr_[ic], vc_[ic]), image_.rows(), image_.cols());
+    out.r = p.r;
+    out.c = p.c;
+    out.sum = 0.0;
+    out.fits = true;
+    return true;
+}
+
+// Room for up to two more triangles: the per-triangle arrays double when full.
+void Insertion::make_room() {
+    const index_t cap_t = static_cast<index_t>(keyed_.size());
+    if (n_t_ + 2 <= cap_t) return;
+    const index_t grown = 2 * cap_t;
+    tv_.resize(3 * grown, 0);
+    he_.resize(3 * grown, -1);
+    keyed_.resize(grown);
+    stamp_.resize(grown, 0);
+    keys_.resize(grown, 0.0);
+    heap_.resize(grown, 0);
+    slot_.resize(grown, 0);
+}
+
+void Insertion::new_triangle(index_t t, index_t a, index_t b, index_t c) {
+    tv_[3 * t] = a;
+    tv_[3 * t + 1] = b;
+    tv_[3 * t + 2] = c;
+    he_[3 * t] = he_[3 * t + 1] = he_[3 * t + 2] = -1;
+}
+
+// Insert vertex `p`, inside triangle `t` or on one of its edges, then legalize the edges
+// opposite p. Records the triangles made or flipped in `changed_`; `n_t_` grows by 2 (inside,
+// or on an inner edge) or 1 (on a hull edge).
+void Insertion::insert(index_t t, index_t p, const Plane* guard) {
+    const Span<index_t> he{he_.data(), static_cast<index_t>(he_.size())};
+    const index_t e = 3 * t;
+    const index_t pr = vr_[p], pc = vc_[p];
+    int on = -1;
+    for (int k = 0; k < 3; ++k) {
+        const index_t a = tv_[e + k], b = tv_[e + (k + 1) % 3];
+        if (orient(vr_[a], vc_[a], vr_[b], vc_[b], pr, pc) == 0) on = k;
+    }
+    changed_.clear();
+    if (on < 0) {  // ABC -> ABP, BCP, CAP
+        const index_t a = tv_[e], b = tv_[e + 1], c = tv_[e + 2];
+        const index_t h_ab = he_[e], h_bc = he_[e + 1], h_ca = he_[e + 2];
+        const index_t t1 = n_t_, t2 = n_t_ + 1;
+        new_triangle(t, a, b, p);
+        new_triangle(t1, b, c, p);
+        new_triangle(t2, c, a, p);
+        link(he, 3 * t, h_ab);
+        link(he, 3 * t1, h_bc);
+        link(he, 3 * t2, h_ca);
+        link(he, 3 * t + 1, 3 * t1 + 2);
+        link(he, 3 * t1 + 1, 3 * t2 + 2);
+        link(he, 3 * t2 + 1, 3 * t + 2);
+        changed_.insert(changed_.end(), {t, t1, t2});
+        n_t_ += 2;
+        for (const index_t s : {3 * t, 3 * t1, 3 * t2}) legalize(s, guard);
+        return;
+    }
+    // on the edge A -> B of t, opposite C: ABC -> APC, PBC (and its twin's BAD -> BPD, PAD)
+    const index_t ea = e + on;
+    const index_t a = tv_[ea], b = tv_[e + (on + 1) % 3], c = tv_[e + (on + 2) % 3];
+    const index_t h_bc = he_[e + (on + 1) % 3], h_ca = he_[e + (on + 2) % 3];
+    const index_t tw = he_[ea];
+    const index_t t1 = n_t_;
+    new_triangle(t, a, p, c);
+    new_triangle(t1, p, b, c);
+    link(he, 3 * t + 2, h_ca);
+    link(he, 3 * t1 + 1, h_bc);
+    link(he, 3 * t + 1, 3 * t1 + 2);
+    changed_.insert(changed_.end(), {t, t1});
+    index_t outer[4] = {3 * t + 2, 3 * t1 + 1, -1, -1};
+    int n_outer = 2;
+    n_t_ += 1;
+    if (tw >= 0) {
+        const index_t u = tw / 3;
+        const index_t d = tv_[prv(tw)];
+        const index_t h_ad = he_[nxt(tw)], h_db = he_[prv(tw)];
+        const index_t t3 = n_t_;
+        new_triangle(u, b, p, d);
+        new_triangle(t3, p, a, d);
+        link(he, 3 * u + 2, h_db);
+        link(he, 3 * t3 + 1, h_ad);
+        link(he, 3 * u + 1, 3 * t3 + 2);
+        link(he, 3 * u, 3 * t1);  // B -> P with P -> B
+        link(he, 3 * t3, 3 * t);  // P -> A with A -> P
+        changed_.insert(changed_.end(), {u, t3});
+        outer[2] = 3 * u + 2;
+        outer[3] = 3 * t3 + 1;
+        n_outer = 4;
+        n_t_ += 1;
+    }
+    for (int i = 0; i < n_outer; ++i) legalize(outer[i], guard);
+}
+
+// Lawson flips from half-edge `e0`, whose opposite vertex is the new point P. Half-edge a runs
+// A -> B in triangle ABC (C = P), its twin b runs B -> A in BAD:
+//
+//            C                          C
+//          /   .                      / | .
+//        /   a   .                  /   |   .
+//      A ---------> B     flip    A  a  |  b  B
+//        .   b   /       ----->     .   |   /
+//          .   /                      . | /
+//            D                          D
+//
+// Afterwards slot a runs D -> B in triangle DBC, slot b C -> A in CAD, and the new diagonal
+// takes the slots prv(a) (C -> D) and prv(b) (D -> C). With `guard` (the split triangle fits exactly, its corners in the plane), an edge whose
+// far triangle fits exactly or holds no pixel to insert is flipped only when D lies on that
+// plane: flipping it would join two planes in one triangle.
+void Insertion::legalize(index_t e0, const Plane* guard) {
+    const Span<index_t> he{he_.data(), static_cast<index_t>(he_.size())};
+    stack_.clear();
+    stack_.push_back(e0);
+    while (!stack_.empty()) {
+        const index_t a = stack_.back();
+        stack_.pop_back();
+        const index_t b = he_[a];
+        if (b < 0) continue;
+        const index_t al = nxt(a), ar = prv(a), bn = nxt(b), bp = prv(b);
+        const index_t pa = tv_[a], pb = tv_[al], pc = tv_[ar], pd = tv_[bp];
+        if (incircle(sr_ * vr_[pa], sc_ * vc_[pa], sr_ * vr_[pb], sc_ * vc_[pb], sr_ * vr_[pc], sc_ * vc_[pc],
+                     sr_ * vr_[pd], sc_ * vc_[pd]) <= 0)
+            continue;
+        if (guard && keyed_[b / 3].key < SMALL_KEY && !guard->holds(vr_[pd], vc_[pd], vz_[pd], image_.span))
+            continue;
+        const index_t hbp = he_[bp], har = he_[ar];
+        tv_[a] = pd;
+        tv_[b] = pc;
+        link(he, a, hbp);
+        link(he, b, har);
+        link(he, ar, bp);
+        changed_.push_back(a / 3);
+        changed_.push_back(b / 3);
+        stack_.push_back(a);   // (D, B, C): D -> B is opposite C
+        stack_.push_back(bn);  // (C, A, D): A -> D is opposite C, tested first
+    }
+}
+
+// Whether an exact split left only triangles that fit exactly, so none needs a scan: the
+// triangles it changed tile what it replaced (the split triangle and the flipped neighbours,
+// which keep their ids below `old_t`); when each of those fitted exactly and every corner of
+// the new ones lies on the split triangle's plane, every new triangle fits too.
+bool Insertion::flat_cavity(index_t t, index_t old_t, const Plane& plane) const {
+    for (std::size_t i = 3; i < changed_.size(); ++i) {
+        const index_t s = changed_[i];
+        if (s != t && s < old_t && !(0.0 < keyed_[s].key && keyed_[s].key < SMALL_KEY)) return false;
+    }
+    for (const index_t s : changed_)
+        for (int k = 0; k < 3; ++k) {
+            const index_t v = tv_[3 * s + k];
+            if (!plane.holds(vr_[v], vc_[v], vz_[v], image_.span)) return false;
+        }
+    return true;
+}
+
+void Insertion::rekey(index_t t, const TriangleKey& k) {
+    const index_t cap_t = static_cast<index_t>(keyed_.size());
+    keyed_[t] = k;
+    HeapView{{keys_.data(), cap_t}, {heap_.data(), cap_t}, {slot_.data(), cap_t}}.rekey(t, k.key, n_heap_);
+}
+
+void Insertion::advance(const Stop& stop) {
+    while (n_heap_ > 0 && n_valid_v_ < stop.max_vertices) {
+        poll_interrupt();
+        const index_t t = heap_[0];
+        const double key = keyed_[t].key;
+        if (key < 0.0 || key < stop.min_key || (key <= COVER_KEY && total_ <= stop.max_sum)) break;
+        const index_t pr = keyed_[t].r, pc = keyed_[t].c;
+        make_room();
+        const index_t p = n_vertices();
+        vr_.push_back(pr);
+        vc_.push_back(pc);
+        vz_.push_back(image_.depth(pr, pc));
+        vbg_.push_back(0);
+        ++n_valid_v_;
+        const index_t old_t = n_t_;
+        // the centroid of a triangle that fits exactly: its three children fit too
+        const bool split_fit = keyed_[t].fits;
+        Plane plane{};
+        const bool guard = 0.0 < key && key < SMALL_KEY;  // an exact split: keep it exact
+        if (guard)
+            for (int k = 0; k < 3; ++k) {
+                const index_t v = tv_[3 * t + k];
+                plane.r[k] = static_cast<double>(vr_[v]);
+                plane.c[k] = static_cast<double>(vc_[v]);
+                plane.z[k] = vz_[v];
+            }
+        insert(t, p, guard ? &plane : nullptr);
+        // ... and so does every triangle the flips made, when each triangle they replaced
+        // fitted exactly and every corner lies on the split triangle's plane
+        const bool flat = split_fit && flat_cavity(t, old_t, plane);
+        for (index_t s = old_t; s < n_t_; ++s) {  // new triangles join the heap, last
+            keyed_[s].key = -1.0;
+            keyed_[s].sum = 0.0;
+            heap_[n_heap_] = s;
+            keys_[n_heap_] = -1.0;
+            slot_[s] = n_heap_;
+            ++n_heap_;
+        }
+        ++step_;
+        const index_t n_changed = static_cast<index_t>(changed_.size());
+        for (index_t j = 0; j < n_changed; ++j) {
+            // children of an exact split are keyed without a scan unless a flip changed them:
+            // the flipped triangles (listed after the three) are visited first
+            const index_t i = split_fit ? n_changed - 1 - j : j;
+            const index_t s = changed_[i];
+            if (stamp_[s] == step_) continue;  // changed twice in this step: one scan is enough
+            stamp_[s] = step_;
+            TriangleKey k;
+            if (!((flat || (split_fit && i < 3)) && fit_child(s, k))) k = scan(s);
+            total_ += k.sum - keyed_[s].sum;
+            rekey(s, k);
+        }
+    }
+}
+
+std::vector<double> Insertion::sums() const {
+    std::vector<double> out(n_t_);
+    for (index_t t = 0; t < n_t_; ++t) out[t] = keyed_[t].sum;
+    return out;
+}
+
+}  // namespace rangemesh::refine

@@ -1,0 +1,102 @@
+// Greedy insertion (Garland & Heckbert 1995, the method of hmm and delatin) on a range image:
+// a Delaunay mesh refined at its worst pixel, one vertex at a time.
+//
+// Every triangle knows the pixel to insert next and its key (`TriangleKey`); an indexed max-heap
+// orders the triangles. A step inserts the first triangle's pixel, splitting it (or the two
+// triangles of the edge the pixel lies on), restores the Delaunay property with Lawson flips
+// (rows counting `sr`, columns `sc`), and rescans only the triangles that changed.
+#pragma once
+
+#include <limits>
+#include <vector>
+
+#include "image.hpp"
+#include "scan.hpp"
+
+namespace rangemesh::refine {
+
+// The mesh insertion starts from: the four image (or strip) corners first, then valid pixels;
+// triangles counter-clockwise in (row, column), Delaunay, with their twin half-edges.
+struct FirstMesh {
+    Span<const index_t> vr, vc;
+    Span<const double> vz;  // a background corner takes the depth of its nearest valid pixel
+    Span<const index_t> triangles, halfedges;
+};
+
+// When `advance` stops: at `max_vertices` vertices on valid pixels, once the first key is
+// below `min_key`, or (no pixel left to cover) once the summed error is at most `max_sum`.
+struct Stop {
+    index_t max_vertices;
+    double max_sum = -1.0;
+    double min_key = -std::numeric_limits<double>::infinity();
+};
+
+// The corners of a triangle that fits exactly, kept while it is split: no flip may join two
+// planes in one triangle.
+struct Plane {
+    double r[3], c[3], z[3];
+
+    // Whether depth `z` at pixel (r, c) lies on the plane to within half a key step.
+    bool holds(index_t r, index_t c, double z, double span) const;
+};
+
+class Insertion {
+  public:
+    // Every triangle of `first` scanned and in the heap; room reserved for `reserve` more
+    // vertices (the arrays grow beyond it).
+    Insertion(const Image& image, const FirstMesh& first, index_t reserve, index_t sr, index_t sc);
+
+    // Insert worst pixels until `stop` says so, or no pixel is left to insert.
+    void advance(const Stop& stop);
+
+    // The key of the triangle `advance` would split next (-1 when none is left).
+    double top_key() const { return n_heap_ > 0 ? keyed_[heap_[0]].key : -1.0; }
+
+    index_t n_vertices() const { return static_cast<index_t>(vr_.size()); }
+    index_t n_triangles() const { return n_t_; }
+    index_t valid_vertices() const { return n_valid_v_; }
+    double total() const { return total_; }  // summed error of the valid pixels
+
+    // The mesh: vertex pixels, triangles and twin half-edges (3 per triangle), and each
+    // triangle's error sum. Flips may change triangles, halfedges and sums in place (the heap
+    // is then stale: do not advance again).
+    Span<index_t> vertex_rows() { return {vr_.data(), n_vertices()}; }
+    Span<index_t> vertex_cols() { return {vc_.data(), n_vertices()}; }
+    Span<index_t> triangles() { return {tv_.data(), 3 * n_t_}; }
+    Span<index_t> halfedges() { return {he_.data(), 3 * n_t_}; }
+    std::vector<double> sums() const;
+
+  private:
+    Corner corner(index_t v) const { return {vr_[v], vc_[v], vz_[v], vbg_[v] != 0}; }
+    TriangleKey scan(index_t t) const;
+    bool fit_child(index_t t, TriangleKey& out) const;
+    void make_room();
+    void new_triangle(index_t t, index_t a, index_t b, index_t c);
+    void insert(index_t t, index_t p, const Plane* guard);
+    void legalize(index_t e0, const Plane* guard);
+    bool flat_cavity(index_t t, index_t old_t, const Plane& plane) const;
+    void rekey(index_t t, const TriangleKey& k);
+
+    Image image_;
+    index_t sr_, sc_;
+    // vertices: pixel, depth, background
+    std::vector<index_t> vr_, vc_;
+    std::vector<double> vz_;
+    std::vector<unsigned char> vbg_;
+    // triangles, `n_t_` of them in arrays that may be longer: corners, twins, standing
+    index_t n_t_ = 0;
+    std::vector<index_t> tv_, he_;
+    std::vector<TriangleKey> keyed_;
+    std::vector<index_t> stamp_;  // the step that last rescanned a triangle
+    // the heap (`HeapView`): keys at heap positions, ids, each id's position
+    std::vector<double> keys_;
+    std::vector<index_t> heap_, slot_;
+    index_t n_heap_ = 0;
+    index_t n_valid_v_ = 0;
+    index_t step_ = 0;
+    double total_ = 0.0;
+    // per step: the triangles it changed (with repeats), the flips still to test
+    std::vector<index_t> changed_, stack_;
+};
+
+}  // namespace rangemesh::refine

@@ -1,0 +1,169 @@
+#include "scan.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "../geometry/predicates.hpp"
+#include "../geometry/raster.hpp"
+#include "ownership.hpp"
+
+namespace rangemesh::refine {
+
+double spread_key(index_t area, index_t h, index_t w) {
+    return SMALL_KEY * static_cast<double>(area) / (2.0 * static_cast<double>(h) * static_cast<double>(w) + 1.0);
+}
+
+Pixel centroid_pixel(index_t ar, index_t ac, index_t br, index_t bc, index_t cr, index_t cc,
+                     Grid<const bool> valid) {
+    const index_t r = floor_div(ar + br + cr + 1, 3);
+    const index_t c = floor_div(ac + bc + cc + 1, 3);
+    if (orient(ar, ac, br, bc, r, c) > 0 && orient(br, bc, cr, cc, r, c) > 0 &&
+        orient(cr, cc, ar, ac, r, c) > 0 && valid(r, c))
+        return {r, c};
+    return {-1, -1};
+}
+
+namespace {
+
+bool is_corner(index_t r, index_t c, const Corner& a, const Corner& b, const Corner& cn) {
+    return (r == a.r && c == a.c) || (r == b.r && c == b.c) || (r == cn.r && c == cn.c);
+}
+
+// The valid pixel that covers a background-corner triangle best, as QuickHull picks a point.
+struct Cover {
+    index_t weight = -1;  // -1: no pixel needs covering
+    index_t r = -1, c = -1;
+    bool seen = false;  // the triangle holds a valid pixel
+};
+
+// Among the valid pixels that need covering, the one with the largest barycentric weight of
+// a background corner: the farthest from that corner's opposite edge. Inserting it leaves the
+// corner two triangles that hold no valid pixel unless the valid region bends inwards there,
+// so a straight silhouette costs one vertex, not one per pixel. The weight is an exact
+// integer; ties go to the first pixel in row-major order. A valid pixel on an edge between
+// two valid corners (`lost` false) competes by its error instead, in a full scan.
+Cover cover_pixel(const Corner& a, const Corner& b, const Corner& cn, EdgeOwnership own,
+                  Grid<const bool> valid) {
+    const bool lost0 = a.background || b.background;
+    const bool lost1 = b.background || cn.background;
+    const bool lost2 = cn.background || a.background;
+    const index_t s0 = b.r - a.r;   // w0 = orient(A, B, p): the weight of C
+    const index_t s1 = cn.r - b.r;  // w1: the weight of A
+    const index_t s2 = a.r - cn.r;  // w2: the weight of B
+    // the largest background corner's weight, from the three edge functions
+    auto weight = [&](index_t w0, index_t w1, index_t w2) {
+        index_t w = -1;
+        if (a.background) w = std::max(w, w1);
+        if (b.background) w = std::max(w, w2);
+        if (cn.background) w = std::max(w, w0);
+        return w;
+    };
+    Cover best;
+    TriangleRows rows(a.r, a.c, b.r, b.c, cn.r, cn.c);
+    for (index_t r = rows.r0; r <= rows.r1; ++r) {
+        if (r > rows.r0) rows.next_row();
+        const RowSpan span = rows.columns(own.ab, own.bc, own.ca);
+        if (span.first > span.last) continue;
+        // the weights are linear along the row: no pixel of it can beat `best` when neither
+        // end of the span does (once valid pixels were seen)
+        if (best.seen && best.weight >= 0) {
+            const index_t n = span.last - span.first;
+            const index_t bound = std::max(weight(span.w0, span.w1, span.w2),
+                                           weight(span.w0 + s0 * n, span.w1 + s1 * n, span.w2 + s2 * n));
+            if (bound < best.weight) continue;
+        }
+        for (index_t c = span.first; c <= span.last; ++c) {
+            if (!valid(r, c)) continue;
+            const index_t k = c - span.first;
+            const index_t w0 = span.w0 + s0 * k, w1 = span.w1 + s1 * k, w2 = span.w2 + s2 * k;
+            best.seen = true;
+            if (is_corner(r, c, a, b, cn)) continue;
+            if ((w0 == 0 && !lost0) || (w1 == 0 && !lost1) || (w2 == 0 && !lost2)) continue;
+            const index_t w = weight(w0, w1, w2);
+            if (w > best.weight) {  // row-major visit: an equal weight never replaces the first
+                best.weight = w;
+                best.r = r;
+                best.c = c;
+            }
+        }
+    }
+    return best;
+}
+
+}  // namespace
+
+TriangleKey scan_triangle(const Image& image, const Corner& a, const Corner& b, const Corner& cn,
+                          EdgeOwnership own) {
+    const index_t area = orient(a.r, a.c, b.r, b.c, cn.r, cn.c);
+    TriangleKey out;
+    if (a.background || b.background || cn.background) {
+        // Cover first: the pixel is found mostly without visiting the whole triangle. Its sum
+        // is left 0: a triangle with a cover key is split before any stop on the sum. Only a
+        // triangle whose valid pixels lie on edges that stay is scanned in full, below.
+        const Cover near = cover_pixel(a, b, cn, own, image.valid);
+        if (near.weight >= 0) {
+            out.key = COVER_KEY * (1.0 + static_cast<double>(near.weight) / static_cast<double>(area));
+            out.r = near.r;
+            out.c = near.c;
+            return out;
+        }
+        if (!near.seen) return out;
+    }
+    const index_t h = image.rows(), w = image.cols();
+    double best = -1.0, best_err = -1.0, total = 0.0;
+    index_t best_r = -1, best_c = -1;
+    const double inv = 1.0 / static_cast<double>(area);
+    // each row over its span inside the triangle only; the edge functions are linear along a
+    // row, and float64 holds these integers exactly
+    TriangleRows rows(a.r, a.c, b.r, b.c, cn.r, cn.c);
+    const double f0 = static_cast<double>(b.r - a.r);
+    const double f1 = static_cast<double>(cn.r - b.r);
+    const double f2 = static_cast<double>(a.r - cn.r);
+    for (index_t r = rows.r0; r <= rows.r1; ++r) {
+        if (r > rows.r0) rows.next_row();
+        const RowSpan span = rows.columns(own.ab, own.bc, own.ca);
+        if (span.first > span.last) continue;
+        const double* drow = image.depth.row(r);
+        const bool* vrow = image.valid.row(r);
+        double w0 = static_cast<double>(span.w0), w1 = static_cast<double>(span.w1),
+               w2 = static_cast<double>(span.w2);
+        for (index_t c = span.first; c <= span.last; ++c) {
+            if (vrow[c]) {
+                const double z = (w1 * a.z + w2 * b.z + w0 * cn.z) * inv;
+                const double err = std::abs(drow[c] - z);
+                total += err;
+                if (err > best_err && !is_corner(r, c, a, b, cn)) {
+                    const double key = quantize(err, image.span);  // only a larger error can have a larger key
+                    if (key > best) {
+                        best = key;
+                        best_err = err;
+                        best_r = r;
+                        best_c = c;
+                    }
+                }
+            }
+            w0 += f0;
+            w1 += f1;
+            w2 += f2;
+        }
+    }
+    if (best == 0.0) {  // every pixel fits the plane to within half a key step
+        best = spread_key(area, h, w);
+        const Pixel p = centroid_pixel(a.r, a.c, b.r, b.c, cn.r, cn.c, image.valid);
+        if (p.r >= 0) {
+            best_r = p.r;
+            best_c = p.c;
+            out.fits = true;
+        }
+    } else if (0.0 < best && best <= KEY_STEPS) {  // an error key: rank by worst and sum
+        best = quantize(std::sqrt(best_err * total / static_cast<double>(h * w)), image.span);
+        if (best == 0.0) best = SMALL_KEY;
+    }
+    out.key = best;
+    out.r = best_r;
+    out.c = best_c;
+    out.sum = total;
+    return out;
+}
+
+}  // namespace rangemesh::refine

@@ -1,0 +1,204 @@
+"""The compiled greedy insertion (`rangemesh._core.greedy_insert`) against plain-Python references.
+
+The references are written from the method's definition, not from the kernel:
+a triangle's pixels are those inside it or on an edge it owns (a hull edge,
+or a shared edge whose end is later in row-then-column order); its error sum
+is sum |depth - plane| over them, the plane solved by NumPy; its key is
+``quantize(sqrt(worst error * sum / pixels))`` in units of 2**-32 of the
+depth range, its worst pixel the first in row-major order with the largest
+quantized error; each step inserts the pixel of the triangle with the
+largest key, and the mesh stays Delaunay (no vertex inside the circle of a
+triangle across an edge). Small noisy images keep every triangle inexact, so
+none of the exact-fit shortcuts apply and keys do not tie.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from rangemesh import _core
+from rangemesh._core import valid_range
+from rangemesh.greedy import insertion, threads
+
+STEPS = 2.0**32
+
+
+def _orient(ar, ac, br, bc, pr, pc):
+    return (br - ar) * (pc - ac) - (bc - ac) * (pr - ar)
+
+
+def _owned_pixels(tri, he, t, vr, vc):
+    """The pixels of triangle t by the ownership rule, from its bounding box."""
+    corners = [(int(vr[v]), int(vc[v])) for v in tri[3 * t: 3 * t + 3]]
+    own = []
+    for k in range(3):
+        (ar, ac), (br, bc) = corners[k], corners[(k + 1) % 3]
+        own.append(he[3 * t + k] < 0 or br > ar or (br == ar and bc > ac))
+    rows = [p[0] for p in corners]
+    cols = [p[1] for p in corners]
+    out = []
+    for r in range(min(rows), max(rows) + 1):
+        for c in range(min(cols), max(cols) + 1):
+            ok = True
+            for k in range(3):
+                (ar, ac), (br, bc) = corners[k], corners[(k + 1) % 3]
+                w = _orient(ar, ac, br, bc, r, c)
+                ok &= w > 0 or (w == 0 and own[k])
+            if ok:
+                out.append((r, c))
+    return corners, out
+
+
+def _plane_errors(corners, depth, pixels):
+    """|depth - plane| at each pixel, the plane through the corners' depths (NumPy's solve)."""
+    a = np.array([[r, c, 1.0] for r, c in corners])
+    coef = np.linalg.solve(a, np.array([depth[r, c] for r, c in corners]))
+    return [abs(depth[r, c] - (coef[0] * r + coef[1] * c + coef[2])) for r, c in pixels]
+
+
+def _reference_key(corners, errors, pixels, span, n_pixels):
+    """The key of a triangle and its pixel to insert, from its pixels' errors."""
+    best, best_err, best_px = -1.0, 0.0, None
+    for (r, c), e in zip(pixels, errors, strict=True):
+        if (r, c) in corners:
+            continue
+        q = math.floor(e / span * STEPS + 0.5)
+        if q > best:  # the first pixel in row-major order with the largest key
+            best, best_err, best_px = q, e, (r, c)
+    if best <= 0:
+        return best, best_px
+    key = math.floor(math.sqrt(best_err * sum(errors) / n_pixels) / span * STEPS + 0.5)
+    return max(key, 0.5), best_px
+
+
+@st.composite
+def noisy_images(draw):
+    h = draw(st.integers(3, 11))
+    w = draw(st.integers(3, 11))
+    seed = draw(st.integers(0, 2**32 - 1))
+    rng = np.random.default_rng(seed)
+    r, c = np.mgrid[:h, :w]
+    depth = 0.3 * r - 0.2 * c + rng.normal(size=(h, w)) + 5.0 * (c > w // 2)
+    return depth, np.ones((h, w), bool)
+
+
+def _insert(depth, valid, n, sums=False, scales=(1, 1)):
+    lo, hi, _ = valid_range(depth, valid)
+    start = insertion.first_mesh(depth, valid, 0, scales)
+    fn = _core.greedy_insert_sums if sums else _core.greedy_insert
+    return fn(depth, valid, *start, n, -1.0, float(hi - lo), *scales), float(hi - lo)
+
+
+@settings(max_examples=40, deadline=None)
+@given(noisy_images(), st.integers(0, 30))
+def test_each_step_inserts_the_pixel_of_the_largest_key(image, extra):
+    depth, valid = image
+    n = min(4 + extra, depth.size - 1)
+    (vr, vc, tri, he, tsum), span = _insert(depth, valid, n, sums=True)
+    ranked = []
+    for t in range(len(tri) // 3):
+        corners, pixels = _owned_pixels(tri, he, t, vr, vc)
+        errors = _plane_errors(corners, depth, pixels)
+        # the kernel's running sums are the sums over each triangle's own pixels
+        assert tsum[t] == pytest.approx(sum(errors), rel=1e-9, abs=1e-9)
+        key, px = _reference_key(corners, errors, pixels, span, depth.size)
+        ranked.append((key, px))
+    # every pixel but the vertices belongs to exactly one triangle (a vertex on the border
+    # between two hull edges is on owned edges of both its triangles; its error is ~0)
+    corners = set(zip(vr.tolist(), vc.tolist(), strict=True))
+    owned = [p for t in range(len(tri) // 3) for p in _owned_pixels(tri, he, t, vr, vc)[1]
+             if p not in corners]
+    assert sorted(owned) == [(r, c) for r in range(depth.shape[0]) for c in range(depth.shape[1])
+                             if (r, c) not in corners]
+    keys = sorted(k for k, _ in ranked)
+    if keys[-1] <= 0 or (len(keys) > 1 and keys[-1] == keys[-2]):
+        return  # nothing to insert, or a tie the definition leaves to the triangles' ids
+    best = max(ranked, key=lambda kp: kp[0])[1]
+    (vr2, vc2, _, _, _), _ = _insert(depth, valid, n + 1)
+    assert len(vr2) == len(vr) + 1
+    assert (vr2[-1], vc2[-1]) == best
+
+
+@settings(max_examples=40, deadline=None)
+@given(noisy_images(), st.integers(0, 40), st.sampled_from([(1, 1), (2, 1), (1, 3)]))
+def test_the_mesh_is_delaunay_in_the_scaled_units(image, extra, scales):
+    depth, valid = image
+    (vr, vc, tri, he, _), _ = _insert(depth, valid, 4 + extra, sums=True, scales=scales)
+    sr, sc = scales
+    for e in range(len(tri)):
+        f = he[e]
+        if f < 0:
+            continue
+        a, b, c = tri[e], tri[e - 2 if e % 3 == 2 else e + 1], tri[e + 2 if e % 3 == 0 else e - 1]
+        d = tri[f + 2 if f % 3 == 0 else f - 1]  # the far corner across a -> b
+        # the far corner is not strictly inside the circle through a, b, c (exact integers)
+        m = [[sr * vr[v] - sr * vr[d], sc * vc[v] - sc * vc[d]] for v in (a, b, c)]
+        det = sum(m[i][0] * (m[(i + 1) % 3][1] * (m[(i + 2) % 3][0] ** 2 + m[(i + 2) % 3][1] ** 2)
+                             - m[(i + 2) % 3][1] * (m[(i + 1) % 3][0] ** 2 + m[(i + 1) % 3][1] ** 2))
+                  for i in range(3))
+        assert int(det) <= 0, (e, scales)
+
+
+def test_a_spike_is_inserted_first():
+    """A plane with one pixel raised: the corners fit the rest exactly, the spike goes first."""
+    r, c = np.mgrid[:7, :9]
+    depth = 0.5 * r + 0.25 * c
+    depth[2, 6] += 3.0
+    valid = np.ones_like(depth, bool)
+    (vr, vc, tv, n_valid, total), span = _insert(depth, valid, 5)
+    assert (vr[-1], vc[-1]) == (2, 6) and n_valid == 5
+    assert len(tv) == 3 * 4  # the spike inside a triangle: 2 -> 4 triangles
+    # the summed error is that of the planes through the new triangles, over their own pixels
+    (vr, vc, tri, he, _), _ = _insert(depth, valid, 5, sums=True)
+    expected = 0.0
+    for t in range(4):
+        corners, pixels = _owned_pixels(tri, he, t, vr, vc)
+        expected += sum(_plane_errors(corners, depth, pixels))
+    assert expected > 1.0 and total == pytest.approx(expected)
+
+
+def test_an_error_bound_stops_at_the_first_mesh_under_it():
+    rng = np.random.default_rng(7)
+    depth = rng.normal(size=(12, 14)).cumsum(0)
+    valid = np.ones_like(depth, bool)
+    lo, hi, n = valid_range(depth, valid)
+    start = insertion.first_mesh(depth, valid, 0)
+    bound = 0.02 * (hi - lo) * n
+    vr, vc, tv, n_valid, total = _core.greedy_insert(depth, valid, *start, n, bound, hi - lo)
+    assert total <= bound
+    # one vertex fewer (a count, no bound): its summed error is still above the bound
+    _, _, _, _, before = _core.greedy_insert(depth, valid, *start, n_valid - 1, -1.0, hi - lo)
+    assert before > bound
+
+
+def test_background_beyond_the_corners_is_refused():
+    depth = np.ones((4, 4))
+    valid = np.ones((4, 4), bool)
+    valid[1, 1] = False
+    vr = np.array([0, 3, 3, 0, 1], np.int64)
+    vc = np.array([0, 0, 3, 3, 1], np.int64)
+    tv = np.array([0, 1, 2, 0, 2, 3], np.int64)
+    he = np.array([-1, -1, 3, 2, -1, -1], np.int64)
+    with pytest.raises(ValueError, match="first four"):
+        _core.greedy_insert(depth, valid, vr, vc, np.ones(5), tv, he, 10, -1.0, 1.0)
+
+
+def test_threads_setting(monkeypatch):
+    monkeypatch.setattr(threads.os, "sched_getaffinity", lambda _: {0, 1, 2}, raising=False)
+    monkeypatch.delenv("RANGEMESH_THREADS", raising=False)
+    monkeypatch.delenv("NUMBA_NUM_THREADS", raising=False)
+    assert threads.threads() == 2
+    monkeypatch.setenv("NUMBA_NUM_THREADS", "1")
+    assert threads.threads() == 1
+    monkeypatch.setenv("RANGEMESH_THREADS", "2")  # ours first
+    assert threads.threads() == 2
+    monkeypatch.setenv("RANGEMESH_THREADS", "1")
+    assert threads.threads() == 1
+    monkeypatch.setattr(threads.os, "sched_getaffinity", lambda _: {0}, raising=False)
+    monkeypatch.setenv("RANGEMESH_THREADS", "2")
+    assert threads.threads() == 1  # one core: one thread

@@ -60,8 +60,8 @@ def mesh_stream(frames: Iterable, params: MeshParams | None = None, *, backgroun
     Notes
     -----
     While consecutive frames have the same shape, the depth, mask and weight
-    buffers are reused instead of allocated per frame, and the kernels are
-    compiled (or loaded from Numba's cache) once for the whole stream.
+    buffers are reused instead of allocated per frame, and the options are
+    checked once for the whole stream.
     """
     params = resolve_params(params, overrides)
     method = check_call(params, vertices, max_error, method, overrides)
@@ -357,7 +357,7 @@ def mesh_many(paths, out_dir, params: MeshParams | None = None, *, background=No
         # (`rangemesh.greedy.threads`) would only oversubscribe the cores.
         cluster = LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True,
                                dashboard_address=":0", silence_logs=40,  # any free port
-                               env={"NUMBA_NUM_THREADS": "1", "RANGEMESH_THREADS": "1"})
+                               env={"RANGEMESH_THREADS": "1"})
         client = Client(cluster)
     else:
         client = _connect(Client, scheduler, timeout=connect_timeout)

@@ -310,46 +310,12 @@ def _say(args, lines):
             print(line, file=sys.stderr)
 
 
-def _kernel_modules():
-    """Every module that holds Numba kernels."""
-    from .geometry import halfedges, heap, raster, vectors
-
-    return (vectors, raster, heap, halfedges)
-
-
-def _cold_cache(method: str = "paper") -> bool:
-    """True when the method's main kernels have no entry in Numba's on-disk cache."""
-    import os
-
-    return False  # every kernel of both methods is compiled C++ now
-
-
-def _first_run_notice(args):
-    if not (args.quiet or args.json) and _cold_cache(getattr(args, "method", None) or "paper"):
-        print("rangemesh: first run: compiling the Numba kernels once (about 15-40 s); "
-              "later runs load them from the cache", file=sys.stderr)
-
-
-def _compiled_now() -> bool:
-    """True when Numba compiled (rather than loaded from its cache) a kernel in this process."""
-    from numba.core.registry import CPUDispatcher
-
-    for mod in _kernel_modules():
-        for obj in vars(mod).values():
-            if isinstance(obj, CPUDispatcher) and sum(obj.stats.cache_misses.values()) > 0:
-                return True
-    return False
-
-
 def _mesh_lines(mesh, ev, outputs):
     s = mesh.stats
     lines = [f"vertices {s.vertices}  edges {s.edges}  triangles {s.triangles}  "
              f"flipped edges {s.flipped_edges}  (grid {s.grid_shape[0]}x{s.grid_shape[1]}, "
              f"{s.sampled_points} valid samples)",
              "time " + "  ".join(f"{k} {1000 * v:.1f} ms" for k, v in s.seconds.items())]
-    if _compiled_now():
-        lines.append("(first run: Numba compiled the kernels, which is in the times above; later "
-                     "runs load them from its cache)")
     if s.target:
         q = s.target
         ach = q["achieved"]
@@ -406,11 +372,10 @@ def _run_mesh(args, image, name, bg, outputs_for):
     targets = _targets(args)
     given = [k for k, v in targets.items() if v is not None]
     extra = {"tiles": args.tiles} if (given and args.tiles is not None) else {}
-    try:  # bad values fail with their own message before the first-run notice
+    try:  # bad values fail with their own message before any work
         check_call(params.replace(**extra), method=args.method, overrides=extra, **targets)
     except (ValueError, TypeError) as exc:
         raise UserError(f"{name}: {_one_line(exc)}") from None
-    _first_run_notice(args)
     with _progress(args, 4, f"meshing {name}") as bar:
         try:
             mesh = triangulate(image, params, background=bg, camera=camera, method=args.method,

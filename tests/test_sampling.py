@@ -1,3 +1,5 @@
+import os
+
 import numpy as np
 import pytest
 from hypothesis import given
@@ -148,3 +150,13 @@ def test_adaptive_samples_crowd_at_a_jump():
     # weights at the jump (about 6.2 against log 20 = 3.0) pull more columns in
     assert near["uniform"] == 3
     assert near["adaptive"] > near["uniform"]
+
+
+def test_tile_threads_follow_workers_within_the_cores_and_the_batch_cap(monkeypatch):
+    from rangemesh.paper.sampling import _tile_threads
+
+    monkeypatch.delenv("NUMBA_NUM_THREADS", raising=False)
+    assert _tile_threads(1) == 1
+    assert _tile_threads(10_000) == len(os.sched_getaffinity(0))  # never more than the cores
+    monkeypatch.setenv("NUMBA_NUM_THREADS", "1")  # what batch workers set: one thread each
+    assert _tile_threads(4) == 1

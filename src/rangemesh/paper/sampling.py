@@ -158,6 +158,19 @@ def fill_gaps_inplace(depth: np.ndarray, valid: np.ndarray) -> None:
     _core.fill_gaps_inplace(depth, valid)
 
 
+def _tile_threads(workers: int) -> int:
+    """Threads for stage one's tiles: `workers`, but no more than the cores this process may use.
+
+    ``NUMBA_NUM_THREADS`` still caps them as it capped Numba's threads: batch
+    workers set it to 1, one thread per process (until a ``threads`` setting
+    of the core replaces it).
+    """
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    cap = os.environ.get("NUMBA_NUM_THREADS", "")
+    limit = min(cores or 1, int(cap)) if cap.isdigit() and int(cap) > 0 else cores or 1
+    return max(1, min(int(workers), limit))
+
+
 def tile_bounds(n: int, tiles: int, *, name: str = "tiles") -> np.ndarray:
     """Tile borders ``b_k = round(k*(n-1)/tiles)``, ``k = 0..tiles`` (SPEC 1.5).
 
@@ -275,6 +288,5 @@ def sample_grid(depth: np.ndarray, valid: np.ndarray, params: MeshParams | None 
     f = sampling_weights(depth, valid, params) if weights is None else weights
     f = np.ascontiguousarray(f, dtype=np.float64)
     grid = np.zeros(params.grid_shape + (2,), np.int32)
-    threads = max(min(int(workers), os.cpu_count() or 1), 1)  # more threads than cores only wait
-    _core.sample_tiles(f, rb, cb, rs, zs, grid, threads)
+    _core.sample_tiles(f, rb, cb, rs, zs, grid, _tile_threads(workers))
     return grid

@@ -160,3 +160,14 @@ def test_tile_threads_follow_workers_within_the_cores_and_the_batch_cap(monkeypa
     assert _tile_threads(10_000) == len(os.sched_getaffinity(0))  # never more than the cores
     monkeypatch.setenv("NUMBA_NUM_THREADS", "1")  # what batch workers set: one thread each
     assert _tile_threads(4) == 1
+
+
+def test_weights_into_a_strided_buffer_are_the_same():
+    rng = np.random.default_rng(3)
+    d = rng.uniform(0, 100, (30, 40))
+    v = rng.random((30, 40)) > 0.1
+    p = MeshParams()
+    buffer = np.zeros((30, 80))
+    got = sampling_weights(d, v, p, out=buffer[:, ::2])
+    assert got.base is buffer  # written where asked
+    assert np.array_equal(got, sampling_weights(d, v, p))

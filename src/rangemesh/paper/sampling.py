@@ -138,7 +138,10 @@ def sampling_weights(depth: np.ndarray, valid: np.ndarray, params: MeshParams, *
     v = np.ascontiguousarray(valid, dtype=np.bool_)
     d = np.ascontiguousarray(depth, dtype=np.float64)
     span = valid_span(d, v)
-    _core.add_curvature(d, v, span, int(params.levels), out)
+    if out.dtype == np.float64 and out.flags.c_contiguous:
+        _core.add_curvature(d, v, span, int(params.levels), out)
+    else:  # the kernel writes C-contiguous float64 only
+        out[:] = curvature(d, v, int(params.levels))
     if span > 0.0:
         factor = _PAPER_SCALE / span
         if math.isfinite(factor):

@@ -42,6 +42,18 @@ def shared_data():
     return d
 
 
+@pytest.fixture(scope="session")
+def open3d():
+    """The real Open3D; CI (RANGEMESH_REQUIRE_OPEN3D) fails rather than skips without it."""
+    try:
+        import open3d
+    except ImportError as exc:  # not installed, or its system libraries (libusb-1.0) missing
+        if os.environ.get("RANGEMESH_REQUIRE_OPEN3D"):
+            pytest.fail(f"Open3D cannot be imported and RANGEMESH_REQUIRE_OPEN3D is set ({exc})")
+        pytest.skip(f"Open3D cannot be imported ({exc}); pip install 'rangemesh[open3d]'")
+    return open3d
+
+
 @pytest.fixture
 def rng():
     return np.random.default_rng(12345)

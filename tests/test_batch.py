@@ -124,7 +124,7 @@ def test_real_local_dask_cluster_gives_the_same_outputs(batch_run, tmp_path):
     src, out_local, _ = batch_run
     files = sorted(p for p in src.iterdir() if p.name not in ("corrupt.png", "unreadable.png"))[:4]
     with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
-                      dashboard_address=None, silence_logs=40) as cluster:
+                      dashboard_address=":0", silence_logs=40) as cluster:
         results = mesh_many(files, tmp_path, scheduler=cluster.scheduler_address,
                             background="auto")
     assert all(r.status == "meshed" for r in results)

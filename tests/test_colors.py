@@ -216,11 +216,8 @@ def test_to_open3d_hands_over_every_array(monkeypatch, frame):
     np.testing.assert_allclose(out.vertex_normals, mesh.vertex_normals())
 
 
-def test_to_open3d_with_open3d(frame):
-    try:
-        import open3d as o3d
-    except ImportError:
-        pytest.skip("Open3D is not installed (pip install 'rangemesh[open3d]')")
+def test_to_open3d_with_open3d(frame, open3d):
+    o3d = open3d
     _, _, mesh = frame
     out = mesh.to_open3d()
     assert isinstance(out, o3d.geometry.TriangleMesh)

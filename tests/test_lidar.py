@@ -48,7 +48,8 @@ def test_spherical_wraps_only_once_round():
     assert Spherical([0.0, -1.0], np.arange(0, 360, 10.0)).wraps
     assert Spherical([0.0, -1.0], -np.arange(0, 360, 10.0)).wraps  # Ouster's decreasing azimuths
     assert not Spherical([0.0, -1.0], np.arange(0, 180, 10.0)).wraps
-    assert not Spherical([0.0, -1.0], np.arange(0, 720, 10.0)).wraps
+    with pytest.raises(ValueError, match="go round more than once"):  # report E29
+        Spherical([0.0, -1.0], np.arange(0, 720, 10.0))
     assert not Rays(np.ones((2, 3, 3))).wraps
 
 

@@ -11,23 +11,38 @@ edge flips.
 
 The library is layered (see the README's Development section): applications
 (`cli`, `batch`, `preview`, `calibrate`) -> `pipeline` -> methods (`paper`)
--> shared geometry kernels. The applications are imported here lazily, on
-first use, so that ``import rangemesh`` does not load Dask or matplotlib.
+-> shared geometry kernels -> the compiled core. Every name here is imported
+lazily, on first use, so that ``import rangemesh`` loads nothing it does not need.
 """
 
 from ._version import __version__
-from .camera import Orthographic, Pinhole, Rays, Spherical, backproject
-from .io import read_mesh, read_range_image, write_mesh
-from .mesh import Mesh, Stats
-from .metrics import Evaluation, discontinuity_mask, evaluate
-from .paper import curvature, delaunay_mesh, fill_gaps, flip_edges, sample_grid, sampling_weights
-from .params import MeshParams
-from .pipeline import triangulate
-from .prepare import to_depth_and_mask
-from .render import render_depth
 
-# name -> module, imported on first use (PEP 562)
+# name -> module, imported on first use (PEP 562): `import rangemesh` stays cheap, and the
+# command line can answer Ctrl-C during its start-up
 _LAZY = {
+    "Orthographic": "camera",
+    "Pinhole": "camera",
+    "Rays": "camera",
+    "Spherical": "camera",
+    "backproject": "camera",
+    "read_mesh": "io",
+    "read_range_image": "io",
+    "write_mesh": "io",
+    "Mesh": "mesh",
+    "Stats": "mesh",
+    "Evaluation": "metrics",
+    "discontinuity_mask": "metrics",
+    "evaluate": "metrics",
+    "curvature": "paper",
+    "delaunay_mesh": "paper",
+    "fill_gaps": "paper",
+    "flip_edges": "paper",
+    "sample_grid": "paper",
+    "sampling_weights": "paper",
+    "MeshParams": "params",
+    "triangulate": "pipeline",
+    "to_depth_and_mask": "prepare",
+    "render_depth": "render",
     "mesh_many": "batch",
     "mesh_stream": "batch",
     "calibrate_delta": "calibrate",
@@ -67,12 +82,17 @@ __all__ = [
 
 
 def __getattr__(name):
-    if name in _LAZY:
-        import importlib
+    import importlib
 
+    if name in _LAZY:
         value = getattr(importlib.import_module(f".{_LAZY[name]}", __name__), name)
         globals()[name] = value
         return value
+    try:  # a submodule not imported yet (rangemesh.scenes, rangemesh.io, ...)
+        return importlib.import_module(f".{name}", __name__)
+    except ModuleNotFoundError as exc:
+        if exc.name != f"{__name__}.{name}":
+            raise
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 

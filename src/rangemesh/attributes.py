@@ -40,26 +40,35 @@ def as_rgb8(image) -> np.ndarray:
         a = a[:, :, :3]
     elif a.ndim == 3 and a.shape[2] == 1:
         a = a[:, :, 0]
-    if a.ndim not in (2, 3) or a.dtype == bool or not np.issubdtype(a.dtype, np.number):
-        raise ValueError(f"a colour image is (H, W), (H, W, 3) or (H, W, 4) numbers, got "
-                         f"{a.dtype} of shape {a.shape}")
+    if (a.ndim != 2 and not (a.ndim == 3 and a.shape[2] == 3)) or a.dtype == bool \
+            or not np.issubdtype(a.dtype, np.number) or np.issubdtype(a.dtype, np.complexfloating):
+        raise ValueError(f"a colour image is (H, W), (H, W, 1), (H, W, 3) or (H, W, 4) real "
+                         f"numbers, got {a.dtype} of shape {np.shape(image)}")
     if a.dtype == np.uint8:
         out = a
     elif a.dtype == np.uint16:
         out = (a.astype(np.uint32) // 257).astype(np.uint8)
     else:
-        f = a.astype(np.float64)
+        with np.errstate(over="ignore", invalid="ignore"):  # uint64 and float128 beyond float64
+            f = a.astype(np.float64)
         finite = np.isfinite(f)
         if not finite.any():
             raise ValueError("the colour image has no finite value")
         if a.ndim == 3 and f[finite].min() >= 0 and f[finite].max() <= 1:
             lo, hi = 0.0, 1.0
         else:
-            lo, hi = np.percentile(f[finite], [1, 99])
+            with np.errstate(over="ignore", invalid="ignore"):  # percentiles between huge values
+                lo, hi = np.percentile(f[finite], [1, 99])
             if not hi > lo:
                 lo, hi = float(f[finite].min()), float(f[finite].max()) + (f[finite].max() == f[finite].min())
         f = np.where(finite, f, lo)
-        out = np.clip(np.round((f - lo) / (hi - lo) * 255.0), 0, 255).astype(np.uint8)
+        if not hi > lo:  # one value, too large to be told from value + 1: black, as any constant
+            t = np.zeros_like(f)
+        elif abs(hi) < 8e307 and abs(lo) < 8e307:
+            t = (f - lo) / (hi - lo)
+        else:  # a range beyond float64 (from -1e308 to 1e308, say): halved first
+            t = (f / 2 - lo / 2) / (hi / 2 - lo / 2)
+        out = np.clip(np.round(t * 255.0), 0, 255).astype(np.uint8)
     if out.ndim == 2:
         out = np.repeat(out[:, :, None], 3, axis=2)
     return np.ascontiguousarray(out)

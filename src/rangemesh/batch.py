@@ -28,18 +28,19 @@ from pathlib import Path
 
 from .camera import as_camera
 from .checks import whole_number
-from .io import IMAGE_SUFFIXES, MESH_SUFFIXES, read_range_image, write_mesh
+from .io import IMAGE_SUFFIXES, MESH_SUFFIXES, atomic_path, part_owner, read_range_image, write_mesh
 from .mesh import Mesh
 from .metrics import evaluate
 from .params import MeshParams
-from .pipeline import Workspace, resolve_params, run
+from .pipeline import Workspace, check_call, resolve_params, run
 from .prepare import check_image, guess_background
 
 __all__ = ["mesh_stream", "mesh_many", "expand_inputs", "BatchResult", "summarize"]
 
 
 def mesh_stream(frames: Iterable, params: MeshParams | None = None, *, background=None,
-                camera=None, **overrides) -> Iterator[Mesh]:
+                camera=None, vertices=None, max_error=None, method: str | None = None,
+                **overrides) -> Iterator[Mesh]:
     """Mesh a stream of range images, one `Mesh` per frame, in order.
 
     Parameters
@@ -47,9 +48,8 @@ def mesh_stream(frames: Iterable, params: MeshParams | None = None, *, backgroun
     frames : iterable of (H, W) array_like
         Any iterable: a list, a generator reading a sensor, a video decoder.
     params : MeshParams, optional
-    background, camera, **overrides
-        As for `rangemesh.triangulate` (targets such as ``vertices`` are not
-        taken here: a stream keeps one grid).
+    background, camera, vertices, max_error, method, **overrides
+        As for `rangemesh.triangulate`, checked once, before the first frame.
 
     Yields
     ------
@@ -63,13 +63,16 @@ def mesh_stream(frames: Iterable, params: MeshParams | None = None, *, backgroun
     compiled (or loaded from Numba's cache) once for the whole stream.
     """
     params = resolve_params(params, overrides)
+    method = check_call(params, vertices, max_error, method, overrides)
     camera = as_camera(camera)
     ws = None
     for frame in frames:
         arr, bg = check_image(frame, background)  # every frame: clear errors, no copy
         if ws is None or ws.shape != arr.shape:
             ws = Workspace(arr.shape)
-        yield run(arr, params, background=bg, camera=camera, workspace=ws)
+        yield run(arr, params, background=bg, camera=camera, vertices=vertices,
+                  max_error=max_error, tiles_given="tiles" in overrides, workspace=ws,
+                  method=method)
 
 
 # ---------------------------------------------------------------- files
@@ -90,8 +93,23 @@ class BatchResult:
     relative_error: float = float("nan")
 
 
+REPORT_NAMES = ("rangemesh-batch.csv", "rangemesh-batch.json")
+
+
+def _not_an_output(path: Path) -> bool:
+    """Whether a glob's hit can be an input: not a mesh, a batch report or a temporary file."""
+    name = path.name
+    return not (path.suffix.lower() in MESH_SUFFIXES or name in REPORT_NAMES
+                or (name.startswith(".") and ".part" in name))
+
+
 def expand_inputs(inputs: Iterable[str | os.PathLike]) -> list[Path]:
     """Files named by paths, folders (their range images, sorted) and glob patterns.
+
+    A glob leaves out what a batch writes (meshes, its reports, temporary
+    files), so a pattern that matches the output folder gives the same
+    inputs on every run. A file named twice (say by a relative and an
+    absolute path) is meshed once.
 
     Raises
     ------
@@ -104,7 +122,7 @@ def expand_inputs(inputs: Iterable[str | os.PathLike]) -> list[Path]:
         if p.is_dir():
             out += sorted(f for f in p.iterdir() if f.suffix.lower() in IMAGE_SUFFIXES)
         elif any(ch in str(item) for ch in "*?["):
-            hits = sorted(Path(h) for h in glob.glob(str(item)))
+            hits = sorted(Path(h) for h in glob.glob(str(item)) if _not_an_output(Path(h)))
             if not hits:
                 raise FileNotFoundError(f"{item}: no file matches")
             out += hits
@@ -114,8 +132,9 @@ def expand_inputs(inputs: Iterable[str | os.PathLike]) -> list[Path]:
             raise FileNotFoundError(f"{item}: no such file or folder")
     seen, uniq = set(), []
     for p in out:
-        if p not in seen:
-            seen.add(p)
+        key = p.resolve()
+        if key not in seen:
+            seen.add(key)
             uniq.append(p)
     return uniq
 
@@ -212,10 +231,42 @@ def _one(path: str, out: str, params: MeshParams, background, camera, overwrite:
                        relative_error=ev.relative_error)
 
 
+# Another host's leftovers (a shared folder) are removed only after this long: its processes
+# cannot be asked whether they still run.
+STALE_PART_SECONDS = 24 * 3600
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except (PermissionError, OverflowError, ValueError):
+        return pid > 0  # another user's process, or a number that is no process id
+    return True
+
+
 def _clean_stale_parts(out_dir: Path):
-    """Remove temporary files an interrupted run left behind (never a finished mesh)."""
+    """Remove temporary files that interrupted runs left behind (never a finished mesh).
+
+    A temporary file names its writer (`rangemesh.io.part_owner`): it is removed
+    when that process is gone, or, for another host's, when it is a day old.
+    The files of batches still running into the same folder are left alone.
+    """
+    host = part_owner().rsplit(".", 1)[0]
+    now = time.time()
     for f in out_dir.glob(".*.part.*"):
-        if f.is_file():
+        if not f.is_file():
+            continue
+        mine = f".{host}."  # ".<name>.<host>.<pid>.<random>.part.<ext>"
+        try:
+            if mine in f.name:
+                stale = not _alive(int(f.name.rsplit(mine, 1)[1].split(".", 1)[0]))
+            else:
+                stale = now - f.stat().st_mtime > STALE_PART_SECONDS
+        except (ValueError, IndexError, OSError):
+            stale = False
+        if stale:
             f.unlink(missing_ok=True)
 
 
@@ -298,7 +349,7 @@ def mesh_many(paths, out_dir, params: MeshParams | None = None, *, background=No
         # One single-threaded process per core: method="refine"'s second thread
         # (`rangemesh.greedy.threads`) would only oversubscribe the cores.
         cluster = LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True,
-                               dashboard_address=None, silence_logs=40,
+                               dashboard_address=":0", silence_logs=40,  # any free port
                                env={"NUMBA_NUM_THREADS": "1"})
         client = Client(cluster)
     else:
@@ -351,15 +402,12 @@ def write_report(results: list[BatchResult], out_dir: Path, wall: float):
     """``rangemesh-batch.csv`` (one row per input) and ``rangemesh-batch.json`` (with the summary)."""
     rows = [asdict(r) for r in results]
     fields = list(BatchResult.__dataclass_fields__)
-    tmp = out_dir / ".rangemesh-batch.csv.part.tmp"
-    with open(tmp, "w", newline="") as fh:
+    with atomic_path(out_dir / "rangemesh-batch.csv") as tmp, open(tmp, "w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=fields)
         w.writeheader()
         w.writerows(rows)
-    os.replace(tmp, out_dir / "rangemesh-batch.csv")
     clean = [{k: (None if isinstance(v, float) and v != v else v) for k, v in r.items()}
              for r in rows]  # JSON has no NaN
     doc = {"summary": summarize(results, wall), "results": clean}
-    tmp = out_dir / ".rangemesh-batch.json.part.tmp"
-    tmp.write_text(json.dumps(doc, indent=1))
-    os.replace(tmp, out_dir / "rangemesh-batch.json")
+    with atomic_path(out_dir / "rangemesh-batch.json") as tmp:
+        tmp.write_text(json.dumps(doc, indent=1))

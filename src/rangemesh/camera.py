@@ -11,6 +11,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .checks import real_number, whole_number
+
 __all__ = ["Orthographic", "Pinhole", "Spherical", "Rays", "backproject", "as_camera",
            "check_reach", "check_shape", "toward_sensor", "read_beams"]
 
@@ -18,6 +20,10 @@ __all__ = ["Orthographic", "Pinhole", "Spherical", "Rays", "backproject", "as_ca
 ORTHOGRAPHIC = 0.0
 PINHOLE = 1.0
 RAYS = 2.0  # a ray per pixel: [2, H, W, range_scale, 0, 0, then the (H, W, 3) rays flat]
+# Bounds on numbers read from a beams file, checked before they size an array: a beams file is
+# a few kilobytes; 2**26 pixels of rays take 1.6 GB (sensors have under 2**19).
+MAX_BEAMS_BYTES = 1 << 24
+MAX_RAY_PIXELS = 1 << 26
 
 
 def _positive(name, value, allow_negative=False):
@@ -188,6 +194,17 @@ class Spherical(_RayCamera):
         az = _angles("azimuth", self.azimuth)
         off = np.zeros(el.size) if self.row_azimuth is None else self.row_azimuth
         off = _angles("row_azimuth", off, el.size)
+        # every column and row its own ray: a degenerate table maps pixels onto one line
+        if (np.abs(el) > 90.0).any():
+            raise ValueError("elevation must be within -90 .. 90 degrees")
+        for name, a in (("elevation", el), ("azimuth", az)):
+            d = np.diff(a)
+            if a.size > 1 and not ((d > 0).all() or (d < 0).all()):
+                raise ValueError(f"{name} must change strictly one way from each row or column "
+                                 f"to the next (equal neighbours map pixels onto one ray)")
+        if az.size > 1 and abs(float(az[-1] - az[0])) >= 360.0:
+            raise ValueError(f"azimuth spans {abs(float(az[-1] - az[0])):g} degrees: columns "
+                             f"must not go round more than once")
         object.__setattr__(self, "elevation", el)
         object.__setattr__(self, "azimuth", az)
         object.__setattr__(self, "row_azimuth", off)
@@ -224,7 +241,7 @@ class Spherical(_RayCamera):
         return abs(turn - 360.0) <= 0.5 * abs(step)
 
     @classmethod
-    def from_beams(cls, beams, *, range_scale: float = 1.0) -> Spherical:
+    def from_beams(cls, beams, *, range_scale: float = 1.0, image_shape=None) -> Spherical:
         """The camera described by a ``.beams.json`` file (or its parsed dictionary).
 
         The layout (that of ``rellis3d_os1-64_000000.beams.json``; see the
@@ -234,10 +251,20 @@ class Spherical(_RayCamera):
         has azimuth ``azimuth0_deg + azimuth_row_residual_deg[r] + c *
         azimuth_step_deg``. Other keys are ignored.
 
+        Parameters
+        ----------
+        beams : dict or str or os.PathLike
+            The parsed file, or its path.
+        range_scale : float, default 1.0
+        image_shape : (int, int), optional
+            The shape of the image the camera is for: checked before any
+            array is sized by the file's numbers.
+
         Raises
         ------
         ValueError
-            A missing key or a value of the wrong kind, naming it.
+            A missing key or a value of the wrong kind, naming it; a camera
+            for another image shape, or one larger than `MAX_RAY_PIXELS`.
         """
         if not isinstance(beams, dict):
             beams = read_beams(beams)
@@ -245,22 +272,27 @@ class Spherical(_RayCamera):
                    if k not in beams]
         if missing:
             raise ValueError(f"beams: missing {', '.join(missing)} (see the README's beams layout)")
-        try:
-            cols = int(beams["cols"])
-            az0, step = float(beams["azimuth0_deg"]), float(beams["azimuth_step_deg"])
-        except (TypeError, ValueError):
-            raise ValueError("beams: cols, azimuth0_deg and azimuth_step_deg must be numbers") \
-                from None
-        if cols < 1 or not (math.isfinite(az0) and math.isfinite(step)) or step == 0:
-            raise ValueError(f"beams: need cols >= 1 and a finite non-zero azimuth step, got "
-                             f"cols={cols}, azimuth_step_deg={step}")
-        try:
-            el = np.asarray(beams["elevation_deg"], dtype=np.float64)
+        try:  # JSON numbers only: strings are never read as numbers, nor 2048.9 as 2048
+            cols = whole_number("beams: cols", beams["cols"], minimum=1)
+            az0 = real_number("beams: azimuth0_deg", beams["azimuth0_deg"])
+            step = real_number("beams: azimuth_step_deg", beams["azimuth_step_deg"])
+            el = beams_numbers("elevation_deg", beams["elevation_deg"])
             off = beams.get("azimuth_row_residual_deg")
-            off = None if off is None else np.asarray(off, dtype=np.float64)
-        except (TypeError, ValueError):
-            raise ValueError("beams: elevation_deg and azimuth_row_residual_deg must be lists "
-                             "of numbers") from None
+            off = None if off is None else beams_numbers("azimuth_row_residual_deg", off)
+            rows = beams.get("rows")
+            if rows is not None and whole_number("beams: rows", rows, minimum=1) != el.size:
+                raise ValueError(f"beams: rows is {rows} but elevation_deg has {el.size} values")
+        except TypeError as exc:
+            raise ValueError(str(exc)) from None
+        if step == 0:
+            raise ValueError("beams: azimuth_step_deg must be non-zero")
+        # sizes read from a file are checked before they size the rays
+        if image_shape is not None and (el.size, cols) != tuple(int(n) for n in image_shape):
+            raise ValueError(f"the beams file describes a {el.size}x{cols} image, not this "
+                             f"{image_shape[0]}x{image_shape[1]} one")
+        if el.size * cols > MAX_RAY_PIXELS:
+            raise ValueError(f"beams: {el.size} rows x {cols} cols is more than the "
+                             f"{MAX_RAY_PIXELS} pixels a per-pixel camera may have")
         return cls(el, az0 + step * np.arange(cols), off, range_scale)
 
 
@@ -283,9 +315,17 @@ class Rays(_RayCamera):
         d = np.array(self.directions, dtype=np.float64, copy=True)
         if d.ndim != 3 or d.shape[2] != 3 or min(d.shape[:2]) < 1:
             raise ValueError(f"directions must be (H, W, 3), got shape {d.shape}")
-        norm = np.linalg.norm(d, axis=2, keepdims=True)
-        if not (np.isfinite(d).all() and (norm > 0).all()):
+        if not np.isfinite(d).all():
             raise ValueError("directions must be finite and non-zero")
+        big = np.abs(d).max(axis=2, keepdims=True)
+        if not (big > 0).all():
+            raise ValueError("directions must be finite and non-zero")
+        with np.errstate(over="ignore", under="ignore"):
+            norm = np.linalg.norm(d, axis=2, keepdims=True)
+        # a very long or very short vector's norm overflows or underflows: scale it first
+        far = ~np.isfinite(norm[..., 0]) | (norm[..., 0] < 1e-150)
+        d[far] /= big[far]
+        norm[far] = np.linalg.norm(d[far], axis=1, keepdims=True)
         d /= norm
         d.setflags(write=False)
         object.__setattr__(self, "directions", d)
@@ -298,6 +338,28 @@ class Rays(_RayCamera):
     def wraps(self) -> bool:
         """False: a ray table says nothing of which columns are neighbours."""
         return False
+
+
+def beams_numbers(key: str, values, *, whole: bool = False) -> np.ndarray:
+    """A beams file's list of numbers as a 1-D array (int64 when `whole`), or an error naming `key`.
+
+    Raises
+    ------
+    ValueError
+        Not a list of JSON numbers (a string, a bool, a nested list), or a
+        number that is not finite (not whole, with `whole`).
+    """
+    if not isinstance(values, (list, tuple)) or not values:
+        raise ValueError(f"beams: {key} must be a list of numbers, one per row")
+    try:
+        if whole:
+            return np.array([whole_number(f"beams: {key}[{i}]", v)
+                             for i, v in enumerate(values)], dtype=np.int64)
+        return np.array([real_number(f"beams: {key}[{i}]", v) for i, v in enumerate(values)])
+    except TypeError as exc:
+        raise ValueError(str(exc)) from None
+    except OverflowError:
+        raise ValueError(f"beams: {key} holds a number beyond 64 bits") from None
 
 
 def read_beams(path) -> dict:
@@ -313,9 +375,16 @@ def read_beams(path) -> dict:
 
     path = Path(path)
     try:
+        if not path.is_file():
+            raise OSError("not a regular file" if path.exists() else "no such file")
+        if path.stat().st_size > MAX_BEAMS_BYTES:
+            raise OSError(f"{path.stat().st_size} bytes; a beams file has at most "
+                          f"{MAX_BEAMS_BYTES}")
         beams = json.loads(path.read_text())
-    except (OSError, ValueError) as exc:
-        raise ValueError(f"{path}: cannot read it as a beams file ({exc})") from None
+    except (OSError, ValueError, RecursionError) as exc:
+        raise ValueError(f"{path}: cannot read it as a beams file "
+                         f"({type(exc).__name__ if isinstance(exc, RecursionError) else exc})") \
+            from None
     if not isinstance(beams, dict):
         raise ValueError(f"{path}: a beams file holds a JSON object")
     return beams

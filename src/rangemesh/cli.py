@@ -21,7 +21,8 @@ import numpy as np
 
 from . import scenes
 from ._version import __version__
-from .camera import Orthographic, Pinhole, Spherical, read_beams
+from .camera import Orthographic, Pinhole, Spherical, beams_numbers, read_beams
+from .checks import whole_number
 from .io import (
     IMAGE_SUFFIXES,
     MESH_SUFFIXES,
@@ -252,19 +253,19 @@ def _params(args) -> MeshParams:
         raise UserError(str(exc)) from None
 
 
-def _camera(args):
+def _camera(args, image_shape=None):
     try:
-        return _make_camera(args)
+        return _make_camera(args, image_shape)
     except (ValueError, TypeError) as exc:
         raise UserError(str(exc)) from None
 
 
-def _make_camera(args):
+def _make_camera(args, image_shape=None):
     if args.beams is not None:
         if args.intrinsics is not None or args.scale is not None:
             raise UserError("--beams, --intrinsics and --scale exclude each other")
         scale = 1.0 if args.depth_scale is None else args.depth_scale
-        return Spherical.from_beams(args.beams, range_scale=scale)
+        return Spherical.from_beams(args.beams, range_scale=scale, image_shape=image_shape)
     if args.intrinsics is not None:
         if args.scale is not None:
             raise UserError("--scale and --intrinsics exclude each other")
@@ -417,7 +418,7 @@ def _check_method(args):
 def _run_mesh(args, image, name, bg, outputs_for):
     _check_method(args)
     params = _params(args)
-    camera = _camera(args)
+    camera = _camera(args, image.shape)
     targets = _targets(args)
     given = [k for k, v in targets.items() if v is not None]
     extra = {"tiles": args.tiles} if (given and args.tiles is not None) else {}
@@ -482,8 +483,11 @@ def _check_outputs(args, inputs=()):
         for i in inputs:
             if _same_file(p, Path(i)):
                 raise UserError(f"{p}: is the input {i}; an output never replaces an input")
-    if len(outputs) == 2 and _same_file(*outputs):
-        raise UserError(f"--output and --preview are the same file {outputs[0]}")
+    for i, p in enumerate(outputs):
+        for q in outputs[i + 1:]:
+            if _same_file(p, q):
+                raise UserError(f"{q}: two outputs would be the same file ({p} and {q}); "
+                                f"name them apart")
     if args.output and Path(args.output).suffix.lower() not in MESH_SUFFIXES:
         raise UserError(f"{args.output}: unknown mesh format; use one of {', '.join(MESH_SUFFIXES)}")
     if args.output and Path(args.output).suffix.lower() != ".ply" and (args.ascii or args.pixels):
@@ -526,11 +530,18 @@ def _read_scan(args):
     except ValueError as exc:
         raise UserError(_one_line(exc)) from None
     try:
-        rng, _ = read_lidar_bin(args.image, int(beams["rows"]),
-                                column_shift=beams.get("column_shift"))
+        rows = whole_number("beams: rows", beams["rows"], minimum=1)
+        cols = beams.get("cols")
+        cols = None if cols is None else whole_number("beams: cols", cols, minimum=1)
+        shift = beams.get("column_shift")
+        shift = None if shift is None else beams_numbers("column_shift", shift, whole=True)
     except KeyError:
         raise UserError(f"{args.beams}: a beams file for a .bin scan gives its 'rows'") from None
-    except (OSError, ValueError, TypeError) as exc:
+    except (TypeError, ValueError) as exc:
+        raise UserError(f"{args.beams}: {_one_line(exc)}") from None
+    try:
+        rng, _ = read_lidar_bin(args.image, rows, column_shift=shift, steps=cols)
+    except (OSError, ValueError) as exc:
         raise UserError(f"{args.image}: {_one_line(exc)}") from None
     return rng
 
@@ -585,10 +596,12 @@ def _cmd_info(args):
 
 
 def _cmd_eval(args):
-    image = _read_image(args.image)
-    bg = _resolve_background(args.background, image)
-    given = any(x is not None for x in (args.scale, args.intrinsics, args.depth_scale))
-    camera = _camera(args) if given else None  # None: the camera the file records
+    image = _read_scan(args)  # an image file, or a LiDAR .bin with --beams, as `mesh` reads
+    # a LiDAR marks no return with range 0, in float images too (as `mesh --beams` takes it)
+    bg = 0.0 if args.background == "auto" and args.beams else _resolve_background(args.background,
+                                                                                     image)
+    given = any(x is not None for x in (args.scale, args.intrinsics, args.depth_scale, args.beams))
+    camera = _camera(args, image.shape) if given else None  # None: the camera the file records
     try:
         mesh = read_mesh(args.mesh, camera=camera, image_shape=image.shape)
         ev = evaluate(mesh, image, background=bg)
@@ -615,6 +628,8 @@ def _cmd_batch(args):
     camera = _camera(args)
     bg = args.background
     bg = None if bg in ("none", "nan") else bg  # 'auto' is resolved image by image
+    if bg == "auto" and args.beams:  # a LiDAR marks no return with range 0, in float images too
+        bg = 0.0
     t0 = time.perf_counter()
     try:
         results = mesh_many(args.inputs, args.output_dir, params, background=bg,

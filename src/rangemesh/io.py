@@ -15,6 +15,7 @@ from __future__ import annotations
 import dataclasses
 import errno
 import logging
+import math
 import os
 import tempfile
 from contextlib import contextmanager
@@ -23,7 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from ._optional import require
-from .camera import Orthographic, Pinhole, Spherical
+from .camera import MAX_RAY_PIXELS, Orthographic, Pinhole, Spherical
 from .mesh import Mesh, Stats, check_arrays, count_edges
 
 __all__ = [
@@ -177,8 +178,8 @@ def read_color_image(path: str | os.PathLike) -> np.ndarray:
     return arr
 
 
-def read_lidar_bin(path: str | os.PathLike, beams: int, *,
-                   column_shift=None) -> tuple[np.ndarray, np.ndarray]:
+def read_lidar_bin(path: str | os.PathLike, beams: int, *, column_shift=None,
+                   steps: int | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Read a KITTI-style LiDAR scan (``.bin``) as range and intensity images.
 
     The file holds float32 ``x y z intensity`` records, one per return,
@@ -196,6 +197,9 @@ def read_lidar_bin(path: str | os.PathLike, beams: int, *,
         Destagger: roll row ``b`` by ``column_shift[b]`` columns so that a
         column is one azimuth for every beam (the ``column_shift`` of a
         ``.beams.json`` file; what the Ouster SDK's ``destagger`` does).
+    steps : int, optional
+        The azimuth steps (columns) the scan must have (a beams file's
+        ``cols``): the file's size is checked against it before it is read.
 
     Returns
     -------
@@ -206,8 +210,8 @@ def read_lidar_bin(path: str | os.PathLike, beams: int, *,
     Raises
     ------
     ValueError
-        A file whose size is not a whole number of steps, or a shift list of
-        the wrong length.
+        A file whose size is not a whole number of steps (or not `steps`
+        steps), or a shift list of the wrong length.
     """
     path = Path(path)
     _check_readable(path)
@@ -216,6 +220,9 @@ def read_lidar_bin(path: str | os.PathLike, beams: int, *,
     if beams < 1 or size == 0 or size % (16 * beams):
         raise ValueError(f"{path}: {size} bytes is not a whole number of {beams}-beam steps of "
                          f"float32 x, y, z, intensity (16 bytes a point)")
+    if steps is not None and size != 16 * beams * int(steps):
+        raise ValueError(f"{path}: {size} bytes is {size // (16 * beams)} steps of {beams} beams, "
+                         f"not the {int(steps)} the beams file gives")
     pts = np.fromfile(path, dtype="<f4").reshape(-1, beams, 4).transpose(1, 0, 2)
     rng = np.sqrt(np.sum(pts[..., :3].astype(np.float64) ** 2, axis=2)).astype(np.float32)
     inten = np.ascontiguousarray(pts[..., 3])
@@ -251,6 +258,18 @@ def _new_file_mode(path: Path) -> int:
         return 0o666 & ~_umask()
 
 
+def part_owner() -> str:
+    """The tag of this process in its temporary files' names: host and process id.
+
+    `rangemesh.batch` removes another run's leftovers only when the process
+    that owns them is gone, never the files of a batch still running.
+    """
+    import socket
+
+    host = "".join(ch if ch.isalnum() or ch == "-" else "-" for ch in socket.gethostname())
+    return f"{host or 'host'}.{os.getpid()}"
+
+
 @contextmanager
 def atomic_path(path: str | os.PathLike):
     """Yield a temporary path beside `path`; rename it to `path` only on success.
@@ -275,7 +294,8 @@ def atomic_path(path: str | os.PathLike):
         raise IsADirectoryError(errno.EISDIR, "is a folder, not a file to write", str(path))
     tmp = None
     try:
-        fd, tmp = tempfile.mkstemp(dir=folder, prefix=f".{path.name}.", suffix=".part" + path.suffix)
+        fd, tmp = tempfile.mkstemp(dir=folder, prefix=f".{path.name}.{part_owner()}.",
+                                   suffix=".part" + path.suffix)
         os.close(fd)
         os.chmod(tmp, _new_file_mode(path))  # mkstemp makes it 0600
         yield Path(tmp)
@@ -316,7 +336,7 @@ def _write_ply(mesh: Mesh, tmp: Path, ascii: bool, pixels: bool, normals: bool):
         [PlyElement.describe(vert, "vertex"), PlyElement.describe(face, "face")],
         text=ascii,
         comments=[f"rangemesh image_shape {mesh.image_shape[0]} {mesh.image_shape[1]}",
-                  "rangemesh camera " + _camera_text(mesh.camera)],
+                  *_camera_comments(mesh.camera)],
     ).write(str(tmp))
 
 
@@ -476,6 +496,42 @@ def write_mesh(mesh: Mesh, path: str | os.PathLike, *, ascii: bool = False,
     return path
 
 
+_PLY_SIZES = {"char": 1, "int8": 1, "uchar": 1, "uint8": 1, "short": 2, "int16": 2, "ushort": 2,
+              "uint16": 2, "int": 4, "int32": 4, "uint": 4, "uint32": 4, "float": 4,
+              "float32": 4, "double": 8, "float64": 8}
+
+
+def _check_ply_counts(path: Path) -> None:
+    """Refuse a PLY whose header claims more elements than the file's bytes can hold.
+
+    Readers size their arrays by the header's counts before they read the
+    body; a 5 KB file must not make them allocate gigabytes. Each element
+    takes at least its scalar properties' bytes and its lists' count bytes
+    (binary), or two characters a property (ASCII).
+    """
+    size = path.stat().st_size
+    with open(path, "rb") as f:
+        head = f.read(1 << 16)
+    end = head.find(b"end_header")
+    if not head.startswith(b"ply") or end < 0:
+        return  # not ours to judge: the reader says what is wrong
+    body = size - (head.find(b"\n", end) + 1)
+    ascii_ = b"format ascii" in head[:end]
+    need, counts = 0, []
+    for line in head[:end].decode("ascii", "replace").splitlines():
+        words = line.split()
+        if words[:1] == ["element"] and len(words) == 3 and words[2].isdigit():
+            counts.append([words[1], int(words[2]), 0])
+        elif words[:1] == ["property"] and counts and len(words) >= 3:
+            kind = words[2] if words[1] == "list" else words[1]
+            counts[-1][2] += 2 if ascii_ else _PLY_SIZES.get(kind, 1)
+    for name, count, each in counts:
+        need += count * max(each, 1)
+        if need > body:
+            raise ValueError(f"{path}: the header claims {count} {name} elements, more than the "
+                             f"file's {size} bytes can hold")
+
+
 def read_mesh(path: str | os.PathLike, *, camera=None, image_shape=None) -> Mesh:
     """Read a mesh file into a `Mesh` (for `evaluate`).
 
@@ -522,21 +578,39 @@ def read_mesh(path: str | os.PathLike, *, camera=None, image_shape=None) -> Mesh
         if suffix == ".ply":
             from plyfile import PlyData
 
+            _check_ply_counts(path)
             ply = PlyData.read(str(path))
             v = ply["vertex"].data
             vertices = np.stack([v["x"], v["y"], v["z"]], axis=1).astype(np.float64)
-            faces = np.stack(ply["face"].data["vertex_indices"]).astype(np.int32) \
+            faces = np.stack(ply["face"].data["vertex_indices"]) \
                 if len(ply["face"].data) else np.zeros((0, 3), np.int32)
+            if not np.issubdtype(faces.dtype, np.integer):
+                whole = np.isfinite(faces).all() and (faces == np.round(faces)).all()
+                if not whole:
+                    raise ValueError("face indices must be whole numbers")
+            with np.errstate(invalid="ignore"):
+                big = faces.size and (faces.max() > np.iinfo(np.int32).max or faces.min() < 0)
+            if big:
+                raise ValueError(f"face indices must lie in 0 .. {np.iinfo(np.int32).max}")
+            faces = faces.astype(np.int32)
             if "row" in v.dtype.names and "col" in v.dtype.names:
                 pixels = np.stack([v["row"], v["col"]], axis=1).astype(np.int32)
             if {"red", "green", "blue"} <= set(v.dtype.names):
                 colors = np.stack([v["red"], v["green"], v["blue"]], axis=1).astype(np.uint8)
+            camera_words = []
             for c in ply.comments:
                 parts = c.split()
                 if len(parts) == 4 and parts[:2] == ["rangemesh", "image_shape"]:
                     shape = (int(parts[2]), int(parts[3]))
                 if len(parts) >= 3 and parts[:2] == ["rangemesh", "camera"]:
-                    recorded = _camera_from_text(parts[2:])
+                    camera_words = parts[2:]
+                if len(parts) >= 3 and parts[:2] == ["rangemesh", "camera+"] and camera_words:
+                    camera_words += parts[2:]
+            if camera_words:
+                recorded = _camera_from_text(camera_words, image_shape or shape)
+                if recorded is None and camera is None:
+                    raise ValueError(f"the file records a camera that cannot be read back "
+                                     f"({' '.join(camera_words)[:60]}); give camera=")
         else:
             tm = trimesh.load(path, process=False, force="mesh")
             vertices = np.asarray(tm.vertices, np.float64)
@@ -564,6 +638,27 @@ def read_mesh(path: str | os.PathLike, *, camera=None, image_shape=None) -> Mesh
                 image_shape=shape, stats=stats, colors=colors)
 
 
+# Header lines stay well under RPly's 1,024 characters (Open3D aborts on longer ones).
+MAX_COMMENT_CHARS = 900
+
+
+def _camera_comments(camera) -> list[str]:
+    """The camera as PLY comments of at most `MAX_COMMENT_CHARS` characters each.
+
+    The first is ``rangemesh camera ...`` (`_camera_text`); a spherical
+    camera's per-row values, too long for one line, continue on
+    ``rangemesh camera+ ...`` lines, read back in order.
+    """
+    words = ("rangemesh camera " + _camera_text(camera)).split(" ")
+    lines, line = [], words[0] + " " + words[1]
+    for word in words[2:]:
+        if len(line) + 1 + len(word) > MAX_COMMENT_CHARS:
+            lines.append(line)
+            line = "rangemesh camera+"
+        line += " " + word
+    return [*lines, line]
+
+
 def _camera_text(camera) -> str:
     """The camera as a PLY comment: ``orthographic kx ky kz`` or ``pinhole fx fy cx cy scale``.
 
@@ -588,20 +683,42 @@ def _camera_text(camera) -> str:
     return "orthographic " + " ".join(repr(float(v)) for v in (camera.kx, camera.ky, camera.kz))
 
 
-def _camera_from_text(parts):
-    """The camera of a ``rangemesh camera ...`` comment, or None if it cannot be read."""
+def _camera_from_text(parts, image_shape=(0, 0)):
+    """The camera of a ``rangemesh camera ...`` comment, or None if it cannot be read.
+
+    A spherical camera must be for `image_shape` (when known, not ``(0, 0)``):
+    that is checked before the file's numbers size its rays.
+
+    Raises
+    ------
+    ValueError
+        A spherical camera for another image shape, or too large to be one.
+    """
     try:
         values = [float(p) for p in parts[1:]]
+    except ValueError:
+        return None  # another writer's comment, or a damaged one: the caller's camera decides
+    try:  # a damaged value (0, NaN, a degenerate table) reads as no camera
         if parts[0] == "pinhole" and len(values) == 5:
             return Pinhole(*values[:4], depth_scale=values[4])
         if parts[0] == "orthographic" and len(values) == 3:
             return Orthographic(*values)
-        if parts[0] == "spherical" and len(values) >= 5:
-            h, w = int(values[0]), int(values[1])
-            scale, az0, step = values[2:5]
-            rest = values[5:]
-            if len(rest) == 2 * h and w >= 1:
-                return Spherical(rest[:h], az0 + step * np.arange(w), rest[h:], scale)
-    except (ValueError, TypeError):
-        pass
-    return None  # another writer's comment, or a damaged one: the caller's camera decides
+    except ValueError:
+        return None
+    if parts[0] != "spherical" or len(values) < 5 or not all(map(math.isfinite, values[:2])):
+        return None
+    h, w = int(values[0]), int(values[1])
+    scale, az0, step = values[2:5]
+    rest = values[5:]
+    if len(rest) != 2 * h or w < 1:
+        return None
+    shape = tuple(int(n) for n in image_shape)
+    if shape != (0, 0) and (h, w) != shape:
+        raise ValueError(f"the file's camera is for a {h}x{w} image, not for this "
+                         f"{shape[0]}x{shape[1]} one")
+    if h * w > MAX_RAY_PIXELS:
+        raise ValueError(f"the file's camera has {h}x{w} pixels, more than {MAX_RAY_PIXELS}")
+    try:
+        return Spherical(rest[:h], az0 + step * np.arange(w), rest[h:], scale)
+    except ValueError:
+        return None

@@ -73,6 +73,9 @@ class Workspace:
 # Peak working memory of `run` per image pixel, bytes: float64 depth, weights, the mask and
 # the rest, measured by benchmarks/memory.py (4.2x a float32 image, 17 bytes a pixel), rounded up.
 BYTES_PER_PIXEL = 20
+# The largest depth magnitude meshed: the kernels square depths (plane fits, least squares),
+# which overflow float64 beyond about 1e154.
+MAX_DEPTH = 1e150
 
 
 # `available_memory` reads /proc/meminfo at most once in this many seconds: the read costs
@@ -309,6 +312,9 @@ def run(image, params: MeshParams, *, background=None, camera=None, vertices=Non
     check_shape(camera, depth.shape)
     lo, hi, n_valid = valid_range(depth, valid)
     if n_valid:
+        if max(abs(lo), abs(hi)) > MAX_DEPTH:
+            raise ValueError(f"depths {lo:g} .. {hi:g} reach beyond {MAX_DEPTH:g}, where the "
+                             f"kernels' squares overflow: scale the image (and its camera) down")
         check_reach(camera, depth.shape, lo, hi)
     t1 = time.perf_counter()
     if not n_valid:

@@ -1,0 +1,466 @@
+"""Regression tests for the hostile-input report of 2026-11-25 (shared/reports/reliability-2026-11-25.md).
+
+One test (or parametrised group) per defect, named after it: ``test_eN_...``. Each reproduces the
+report's case and asserts the expected behaviour, so it failed before the fix.
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import rangemesh
+from rangemesh import Rays, Spherical
+from rangemesh.cli import main
+from rangemesh.io import read_lidar_bin, read_mesh, write_mesh
+
+SCAN = "lidar/rellis3d_os1-64_000000"
+
+
+@pytest.fixture(scope="module")
+def beams_file(shared_data):
+    return shared_data / f"{SCAN}.beams.json"
+
+
+@pytest.fixture
+def scan_file(shared_data, tmp_path):
+    dst = tmp_path / "scan.npy"
+    shutil.copy(shared_data / f"{SCAN}.range.npy", dst)
+    return dst
+
+
+@pytest.mark.slow
+def test_e1_batch_beams_takes_zero_as_no_return(scan_file, beams_file, tmp_path):
+    out = tmp_path / "out"
+    assert main(["batch", str(scan_file), "-o", str(out), "--beams", str(beams_file),
+                 "--vertices", "1500", "--quiet", "--workers", "1"]) == 0
+    mesh = read_mesh(out / "scan.ply")
+    # a no-return pixel as a vertex sits at the sensor origin
+    assert (np.linalg.norm(mesh.vertices, axis=1) > 0).all()
+    # and each vertex is one of the scan's returns: its pixel's range times its ray
+    rng = np.load(scan_file)
+    assert len(mesh.vertices) == 1500 and (rng > 0).sum() > len(mesh.vertices)
+
+
+def test_e4_camera_comment_for_another_shape_is_refused_before_sizing(tmp_path):
+    mesh = rangemesh.triangulate(np.full((4, 5), 10.0), method="refine", vertices=6)
+    path = tmp_path / "m.ply"
+    write_mesh(mesh, path, ascii=True)
+    text = path.read_text()
+    # the report's crafted camera: W = 1e8 columns for a 4x5 image (6 GB of rays if built)
+    text = text.replace("comment rangemesh camera orthographic 1.0 1.0 1.0",
+                        "comment rangemesh camera spherical 1 100000000 1.0 0 0.1 5 0")
+    path.write_text(text)
+    with pytest.raises(ValueError, match="1x100000000 image, not for this 4x5"):
+        read_mesh(path)
+
+
+def test_e4_header_counts_beyond_the_file_are_refused(tmp_path):
+    mesh = rangemesh.triangulate(np.full((4, 5), 10.0), method="refine", vertices=6)
+    for ascii_ in (True, False):
+        path = tmp_path / f"m{ascii_}.ply"
+        write_mesh(mesh, path, ascii=ascii_)
+        data = path.read_bytes()
+        n = len(mesh.faces)
+        path.write_bytes(data.replace(f"element face {n}\n".encode(), b"element face 300000000\n"))
+        with pytest.raises(ValueError, match="claims 300000000 face elements"):
+            read_mesh(path)
+
+
+def test_e4_eval_of_a_crafted_header_is_one_line(tmp_path, capsys):
+    img = np.full((4, 5), 10.0)
+    np.save(tmp_path / "img.npy", img)
+    mesh = rangemesh.triangulate(img, method="refine", vertices=6)
+    path = tmp_path / "m.ply"
+    write_mesh(mesh, path)
+    data = path.read_bytes().replace(b"element vertex 6\n", b"element vertex 900000000\n")
+    path.write_bytes(data)
+    assert main(["eval", str(tmp_path / "img.npy"), str(path)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "claims 900000000 vertex elements" in err[0]
+
+
+@pytest.mark.parametrize("scale", [1e155, 1e300, 1e-160, 1e-300])
+def test_e5_long_and_short_rays_keep_their_direction(scale):
+    d = np.zeros((4, 5, 3))
+    d[..., 0] = 1
+    d[..., 1] = np.arange(5) * 0.1
+    d[..., 2] = np.arange(4)[:, None] * 0.1
+    # by hand: ray (1, 0.1 c, 0.1 r) over its length
+    expected = d / np.sqrt(1 + (0.1 * np.arange(5)) ** 2 + (0.1 * np.arange(4)[:, None]) ** 2)[..., None]
+    with np.errstate(all="raise"):
+        cam = Rays(d * scale)
+    np.testing.assert_allclose(cam.directions, expected, rtol=1e-15, atol=0)
+    m = rangemesh.triangulate(np.full((4, 5), 10.0), camera=cam, method="refine", vertices=10)
+    assert not (m.vertices == 0).all(axis=1).any()
+
+
+def test_e6_beams_cols_for_another_image_refused_before_rays(beams_file, tmp_path):
+    beams = json.loads(beams_file.read_text())
+    beams["cols"] = 200_000_000
+    with pytest.raises(ValueError, match="64x200000000 image, not this 64x2048 one"):
+        Spherical.from_beams(beams, image_shape=(64, 2048))
+    with pytest.raises(ValueError, match="more than the"):  # no image to compare with: a bound
+        Spherical.from_beams(beams)
+
+
+def test_e6_bin_size_checked_against_the_beams_file(tmp_path):
+    big = tmp_path / "big.bin"
+    with open(big, "wb") as f:
+        f.truncate(16 * 64 * 500_000)  # 512 MB of zeros: 500,000 steps, not 2,048
+    with pytest.raises(ValueError, match="500000 steps of 64 beams, not the 2048"):
+        read_lidar_bin(big, 64, steps=2048)
+
+
+def test_e6_beams_file_must_be_a_small_regular_file(tmp_path):
+    with pytest.raises(ValueError, match="not a regular file"):
+        Spherical.from_beams("/dev/zero")
+    huge = tmp_path / "huge.json"
+    with open(huge, "wb") as f:
+        f.truncate((1 << 24) + 1)
+    with pytest.raises(ValueError, match="a beams file has at most"):
+        Spherical.from_beams(huge)
+
+
+def test_e6_cli_beams_dev_zero_is_one_line(scan_file, tmp_path, capsys):
+    assert main(["mesh", str(scan_file), "--beams", "/dev/zero", "--vertices", "200",
+                 "-o", str(tmp_path / "o.ply")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "not a regular file" in err[0]
+
+
+def test_e7_eval_beams_uses_the_beams_camera_and_zero_as_no_return(scan_file, beams_file,
+                                                                    tmp_path, capsys):
+    out = tmp_path / "g.glb"
+    pytest.importorskip("trimesh")
+    assert main(["mesh", str(scan_file), "--beams", str(beams_file), "--vertices", "2000",
+                 "-o", str(out), "--json"]) == 0
+    made = json.loads(capsys.readouterr().out)
+    assert main(["eval", str(scan_file), str(out), "--beams", str(beams_file), "--json"]) == 0
+    got = json.loads(capsys.readouterr().out)
+    # eval of the file mesh wrote prints the figures mesh printed (GLB keeps float32 vertices)
+    assert got["uncovered"] == pytest.approx(made["evaluation"]["uncovered"], abs=0.05)
+    assert got["relative_error"] == pytest.approx(made["evaluation"]["relative_error"], rel=0.02)
+
+
+@pytest.mark.parametrize("mutation", [
+    {"column_shift": [9223372036854775808] * 64},
+    {"column_shift": [1e30] * 64},
+    {"rows": float("inf")},
+    {"cols": 1e400},
+])
+def test_e12_overflowing_beams_values_are_one_line(shared_data, beams_file, tmp_path, capsys,
+                                                    mutation):
+    beams = json.loads(beams_file.read_text())
+    beams.update(mutation)
+    bad = tmp_path / "bad.json"
+    bad.write_text(json.dumps(beams))
+    assert main(["mesh", str(shared_data / f"{SCAN}.bin"), "--beams", str(bad), "--vertices", "200",
+                 "-o", str(tmp_path / "x.ply")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1, err
+
+
+def test_e12_deeply_nested_beams_json_is_one_line(scan_file, tmp_path, capsys):
+    bad = tmp_path / "deep.json"
+    bad.write_text("[" * 100_000 + "]" * 100_000)
+    assert main(["mesh", str(scan_file), "--beams", str(bad), "--vertices", "200",
+                 "-o", str(tmp_path / "x.ply")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "cannot read it as a beams file" in err[0]
+
+
+# --- PLY header lines that common readers take (RPly, Open3D's reader, stops at 1,024) ---------
+
+
+def _cameras(shared_data):
+    beams = shared_data / f"{SCAN}.beams.json"
+    return {
+        "orthographic": (np.full((6, 7), 10.0), rangemesh.Orthographic(0.5, 0.5, 2.0)),
+        "pinhole": (np.full((6, 7), 1000.0), rangemesh.Pinhole(5.0, 5.0, 3.0, 2.5, 0.001)),
+        "spherical": (np.load(shared_data / f"{SCAN}.range.npy"), Spherical.from_beams(beams)),
+    }
+
+
+@pytest.mark.parametrize("kind", ["orthographic", "pinhole", "spherical"])
+def test_ply_header_lines_fit_common_readers_and_keep_the_camera(shared_data, tmp_path, kind,
+                                                                 open3d):
+    image, cam = _cameras(shared_data)[kind]
+    bg = 0 if kind == "spherical" else None
+    mesh = rangemesh.triangulate(image, camera=cam, background=bg, method="refine", vertices=300)
+    path = tmp_path / f"{kind}.ply"
+    write_mesh(mesh, path)
+    header = path.read_bytes().split(b"end_header")[0]
+    assert max(len(line) for line in header.split(b"\n")) < 1024
+    back = read_mesh(path)
+    assert back.camera == cam
+    trimesh = pytest.importorskip("trimesh")
+    tm = trimesh.load(path, process=False, force="mesh")
+    assert np.array_equal(np.asarray(tm.faces), mesh.faces)
+    meshio = pytest.importorskip("meshio")
+    mi = meshio.read(path)
+    np.testing.assert_array_equal(mi.points, mesh.vertices.astype(np.float32))
+    # Open3D aborts the whole process on a header line it cannot take: read in a child process
+    import subprocess
+    import sys
+
+    code = ("import sys, open3d as o3d; m = o3d.io.read_triangle_mesh(sys.argv[1]); "
+            "print(len(m.vertices), len(m.triangles))")
+    p = subprocess.run([sys.executable, "-c", code, str(path)], capture_output=True, text=True,
+                       timeout=120)
+    assert p.returncode == 0, p.stderr[-500:]
+    assert p.stdout.split()[-2:] == [str(len(mesh.vertices)), str(len(mesh.faces))]
+
+
+@pytest.mark.slow
+def test_batch_runs_when_another_program_holds_the_dashboard_port(tmp_path):
+    import socket
+
+    img = tmp_path / "a.npy"
+    np.save(img, np.add.outer(np.arange(20.0), np.arange(30.0)))
+    with socket.socket() as held:
+        try:
+            held.bind(("127.0.0.1", 8787))  # Dask's default dashboard port
+        except OSError:
+            pass  # already held by another program: the case under test
+        held.listen()
+        results = rangemesh.mesh_many([img], tmp_path / "out", workers=1, method="refine",
+                                      vertices=20)
+    assert [r.status for r in results] == ["meshed"]
+
+
+@pytest.mark.slow
+def test_ctrl_c_while_the_command_line_loads_is_130_and_one_line():
+    import subprocess
+    import sys
+    import textwrap
+
+    # a Ctrl-C that lands while `rangemesh.cli` (NumPy, the kernels) is being imported
+    code = textwrap.dedent("""
+        import sys
+        class Interrupting:
+            def find_spec(self, name, path=None, target=None):
+                if name == "rangemesh.cli":
+                    raise KeyboardInterrupt
+        sys.meta_path.insert(0, Interrupting())
+        from rangemesh._launch import main
+        sys.exit(main())
+    """)
+    p = subprocess.run([sys.executable, "-c", code, "demo", "-o", "x.ply"], capture_output=True,
+                       text=True, timeout=120)
+    assert p.returncode == 130
+    assert p.stderr.strip().splitlines() == ["rangemesh: interrupted (SIGINT) while starting"]
+
+
+@pytest.mark.slow
+def test_e15_a_glob_over_the_output_folder_gives_the_same_inputs_every_run(tmp_path, capsys):
+    g = tmp_path / "g"
+    g.mkdir()
+    img = np.add.outer(np.arange(20.0), np.arange(30.0))
+    np.save(g / "c0.npy", img)
+    np.save(g / "c1.npy", img + 1)
+    for _ in range(2):
+        assert main(["batch", str(g / "*"), "-o", str(g), "--vertices", "30", "--workers", "1",
+                     "--quiet"]) == 0
+    names = sorted(p.name for p in g.iterdir())
+    assert names == ["c0.npy", "c0.ply", "c1.npy", "c1.ply", "rangemesh-batch.csv",
+                     "rangemesh-batch.json"]
+    report = json.loads((g / "rangemesh-batch.json").read_text())
+    assert [r["status"] for r in report["results"]] == ["skipped", "skipped"]  # a re-run skips
+
+
+def test_e16_a_running_batchs_temp_files_are_left_alone(tmp_path):
+    import os
+    import subprocess
+    import sys
+
+    from rangemesh.batch import _clean_stale_parts, write_report
+    from rangemesh.io import atomic_path, part_owner
+
+    # a temp file of this (running) process, one of a process that is gone, one of another host
+    with atomic_path(tmp_path / "m.ply") as mine:
+        mine.write_text("x")
+        gone = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"],
+                              capture_output=True, text=True, check=True).stdout.strip()
+        host = part_owner().rsplit(".", 1)[0]
+        dead = tmp_path / f".n.ply.{host}.{gone}.abc.part.ply"
+        dead.write_text("x")
+        other = tmp_path / ".o.ply.otherhost.1.abc.part.ply"
+        other.write_text("x")
+        old = tmp_path / ".p.ply.otherhost.2.abc.part.ply"
+        old.write_text("x")
+        os.utime(old, (0, 0))
+        _clean_stale_parts(tmp_path)
+        assert mine.exists() and other.exists()
+        assert not dead.exists() and not old.exists()
+    # the reports go through unique temporary names, not fixed ones
+    write_report([], tmp_path, 0.0)
+    assert sorted(p.name for p in tmp_path.iterdir()) == [
+        ".o.ply.otherhost.1.abc.part.ply", "m.ply", "rangemesh-batch.csv", "rangemesh-batch.json"]
+
+
+def test_e27_the_same_file_by_two_paths_is_meshed_once(tmp_path, monkeypatch):
+    from rangemesh.batch import expand_inputs
+
+    (tmp_path / "in").mkdir()
+    np.save(tmp_path / "in" / "c.npy", np.ones((4, 4)))
+    monkeypatch.chdir(tmp_path)
+    assert expand_inputs(["in/c.npy", str(tmp_path / "in" / "c.npy")]) == [Path("in/c.npy")]
+
+
+@pytest.mark.parametrize("option", [{"walls": False}, {"jump": 0.1}, {"diagonals": "error"},
+                                    {"heights": "fit"}])
+def test_e17_mesh_stream_refuses_what_triangulate_refuses(option):
+    z = np.add.outer(np.arange(20.0), np.arange(30.0))
+    with pytest.raises(ValueError) as want:
+        rangemesh.triangulate(z, **option)
+    with pytest.raises(ValueError) as got:
+        next(rangemesh.mesh_stream([z], **option))
+    assert str(got.value) == str(want.value)
+
+
+def test_e17_mesh_stream_gives_triangulates_mesh_with_a_target():
+    from tests.golden import fingerprint
+
+    frames = [np.add.outer(np.arange(20.0), np.arange(30.0)) ** 1.5, np.ones((10, 12))]
+    for kw in ({"vertices": 40}, {"max_error": 0.5}, {"vertices": 40, "method": "paper"}):
+        got = list(rangemesh.mesh_stream(frames, **kw))
+        want = [rangemesh.triangulate(f, **kw) for f in frames]
+        assert [fingerprint(m) for m in got] == [fingerprint(m) for m in want]
+
+
+@pytest.mark.parametrize("method", ["refine", "paper"])
+def test_e11_depths_beyond_the_kernels_reach_are_one_valueerror(method):
+    z = np.full((30, 30), 1e308)
+    z[10:20] = -1e307
+    with pytest.raises(ValueError, match="reach beyond 1e\\+150"):
+        rangemesh.triangulate(z, vertices=30, method=method)
+    big = np.finfo(float).max
+    z = np.full((40, 40), big)
+    z[5:10, 5:10] = -big
+    with pytest.raises(ValueError, match="reach beyond"):
+        rangemesh.triangulate(z, vertices=30, method=method)
+
+
+@pytest.mark.parametrize("mutation, key", [
+    ({"cols": "2048"}, "cols"),
+    ({"cols": 2048.9}, "cols"),
+    ({"azimuth_step_deg": "-0.17578125"}, "azimuth_step_deg"),
+    ({"elevation_deg": ["1.0"] * 64}, "elevation_deg"),
+    ({"rows": True}, "rows"),
+    ({"rows": 63}, "rows"),
+])
+def test_e25_beams_values_are_read_strictly(beams_file, mutation, key):
+    beams = json.loads(beams_file.read_text())
+    beams.update(mutation)
+    with pytest.raises(ValueError, match=key):
+        Spherical.from_beams(beams)
+
+
+@pytest.mark.parametrize("shift", [[1.5] * 64, [float("nan")] * 64, ["3"] * 64])
+def test_e25_column_shifts_are_whole_numbers(shared_data, beams_file, tmp_path, capsys, shift):
+    beams = json.loads(beams_file.read_text())
+    beams["column_shift"] = shift
+    bad = tmp_path / "bad.json"
+    bad.write_text(json.dumps(beams))
+    assert main(["mesh", str(shared_data / f"{SCAN}.bin"), "--beams", str(bad), "--vertices", "200",
+                 "-o", str(tmp_path / "x.ply")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "column_shift" in err[0]
+
+
+@pytest.mark.parametrize("shape", [(4, 4, 2), (4, 4, 5)])
+def test_e24_colour_images_of_2_or_5_channels_are_refused_naming_the_shape(shape):
+    from rangemesh.attributes import as_rgb8
+
+    with pytest.raises(ValueError, match=rf"shape \({shape[0]}, {shape[1]}, {shape[2]}\)"):
+        as_rgb8(np.zeros(shape))
+
+
+def test_e23_huge_intensities_and_complex_colours_make_no_warning():
+    from rangemesh.attributes import as_rgb8
+
+    with np.errstate(all="raise"):
+        out = as_rgb8(np.array([[0, 2**64 - 1], [2**63, 7]], np.uint64))
+        assert out[0, 1, 0] == 255 and out[0, 0, 0] == 0
+        out = as_rgb8(np.array([[-1e308, 1e308], [0.0, 0.0]]))
+        assert out[..., 0].tolist() == [[0, 255], [128, 128]]  # by hand: the middle of the range
+    with pytest.raises(ValueError, match="real numbers"):
+        as_rgb8(np.ones((3, 3, 3), complex))
+
+
+@pytest.mark.parametrize("el, az, what", [
+    ([0.0, -1.0], np.zeros(8), "azimuth must change strictly"),
+    ([0.0, 0.0], np.arange(8.0), "elevation must change strictly"),
+    ([1e300, 0.0], np.arange(8.0), "within -90 .. 90"),
+    ([0.0, -1.0], np.arange(0, 720, 10.0), "more than once"),
+])
+def test_e29_degenerate_spherical_cameras_are_refused(el, az, what):
+    with pytest.raises(ValueError, match=what):
+        Spherical(el, az)
+
+
+def test_e8_outputs_that_are_the_same_file_are_refused(tmp_path, capsys):
+    img = tmp_path / "d.npy"
+    np.save(img, np.add.outer(np.arange(20.0), np.arange(30.0)))
+    col = tmp_path / "c.npy"
+    np.save(col, np.zeros((20, 30, 3), np.uint8))
+    obj = tmp_path / "m.obj"
+    # the OBJ's texture is m.texture.png: a preview of that name would overwrite it
+    assert main(["mesh", str(img), "--color", str(col), "--vertices", "30", "-o", str(obj),
+                 "--preview", str(tmp_path / "m.texture.png")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "two outputs would be the same file" in err[0]
+    assert not obj.exists()
+
+
+def test_e28_eval_reads_the_bin_scan_that_mesh_reads(shared_data, beams_file, tmp_path, capsys):
+    scan = shared_data / f"{SCAN}.bin"
+    out = tmp_path / "s.ply"
+    assert main(["mesh", str(scan), "--beams", str(beams_file), "--vertices", "1000", "-o", str(out),
+                 "--json"]) == 0
+    made = json.loads(capsys.readouterr().out)
+    assert main(["eval", str(scan), str(out), "--beams", str(beams_file), "--json"]) == 0
+    got = json.loads(capsys.readouterr().out)
+    assert got["relative_error"] == pytest.approx(made["evaluation"]["relative_error"], rel=1e-3)
+    assert got["uncovered"] == pytest.approx(made["evaluation"]["uncovered"], abs=1e-6)
+
+
+def _ascii_ply(tmp_path, mesh, name="m.ply"):
+    path = tmp_path / name
+    write_mesh(mesh, path, ascii=True)
+    return path
+
+
+def test_e26_non_integer_face_indices_are_refused(tmp_path):
+    mesh = rangemesh.triangulate(np.full((4, 5), 10.0), method="refine", vertices=6)
+    path = _ascii_ply(tmp_path, mesh)
+    text = path.read_text().replace("property list uchar int vertex_indices",
+                                    "property list uchar double vertex_indices")
+    lines = text.splitlines()
+    first_face = len(lines) - len(mesh.faces)
+    a, b, c = mesh.faces[0]
+    lines[first_face] = f"3 {a} {b} {c}.5"
+    path.write_text("\n".join(lines) + "\n")
+    with pytest.raises(ValueError, match="whole numbers"):
+        read_mesh(path)
+    lines[first_face] = f"3 {a} {b} {c}.0"  # whole values in a double list are indices
+    path.write_text("\n".join(lines) + "\n")
+    assert np.array_equal(read_mesh(path).faces, mesh.faces)
+
+
+@pytest.mark.parametrize("comment", ["pinhole 0 0 0 0 0", "orthographic 0 1 1", "rays",
+                                     "spherical 4 5 1.0 0 nan 1 2 3 4 0 0 0 0"])
+def test_e26_a_camera_comment_that_cannot_be_read_is_said(tmp_path, comment):
+    mesh = rangemesh.triangulate(np.full((4, 5), 10.0), method="refine", vertices=6)
+    path = _ascii_ply(tmp_path, mesh)
+    path.write_text(path.read_text().replace("rangemesh camera orthographic 1.0 1.0 1.0",
+                                             "rangemesh camera " + comment))
+    with pytest.raises(ValueError, match="records a camera that cannot be read back"):
+        read_mesh(path)
+    # with the camera given, the file reads
+    assert len(read_mesh(path, camera=rangemesh.Orthographic()).faces) == len(mesh.faces)

@@ -20,6 +20,7 @@ import csv
 import glob
 import json
 import os
+import re
 import statistics
 import time
 from collections.abc import Iterable, Iterator
@@ -246,25 +247,31 @@ def _alive(pid: int) -> bool:
     return True
 
 
+_PART = re.compile(r"^\.(?P<name>.+)\.(?P<host>[A-Za-z0-9-]+)\.(?P<pid>\d+)\.[^.]+\.part(\.[^.]*)?$")
+
+
 def _clean_stale_parts(out_dir: Path):
     """Remove temporary files that interrupted runs left behind (never a finished mesh).
 
-    A temporary file names its writer (`rangemesh.io.part_owner`): it is removed
-    when that process is gone, or, for another host's, when it is a day old.
-    The files of batches still running into the same folder are left alone.
+    A temporary file names its writer (`rangemesh.io.part_owner`): it is
+    removed when that process is gone, or, for another host's, when it is a
+    day old. The files of batches still running into the same folder are
+    left alone; untagged ones (an older rangemesh's) are removed.
     """
     host = part_owner().rsplit(".", 1)[0]
     now = time.time()
-    for f in out_dir.glob(".*.part.*"):
+    for f in out_dir.glob(".*.part*"):
         if not f.is_file():
             continue
-        mine = f".{host}."  # ".<name>.<host>.<pid>.<random>.part.<ext>"
+        tag = _PART.match(f.name)
         try:
-            if mine in f.name:
-                stale = not _alive(int(f.name.rsplit(mine, 1)[1].split(".", 1)[0]))
+            if tag is None:
+                stale = True
+            elif tag["host"] == host:
+                stale = not _alive(int(tag["pid"]))
             else:
                 stale = now - f.stat().st_mtime > STALE_PART_SECONDS
-        except (ValueError, IndexError, OSError):
+        except (ValueError, OSError):
             stale = False
         if stale:
             f.unlink(missing_ok=True)

@@ -591,7 +591,7 @@ def read_mesh(path: str | os.PathLike, *, camera=None, image_shape=None) -> Mesh
             with np.errstate(invalid="ignore"):
                 big = faces.size and (faces.max() > np.iinfo(np.int32).max or faces.min() < 0)
             if big:
-                raise ValueError(f"face indices must lie in 0 .. {np.iinfo(np.int32).max}")
+                raise ValueError(f"a face index is out of range (0 .. {np.iinfo(np.int32).max})")
             faces = faces.astype(np.int32)
             if "row" in v.dtype.names and "col" in v.dtype.names:
                 pixels = np.stack([v["row"], v["col"]], axis=1).astype(np.int32)

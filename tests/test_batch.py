@@ -162,4 +162,4 @@ def test_local_workers_run_one_thread_each(tmp_path, monkeypatch):
     with pytest.raises(Stop):
         mesh_many([tmp_path / "a.npy"], tmp_path / "out", workers=1, method="paper")
     assert seen["threads_per_worker"] == 1
-    assert seen["env"] == {"NUMBA_NUM_THREADS": "1", "RANGEMESH_THREADS": "1"}
+    assert seen["env"] == {"RANGEMESH_THREADS": "1"}

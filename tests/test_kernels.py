@@ -6,11 +6,13 @@ from hypothesis import strategies as st
 
 from rangemesh import _core
 from rangemesh.camera import Orthographic, Pinhole, Spherical, backproject
-from rangemesh.geometry import heap as heapq_nb
-from rangemesh.geometry import raster
-from rangemesh.geometry.vectors import orient
 
 from . import reference as ref
+
+
+def orient(ra, ca, rb, cb, rc, cc):
+    """Twice the signed area of (a, b, c), from its definition."""
+    return (rb - ra) * (cc - ca) - (cb - ca) * (rc - ra)
 
 coord = st.integers(0, 40)
 
@@ -32,16 +34,12 @@ def test_line_is_8_connected_and_hits_endpoints(r0, c0, r1, c1):
 
 
 def _walked_spans(a, b, c, owns):
-    """Each row's (first, last) columns as `raster.triangle_rows/next_row/row_columns` walk them.
+    """Each row's (first, last) columns as the core's row scan (`TriangleRows`) walks them.
 
     Also checks the edge functions returned at each row's first column against `orient`.
     """
-    r0, r1, c0, c1, edges = raster.triangle_rows(*a, *b, *c)
     spans = {}
-    for r in range(r0, r1 + 1):
-        if r > r0:
-            edges = raster.next_row(edges)
-        lo, hi, w0, w1, w2 = raster.row_columns(edges, *owns, c0, c1)
+    for r, lo, hi, w0, w1, w2 in _core._triangle_rows(*a, *b, *c, *owns):
         assert (w0, w1, w2) == tuple(orient(*p, *q, r, lo) for p, q in ((a, b), (b, c), (c, a)))
         spans[r] = (lo, hi)
     return spans
@@ -194,12 +192,12 @@ def test_heap_pops_in_gain_order_with_id_ties():
     heap = np.arange(n)
     slot = np.arange(n)
     for i in range(n):
-        heapq_nb.sift_up(keys, heap, slot, i)
+        _core._heap_sift_up(keys, heap, slot, i)
     order = []
     for _ in range(5):
         x = heap[0]
         order.append(int(x))
-        heapq_nb.rekey(keys, heap, slot, x, -np.inf, n)  # retire it
+        _core._heap_rekey(keys, heap, slot, x, -np.inf, n)  # retire it
     assert order == [1, 2, 4, 0, 5]  # 1 and 2 tie at 5.0: smaller id first
     assert np.array_equal(heap[slot], np.arange(n))
 
@@ -221,13 +219,13 @@ def test_heap_rekey_keeps_invariant(rng):
     heap = np.arange(n)
     slot = np.arange(n)
     for i in range(n):
-        heapq_nb.sift_up(keys, heap, slot, i)
+        _core._heap_sift_up(keys, heap, slot, i)
     _check_heap(keys, heap, slot, gain)
     for _ in range(500):
         x = int(rng.integers(n))
         # ties on purpose: a few repeated values, and retired ids
         gain[x] = rng.choice([rng.normal(), 0.25, -np.inf])
-        heapq_nb.rekey(keys, heap, slot, x, gain[x], n)
+        _core._heap_rekey(keys, heap, slot, x, gain[x], n)
         _check_heap(keys, heap, slot, gain)
 
 

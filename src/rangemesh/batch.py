@@ -73,7 +73,8 @@ def mesh_stream(frames: Iterable, params: MeshParams | None = None, *,
     Notes
     -----
     While consecutive frames have the same shape, the depth, mask and weight
-    buffers are reused instead of allocated per frame.
+    buffers are reused instead of allocated per frame, and the options are
+    checked once for the whole stream.
     """
     options = {"fill_gaps": fill_gaps, "wrap": wrap, "heights": heights,
                "diagonals": diagonals, "walls": walls, "jump": jump, "tiles": tiles,
@@ -431,7 +432,7 @@ def mesh_many(paths, out_dir, params: MeshParams | None = None, *,
         with _script_not_rerun():
             cluster = LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True,
                                    dashboard_address=":0", silence_logs=40,  # any free port
-                                   env={"NUMBA_NUM_THREADS": "1", "RANGEMESH_THREADS": "1"})
+                                   env={"RANGEMESH_THREADS": "1"})
         client = Client(cluster)
     else:
         client = _connect(Client, scheduler, timeout=connect_timeout)

@@ -338,35 +338,6 @@ def _say(args, lines):
             print(line, file=sys.stderr)
 
 
-def _kernel_modules():
-    """Every module that holds Numba kernels."""
-    from .geometry import halfedges, heap, raster, vectors
-
-    return (vectors, raster, heap, halfedges)
-
-
-def _cold_cache(method: str = "paper") -> bool:
-    """True when the method's main kernels have no entry in Numba's on-disk cache."""
-    return False  # every kernel of both methods is compiled C++ now
-
-
-def _first_run_notice(args):
-    if not (args.quiet or args.json) and _cold_cache(getattr(args, "method", None) or "paper"):
-        print("rangemesh: first run: compiling the Numba kernels once (about 15-40 s); "
-              "later runs load them from the cache", file=sys.stderr)
-
-
-def _compiled_now() -> bool:
-    """True when Numba compiled (rather than loaded from its cache) a kernel in this process."""
-    from numba.core.registry import CPUDispatcher
-
-    for mod in _kernel_modules():
-        for obj in vars(mod).values():
-            if isinstance(obj, CPUDispatcher) and sum(obj.stats.cache_misses.values()) > 0:
-                return True
-    return False
-
-
 def _did(s) -> str:
     """What the method did, in a few words (the summary line and the preview)."""
     if s.method == "refine":
@@ -386,9 +357,6 @@ def _mesh_lines(mesh, ev, outputs):
     s = mesh.stats
     lines = [f"vertices {s.vertices}  edges {s.edges}  triangles {s.triangles}  ({_did(s)})",
              "time " + "  ".join(f"{k} {1000 * v:.1f} ms" for k, v in s.seconds.items())]
-    if _compiled_now():
-        lines.append("(first run: Numba compiled the kernels, which is in the times above; later "
-                     "runs load them from its cache)")
     q = s.target
     if q is not None:
         ach = f"{q.achieved:.4f}" if isinstance(q.achieved, float) else q.achieved
@@ -406,11 +374,9 @@ def _mesh_lines(mesh, ev, outputs):
     return lines
 
 
-
 def _run_mesh(args, image, name, bg, outputs_for):
     params, method, tiles_given = _resolve(args)
     camera = _camera(args, image.shape)
-    _first_run_notice(args)
     with _progress(args, 4, f"meshing {name}") as bar:
         try:
             mesh = run(image, params, background=bg, camera=camera, vertices=args.vertices,

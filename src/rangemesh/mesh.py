@@ -7,7 +7,6 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 
 from .camera import Orthographic, Pinhole, Rays, Spherical
-from .geometry.signals import holding_signals
 
 __all__ = ["Mesh", "Stats", "Target", "with_fields", "count_edges", "check_arrays"]
 
@@ -254,9 +253,6 @@ def check_arrays(vertices: np.ndarray, faces: np.ndarray, pixels: np.ndarray | N
             if outside.any():
                 raise ValueError(f"{what}: {int(outside.sum())} vertex pixels (row, col) lie "
                                  f"outside the {h}x{w} image")
-
-
-@holding_signals
 def count_edges(faces: np.ndarray) -> int:
     """Number of distinct undirected edges of a face array.
 

@@ -13,7 +13,6 @@ import numpy as np
 
 from ._core import mask_image
 from .checks import kernel_array
-from .geometry.signals import holding_signals
 
 __all__ = ["to_depth_and_mask", "check_image", "mask_into", "guess_background"]
 
@@ -117,9 +116,6 @@ def check_image(image, background=None):
         if math.isnan(float(background)):
             background = None
     return arr, background
-
-
-@holding_signals
 def mask_into(arr: np.ndarray, background, depth: np.ndarray, valid: np.ndarray) -> None:
     """Write float depth (0.0 on background) and validity of a checked image into buffers."""
     bg = 0.0 if background is None else float(background)

@@ -12,7 +12,6 @@ import numpy as np
 
 from ._core import covered_error, rasterize, valid_range
 from .camera import Orthographic, Pinhole, Rays, Spherical
-from .geometry.signals import holding_signals
 from .mesh import Mesh
 
 __all__ = ["render_depth", "relative_error"]
@@ -56,9 +55,6 @@ def _spherical_pixels(cam: Spherical, v: np.ndarray) -> tuple[np.ndarray, np.nda
 def _snap(x: np.ndarray, tol: float = 1e-3) -> np.ndarray:
     near = np.round(x)
     return np.where(np.abs(x - near) < tol, near, x)
-
-
-@holding_signals
 def render_depth(mesh: Mesh, shape: tuple[int, int] | None = None, *,
                  step: int = 1) -> tuple[np.ndarray, np.ndarray]:
     """Depth the mesh predicts at every pixel centre, in stored depth units.

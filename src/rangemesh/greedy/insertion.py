@@ -8,7 +8,6 @@ import numpy as np
 
 from .._core import count_edges, flip_by_error, greedy_insert, greedy_insert_sums, valid_faces, valid_range
 from ..camera import backproject, pixel_aspect
-from ..geometry.signals import holding_signals
 from ..mesh import Mesh, Stats, empty_mesh
 from ..render import relative_error
 from .heights import fit_heights
@@ -153,9 +152,6 @@ def _refine(depth, valid, start, strips, asked, max_sum, span, scales, n_grid, d
     vr, vc, tv, he, tsum = greedy_insert_sums(depth, valid, *start, asked, max_sum, span, *scales)
     info["flips"] = int(flip_by_error(vr, vc, tv, he, tsum, depth, valid, span)[0])
     return vr, vc, tv
-
-
-@holding_signals
 def greedy_mesh(depth: np.ndarray, valid: np.ndarray, camera, *, vertices: int | None = None,
                 max_error: float | None = None, reference=None, fit: bool = True,
                 diagonals: str = "error", walls: bool = True, jump: float = 0.05,

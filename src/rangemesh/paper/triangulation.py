@@ -9,7 +9,6 @@ import numpy as np
 
 from .._core import build_halfedges, delaunay_sweep, legalize_all, neighbors_from_halfedges, prune_dangling
 from ..camera import as_camera, backproject
-from ..geometry.signals import holding_signals
 from ..mesh import Mesh, Stats, count_edges, empty_mesh
 
 __all__ = ["delaunay_mesh", "triangulate_points"]
@@ -18,9 +17,6 @@ __all__ = ["delaunay_mesh", "triangulate_points"]
 def _empty(camera, shape, grid_shape, n_points, reason):
     return empty_mesh(camera, shape, Stats(grid_shape=grid_shape, sampled_points=n_points,
                                            reason=reason))
-
-
-@holding_signals
 def triangulate_points(pts: np.ndarray, engine: str = "sweep") -> tuple[np.ndarray, np.ndarray]:
     """The canonical Delaunay triangulation of distinct integer points.
 
@@ -91,9 +87,6 @@ def triangulate_points(pts: np.ndarray, engine: str = "sweep") -> tuple[np.ndarr
     faces = np.ascontiguousarray(faces)
     _, halfedges = build_halfedges(faces, n)
     return faces, neighbors_from_halfedges(halfedges)
-
-
-@holding_signals
 def delaunay_mesh(grid: np.ndarray, depth: np.ndarray, valid: np.ndarray, camera=None, *,
                   max_edge: float | None = None, engine: str = "sweep") -> Mesh:
     """Triangulate the valid samples and lift them to 3-D (SPEC 2.1-2.4).

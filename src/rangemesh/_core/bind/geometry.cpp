@@ -4,6 +4,8 @@
 #include "../geometry/delaunay.hpp"
 #include "../geometry/fans.hpp"
 #include "../geometry/halfedges.hpp"
+#include "../geometry/heap.hpp"
+#include "../geometry/raster.hpp"
 #include "../geometry/pixels.hpp"
 #include "../geometry/rasterize.hpp"
 #include "bindings.hpp"
@@ -162,6 +164,30 @@ void bind_geometry(nb::module_& m) {
         nb::arg("halfedges"),
         "SciPy-style (F, 3) neighbours: entry (t, k) is the triangle across the edge opposite "
         "corner k, -1 on the border.");
+}
+
+
+// The shared primitives that only kernels use, exposed for the tests (names with a leading
+// underscore): the heap's moves on NumPy arrays, and a triangle's row scan.
+void bind_geometry_tests(nb::module_& m) {
+    m.def("_heap_sift_up", [](Out1<double> keys, Out1<index_t> heap, Out1<index_t> slot, index_t i) {
+        return HeapView{span(keys), span(heap), span(slot)}.sift_up(i);
+    });
+    m.def("_heap_rekey", [](Out1<double> keys, Out1<index_t> heap, Out1<index_t> slot, index_t x,
+                            double key, index_t n) {
+        HeapView{span(keys), span(heap), span(slot)}.rekey(x, key, n);
+    });
+    m.def("_triangle_rows", [](index_t ar, index_t ac, index_t br, index_t bc, index_t cr, index_t cc,
+                               bool own_ab, bool own_bc, bool own_ca) {
+        TriangleRows rows(ar, ac, br, bc, cr, cc);
+        nb::list out;
+        for (index_t r = rows.r0; r <= rows.r1; ++r) {
+            if (r > rows.r0) rows.next_row();
+            const RowSpan s = rows.columns(own_ab, own_bc, own_ca);
+            out.append(nb::make_tuple(r, s.first, s.last, s.w0, s.w1, s.w2));
+        }
+        return out;
+    });
 }
 
 }  // namespace rangemesh::bind

@@ -23,6 +23,8 @@ from rangemesh.pipeline import triangulate  # noqa: E402
 
 RULES = {
     "paper defaults": {"method": "paper"},
+    # what triangulate(depth) gives: rangemesh.params.DEFAULT_TARGET
+    "default: max_error 0.5 %, at most 2 % of pixels": {},
     "max_error 0.25 %": {"method": "refine", "max_error": 0.25},
     "max_error 0.5 %": {"method": "refine", "max_error": 0.5},
     "max_error 1 %": {"method": "refine", "max_error": 1.0},

@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from rangemesh import MeshParams, _core
-from rangemesh.geometry.pixels import valid_range
+from rangemesh._core import valid_range
 from rangemesh.greedy.insertion import first_mesh
 from rangemesh.pipeline import prepare
 

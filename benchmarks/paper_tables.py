@@ -67,8 +67,10 @@ def main(argv=None):
             continue
         img = load(path)
         for name, kw in METHODS:
-            rangemesh.triangulate(img, background=bg, tiles=tiles, samples=samples, **kw)
-            runs = [rangemesh.triangulate(img, background=bg, tiles=tiles, samples=samples, **kw)
+            rangemesh.triangulate(img, background=bg, method="paper", tiles=tiles,
+                                  samples=samples, **kw)
+            runs = [rangemesh.triangulate(img, background=bg, method="paper", tiles=tiles,
+                                          samples=samples, **kw)
                     for _ in range(args.repeat)]
             m = runs[-1]
             med = {k: 1000 * statistics.median(r.stats.seconds[k] for r in runs)

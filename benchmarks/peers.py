@@ -89,11 +89,13 @@ QUICK_SCENES = [("crease", 0.0), ("box", 0.5)]
 PAPER_BUDGETS = [(5, 5), (7, 7), (8, 8), (10, 10)]
 
 OURS = [
-    ("rangemesh adaptive+disparity (paper)", dict(sampling="adaptive", flips="disparity")),
-    ("rangemesh adaptive+error", dict(sampling="adaptive", flips="error")),
-    ("rangemesh adaptive, no flips", dict(sampling="adaptive", flips=None)),
-    ("rangemesh uniform+error (Table I baseline)", dict(sampling="uniform", flips="error")),
-    ("rangemesh uniform, no flips", dict(sampling="uniform", flips=None)),
+    ("rangemesh adaptive+disparity (paper)", dict(method="paper", sampling="adaptive",
+                                                  flips="disparity")),
+    ("rangemesh adaptive+error", dict(method="paper", sampling="adaptive", flips="error")),
+    ("rangemesh adaptive, no flips", dict(method="paper", sampling="adaptive", flips=None)),
+    ("rangemesh uniform+error (Table I baseline)", dict(method="paper", sampling="uniform",
+                                                        flips="error")),
+    ("rangemesh uniform, no flips", dict(method="paper", sampling="uniform", flips=None)),
     ("rangemesh refine", dict(method="refine")),
     ("rangemesh refine, pixel heights", dict(method="refine", heights="pixel")),
 ]

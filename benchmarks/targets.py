@@ -59,7 +59,8 @@ def main(argv=None):
             print(f"skipping {rel}: not found", file=sys.stderr)
             continue
         img = load(path)
-        plain, m = timed(lambda img=img, bg=bg: rangemesh.triangulate(img, background=bg), args.repeat)
+        plain, m = timed(lambda img=img, bg=bg: rangemesh.triangulate(img, background=bg,
+                                                                      method="paper"), args.repeat)
         e = rangemesh.evaluate(m, img, background=bg).relative_error
         name = Path(rel).name[:28]
         print(f"| {name} | plain 4x4 tiles, 10x10 samples | {e:.3f} % | {m.stats.vertices} | 1 "
@@ -70,14 +71,15 @@ def main(argv=None):
             t, m = timed(lambda img=img, bg=bg, kw=kw: rangemesh.triangulate(
                 img, background=bg, method="paper", **kw), args.repeat)
             s = m.stats.target
-            ach = s["achieved"]
+            ach = s.achieved
             ach = f"{ach:.3f} %" if isinstance(ach, float) else f"{ach}"
             (k, v), = kw.items()
-            flag = "" if s["met"] else " (not met: " + s.get("note", "") + ")"
-            grid = {"tiles": tuple(s["tiles"]), "samples": tuple(s["samples"])}
-            if tuple(s["tiles"]) == (1, 1):
+            flag = "" if s.met else " (not met: " + s.note + ")"
+            grid = {"tiles": tuple(s.tiles), "samples": tuple(s.samples)}
+            if tuple(s.tiles) == (1, 1):
                 grid["sampling"] = "uniform"  # full resolution
-            one, _ = timed(lambda img=img, bg=bg, g=grid: rangemesh.triangulate(img, background=bg, **g),
+            one, _ = timed(lambda img=img, bg=bg, g=grid: rangemesh.triangulate(
+                img, background=bg, method="paper", **g),
                            args.repeat)
             print(f"| {name} | {k}={v} | {ach}{flag} | {m.stats.vertices} | {s['meshings']} "
                   f"| {1000 * t:.1f} | {1000 * one:.1f} | {t / one:.1f} |")

@@ -47,6 +47,8 @@ def kwargs_for(config: dict) -> dict:
 
     kw = dict(config)
     kw["method"] = "paper"  # these are the paper's meshes, whatever the default method
+    if "workers" in kw:  # the configs' name of the in-call thread count
+        kw["threads"] = kw.pop("workers")
     cam = kw.pop("camera", None)
     if cam is not None:
         kw["camera"] = rangemesh.Pinhole(*cam[1:])

@@ -275,3 +275,85 @@ def edge_error_closed_form(va, vb, pixels, vertices, depth, valid, camera):
         ex, ey, ez = qx - t * dx, qy - t * dy, qz - t * dz
         total += math.sqrt(ex * ex + ey * ey + ez * ez)
     return total
+
+
+def prune_dangling(simplices, neighbors, alive, n_vertices):
+    """Rounds of SPEC 2.3's pruning, from the definition; returns the new `alive` and the count.
+
+    A round: one pass in triangle order dropping each live triangle with no live neighbour
+    (a triangle dropped earlier in the pass counts as dead); then, at every vertex, the fans
+    (its live triangles, joined when they share an edge through it) are found by a search,
+    and every triangle outside its vertex's largest fan goes, ties kept by the fan holding
+    the smallest corner slot ``3 t + k``. Rounds repeat until one drops nothing.
+    """
+    alive = [bool(a) for a in alive]
+    tris = [tuple(int(x) for x in s) for s in simplices]
+    removed = 0
+    while True:
+        dropped = 0
+        for t in range(len(tris)):
+            if alive[t] and not any(nb >= 0 and alive[nb] for nb in neighbors[t]):
+                alive[t] = False
+                dropped += 1
+        best = {}  # vertex -> the triangles of its kept fan
+        for v in range(n_vertices):
+            mine = [t for t, tri in enumerate(tris) if alive[t] and v in tri]
+            fans, seen = [], set()
+            for t in mine:
+                if t in seen:
+                    continue
+                fan, todo = [], [t]
+                seen.add(t)
+                while todo:
+                    u = todo.pop()
+                    fan.append(u)
+                    for w in mine:
+                        if w not in seen and len(set(tris[u]) & set(tris[w])) == 2:
+                            seen.add(w)
+                            todo.append(w)
+                slot = min(3 * u + tris[u].index(v) for u in fan)
+                fans.append((-len(fan), slot, set(fan)))
+            if fans:
+                best[v] = min(fans, key=lambda f: (f[0], f[1]))[2]
+        for t, tri in enumerate(tris):
+            if alive[t] and any(t not in best[v] for v in tri):
+                alive[t] = False
+                dropped += 1
+        removed += dropped
+        if dropped == 0:
+            return np.array(alive), removed
+
+
+def delaunay_violations(pr, pc, triangles):
+    """Whether a triangle list is a Delaunay triangulation of all the points, by brute force.
+
+    Returns a list of what is wrong (empty when nothing is): a triangle that is not
+    counter-clockwise, a point strictly inside some triangle's circumcircle (exact integer
+    in-circle test, all pairs), a point that is no vertex, or a total area that differs from
+    the convex hull's (so the triangles tile the hull).
+    """
+    from scipy.spatial import ConvexHull
+
+    pts = [(int(r), int(c)) for r, c in zip(pr, pc, strict=True)]
+    faces = [tuple(int(x) for x in triangles[3 * t:3 * t + 3]) for t in range(len(triangles) // 3)]
+    bad = []
+    area2 = 0
+    for a, b, c in faces:
+        (ar, ac), (br, bc), (cr, cc) = pts[a], pts[b], pts[c]
+        o = (br - ar) * (cc - ac) - (bc - ac) * (cr - ar)
+        if o <= 0:
+            bad.append(f"face {(a, b, c)} is not counter-clockwise")
+        area2 += o
+        for d, (dr, dc) in enumerate(pts):
+            m = [[x - dr, y - dc, (x - dr) ** 2 + (y - dc) ** 2] for x, y in (pts[a], pts[b], pts[c])]
+            det = (m[0][0] * (m[1][1] * m[2][2] - m[2][1] * m[1][2])
+                   - m[0][1] * (m[1][0] * m[2][2] - m[2][0] * m[1][2])
+                   + m[0][2] * (m[1][0] * m[2][1] - m[2][0] * m[1][1]))
+            if det > 0:
+                bad.append(f"point {d} inside the circle of {(a, b, c)}")
+    if {v for f in faces for v in f} != set(range(len(pts))):
+        bad.append("a point is no vertex")
+    hull = ConvexHull(np.array(pts, float))
+    if area2 != round(2 * hull.volume):
+        bad.append(f"the faces' area {area2 / 2} is not the hull's {hull.volume}")
+    return bad

@@ -18,10 +18,10 @@ from .images import REAL_IMAGES
 def test_stream_equals_triangulate_frame_by_frame():
     frames = [scenes.box((90, 120), noise=0.3, seed=s).depth for s in range(3)]
     frames += [scenes.dome((70, 80)).depth, scenes.pyramid((90, 120)).depth]
-    got = list(mesh_stream(iter(frames), samples=8))
+    got = list(mesh_stream(iter(frames), samples=8, method="paper"))
     assert len(got) == len(frames)
     for frame, mesh in zip(frames, got, strict=True):
-        want = rangemesh.triangulate(frame, samples=8)
+        want = rangemesh.triangulate(frame, samples=8, method="paper")
         assert np.array_equal(mesh.faces, want.faces)
         assert np.array_equal(mesh.pixels, want.pixels)
         assert mesh.vertices.tobytes() == want.vertices.tobytes()
@@ -30,13 +30,14 @@ def test_stream_equals_triangulate_frame_by_frame():
 
 def test_stream_reports_bad_frames_clearly():
     with pytest.raises(ValueError, match="2-D"):
-        list(mesh_stream([np.zeros((4, 4, 3))]))
+        list(mesh_stream([np.zeros((4, 4, 3))], method="paper"))
     good = scenes.plane((20, 30)).depth
-    stream = mesh_stream([good, good > 100])  # a boolean frame after a good one of the same shape
+    # a boolean frame after a good one of the same shape
+    stream = mesh_stream([good, good > 100], method="paper")
     assert not next(stream).is_empty
     with pytest.raises(TypeError, match="dtype"):
         next(stream)
-    empty = list(mesh_stream([np.zeros((20, 20))], background=0))
+    empty = list(mesh_stream([np.zeros((20, 20))], background=0, method="paper"))
     assert empty[0].is_empty and empty[0].stats.reason
 
 
@@ -58,7 +59,7 @@ def batch_run(shared_data, tmp_path_factory):
     out = tmp / "out"
     out.mkdir()
     (out / ".teddy_disp2.ply.abc.part.ply").write_bytes(b"half a mesh")  # left by a killed run
-    results = mesh_many([src], out, workers=2, background="auto")
+    results = mesh_many([src], out, workers=2, background="auto", method="paper")
     return src, out, results
 
 
@@ -86,7 +87,7 @@ def test_batch_output_equals_single_meshing(batch_run, shared_data):
     import meshio
 
     img = rangemesh.io.read_range_image(src / "cones_disp2.png")
-    want = rangemesh.triangulate(img, background=0)
+    want = rangemesh.triangulate(img, background=0, method="paper")
     back = meshio.read(out / "cones_disp2.ply")
     assert np.array_equal(back.cells_dict["triangle"], want.faces)
 
@@ -95,12 +96,12 @@ def test_batch_output_equals_single_meshing(batch_run, shared_data):
 def test_rerun_skips_and_overwrite_redoes(batch_run, capsys):
     src, out, results = batch_run
     rc = main(["batch", str(src / "cones_disp2.png"), str(src / "teddy_disp2.png"), "-o", str(out),
-               "--workers", "1", "--json"])
+               "--method", "paper", "--workers", "1", "--json"])
     doc = json.loads(capsys.readouterr().out)
     assert rc == 0 and doc["summary"]["skipped"] == 2 and doc["summary"]["meshed"] == 0
     before = (out / "cones_disp2.ply").stat().st_mtime_ns
     rc = main(["batch", str(src / "cones_disp2.png"), "-o", str(out), "--workers", "1",
-               "--overwrite", "--quiet"])
+               "--method", "paper", "--overwrite", "--quiet"])  # the fixture's method
     assert rc == 0 and (out / "cones_disp2.ply").stat().st_mtime_ns != before
 
 
@@ -126,7 +127,7 @@ def test_real_local_dask_cluster_gives_the_same_outputs(batch_run, tmp_path):
     with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
                       dashboard_address=":0", silence_logs=40) as cluster:
         results = mesh_many(files, tmp_path, scheduler=cluster.scheduler_address,
-                            background="auto")
+                            background="auto", method="paper")
     assert all(r.status == "meshed" for r in results)
     for f in files:
         name = f.stem + ".ply"
@@ -159,6 +160,6 @@ def test_local_workers_run_one_thread_each(tmp_path, monkeypatch):
     monkeypatch.setattr(dask.distributed, "LocalCluster", fake_cluster)
     np.save(tmp_path / "a.npy", np.ones((8, 8)))
     with pytest.raises(Stop):
-        mesh_many([tmp_path / "a.npy"], tmp_path / "out", workers=1)
+        mesh_many([tmp_path / "a.npy"], tmp_path / "out", workers=1, method="paper")
     assert seen["threads_per_worker"] == 1
-    assert seen["env"] == {"NUMBA_NUM_THREADS": "1", "RANGEMESH_THREADS": "1"}
+    assert seen["env"] == {"RANGEMESH_THREADS": "1"}

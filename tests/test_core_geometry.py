@@ -74,3 +74,136 @@ def test_wrong_dtypes_are_converted_and_wrong_shapes_refused():
     assert _core.count_edges(faces, 3) == 3
     with pytest.raises(TypeError):
         _core.count_edges(np.array([0, 1, 2]), 3)
+
+
+# --- pixels ------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("dtype", [np.int8, np.int16, np.int32, np.int64, np.uint8, np.uint16,
+                                   np.uint32, np.uint64, np.float32, np.float64])
+def test_mask_image_follows_numpys_rules_for_every_dtype(dtype):
+    rng = np.random.default_rng(7)
+    arr = rng.integers(0, 9, (13, 17)).astype(dtype)
+    if np.dtype(dtype).kind == "f":
+        arr[rng.random(arr.shape) < 0.2] = np.nan
+        arr[0, 0], arr[0, 1] = np.inf, -np.inf
+    for bg in (None, 3, 2**64 - 1):
+        depth = np.full(arr.shape, -1.0)
+        valid = np.zeros(arr.shape, bool)
+        _core.mask_image(arr, bg is not None, 0.0 if bg is None else float(bg), depth, valid)
+        want = np.isfinite(arr.astype(np.float64))
+        if bg is not None:
+            want &= arr.astype(np.float64) != float(bg)
+        assert np.array_equal(valid, want)
+        assert np.array_equal(depth, np.where(want, arr.astype(np.float64), 0.0))
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.integers(1, 20), st.integers(1, 20), st.floats(0, 1))
+def test_valid_range_and_covered_error_by_plain_loops(seed, h, w, share):
+    rng = np.random.default_rng(seed)
+    depth = rng.normal(0, 100, (h, w))
+    valid = rng.random((h, w)) < share
+    pred = depth + rng.normal(0, 1, (h, w))
+    pred[rng.random((h, w)) < 0.3] = np.nan
+    pred[0, 0] = np.inf
+    inside = depth[valid].tolist()
+    want = (min(inside), max(inside), len(inside)) if inside else (0.0, 0.0, 0)
+    assert _core.valid_range(depth, valid) == want
+    total, n = 0.0, 0  # the same row-major order of additions
+    for r in range(h):
+        for c in range(w):
+            if valid[r, c] and np.isfinite(pred[r, c]):
+                total += abs(float(pred[r, c]) - float(depth[r, c]))
+                n += 1
+    assert _core.covered_error(pred, depth, valid) == (total, n)
+
+
+# --- fans ------------------------------------------------------------------------------------
+
+def test_prune_dangling_by_hand():
+    # a bow tie at vertex 2: fan {0, 1} (triangles 0-1-2 and 1-3-2 share the edge 1-2) and
+    # fan {2} (2-4-5), whose triangle shares edge 4-5 with triangle 3 (5-4-6). The smaller fan
+    # goes; triangle 3, left with no neighbour, goes in the next round.
+    simplices = np.array([[0, 1, 2], [1, 3, 2], [2, 4, 5], [5, 4, 6]], np.int64)
+    neighbors = np.array([[1, -1, -1], [-1, 0, -1], [3, -1, -1], [-1, -1, 2]], np.int64)
+    alive = np.ones(4, bool)
+    assert _core.prune_dangling(simplices, neighbors, alive, 7) == 2
+    assert alive.tolist() == [True, True, False, False]
+    # a tie: two fans of one triangle each at vertex 0; the one holding corner slot 0 stays
+    simplices = np.array([[0, 1, 2], [0, 3, 4], [1, 5, 2], [3, 6, 4]], np.int64)
+    neighbors = np.array([[2, -1, -1], [3, -1, -1], [-1, 0, -1], [-1, 1, -1]], np.int64)
+    alive = np.ones(4, bool)
+    assert _core.prune_dangling(simplices, neighbors, alive, 7) == 2
+    assert alive.tolist() == [True, False, True, False]
+
+
+@st.composite
+def live_meshes(draw):
+    n = draw(st.integers(3, 40))
+    seed = draw(st.integers(0, 2**32 - 1))
+    rng = np.random.default_rng(seed)
+    pts = np.unique(rng.integers(0, 9, size=(n, 2)), axis=0)
+    if len(pts) < 3 or np.linalg.matrix_rank(pts[1:] - pts[0]) < 2:
+        return None
+    faces = Delaunay(pts.astype(float)).simplices.astype(np.int64)
+    _, he = _core.build_halfedges(np.ascontiguousarray(faces), len(pts))
+    alive = rng.random(len(faces)) > draw(st.floats(0, 0.7))
+    return faces, _core.neighbors_from_halfedges(he), alive, len(pts)
+
+
+@settings(max_examples=60, deadline=None)
+@given(live_meshes())
+def test_prune_dangling_equals_the_definition(mesh):
+    from .reference import prune_dangling
+
+    if mesh is None:
+        return
+    faces, neighbors, alive, n = mesh
+    want, removed = prune_dangling(faces, neighbors, alive, n)
+    got = alive.copy()
+    assert _core.prune_dangling(faces, neighbors, got, n) == removed
+    assert np.array_equal(got, want)
+
+
+# --- Delaunay -------------------------------------------------------------------------------
+
+@settings(max_examples=80, deadline=None)
+@given(st.lists(st.tuples(st.integers(-6, 6), st.integers(-6, 6)), min_size=3, max_size=40, unique=True))
+def test_delaunay_sweep_is_delaunay_by_brute_force(pts):
+    from .reference import delaunay_violations
+
+    pr = np.array([p[0] for p in pts], np.int64)
+    pc = np.array([p[1] for p in pts], np.int64)
+    triangles, halfedges = _core.delaunay_sweep(pr, pc)
+    if np.linalg.matrix_rank(np.c_[pr - pr[0], pc - pc[0]]) < 2:
+        assert len(triangles) == 0 and len(halfedges) == 0
+        return
+    assert delaunay_violations(pr, pc, triangles) == []
+    assert np.array_equal(halfedges, _reference_halfedges(triangles.reshape(-1, 3)))
+    assert _core.legalize_all(triangles.copy(), halfedges.copy(), pr, pc) == 0
+
+
+def test_cocircular_ties_go_by_simulation_of_simplicity():
+    # The unit square's corners are co-circular. Perturbed lifting with eps^i, the smallest id
+    # highest: point 0 lifts above the others' plane, so the lower hull is the triangle of the
+    # other three plus one through 0, and the diagonal avoids point 0.
+    for order in ([(0, 0), (0, 1), (1, 0), (1, 1)], [(0, 1), (0, 0), (1, 1), (1, 0)]):
+        pr = np.array([p[0] for p in order], np.int64)
+        pc = np.array([p[1] for p in order], np.int64)
+        triangles, _ = _core.delaunay_sweep(pr, pc)
+        faces = [set(f) for f in triangles.reshape(-1, 3)]
+        assert len(faces) == 2 and faces[0] & faces[1] == {1, 2}  # in both orders, ids 1 and 2
+
+
+def test_legalize_all_flips_a_bad_diagonal_by_hand():
+    # A kite (0, 0), (2, -1), (4, 0), (2, 1) cut along its long diagonal 0-2: the circle
+    # through 0, 1, 2 (centre (2, 1.5), radius^2 6.25) holds point 3, so one flip gives 1-3.
+    pr = np.array([0, 2, 4, 2], np.int64)
+    pc = np.array([0, -1, 0, 1], np.int64)
+    faces = np.array([[0, 1, 2], [0, 2, 3]], np.int64)
+    assert [np.sign((pr[b] - pr[a]) * (pc[c] - pc[a]) - (pc[b] - pc[a]) * (pr[c] - pr[a]))
+            for a, b, c in faces] == [1, 1]
+    triangles, halfedges = _core.build_halfedges(faces, 4)
+    assert _core.legalize_all(triangles, halfedges, pr, pc) == 1
+    assert sorted(sorted(triangles[3 * t:3 * t + 3].tolist()) for t in range(2)) == [[0, 1, 3], [1, 2, 3]]
+    assert _core.legalize_all(triangles, halfedges, pr, pc) == 0

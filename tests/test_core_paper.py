@@ -1,4 +1,10 @@
-"""The paper's compiled kernels refuse views that disagree instead of reading out of bounds."""
+"""The paper's compiled kernels refuse views that disagree and stop cleanly on Ctrl-C."""
+
+import signal
+import subprocess
+import sys
+import textwrap
+import time
 
 import numpy as np
 import pytest
@@ -42,3 +48,44 @@ def test_edge_error_refuses_a_vertex_out_of_range():
     assert _core.edge_error(0, 1, pixels, vertices, *image) > 0.0
     with pytest.raises(ValueError, match="must agree"):
         _core.edge_error(0, 2, pixels, vertices, *image)
+
+
+_KERNEL_LOOP = textwrap.dedent("""
+    import numpy as np, sys
+    from rangemesh import Orthographic, _core
+    n = 700  # a regular mesh of n x n pixels, one diagonal a cell, random depths: many flips
+    r, c = np.divmod(np.arange(n * n), n)
+    pixels = np.stack([r, c], axis=1).astype(np.int64)
+    depth = np.random.default_rng(0).uniform(1, 50, (n, n))
+    vertices = np.stack([r, c, depth.ravel()], axis=1).astype(float)
+    v = (r * n + c).reshape(n, n)
+    faces = np.concatenate([np.stack([v[:-1, :-1], v[1:, :-1], v[:-1, 1:]], -1).reshape(-1, 3),
+                            np.stack([v[1:, :-1], v[1:, 1:], v[:-1, 1:]], -1).reshape(-1, 3)])
+    f = np.random.default_rng(1).uniform(0.5, 2.0, (3000, 3000))
+    b = np.linspace(0, 2999, 201).round().astype(np.int64)
+    grid = np.zeros((200 * 19 + 1, 200 * 19 + 1, 2), np.int32)
+    print("ready", flush=True)
+    while True:
+        tri, he = _core.build_halfedges(faces, n * n)
+        _core.flip_loop(tri, he, pixels, vertices, depth, np.ones((n, n), bool),
+                        Orthographic().as_array(), rule=1, threshold=-np.inf, delta=0.35,
+                        epsilon=0.005, max_angle=2.8, min_bend=0.09, quantum=2.0**-32,
+                        max_edge2=np.inf, verdicts=np.zeros(8, np.int64),
+                        log=np.zeros((0, 3), np.int64))
+        _core.sample_tiles(f, b, b, 20, 20, grid, 2)
+""")
+
+
+def test_ctrl_c_stops_the_flips_and_the_sample_threads(tmp_path):
+    """SIGINT at various moments, mostly inside the kernels: KeyboardInterrupt, never a crash."""
+    script = tmp_path / "loop.py"
+    script.write_text(_KERNEL_LOOP)
+    for delay in (0.1, 0.4, 0.9, 1.6):
+        proc = subprocess.Popen([sys.executable, str(script)], stdout=subprocess.PIPE,
+                                stderr=subprocess.PIPE, text=True)
+        assert proc.stdout.readline().strip() == "ready"
+        time.sleep(delay)
+        proc.send_signal(signal.SIGINT)
+        _, err = proc.communicate(timeout=60)
+        assert proc.returncode == -signal.SIGINT, err  # an uncaught KeyboardInterrupt
+        assert err.rstrip().endswith("KeyboardInterrupt"), err

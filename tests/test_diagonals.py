@@ -16,8 +16,7 @@ from hypothesis import strategies as st
 
 import rangemesh
 from rangemesh import _core, evaluate, triangulate
-from rangemesh._core import error_flips, flip_by_error, triangle_error
-from rangemesh.geometry.pixels import valid_range
+from rangemesh._core import error_flips, flip_by_error, triangle_error, valid_range
 from rangemesh.greedy import insertion
 
 from .helpers import assert_valid_mesh
@@ -229,7 +228,7 @@ def test_command_line_diagonals(tmp_path, capsys):
                           np.sort(np.sort(ref.faces, axis=1), axis=0))
     capsys.readouterr()
     assert main(["mesh", str(src), "--method", "paper", "--diagonals", "error"]) == 2
-    assert "--diagonals belongs to --method refine" in capsys.readouterr().err
+    assert "--diagonals is an option of --method refine" in capsys.readouterr().err
 
 
 def test_greedy_mesh_refuses_an_unknown_choice():

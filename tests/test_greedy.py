@@ -43,7 +43,7 @@ def test_vertex_count_is_exact_and_the_mesh_valid(name, image, background, n):
     m = triangulate(image, background=background, vertices=n, method="refine")
     valid = _valid(image, background)
     assert m.stats.vertices == len(m.vertices) == min(n, int(valid.sum()))
-    assert m.stats.target["met"]
+    assert m.stats.target.met
     assert_valid_mesh(m, valid)
     # valid pixels are covered (ten vertices cannot trace a silhouette: no bound there)
     if n >= 120:
@@ -55,13 +55,13 @@ def test_vertex_count_is_exact_and_the_mesh_valid(name, image, background, n):
 def test_max_error_holds(name, image, background, bound):
     m = triangulate(image, background=background, max_error=bound, method="refine")
     assert evaluate(m, image, background=background).relative_error <= bound
-    assert m.stats.target["met"] and m.stats.target["meshings"] <= 2
+    assert m.stats.target.met and m.stats.target.meshings <= 2
 
 
 def test_max_error_is_met_with_few_vertices_to_spare():
     """One pass, by construction: stopping one insertion earlier would miss the bound."""
     from rangemesh import _core
-    from rangemesh.geometry.pixels import valid_range
+    from rangemesh._core import valid_range
     from rangemesh.greedy import insertion
 
     image = np.load(CROPS)["venus"].astype(float)
@@ -215,7 +215,7 @@ def test_scenes_with_holes(seed, name, holes, n):
     valid = np.isfinite(depth)
     assert_valid_mesh(m, valid)
     if not m.is_empty:
-        assert len(m.vertices) == min(n, int(valid.sum())) or m.stats.target.get("note")
+        assert len(m.vertices) == min(n, int(valid.sum())) or m.stats.target.note
 
 
 @pytest.mark.parametrize("rel, background", REAL_IMAGES, ids=[r[0].split("/")[-1] for r in REAL_IMAGES])
@@ -229,27 +229,30 @@ def test_real_images(shared_data, rel, background):
     assert ev.uncovered <= 1.0
 
 
-def test_greedy_is_the_default_for_a_target_and_refuses_paper_parameters():
+def test_refine_is_the_default_and_refuses_paper_parameters():
     depth = scenes.make("dome", (30, 30)).depth
 
     def is_greedy(mesh):  # the paper's grid search reports its grid; greedy insertion does not
-        return "tiles" not in mesh.stats.target
+        return mesh.stats.target is None or mesh.stats.target.tiles is None
 
     assert is_greedy(triangulate(depth, vertices=100))
     assert is_greedy(triangulate(depth, max_error=2.0))
     assert is_greedy(triangulate(depth, vertices=100, walls=False, heights="pixel"))
+    assert is_greedy(triangulate(depth))  # without a target too: the default target
     assert not is_greedy(triangulate(depth, vertices=100, method="paper"))
-    # a parameter only the paper's method reads selects it, as a keyword or in params
-    assert not is_greedy(triangulate(depth, vertices=100, flips="error"))
-    assert not is_greedy(triangulate(depth, vertices=100, tiles=2))
-    assert not is_greedy(triangulate(depth, rangemesh.MeshParams(delta=15), vertices=100))
-    assert not is_greedy(triangulate(depth, vertices=100, max_edge=8))
+    assert not is_greedy(triangulate(depth, vertices=100, flips="error", method="paper"))
+    assert not is_greedy(triangulate(depth, vertices=100, tiles=2, method="paper"))
+    # the deprecated params= keeps the method it chose before: the paper's for its parameters
+    with pytest.warns(DeprecationWarning):
+        assert not is_greedy(triangulate(depth, rangemesh.MeshParams(delta=15), vertices=100))
+    assert not is_greedy(triangulate(depth, vertices=100, max_edge=8, method="paper"))
     # without a target, the paper's method with its grid (the meshes it always gave)
-    assert triangulate(depth).stats.grid_shape == rangemesh.MeshParams().grid_shape
-    with pytest.raises(ValueError, match="needs a target"):
-        triangulate(depth, method="refine")
-    with pytest.raises(ValueError, match="method='paper'"):
+    assert triangulate(depth, method="paper").stats.grid_shape == rangemesh.MeshParams().grid_shape
+    assert triangulate(depth, method="refine").stats.target.default
+    with pytest.raises(ValueError, match="flips is an option of method='paper'"):
         triangulate(depth, vertices=50, method="refine", flips="error")
+    with pytest.raises(ValueError, match="tiles is an option of method='paper'"):
+        triangulate(depth, vertices=50, tiles=2)  # method= alone chooses the method
     with pytest.raises(ValueError, match="method"):
         triangulate(depth, vertices=50, method="delatin")
 
@@ -259,11 +262,10 @@ def test_the_earlier_name_greedy_still_means_refine(tmp_path, capsys):
 
     depth = np.load(CROPS)["venus"]
     new = triangulate(depth, vertices=120, method="refine")
-    old = triangulate(depth, vertices=120, method="greedy")
+    with pytest.warns(DeprecationWarning, match="earlier name"):
+        old = triangulate(depth, vertices=120, method="greedy")
     assert np.array_equal(new.vertices, old.vertices) and np.array_equal(new.faces, old.faces)
-    assert "tiles" not in old.stats.target  # not the paper's grid search
-    with pytest.raises(ValueError, match="method='refine' needs a target"):
-        triangulate(depth, method="greedy")
+    assert old.stats.target.tiles is None  # not the paper's grid search
     src = tmp_path / "venus.npy"
     np.save(src, depth)
     outs = []
@@ -274,15 +276,16 @@ def test_the_earlier_name_greedy_still_means_refine(tmp_path, capsys):
         outs.append(rangemesh.read_mesh(out))
     assert np.array_equal(outs[0].vertices, outs[1].vertices)
     assert np.array_equal(outs[0].faces, outs[1].faces)
+    capsys.readouterr()
     assert main(["mesh", str(src), "--method", "greedy", "--vertices", "30", "--tiles", "2"]) == 2
-    assert "--method refine takes" in capsys.readouterr().err
+    assert "--tiles is an option of --method paper" in capsys.readouterr().err
 
 
 def test_exact_count_when_the_mesh_already_fits_exactly():
     """A piecewise-planar image is exact with few vertices; more are still inserted as asked."""
     depth = scenes.make("stairs", (40, 50)).depth
     m = triangulate(depth, vertices=900, method="refine")
-    assert len(m.vertices) == 900 and m.stats.target["met"]
+    assert len(m.vertices) == 900 and m.stats.target.met
     assert evaluate(m, depth).relative_error < 1e-9
 
 
@@ -303,7 +306,7 @@ def test_command_line_greedy(tmp_path, capsys, target):
         assert evaluate(m, np.load(CROPS)["venus"]).relative_error <= 1.5
     # paper options are refused with --method refine, in one line
     assert main(["mesh", str(src), "--method", "refine", "--vertices", "30", "--tiles", "2"]) == 2
-    assert "belongs to --method paper" in capsys.readouterr().err
+    assert "--tiles is an option of --method paper" in capsys.readouterr().err
 
 
 @pytest.mark.parametrize("diagonals", ["delaunay", "error"])
@@ -410,10 +413,21 @@ def test_fitted_depths_are_not_pulled_across_a_small_step():
     assert evaluate(m, depth).relative_error <= evaluate(copied, depth).relative_error * (1 + 1e-9)
     assert evaluate(copied, depth).relative_error > 0.01  # the step is not meshed exactly
     # the copied depths are the solution: returned as they are, without the full pass
+    from rangemesh import _core
+
     valid = np.ones(depth.shape, bool)
+    outcomes = []
+
+    def fit(*args, **kwargs):
+        outcome, fitted, system = _core_fit(*args, **kwargs)
+        outcomes.append(outcome)
+        return outcome, fitted, system
+
+    _core_fit = _core.fit_heights
     with pytest.MonkeyPatch.context() as mp:
-        mp.setattr(heights, "_full_pass", None)  # calling it would raise
+        mp.setattr(_core, "fit_heights", fit)
         z = heights.fit_heights(m.pixels, m.faces, depth, valid, m.camera)
+    assert outcomes == ["copied"]
     np.testing.assert_array_equal(z, own)
 
 
@@ -436,8 +450,8 @@ def test_block_solver_equals_a_dense_solve(n, n_faces, seed):
     # The matrix-free conjugate gradients of the fit, against numpy's dense solve of the
     # same normal equations assembled here by hand: M = sum of the faces' J^T J blocks
     # plus diag(ridge), ridge = 1e-3 max(diag(M), 1), right-hand side b + ridge * h0.
+    from rangemesh._core import solve_blocks
     from rangemesh.greedy.heights import RIDGE, _direct_solve
-    from rangemesh.greedy.heights_kernels import solve_blocks
 
     rng = np.random.default_rng(seed)
     ids = np.stack([rng.choice(n, 3, replace=False) for _ in range(n_faces)]).astype(np.int64)
@@ -469,7 +483,7 @@ def test_the_fit_samples_its_errors_from_every_kth_face_or_row(vertices):
     # order, or of every 4th row: the same errors as a full pass over the faces order[::k]
     # alone, or over the image with every other row masked out (each face owns its pixels
     # by its own edges' orientation, whatever its neighbours).
-    from rangemesh.greedy.heights_kernels import empty_buffers, face_order, fit_pass
+    from rangemesh._core import face_order, fit_sample_errors
 
     sc = scenes.make("box", (60, 80), noise=0.5)
     m = triangulate(sc.depth, vertices=vertices, method="refine", heights="pixel")
@@ -480,9 +494,7 @@ def test_the_fit_samples_its_errors_from_every_kth_face_or_row(vertices):
     order = face_order(faces, pr, pc, 60, 80, 8)
 
     def errors(f, o, mask, rows, every):
-        bufs = empty_buffers(len(f), sc.depth.size)
-        used = fit_pass(f, o, pr, pc, h0, sc.depth, mask, -1.0, *bufs, rows, every)
-        return np.sort(bufs[0][:used])
+        return np.sort(fit_sample_errors(f, o, pr, pc, h0, sc.depth, mask, rows, every, sc.depth.size))
 
     every_row = np.zeros_like(valid)
     every_row[::4] = True
@@ -513,7 +525,7 @@ def test_the_fit_samples_about_2000_faces_when_it_has_many():
 def test_face_order_sorts_by_the_cell_of_the_top_left_corner(seed, n, h, w, tile):
     # against numpy: the stable sort by (row // tile, col // tile) of each face's smallest row
     # and smallest column, cells in row-major order
-    from rangemesh.greedy.heights_kernels import face_order
+    from rangemesh._core import face_order
 
     rng = np.random.default_rng(seed)
     pr = rng.integers(0, h, 30)
@@ -531,6 +543,7 @@ def test_the_fit_does_not_depend_on_the_order_it_visits_the_faces(monkeypatch):
     # A 400x400 image is visited in `face_order`; with the order switched off (the faces as
     # they come) the same system is solved: the same depths but for rounding. Noiseless
     # planes: the outlier threshold is its floor either way, whatever pixels were sampled.
+    from rangemesh import _core
     from rangemesh.greedy import heights
 
     sc = scenes.make("box", (400, 400))
@@ -542,21 +555,20 @@ def test_the_fit_does_not_depend_on_the_order_it_visits_the_faces(monkeypatch):
     monkeypatch.setattr(heights, "ORDER_MIN_PIXELS", sc.depth.size + 1)
     as_they_come = heights.fit_heights(*args)
     np.testing.assert_allclose(ordered, as_they_come, rtol=0, atol=1e-9 * np.ptp(sc.depth))
-    assert not np.array_equal(heights.face_order(np.ascontiguousarray(m.faces, np.int64),
-                                                 m.pixels[:, 0].astype(np.int64),
-                                                 m.pixels[:, 1].astype(np.int64), 400, 400, 8),
+    assert not np.array_equal(_core.face_order(np.ascontiguousarray(m.faces, np.int64),
+                                               m.pixels[:, 0].astype(np.int64),
+                                               m.pixels[:, 1].astype(np.int64), 400, 400, 8),
                               np.arange(len(m.faces)))  # the orders did differ
 
 
 def test_the_paper_method_refuses_fitted_depths():
     depth = scenes.make("crease", (30, 40)).depth
-    with pytest.raises(ValueError, match="heights='fit' belongs to method='refine'"):
-        triangulate(depth, heights="fit")
+    with pytest.raises(ValueError, match="heights is an option of method='refine'"):
+        triangulate(depth, heights="fit", method="paper")
     with pytest.raises(ValueError, match="heights must be one of"):
         triangulate(depth, vertices=30, method="refine", heights="least-squares")
-    a = triangulate(depth, tiles=2, samples=5)
-    b = triangulate(depth, tiles=2, samples=5, heights="pixel")
-    assert np.array_equal(a.vertices, b.vertices) and np.array_equal(a.faces, b.faces)
+    with pytest.raises(ValueError, match="heights is an option of method='refine'"):
+        triangulate(depth, tiles=2, samples=5, heights="pixel", method="paper")
 
 
 @given(st.integers(0, 2**31), st.integers(1, 70), st.integers(1, 70), st.floats(0.001, 1.0))
@@ -574,15 +586,3 @@ def test_corner_depths_are_those_of_the_nearest_valid_pixel(seed, h, w, share):
         d = (rr - r) ** 2 + (cc - c) ** 2
         j = min(range(len(d)), key=lambda k: (d[k], rr[k], cc[k]))
         assert got[i] == depth[rr[j], cc[j]]
-
-
-@given(st.lists(st.one_of(st.floats(0, 1e6), st.sampled_from([0.0, 1.0, float("nan")])),
-                min_size=1, max_size=60))
-def test_the_fits_median_is_numpys(values):
-    # the fit takes its errors' median in place of np.median: the same float, NaN included
-    from rangemesh.greedy.heights import median_inplace
-
-    x = np.array(values, dtype=np.float64)
-    want = np.median(x)
-    got = median_inplace(x.copy())
-    assert (np.isnan(want) and np.isnan(got)) or got == want

@@ -10,6 +10,7 @@ from rangemesh import _core, scenes
 from rangemesh.camera import Orthographic, Pinhole, Spherical, backproject
 from rangemesh.paper.sampling import curvature, fill_gaps
 from rangemesh.paper.triangulation import delaunay_mesh, triangulate_points
+from rangemesh.pipeline import call_options
 
 from . import reference as ref
 from .images import REAL_IMAGES, load
@@ -114,7 +115,7 @@ def test_whole_pipeline_equals_reference_pipeline():
     for name in ("box", "pyramid", "dome", "crease"):
         sc = scenes.make(name, (90, 120), noise=0.3)
         p = rangemesh.MeshParams(samples=9)
-        fast = rangemesh.triangulate(sc.depth, p)
+        fast = rangemesh.triangulate(sc.depth, method="paper", **call_options(p, "paper"))
         d, v = rangemesh.to_depth_and_mask(sc.depth)
         d, v = ref.fill_gaps_numpy(d, v)
         K = ref.curvature_numpy(d, v, p.levels)

@@ -6,11 +6,13 @@ from hypothesis import strategies as st
 
 from rangemesh import _core
 from rangemesh.camera import Orthographic, Pinhole, Spherical, backproject
-from rangemesh.geometry import heap as heapq_nb
-from rangemesh.geometry import raster
-from rangemesh.geometry.vectors import orient
 
 from . import reference as ref
+
+
+def orient(ra, ca, rb, cb, rc, cc):
+    """Twice the signed area of (a, b, c), from its definition."""
+    return (rb - ra) * (cc - ca) - (cb - ca) * (rc - ra)
 
 coord = st.integers(0, 40)
 
@@ -32,16 +34,12 @@ def test_line_is_8_connected_and_hits_endpoints(r0, c0, r1, c1):
 
 
 def _walked_spans(a, b, c, owns):
-    """Each row's (first, last) columns as `raster.triangle_rows/next_row/row_columns` walk them.
+    """Each row's (first, last) columns as the core's row scan (`TriangleRows`) walks them.
 
     Also checks the edge functions returned at each row's first column against `orient`.
     """
-    r0, r1, c0, c1, edges = raster.triangle_rows(*a, *b, *c)
     spans = {}
-    for r in range(r0, r1 + 1):
-        if r > r0:
-            edges = raster.next_row(edges)
-        lo, hi, w0, w1, w2 = raster.row_columns(edges, *owns, c0, c1)
+    for r, lo, hi, w0, w1, w2 in _core._triangle_rows(*a, *b, *c, *owns):
         assert (w0, w1, w2) == tuple(orient(*p, *q, r, lo) for p, q in ((a, b), (b, c), (c, a)))
         spans[r] = (lo, hi)
     return spans
@@ -124,7 +122,7 @@ def test_rasterize_matches_a_box_loop(tris, shift):
     face = np.full((h, w), -1, np.int64)
     fr = np.array([[p[0] for p in tri] for tri in corners], np.float64)
     fc = np.array([[p[1] for p in tri] for tri in corners], np.float64)
-    raster.rasterize(fr, fc, vals, h, w, out, face)
+    _core.rasterize(fr, fc, vals, out, face)
     want, want_face = _box_raster(corners, vals, h, w)
     np.testing.assert_array_equal(face, want_face)
     np.testing.assert_array_equal(out, want)
@@ -194,12 +192,12 @@ def test_heap_pops_in_gain_order_with_id_ties():
     heap = np.arange(n)
     slot = np.arange(n)
     for i in range(n):
-        heapq_nb.sift_up(keys, heap, slot, i)
+        _core._heap_sift_up(keys, heap, slot, i)
     order = []
     for _ in range(5):
         x = heap[0]
         order.append(int(x))
-        heapq_nb.rekey(keys, heap, slot, x, -np.inf, n)  # retire it
+        _core._heap_rekey(keys, heap, slot, x, -np.inf, n)  # retire it
     assert order == [1, 2, 4, 0, 5]  # 1 and 2 tie at 5.0: smaller id first
     assert np.array_equal(heap[slot], np.arange(n))
 
@@ -221,13 +219,13 @@ def test_heap_rekey_keeps_invariant(rng):
     heap = np.arange(n)
     slot = np.arange(n)
     for i in range(n):
-        heapq_nb.sift_up(keys, heap, slot, i)
+        _core._heap_sift_up(keys, heap, slot, i)
     _check_heap(keys, heap, slot, gain)
     for _ in range(500):
         x = int(rng.integers(n))
         # ties on purpose: a few repeated values, and retired ids
         gain[x] = rng.choice([rng.normal(), 0.25, -np.inf])
-        heapq_nb.rekey(keys, heap, slot, x, gain[x], n)
+        _core._heap_rekey(keys, heap, slot, x, gain[x], n)
         _check_heap(keys, heap, slot, gain)
 
 
@@ -243,7 +241,7 @@ def test_count_edges_matches_a_set_of_vertex_pairs(faces):
 
 
 def test_valid_faces_by_hand():
-    from rangemesh.geometry.pixels import valid_faces
+    from rangemesh._core import valid_faces
 
     # 5 vertices on a 3x3 image whose pixel (0, 2) is background; vertex 3 sits there.
     # Triangles (0, 1, 2) and (2, 1, 4) keep; (1, 3, 4) has the background vertex.
@@ -263,7 +261,7 @@ def test_valid_faces_by_hand():
 def test_nearest_valid_is_the_brute_force_nearest(seed, h, w, share):
     # any pixel, not only a corner: nearest by squared distance, then smallest (row, col);
     # (-1, -1) on an image with no valid pixel
-    from rangemesh.geometry.pixels import nearest_valid
+    from rangemesh._core import nearest_valid
 
     rng = np.random.default_rng(seed)
     valid = rng.random((h, w)) < share
@@ -278,7 +276,7 @@ def test_nearest_valid_is_the_brute_force_nearest(seed, h, w, share):
 
 
 def test_grid_pixels_by_hand():
-    from rangemesh.geometry.pixels import grid_pixels
+    from rangemesh._core import grid_pixels
 
     # 10x10, a 2x2 grid: rows and columns int(0.5 * 10 / 2) = 2 and int(1.5 * 10 / 2) = 7,
     # the corners first; the background pixel (7, 2) is left out

@@ -29,7 +29,7 @@ def test_relative_error_by_hand():
 @pytest.mark.parametrize("name", ["box", "dome", "pyramid"])
 def test_errors_match_brute_force(name):
     sc = scenes.make(name, (40, 50), noise=0.3)
-    m = triangulate(sc.depth, tiles=2, samples=5)
+    m = triangulate(sc.depth, tiles=2, samples=5, method="paper")
     valid = np.isfinite(sc.depth)
     errs = ref.rendered_errors(m, sc.depth, valid)
     span = np.nanmax(sc.depth) - np.nanmin(sc.depth)
@@ -47,14 +47,14 @@ def test_pinhole_render_is_exact_on_a_3d_plane():
     r, c = np.mgrid[0:48, 0:64].astype(float)
     # Z = 2 + 0.01 * (c - cx) Z / fx  ->  Z = 2 / (1 - 0.01 (c - cx) / fx)
     Z = 2.0 / (1.0 - 0.01 * (c - 32.0) / 50.0)
-    m = triangulate(Z, camera=cam, tiles=2, samples=4, flips=None)
+    m = triangulate(Z, camera=cam, tiles=2, samples=4, flips=None, method="paper")
     pred, _ = render_depth(m)
     np.testing.assert_allclose(pred, Z, rtol=1e-12)
 
 
 def test_edge_band_uses_given_mask():
     sc = scenes.box((60, 80))
-    m = triangulate(sc.depth, samples=6)
+    m = triangulate(sc.depth, samples=6, method="paper")
     e = evaluate(m, sc.depth, discontinuities=sc.discontinuities)
     e0 = evaluate(m, sc.depth, discontinuities=sc.discontinuities, band=0)
     assert e.edge_band_pixels > e0.edge_band_pixels == sc.discontinuities.sum()
@@ -62,6 +62,6 @@ def test_edge_band_uses_given_mask():
 
 
 def test_evaluate_rejects_other_shape():
-    m = triangulate(np.ones((20, 20)) + np.arange(20), samples=3)
+    m = triangulate(np.ones((20, 20)) + np.arange(20), samples=3, method="paper")
     with pytest.raises(ValueError, match="shape"):
         evaluate(m, np.ones((10, 10)))

@@ -16,6 +16,7 @@ from rangemesh import (
     scenes,
     triangulate,
 )
+from rangemesh.pipeline import call_options
 from rangemesh.prepare import to_depth_and_mask
 
 from .helpers import assert_valid_mesh, canonical_faces
@@ -36,10 +37,10 @@ def same_mesh(a, b):
 def test_p1_background_marker_invariance(flips):
     sc = scenes.dome((90, 110))
     base = np.where(np.isnan(sc.depth), 0.0, sc.depth)
-    as_zero = triangulate(base.astype(np.uint16), background=0, flips=flips)
+    as_zero = triangulate(base.astype(np.uint16), background=0, flips=flips, method="paper")
     as_max = triangulate(np.where(base == 0, 65535, base).astype(np.uint16), background=65535,
-                         flips=flips)
-    as_nan = triangulate(np.where(base == 0, np.nan, base.astype(np.uint16)), flips=flips)
+                         flips=flips, method="paper")
+    as_nan = triangulate(np.where(base == 0, np.nan, base.astype(np.uint16)), flips=flips, method="paper")
     for other in (as_max, as_nan):
         same_mesh(as_zero, other)
         np.testing.assert_array_equal(as_zero.vertices, other.vertices)
@@ -50,8 +51,8 @@ def test_p1_background_marker_invariance(flips):
 @pytest.mark.parametrize("s", [4.0, 0.125, 1000.0])
 def test_p2_unit_invariance(flips, s):
     sc = scenes.pyramid((80, 100))
-    a = triangulate(sc.depth, flips=flips, camera=Orthographic(1, 1, 1))
-    b = triangulate(sc.depth * s, flips=flips, camera=Orthographic(1, 1, 1 / s))
+    a = triangulate(sc.depth, flips=flips, camera=Orthographic(1, 1, 1), method="paper")
+    b = triangulate(sc.depth * s, flips=flips, camera=Orthographic(1, 1, 1 / s), method="paper")
     same_mesh(a, b)
     np.testing.assert_allclose(a.vertices, b.vertices, rtol=1e-12)
 
@@ -61,14 +62,14 @@ def test_p2_unit_invariance_random(seed, k):
     rng = np.random.default_rng(seed)
     d = np.cumsum(rng.normal(size=(30, 40)), axis=1) + 50
     s = 2.0**k * 10  # not only powers of two
-    a = triangulate(d, tiles=2, samples=6)
-    b = triangulate(d * s, tiles=2, samples=6, camera=(1, 1, 1 / s))
+    a = triangulate(d, tiles=2, samples=6, method="paper")
+    b = triangulate(d * s, tiles=2, samples=6, camera=(1, 1, 1 / s), method="paper")
     same_mesh(a, b)
 
 
 def test_p6_determinism():
     sc = scenes.box((100, 120), noise=0.5)
-    runs = [triangulate(sc.depth, tiles=4, samples=10) for _ in range(3)]
+    runs = [triangulate(sc.depth, tiles=4, samples=10, method="paper") for _ in range(3)]
     for r in runs[1:]:
         same_mesh(runs[0], r)
         assert runs[0].vertices.tobytes() == r.vertices.tobytes()
@@ -86,7 +87,7 @@ def test_p3_p4_random_images(seed, tv, th, rs, zs, flips, sampling):
     d = rng.uniform(0, 100, (h, w))
     d[rng.random((h, w)) < rng.uniform(0, 0.5)] = np.nan  # holes and speckle
     p = MeshParams(tiles=(tv, th), samples=(rs, zs), flips=flips, sampling=sampling)
-    m = triangulate(d, p)
+    m = triangulate(d, method="paper", **call_options(p, "paper"))
     gr, gc = p.grid_shape
     assert m.stats.grid_shape == (gr, gc)
     assert m.stats.vertices <= m.stats.sampled_points <= gr * gc
@@ -98,7 +99,7 @@ def test_p3_p4_random_images(seed, tv, th, rs, zs, flips, sampling):
 @pytest.mark.parametrize("flips", FLIPS)
 def test_p4_scenes(name, flips):
     sc = scenes.make(name, (90, 120), noise=0.2)
-    m = triangulate(sc.depth, flips=flips)
+    m = triangulate(sc.depth, flips=flips, method="paper")
     _, valid = to_depth_and_mask(sc.depth)
     assert_valid_mesh(m, valid)
     assert m.stats.vertices <= 37 * 37
@@ -106,7 +107,7 @@ def test_p4_scenes(name, flips):
 
 def test_plane_is_exact_and_needs_no_flip():
     sc = scenes.plane()
-    m = triangulate(sc.depth)
+    m = triangulate(sc.depth, method="paper")
     e = evaluate(m, sc.depth)
     assert e.relative_error < 1e-9 and e.max_error < 1e-9 and e.uncovered == 0
     assert m.stats.flipped_edges == 0
@@ -116,8 +117,8 @@ def test_plane_is_exact_and_needs_no_flip():
 @pytest.mark.parametrize("samples", [6, 8, 10])
 def test_p5_flips_lower_crease_band_error(flips, samples):
     sc = scenes.crease((100, 130))
-    before = triangulate(sc.depth, samples=samples, flips=None)
-    after = triangulate(sc.depth, samples=samples, flips=flips)
+    before = triangulate(sc.depth, samples=samples, flips=None, method="paper")
+    after = triangulate(sc.depth, samples=samples, flips=flips, method="paper")
     assert after.stats.flipped_edges > 0
     assert_valid_mesh(after)
     eb = evaluate(before, sc.depth, discontinuities=sc.discontinuities).edge_band_error
@@ -130,7 +131,7 @@ def test_box_no_triangle_spans_the_jump(flips):
     # A box 60 units tall on a tilted plane. Every covered pixel more than 2 px from the
     # jump is reproduced exactly: no triangle reaches across the jump into either level.
     sc = scenes.box((120, 160))
-    m = triangulate(sc.depth, samples=10, flips=flips)
+    m = triangulate(sc.depth, samples=10, flips=flips, method="paper")
     assert_valid_mesh(m)
     pred, _ = render_depth(m)
     far = ~ndimage.binary_dilation(sc.discontinuities, iterations=2)
@@ -165,7 +166,7 @@ def test_box_no_triangle_spans_the_jump(flips):
 )
 def test_p7_bad_input(image, kwargs, exc, match):
     with pytest.raises(exc, match=match):
-        triangulate(image, **kwargs)
+        triangulate(image, method="paper", **kwargs)
 
 
 @pytest.mark.parametrize(
@@ -173,7 +174,7 @@ def test_p7_bad_input(image, kwargs, exc, match):
     [np.zeros((20, 20)), np.full((20, 20), np.nan), np.full((20, 20), np.inf)],
 )
 def test_p7_nothing_to_mesh_gives_empty_mesh(image):
-    m = triangulate(image, background=0)
+    m = triangulate(image, background=0, method="paper")
     assert m.is_empty and "background" in m.stats.reason
     assert m.vertices.shape == (0, 3) and m.faces.shape == (0, 3)
 
@@ -181,14 +182,14 @@ def test_p7_nothing_to_mesh_gives_empty_mesh(image):
 def test_p7_single_valid_row_is_collinear():
     d = np.full((20, 20), np.nan)
     d[7, :] = 5.0
-    m = triangulate(d, fill_gaps=False)
+    m = triangulate(d, fill_gaps=False, method="paper")
     assert m.is_empty and m.stats.reason
 
 
 def test_pinhole_camera_mesh_is_valid_and_metric():
     sc = scenes.box((120, 160))
     cam = Pinhole(100.0, 100.0, 80.0, 60.0, 0.01)
-    m = triangulate(sc.depth, camera=cam)
+    m = triangulate(sc.depth, camera=cam, method="paper")
     assert_valid_mesh(m)
     z = sc.depth[m.pixels[:, 0], m.pixels[:, 1]] * 0.01
     np.testing.assert_allclose(m.vertices[:, 2], z)
@@ -204,10 +205,10 @@ def test_stage_functions_compose_to_triangulate():
     grid = rangemesh.sample_grid(depth, valid, p)
     tri = rangemesh.delaunay_mesh(grid, depth, valid)
     flipped = rangemesh.flip_edges(tri, depth, valid, p)
-    whole = triangulate(sc.depth, p)
+    whole = triangulate(sc.depth, method="paper", **call_options(p, "paper"))
     same_mesh(flipped, whole)
-    assert np.array_equal(canonical_faces(tri), canonical_faces(triangulate(sc.depth, p,
-                                                                            flips=None)))
+    no_flips = triangulate(sc.depth, method="paper", **{**call_options(p, "paper"), "flips": None})
+    assert np.array_equal(canonical_faces(tri), canonical_faces(no_flips))
 
 
 # ---------------------------------------------------------------- real images
@@ -218,7 +219,7 @@ def test_real_images(shared_data, rel, background):
     img = load(shared_data, rel)
     _, valid0 = to_depth_and_mask(img, background)
     for flips in ("disparity", "error"):
-        m = triangulate(img, background=background, tiles=4, samples=10, flips=flips)
+        m = triangulate(img, background=background, tiles=4, samples=10, flips=flips, method="paper")
         _, valid = rangemesh.fill_gaps(*to_depth_and_mask(img, background))
         assert_valid_mesh(m, valid, check_overlap=flips == "disparity")
         e = evaluate(m, img, background=background)

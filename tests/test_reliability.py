@@ -74,14 +74,14 @@ def one_error_line(capsys, code, expected_code=2, match=None):
     ("<i8", np.int64),
 ])
 def test_d1_every_real_dtype_meshes_like_its_native_twin(chair, dtype, reference):
-    got = rangemesh.triangulate(chair.astype(dtype), background=0)
-    same_mesh(got, rangemesh.triangulate(chair.astype(reference), background=0))
+    got = rangemesh.triangulate(chair.astype(dtype), background=0, method="paper")
+    same_mesh(got, rangemesh.triangulate(chair.astype(reference), background=0, method="paper"))
 
 
 def test_d1_mesh_stream_and_cli_take_big_endian(chair, tmp_path, capsys):
     frames = [chair.astype(">f4"), chair.astype(np.float16)]
-    got = list(rangemesh.mesh_stream(frames, background=0))
-    want = rangemesh.triangulate(chair.astype(np.float32), background=0)
+    got = list(rangemesh.mesh_stream(frames, background=0, method="paper"))
+    want = rangemesh.triangulate(chair.astype(np.float32), background=0, method="paper")
     for m in got:
         same_mesh(m, want)
     np.save(tmp_path / "be.npy", chair.astype(">f4"))
@@ -95,7 +95,7 @@ def test_d1_longdouble_beyond_float64_is_missing_depth():
     if np.finfo(np.longdouble).max <= np.finfo(np.float64).max:
         pytest.skip("longdouble is float64 on this platform")
     d[3, 4] = np.longdouble(np.finfo(np.float64).max) * 4
-    m = rangemesh.triangulate(d, fill_gaps=False, tiles=1, samples=20)
+    m = rangemesh.triangulate(d, fill_gaps=False, tiles=1, samples=20, method="paper")
     assert (3, 4) not in set(map(tuple, m.pixels.tolist()))
     assert np.isfinite(m.vertices).all()
 
@@ -106,12 +106,12 @@ def test_d1_longdouble_beyond_float64_is_missing_depth():
 def test_d2_masked_pixels_are_missing_depth(chair):
     z = chair.astype(np.float64)
     mask = z > 120
-    got = rangemesh.triangulate(np.ma.masked_array(z, mask=mask), background=0)
-    want = rangemesh.triangulate(np.where(mask, np.nan, z), background=0)
+    got = rangemesh.triangulate(np.ma.masked_array(z, mask=mask), background=0, method="paper")
+    want = rangemesh.triangulate(np.where(mask, np.nan, z), background=0, method="paper")
     same_mesh(got, want)
     assert not mask[got.pixels[:, 0], got.pixels[:, 1]].any()
     # integer masked arrays too, and evaluate honours the mask as well
-    got_int = rangemesh.triangulate(np.ma.masked_array(chair, mask=mask), background=0)
+    got_int = rangemesh.triangulate(np.ma.masked_array(chair, mask=mask), background=0, method="paper")
     same_mesh(got_int, want)
     ev = rangemesh.evaluate(got, np.ma.masked_array(z, mask=mask), background=0)
     assert ev.valid_pixels == int(((z != 0) & ~mask).sum())
@@ -124,8 +124,8 @@ def test_d3_subnormal_depths_give_the_same_samples(chair):
     z = chair.astype(np.float64)
     tiny = z * 2.0**-1030  # subnormal, and exact: chair values are integers below 256
     assert 0 < tiny[tiny > 0].max() < np.finfo(np.float64).tiny
-    a = rangemesh.triangulate(z, background=0, flips=None)
-    b = rangemesh.triangulate(tiny, background=0, flips=None)  # warnings are errors here
+    a = rangemesh.triangulate(z, background=0, flips=None, method="paper")
+    b = rangemesh.triangulate(tiny, background=0, flips=None, method="paper")  # warnings are errors here
     assert np.array_equal(a.pixels, b.pixels) and np.array_equal(a.faces, b.faces)
     ev = rangemesh.evaluate(b, tiny, background=0)
     assert np.isfinite(ev.relative_error)
@@ -138,15 +138,15 @@ def test_d3_subnormal_depths_give_the_same_samples(chair):
 @pytest.mark.parametrize("samples", [10_000, 10**6, 10**9])
 def test_d6_huge_sample_grids_are_refused_before_allocating(chair, samples):
     with pytest.raises(ValueError, match="samples"):
-        rangemesh.triangulate(chair, samples=samples)
+        rangemesh.triangulate(chair, samples=samples, method="paper")
 
 
 def test_d6_small_images_keep_grids_up_to_65536(chair):
     # 4 tiles of 24 px with 60 samples each: a 237x237 grid (56,169 entries) on 9,216 px
-    m = rangemesh.triangulate(chair, background=0, samples=60)
+    m = rangemesh.triangulate(chair, background=0, samples=60, method="paper")
     assert m.stats.grid_shape == (237, 237)
     with pytest.raises(ValueError, match="at most 65536"):
-        rangemesh.triangulate(chair, background=0, samples=66)  # 261 x 261 = 68,121
+        rangemesh.triangulate(chair, background=0, samples=66, method="paper")  # 261 x 261 = 68,121
 
 
 def test_d6_cli_refuses_at_once(chair_file, capsys):
@@ -162,22 +162,32 @@ def test_d6_cli_refuses_at_once(chair_file, capsys):
     ({"max_error": "1"}, "max_error"),
     ({"max_edge": "5"}, "max_edge"),
     ({"levels": "1"}, "levels"),
-    ({"levels": None}, "levels"),
     ({"tiles": "44"}, "tiles"),          # D8: not (4, 4)
     ({"samples": "10"}, "samples"),      # D8: not (1, 0)
     ({"fill_gaps": "no"}, "fill_gaps"),  # D8: not True
     ({"fill_gaps": "False"}, "fill_gaps"),
     ({"delta": "20"}, "delta"),
-    ({"workers": "2"}, "workers"),
+    ({"threads": "2"}, "threads"),
 ])
 def test_d7_d8_wrong_types_name_the_parameter(kwargs, name):
     with pytest.raises(TypeError, match=name):
-        rangemesh.triangulate(np.ones((30, 30)), **kwargs)
+        rangemesh.triangulate(np.ones((30, 30)), method="paper", **kwargs)
+
+
+def test_d8_none_is_the_default_in_calls_and_refused_in_meshparams():
+    # a keyword left at None takes the method's default; MeshParams has no "not given"
+    a = rangemesh.triangulate(np.add.outer(np.arange(30.0), np.arange(30.0)), method="paper",
+                              levels=None)
+    b = rangemesh.triangulate(np.add.outer(np.arange(30.0), np.arange(30.0)), method="paper",
+                              levels=2)
+    assert np.array_equal(a.faces, b.faces)
+    with pytest.raises(TypeError, match="levels"):
+        rangemesh.MeshParams(levels=None)
 
 
 def test_d7_ragged_list_names_the_image():
     with pytest.raises(ValueError, match="image"):
-        rangemesh.triangulate([[1, 2, 3], [4, 5]])
+        rangemesh.triangulate([[1, 2, 3], [4, 5]], method="paper")
 
 
 @pytest.mark.parametrize("value, pair", [
@@ -199,7 +209,7 @@ def test_d9_flags_take_numpy_bools():
 @pytest.mark.parametrize("target", [{"vertices": 500}, {"max_error": 1.0}, {"vertices": 2000}])
 def test_d10_max_edge_with_a_target_covers_the_image(target):
     z = scenes.crease((120, 120)).depth  # every pixel valid
-    m = rangemesh.triangulate(z, background=0, max_edge=5, **target)
+    m = rangemesh.triangulate(z, background=0, max_edge=5, method="paper", **target)
     assert rangemesh.evaluate(m, z, background=0).uncovered == 0.0
     p = m.pixels[m.faces].astype(float)
     assert np.sqrt(((p - np.roll(p, 1, axis=1)) ** 2).sum(-1)).max() <= 5.0
@@ -208,11 +218,11 @@ def test_d10_max_edge_with_a_target_covers_the_image(target):
 
 def test_d10_unreachable_vertex_target_says_why():
     z = scenes.crease((120, 120)).depth
-    m = rangemesh.triangulate(z, background=0, vertices=500, max_edge=5)
+    m = rangemesh.triangulate(z, background=0, vertices=500, max_edge=5, method="paper")
     # a 120x120 image with edges <= 5 px needs at least (119/5)^2 ~ 566 points
     assert m.stats.vertices > 566
-    assert not m.stats.target["met"]
-    assert "max_edge" in m.stats.target["note"]
+    assert not m.stats.target.met
+    assert "max_edge" in m.stats.target.note
 
 
 # ---------------------------------------------------------------- D11 camera overflow
@@ -221,9 +231,9 @@ def test_d10_unreachable_vertex_target_says_why():
 def test_d11_overflowing_camera_is_refused(chair):
     with pytest.raises(ValueError, match="camera"):
         rangemesh.triangulate(chair, background=0,
-                              camera=rangemesh.Pinhole(1e-300, 1e-300, 0, 0, 1e300))
+                              camera=rangemesh.Pinhole(1e-300, 1e-300, 0, 0, 1e300), method="paper")
     with pytest.raises(ValueError, match="camera"):
-        rangemesh.triangulate(np.full((20, 20), 1e300), camera=(1, 1, 1e10))
+        rangemesh.triangulate(np.full((20, 20), 1e300), camera=(1, 1, 1e10), method="paper")
 
 
 # ---------------------------------------------------------------- D12 outputs never replace inputs
@@ -457,7 +467,7 @@ def test_d21_a_server_that_is_not_dask_fails_fast(chair_file, tmp_path, capsys):
 
         with pytest.raises(ValueError, match="Dask scheduler"):
             mesh_many([chair_file], tmp_path / "o", scheduler=f"tcp://127.0.0.1:{port}",
-                      connect_timeout=2.0)
+                      connect_timeout=2.0, method="paper")
         assert time.perf_counter() - t0 < 20
         srv.close()
         for c in held:
@@ -487,7 +497,7 @@ def test_d22_same_file_name_in_two_folders_fails_those_only(tmp_path, chair):
         (tmp_path / d).mkdir()
         np.save(tmp_path / d / "x.npy", chair)
     np.save(tmp_path / "a" / "z.npy", chair)
-    res = mesh_many([tmp_path / "a", tmp_path / "b"], tmp_path / "out", workers=1)
+    res = mesh_many([tmp_path / "a", tmp_path / "b"], tmp_path / "out", workers=1, method="paper")
     status = {Path(r.input).relative_to(tmp_path).as_posix(): r.status for r in res}
     assert status == {"a/x.npy": "failed", "a/z.npy": "meshed", "b/x.npy": "failed"}
 
@@ -512,7 +522,7 @@ def _ply_with_faces(path, mesh, faces, rows=None):
 @pytest.mark.parametrize("bad_index", [2**31 - 1, "V+10", -5, -1])
 def test_d23_d24_d25_face_indices_out_of_range_are_refused(chair_file, chair, tmp_path, capsys,
                                                            bad_index):
-    m = rangemesh.triangulate(chair, background=0)
+    m = rangemesh.triangulate(chair, background=0, method="paper")
     faces = m.faces.copy()
     faces[0, 0] = len(m.vertices) + 10 if bad_index == "V+10" else bad_index
     _ply_with_faces(tmp_path / "bad.ply", m, faces)
@@ -523,7 +533,7 @@ def test_d23_d24_d25_face_indices_out_of_range_are_refused(chair_file, chair, tm
 
 
 def test_d24_d25_evaluate_checks_a_hand_made_mesh(chair):
-    m = rangemesh.triangulate(chair, background=0)
+    m = rangemesh.triangulate(chair, background=0, method="paper")
     import dataclasses
 
     for bad in (-1, len(m.vertices)):
@@ -545,7 +555,7 @@ def test_d27_nonsense_meshes_are_refused(chair_file, chair, tmp_path, capsys):
     (tmp_path / "text.obj").write_text("hello world\n")
     one_error_line(capsys, main(["eval", str(chair_file), str(tmp_path / "text.obj")]),
                    match="no triangle")
-    m = rangemesh.triangulate(chair, background=0)
+    m = rangemesh.triangulate(chair, background=0, method="paper")
     _ply_with_faces(tmp_path / "off.ply", m, m.faces, rows=m.pixels + [1000, 0])
     one_error_line(capsys, main(["eval", str(chair_file), str(tmp_path / "off.ply")]),
                    match="outside")
@@ -571,10 +581,10 @@ def test_an_image_larger_than_free_memory_is_refused_before_work(monkeypatch, ch
     # 96 x 96 pixels x 20 bytes = 184,320 bytes: refuse with less available, mesh with more
     monkeypatch.setattr(pl, "available_memory", lambda: 184_319)
     with pytest.raises(MemoryError, match="96x96 image needs"):
-        rangemesh.triangulate(chair, background=0)
+        rangemesh.triangulate(chair, background=0, method="paper")
     one_error_line(capsys, main(["mesh", str(chair_file)]), match="memory")
     monkeypatch.setattr(pl, "available_memory", lambda: 184_320)
-    assert not rangemesh.triangulate(chair, background=0).is_empty
+    assert not rangemesh.triangulate(chair, background=0, method="paper").is_empty
 
 
 def test_free_memory_is_read_at_most_once_a_second(monkeypatch):

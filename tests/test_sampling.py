@@ -1,3 +1,5 @@
+import os
+
 import numpy as np
 import pytest
 from hypothesis import given
@@ -148,3 +150,24 @@ def test_adaptive_samples_crowd_at_a_jump():
     # weights at the jump (about 6.2 against log 20 = 3.0) pull more columns in
     assert near["uniform"] == 3
     assert near["adaptive"] > near["uniform"]
+
+
+def test_tile_threads_follow_workers_within_the_cores_and_the_batch_cap(monkeypatch):
+    from rangemesh.paper.sampling import _tile_threads
+
+    monkeypatch.delenv("RANGEMESH_THREADS", raising=False)
+    assert _tile_threads(1) == 1
+    assert _tile_threads(10_000) == len(os.sched_getaffinity(0))  # never more than the cores
+    monkeypatch.setenv("RANGEMESH_THREADS", "1")  # what batch workers set: one thread each
+    assert _tile_threads(4) == 1
+
+
+def test_weights_into_a_strided_buffer_are_the_same():
+    rng = np.random.default_rng(3)
+    d = rng.uniform(0, 100, (30, 40))
+    v = rng.random((30, 40)) > 0.1
+    p = MeshParams()
+    buffer = np.zeros((30, 80))
+    got = sampling_weights(d, v, p, out=buffer[:, ::2])
+    assert got.base is buffer  # written where asked
+    assert np.array_equal(got, sampling_weights(d, v, p))

@@ -42,7 +42,7 @@ def test_no_kept_triangle_spans_a_labelled_jump(name):
 
     assert spans(both).any()       # with walls, jumps are bridged (so the test can fail)
     assert not spans(open_).any()  # without, never
-    assert open_.stats.target["walls_dropped"] > 0
+    assert open_.stats.target.walls_dropped > 0
     # what goes uncovered is at most the jumps' own pixels
     grown = evaluate(open_, sc.depth).uncovered - evaluate(both, sc.depth).uncovered
     assert grown <= 100.0 * sc.discontinuities.mean()
@@ -57,15 +57,15 @@ def test_the_rule_is_the_same_in_any_depth_unit():
     a = triangulate(mm, camera=cam_mm, vertices=300, method="refine", walls=False)
     b = triangulate(mm / 1000.0, camera=cam_m, vertices=300, method="refine", walls=False)
     assert np.array_equal(a.faces, b.faces) and np.array_equal(a.pixels, b.pixels)
-    assert a.stats.target["walls_dropped"] == b.stats.target["walls_dropped"] > 0
+    assert a.stats.target.walls_dropped == b.stats.target.walls_dropped > 0
 
 
 def test_walls_belong_to_greedy_insertion():
     depth = scenes.make("box", (30, 40)).depth
-    with pytest.raises(ValueError, match="walls=False and jump belong to method='refine'"):
-        triangulate(depth, walls=False)
-    with pytest.raises(ValueError, match="walls=False and jump"):
-        triangulate(depth, jump=0.1)
+    with pytest.raises(ValueError, match="walls is an option of method='refine'"):
+        triangulate(depth, walls=False, method="paper")
+    with pytest.raises(ValueError, match="jump is an option of method='refine'"):
+        triangulate(depth, jump=0.1, method="paper")
     with pytest.raises(ValueError, match="jump must be a positive"):
         triangulate(depth, vertices=50, method="refine", walls=False, jump=0.0)
     with pytest.raises(TypeError, match="walls"):
@@ -82,8 +82,8 @@ def test_command_line_no_walls(tmp_path, capsys):
                  "--jump", "0.1", "-o", str(out), "--quiet"]) == 0
     m = rangemesh.read_mesh(out)
     assert len(m.vertices) == 200
-    assert main(["mesh", str(src), "--no-walls", "-o", str(out)]) == 2
-    assert "--no-walls belongs to --method refine" in capsys.readouterr().err
+    assert main(["mesh", str(src), "--method", "paper", "--no-walls", "-o", str(out)]) == 2
+    assert "--no-walls is an option of --method refine" in capsys.readouterr().err
 
 
 @settings(deadline=None)
@@ -163,8 +163,8 @@ def test_depth_frame_without_walls(shared_data, n):
     depth = filled[m.pixels[:, 0], m.pixels[:, 1]] * 0.0002
     assert not wall_faces(m.faces, m.pixels, depth, 0.05).any()
     got = len(m.vertices)
-    assert got == n or (0.99 * n <= got < n and "walls" in m.stats.target["note"])
-    assert m.stats.target["meshings"] <= 5
+    assert got == n or (0.99 * n <= got < n and "walls" in m.stats.target.note)
+    assert m.stats.target.meshings <= 5
 
 
 @pytest.mark.parametrize("kw", [{}, {"walls": False}, {"heights": "pixel"}])

@@ -1,13 +1,15 @@
 """rangemesh: discontinuity-preserving adaptive triangle meshes from range images.
 
-A fast implementation of Garcia & Sappa (IEEE SMC-B 2004): curvature-based
-adaptive sampling, 2.5-D Delaunay triangulation and discontinuity-preserving
-edge flips.
+Two methods behind one call, `triangulate`: ``method='refine'`` (the
+default) refines a coarse mesh where it fits worst, until a vertex count, an
+error bound or the default target is met; ``method='paper'`` is Garcia &
+Sappa (IEEE SMC-B 2004): curvature-based adaptive sampling, 2.5-D Delaunay
+triangulation and discontinuity-preserving edge flips.
 
 >>> import numpy as np, rangemesh
 >>> mesh = rangemesh.triangulate(np.add.outer(np.arange(30.0), np.arange(40.0)))
->>> mesh.vertices.shape[1], mesh.faces.shape[1]
-(3, 3)
+>>> mesh.stats.method, mesh.vertices.shape[1], mesh.faces.shape[1]
+('refine', 3, 3)
 
 The library is layered (see the README's Development section): applications
 (`cli`, `batch`, `preview`, `calibrate`) -> `pipeline` -> methods (`paper`)
@@ -30,6 +32,7 @@ _LAZY = {
     "write_mesh": "io",
     "Mesh": "mesh",
     "Stats": "mesh",
+    "Target": "mesh",
     "Evaluation": "metrics",
     "discontinuity_mask": "metrics",
     "evaluate": "metrics",
@@ -59,6 +62,7 @@ __all__ = [
     "Rays",
     "Spherical",
     "Stats",
+    "Target",
     "backproject",
     "calibrate_delta",
     "curvature",

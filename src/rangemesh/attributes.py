@@ -13,8 +13,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ._core import rasterize
 from .camera import toward_sensor
-from .geometry.raster import rasterize
 from .geometry.seam import is_seam
 
 __all__ = ["vertex_values", "as_rgb8", "vertex_normals", "texture_uv", "HOW_CHOICES"]
@@ -94,7 +94,7 @@ def _owners(mesh) -> tuple[np.ndarray, np.ndarray]:
     face = np.full((h, w), -1, np.int64)
     rasterize(np.ascontiguousarray(mesh.pixels[f, 0], np.float64),
               np.ascontiguousarray(mesh.pixels[f, 1], np.float64), np.zeros(f.shape),
-              h, w, np.full((h, w), np.nan), face)
+              np.full((h, w), np.nan), face)
     hit = face >= 0
     face[hit] = plain[face[hit]]
     rr, cc = np.nonzero(face >= 0)

@@ -16,6 +16,7 @@ that are already there (unless ``overwrite``).
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import glob
 import json
@@ -33,14 +34,25 @@ from .io import IMAGE_SUFFIXES, MESH_SUFFIXES, atomic_path, part_owner, read_ran
 from .mesh import Mesh
 from .metrics import evaluate
 from .params import MeshParams
-from .pipeline import Workspace, check_call, resolve_params, run
-from .prepare import check_image, guess_background
+from .pipeline import Workspace, call_options, resolve_call, run
+from .prepare import check_image
 
 __all__ = ["mesh_stream", "mesh_many", "expand_inputs", "BatchResult", "summarize"]
 
 
-def mesh_stream(frames: Iterable, params: MeshParams | None = None, *, background=None,
-                camera=None, vertices=None, max_error=None, method: str | None = None,
+def mesh_stream(frames: Iterable, params: MeshParams | None = None, *,
+                method: str = "refine", vertices: int | None = None,
+                max_error: float | None = None, background="auto", camera=None,
+                fill_gaps: bool | None = None, wrap: bool | None = None,
+                heights: str | None = None, diagonals: str | None = None,
+                walls: bool | None = None, jump: float | None = None,
+                tiles: int | tuple[int, int] | None = None,
+                samples: int | tuple[int, int] | None = None, sampling: str | None = None,
+                flips: str | None = "disparity", levels: int | None = None,
+                curvature_floor: float | None = None, delta: float | None = None,
+                epsilon: float | None = None, max_angle: float | None = None,
+                min_bend: float | None = None, gain_threshold: float | None = None,
+                max_edge: float | None = None, threads: int | None = None,
                 **overrides) -> Iterator[Mesh]:
     """Mesh a stream of range images, one `Mesh` per frame, in order.
 
@@ -48,9 +60,10 @@ def mesh_stream(frames: Iterable, params: MeshParams | None = None, *, backgroun
     ----------
     frames : iterable of (H, W) array_like
         Any iterable: a list, a generator reading a sensor, a video decoder.
-    params : MeshParams, optional
-    background, camera, vertices, max_error, method, **overrides
-        As for `rangemesh.triangulate`, checked once, before the first frame.
+    params, method, vertices, max_error, background, camera, **options
+        As for `rangemesh.triangulate` (every option it takes, the same
+        defaults: ``method='refine'``, ``background='auto'``), checked once,
+        before the first frame.
 
     Yields
     ------
@@ -60,20 +73,30 @@ def mesh_stream(frames: Iterable, params: MeshParams | None = None, *, backgroun
     Notes
     -----
     While consecutive frames have the same shape, the depth, mask and weight
-    buffers are reused instead of allocated per frame, and the kernels are
-    compiled (or loaded from Numba's cache) once for the whole stream.
+    buffers are reused instead of allocated per frame, and the options are
+    checked once for the whole stream.
     """
-    params = resolve_params(params, overrides)
-    method = check_call(params, vertices, max_error, method, overrides)
-    camera = as_camera(camera)
+    options = {"fill_gaps": fill_gaps, "wrap": wrap, "heights": heights,
+               "diagonals": diagonals, "walls": walls, "jump": jump, "tiles": tiles,
+               "samples": samples, "sampling": sampling, "flips": flips, "levels": levels,
+               "curvature_floor": curvature_floor, "delta": delta, "epsilon": epsilon,
+               "max_angle": max_angle, "min_bend": min_bend, "gain_threshold": gain_threshold,
+               "max_edge": max_edge, "threads": threads}
+    # checked at the call, not at the first next(): a generator would defer the errors
+    params, method, tiles_given = resolve_call(params, method, vertices, max_error, options,
+                                               overrides)
+    return _stream(frames, params, method, tiles_given, vertices, max_error, background,
+                   as_camera(camera))
+
+
+def _stream(frames, params, method, tiles_given, vertices, max_error, background, camera):
     ws = None
     for frame in frames:
         arr, bg = check_image(frame, background)  # every frame: clear errors, no copy
         if ws is None or ws.shape != arr.shape:
             ws = Workspace(arr.shape)
         yield run(arr, params, background=bg, camera=camera, vertices=vertices,
-                  max_error=max_error, tiles_given="tiles" in overrides, workspace=ws,
-                  method=method)
+                  max_error=max_error, tiles_given=tiles_given, workspace=ws, method=method)
 
 
 # ---------------------------------------------------------------- files
@@ -89,7 +112,7 @@ class BatchResult:
     error: str = ""
     vertices: int = 0
     triangles: int = 0
-    flipped_edges: int = 0
+    flipped_edges: int | None = 0  # None: refine on two strips (not counted)
     seconds: float = 0.0
     relative_error: float = float("nan")
 
@@ -205,9 +228,12 @@ def _connect(client_cls, scheduler: str, timeout: float):
                          + (f": {text[0]}" if text else "") + ")") from None
 
 
-def _one(path: str, out: str, params: MeshParams, background, camera, overwrite: bool,
-         targets: dict) -> BatchResult:
-    """The task every worker runs: read, mesh, evaluate, write. Never raises."""
+def _one(path: str, out: str, call: dict, background, camera, overwrite: bool) -> BatchResult:
+    """The task every worker runs: read, mesh, evaluate, write. Never raises.
+
+    `call` holds `triangulate`'s keywords (method, targets, options), checked
+    by `mesh_many` before any work.
+    """
     from .pipeline import triangulate
 
     t0 = time.perf_counter()
@@ -215,9 +241,7 @@ def _one(path: str, out: str, params: MeshParams, background, camera, overwrite:
         return BatchResult(path, out, "skipped")
     try:
         img = read_range_image(path)
-        if isinstance(background, str):  # 'auto': by the image's dtype, as `rangemesh mesh` does
-            background = guess_background(img)
-        mesh = triangulate(img, params, background=background, camera=camera, **targets)
+        mesh = triangulate(img, background=background, camera=camera, **call)
         if mesh.is_empty:
             raise ValueError(f"nothing to mesh: {mesh.stats.reason}")
         ev = evaluate(mesh, img, background=background)
@@ -277,10 +301,46 @@ def _clean_stale_parts(out_dir: Path):
             f.unlink(missing_ok=True)
 
 
-def mesh_many(paths, out_dir, params: MeshParams | None = None, *, background=None, camera=None,
+@contextlib.contextmanager
+def _script_not_rerun():
+    """Worker processes started inside the block do not run the calling script again.
+
+    Python's "spawn" start method (Dask's) has each new process import the
+    parent's ``__main__`` script, whose top-level `mesh_many` call would then
+    start clusters of its own: the reason scripts needed an ``if __name__ ==
+    "__main__":`` guard. The workers run only rangemesh's task, so the
+    script's name is hidden from `multiprocessing` while they start.
+    """
+    import sys
+
+    main = sys.modules.get("__main__")
+    saved = {k: main.__dict__[k] for k in ("__file__", "__spec__") if main and k in main.__dict__}
+    try:
+        if main is not None:
+            main.__dict__.pop("__file__", None)
+            if "__spec__" in saved:
+                main.__spec__ = None
+        yield
+    finally:
+        if main is not None:
+            main.__dict__.update(saved)
+
+
+def mesh_many(paths, out_dir, params: MeshParams | None = None, *,
+              method: str = "refine", vertices: int | None = None,
+              max_error: float | None = None, background="auto", camera=None,
+              fill_gaps: bool | None = None, wrap: bool | None = None,
+              heights: str | None = None, diagonals: str | None = None,
+              walls: bool | None = None, jump: float | None = None,
+              tiles: int | tuple[int, int] | None = None,
+              samples: int | tuple[int, int] | None = None, sampling: str | None = None,
+              flips: str | None = "disparity", levels: int | None = None,
+              curvature_floor: float | None = None, delta: float | None = None,
+              epsilon: float | None = None, max_angle: float | None = None,
+              min_bend: float | None = None, gain_threshold: float | None = None,
+              max_edge: float | None = None, threads: int | None = None,
               scheduler: str | None = None, workers: int | None = None, overwrite: bool = False,
-              fmt: str = ".ply", progress: bool = False, vertices=None, max_error=None,
-              max_edge=None, connect_timeout: float = 10.0, method: str | None = None,
+              fmt: str = ".ply", progress: bool = False, connect_timeout: float = 10.0,
               **overrides) -> list[BatchResult]:
     """Mesh many range images into `out_dir`, in parallel, through Dask.
 
@@ -291,16 +351,18 @@ def mesh_many(paths, out_dir, params: MeshParams | None = None, *, background=No
     out_dir : str or os.PathLike
         Folder for the meshes (created if needed) and for
         ``rangemesh-batch.csv`` / ``.json`` with one row per input.
-    params, background, camera, vertices, max_error, max_edge, method, **overrides
-        As for `rangemesh.triangulate`, the same for every image;
-        ``background='auto'`` takes 0 for integer images and only NaN/inf for
-        float images, image by image.
+    params, method, vertices, max_error, background, camera, **options
+        As for `rangemesh.triangulate` (every option it takes, the same
+        defaults: ``method='refine'``, ``background='auto'``, resolved image
+        by image), the same for every image, checked before any work.
     scheduler : str, optional
         Address of a running Dask scheduler (``tcp://head:8786``). Default: a
         local cluster of `workers` processes started for this batch.
     workers : int, optional
         Worker processes of the local cluster (default: the CPU cores this
         process may use; more are refused, as they only cost memory).
+        `workers` are processes everywhere in rangemesh; `threads` is the
+        in-call thread count of the paper's method.
     overwrite : bool, default False
         Mesh again files whose output already exists.
     fmt : str, default '.ply'
@@ -323,6 +385,12 @@ def mesh_many(paths, out_dir, params: MeshParams | None = None, *, background=No
         before any work), or a scheduler that does not answer as one.
     FileNotFoundError
         When an input argument matches nothing.
+
+    Notes
+    -----
+    Works from a plain script: the local cluster's worker processes do not
+    run the calling script again (no ``if __name__ == "__main__":`` guard
+    is needed), see `_script_not_rerun`.
     """
     from ._optional import require
 
@@ -333,12 +401,18 @@ def mesh_many(paths, out_dir, params: MeshParams | None = None, *, background=No
         raise ValueError(f"fmt must be one of {MESH_SUFFIXES}, got {fmt!r}")
     if isinstance(background, str) and background != "auto":
         raise ValueError(f"background must be a number, None or 'auto', got {background!r}")
-    params = resolve_params(params, overrides)
+    options = {"fill_gaps": fill_gaps, "wrap": wrap, "heights": heights,
+               "diagonals": diagonals, "walls": walls, "jump": jump, "tiles": tiles,
+               "samples": samples, "sampling": sampling, "flips": flips, "levels": levels,
+               "curvature_floor": curvature_floor, "delta": delta, "epsilon": epsilon,
+               "max_angle": max_angle, "min_bend": min_bend, "gain_threshold": gain_threshold,
+               "max_edge": max_edge, "threads": threads}
+    params, method, _ = resolve_call(params, method, vertices, max_error, options, overrides)
     camera = as_camera(camera)
-    targets = {k: v for k, v in (("vertices", vertices), ("max_error", max_error),
-                                 ("max_edge", max_edge)) if v is not None}
-    if method is not None:
-        targets["method"] = method
+    # the workers call triangulate with the resolved method and every field of params: the
+    # deprecated spellings arrive as keywords, so the workers warn nothing
+    call = {"method": method, "vertices": vertices, "max_error": max_error,
+            **call_options(params, method)}
     files = expand_inputs([paths] if isinstance(paths, (str, os.PathLike)) else paths)
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -355,17 +429,18 @@ def mesh_many(paths, out_dir, params: MeshParams | None = None, *, background=No
     if scheduler is None:
         # One single-threaded process per core: method="refine"'s second thread
         # (`rangemesh.greedy.threads`) would only oversubscribe the cores.
-        cluster = LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True,
-                               dashboard_address=":0", silence_logs=40,  # any free port
-                               env={"NUMBA_NUM_THREADS": "1", "RANGEMESH_THREADS": "1"})
+        with _script_not_rerun():
+            cluster = LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True,
+                                   dashboard_address=":0", silence_logs=40,  # any free port
+                                   env={"RANGEMESH_THREADS": "1"})
         client = Client(cluster)
     else:
         client = _connect(Client, scheduler, timeout=connect_timeout)
     bar = None
     try:
         futures = client.map(_one, [str(files[i]) for i in todo], [str(outs[i]) for i in todo],
-                             params=params, background=background, camera=camera,
-                             overwrite=overwrite, targets=targets, pure=False)
+                             call=call, background=background, camera=camera,
+                             overwrite=overwrite, pure=False)
         index = {f.key: i for i, f in zip(todo, futures, strict=True)}
         if progress:
             from tqdm import tqdm

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .pipeline import resolve_params, triangulate
+from .pipeline import call_options, resolve_params, triangulate
 
 __all__ = ["calibrate_delta", "triangle_disparities"]
 
@@ -60,7 +60,8 @@ def triangle_disparities(depth, labels, params=None, *, background=None, camera=
         )
     if not np.issubdtype(labels.dtype, np.integer):
         raise TypeError(f"labels must be an integer array, got dtype {labels.dtype}")
-    mesh = triangulate(depth, params, background=background, camera=camera)
+    mesh = triangulate(depth, method="paper", background=background, camera=camera,
+                       **call_options(params, "paper"))
     if mesh.is_empty:
         return np.zeros(0)
     vlab = labels[mesh.pixels[:, 0], mesh.pixels[:, 1]]

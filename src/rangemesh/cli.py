@@ -34,8 +34,8 @@ from .io import (
 )
 from .metrics import evaluate
 from .paper.sampling import sampling_weights
-from .params import MeshParams
-from .pipeline import ALIASES, check_call, prepare, triangulate
+from .params import MeshParams, misplaced_option
+from .pipeline import OPTIONS, call_options, prepare, resolve_call, run
 from .prepare import guess_background, to_depth_and_mask
 
 __all__ = ["main", "build_parser"]
@@ -142,30 +142,32 @@ def _default(name):
 
 def _add_mesh_options(p):
     d = _default
-    g = p.add_argument_group("the paper's parameters (defaults: rangemesh.MeshParams)")
+    g = p.add_argument_group("--method paper's options (defaults: rangemesh.MeshParams)")
+    r = p.add_argument_group("--method refine's options")
     g.add_argument("--tiles", type=_pair, default=None, metavar="VxH",
                    help=f"tiles, rows x columns; neighbours share one line of pixels (default "
                         f"{d('tiles')}; chosen for the image with --vertices/--max-error)")
     g.add_argument("--samples", type=_pair, default=None, metavar="RxZ",
                    help=f"samples per tile; the grid is ((R-1)V+1) x ((Z-1)H+1) points "
                         f"(default {d('samples')})")
-    p.add_argument("--method", choices=["refine", "paper", "greedy"], default=None,
-                   help="refine: refine a coarse mesh at its worst pixels until --vertices or "
-                        "--max-error is met (one pass; the default with either); paper: Garcia "
-                        "& Sappa's pipeline (the default without, or with any of its own "
-                        "options); greedy: the earlier name of refine")
-    p.add_argument("--heights", choices=["fit", "pixel"], default=None,
+    p.add_argument("--method", choices=["refine", "paper", "greedy"], default="refine",
+                   help="refine (the default): refine a coarse mesh at its worst pixels until "
+                        "--vertices or --max-error is met, or without either the default "
+                        "target: max error 0.5 %% with at most 2 %% of the valid pixels as "
+                        "vertices; paper: Garcia & Sappa's pipeline with its options below; "
+                        "greedy: deprecated name of refine. An option of the other method is "
+                        "an error")
+    r.add_argument("--heights", choices=["fit", "pixel"], default=None,
                    help="vertex depths: least squares over the pixels, jumps left out (fit, "
-                        "--method refine's default) or copied from the vertex's pixel (pixel, "
-                        "the paper's)")
-    p.add_argument("--diagonals", choices=["error", "delaunay"], default=None,
-                   help="--method refine: each quad's diagonal is the one that fits its pixels "
-                        "better (error, the default) or the Delaunay one (delaunay: about 0.85x "
-                        "the time, higher error)")
-    p.add_argument("--no-walls", action="store_true",
-                   help="--method refine: drop the triangles across depth jumps, so separate "
-                        "surfaces stay separate")
-    p.add_argument("--jump", type=float, default=None,
+                        "the default) or copied from the vertex's pixel (pixel)")
+    r.add_argument("--diagonals", choices=["error", "delaunay"], default=None,
+                   help="each quad's diagonal is the one that fits its pixels better (error, "
+                        "the default) or the Delaunay one (delaunay: about 0.85x the time, "
+                        "higher error)")
+    r.add_argument("--no-walls", action="store_true",
+                   help="drop the triangles across depth jumps, so separate surfaces stay "
+                        "separate")
+    r.add_argument("--jump", type=float, default=None,
                    help=f"with --no-walls: a depth change above this share of the local depth "
                         f"per pixel is a jump (default {d('jump')})")
     w = p.add_mutually_exclusive_group()
@@ -174,12 +176,13 @@ def _add_mesh_options(p):
                         "(default: on for a --beams camera that goes once round)")
     w.add_argument("--no-wrap", dest="wrap", action="store_const", const=False,
                    help="leave the seam of a 360-degree scan open")
-    t = p.add_argument_group("ask for the result instead of the grid (instead of --samples)")
+    t = p.add_argument_group("targets (both methods; --method paper: instead of --samples)")
     t.add_argument("--vertices", type=int, default=None,
-                   help="about this many vertices (within 2 %%); tiles and samples are chosen")
+                   help="this many vertices (refine: exactly; paper: within 2 %%, tiles and "
+                        "samples chosen)")
     t.add_argument("--max-error", type=float, default=None,
                    help="smallest mesh whose relative error is at most this, percent")
-    t.add_argument("--max-edge", type=float, default=None,
+    g.add_argument("--max-edge", type=float, default=None,
                    help="no triangle edge longer than this in the image, pixels")
     g.add_argument("--sampling", choices=["adaptive", "uniform"], default=None,
                    help=f"place samples by log-curvature (paper) or evenly (baseline) "
@@ -208,8 +211,9 @@ def _add_mesh_options(p):
     g.add_argument("--levels", type=int, default=None,
                    help=f"resolutions summed into the curvature image (default {d('levels')}: "
                         f"full + half)")
-    g.add_argument("--no-fill-gaps", action="store_true",
-                   help="keep single-pixel holes instead of filling them with the 8-neighbour mean")
+    p.add_argument("--no-fill-gaps", action="store_true",
+                   help="keep single-pixel holes instead of filling them with the 8-neighbour "
+                        "mean (both methods)")
     g.add_argument("--threads", type=int, default=None,
                    help=f"threads sharing stage one's tiles; the mesh is the same for any number "
                         f"(default {d('workers')})")
@@ -227,30 +231,54 @@ def _add_output_options(p):
     p.add_argument("--json", action="store_true", help="print the figures as JSON on stdout")
 
 
-# command-line option -> MeshParams field, for the options whose default is MeshParams'
-_FIELDS = {"tiles": "tiles", "samples": "samples", "sampling": "sampling", "delta": "delta",
-           "epsilon": "epsilon", "max_angle": "max_angle", "min_bend": "min_bend",
-           "gain_threshold": "gain_threshold", "curvature_floor": "curvature_floor",
-           "levels": "levels", "max_edge": "max_edge", "threads": "workers",
-           "heights": "heights", "diagonals": "diagonals", "jump": "jump"}
+# option -> how the command line reads it from its arguments (None: not given)
+_READ = {
+    "fill_gaps": lambda a: False if a.no_fill_gaps else None,
+    "wrap": lambda a: getattr(a, "wrap", None),
+    "walls": lambda a: False if getattr(a, "no_walls", False) else None,
+    "flips": lambda a: "disparity" if a.flips is _UNSET else a.flips,
+}
 
 
-def _params(args) -> MeshParams:
-    """MeshParams from the options given; everything not given keeps MeshParams' default."""
-    given = {field: getattr(args, opt) for opt, field in _FIELDS.items()
-             if getattr(args, opt, None) is not None}
-    if args.flips is not _UNSET:
-        given["flips"] = args.flips
-    if args.no_fill_gaps:
-        given["fill_gaps"] = False
-    if getattr(args, "no_walls", False):
-        given["walls"] = False
-    if getattr(args, "wrap", None) is not None:
-        given["wrap"] = args.wrap
+def _options(args) -> dict:
+    """The options given on the command line, by their `triangulate` names.
+
+    None where not given (``flips``: ``'disparity'``, its default, as `triangulate` takes it).
+    """
+    return {name: _READ[name](args) if name in _READ else getattr(args, name, None)
+            for name in OPTIONS}
+
+
+def _flag(name: str) -> str:
+    return {"walls": "--no-walls", "fill_gaps": "--no-fill-gaps"}.get(
+        name, "--" + name.replace("_", "-"))
+
+
+def _resolve(args):
+    """``params, method, tiles_given`` of the options given, by `rangemesh.pipeline.resolve_call`.
+
+    One rule with Python: an option of the other method is refused, named as a flag.
+    """
+    if args.method == "greedy":
+        print("rangemesh: warning: --method greedy is the old name of --method refine; it goes "
+              "in the next release", file=sys.stderr)
+        args.method = "refine"
+    options = _options(args)
+    given = [k for k, v in options.items()
+             if v is not None and not (k == "flips" and args.flips is _UNSET)]
+    message = misplaced_option(args.method, given,
+                               spell=lambda name, m: (_flag(name), f"--method {m}"))
+    if message:
+        raise UserError(message)
+    if args.samples is not None and (args.vertices is not None or args.max_error is not None
+                                     or args.max_edge is not None):
+        given = next(k for k in ("vertices", "max_error", "max_edge") if getattr(args, k) is not None)
+        raise UserError(f"--samples and --{given.replace('_', '-')} exclude each other: "
+                        "the target chooses the samples")
     try:
-        return MeshParams(**given)
+        return resolve_call(None, args.method, args.vertices, args.max_error, options, {})
     except (ValueError, TypeError) as exc:
-        raise UserError(str(exc)) from None
+        raise UserError(_one_line(exc)) from None
 
 
 def _camera(args, image_shape=None):
@@ -310,68 +338,34 @@ def _say(args, lines):
             print(line, file=sys.stderr)
 
 
-def _kernel_modules():
-    """Every module that holds Numba kernels."""
-    from .geometry import delaunay, fans, halfedges, heap, pixels, raster, vectors
-    from .greedy import heights_kernels
-    from .greedy import kernels as greedy_kernels
-
-    return (vectors, pixels, raster, heap, halfedges, delaunay, fans, greedy_kernels,
-            heights_kernels)
-
-
-def _cold_cache(method: str = "paper") -> bool:
-    """True when the method's main kernels have no entry in Numba's on-disk cache."""
-    import os
-
-    if method == "refine":
-        from .greedy.heights_kernels import fit_pass
-
-        kernels = (fit_pass,)  # the default path (the insertion and flips are compiled C++)
-    else:
-        from .geometry.delaunay import sweep_insert
-
-        kernels = (sweep_insert,)  # the paper's other stages are compiled ahead (the core)
-    try:
-        return not all(os.path.exists(k._cache._cache_file._index_path) for k in kernels)
-    except AttributeError:  # another Numba's internals: say nothing rather than guess
-        return False
-
-
-def _first_run_notice(args):
-    if not (args.quiet or args.json) and _cold_cache(getattr(args, "method", None) or "paper"):
-        print("rangemesh: first run: compiling the Numba kernels once (about 15-40 s); "
-              "later runs load them from the cache", file=sys.stderr)
-
-
-def _compiled_now() -> bool:
-    """True when Numba compiled (rather than loaded from its cache) a kernel in this process."""
-    from numba.core.registry import CPUDispatcher
-
-    for mod in _kernel_modules():
-        for obj in vars(mod).values():
-            if isinstance(obj, CPUDispatcher) and sum(obj.stats.cache_misses.values()) > 0:
-                return True
-    return False
+def _did(s) -> str:
+    """What the method did, in a few words (the summary line and the preview)."""
+    if s.method == "refine":
+        strips = " on 2 strips" if s.strips == 2 else ""
+        flips = "flips by the error not counted" if s.flipped_edges is None else \
+            f"{s.flipped_edges} flips by the error"
+        return f"refine: {s.insertions} insertions{strips}, {flips}, heights {s.heights}"
+    if s.grid_shape is None or 0 in s.grid_shape:
+        return f"paper: {s.flipped_edges} flips"
+    gr, gc = s.grid_shape
+    points = (f"refined to {s.sampled_points} points for max_edge" if s.sampled_points > gr * gc
+              else f"{s.sampled_points} valid samples")
+    return f"paper: grid {gr}x{gc} ({points}), {s.flipped_edges} flips"
 
 
 def _mesh_lines(mesh, ev, outputs):
     s = mesh.stats
-    lines = [f"vertices {s.vertices}  edges {s.edges}  triangles {s.triangles}  "
-             f"flipped edges {s.flipped_edges}  (grid {s.grid_shape[0]}x{s.grid_shape[1]}, "
-             f"{s.sampled_points} valid samples)",
+    lines = [f"vertices {s.vertices}  edges {s.edges}  triangles {s.triangles}  ({_did(s)})",
              "time " + "  ".join(f"{k} {1000 * v:.1f} ms" for k, v in s.seconds.items())]
-    if _compiled_now():
-        lines.append("(first run: Numba compiled the kernels, which is in the times above; later "
-                     "runs load them from its cache)")
-    if s.target:
-        q = s.target
-        ach = q["achieved"]
-        ach = f"{ach:.4f}" if isinstance(ach, float) else ach
-        grid = (f" with tiles {q['tiles'][0]}x{q['tiles'][1]}, samples "
-                f"{q['samples'][0]}x{q['samples'][1]}" if "tiles" in q else "")  # paper only
-        lines.append(f"target {q['target']} {q['requested']}: achieved {ach}{grid} "
-                     f"({q['meshings']} meshing(s)){'' if q['met'] else ' -- not met: ' + q.get('note', '')}")
+    q = s.target
+    if q is not None:
+        ach = f"{q.achieved:.4f}" if isinstance(q.achieved, float) else q.achieved
+        grid = (f" with tiles {q.tiles[0]}x{q.tiles[1]}, samples {q.samples[0]}x{q.samples[1]}"
+                if q.tiles is not None else "")  # the paper's search only
+        what = "default target max_error" if q.default else f"target {q.kind}"
+        cap = f" (at most {q.max_vertices} vertices)" if q.max_vertices is not None else ""
+        lines.append(f"{what} {q.requested}{cap}: achieved {ach}{grid} "
+                     f"({q.meshings} meshing(s)){'' if q.met else ' -- not met: ' + q.note}")
     if ev is not None:
         lines.append(f"relative error {ev.relative_error:.4f} %  rms {ev.rms_error:.4f} %  "
                      f"max {ev.max_error:.3f} %  edge band {ev.edge_band_error:.4f} %  "
@@ -380,55 +374,13 @@ def _mesh_lines(mesh, ev, outputs):
     return lines
 
 
-def _targets(args) -> dict:
-    """The result targets given on the command line, checked against --samples."""
-    targets = {"vertices": args.vertices, "max_error": args.max_error}
-    given = [k for k, v in {**targets, "max_edge": args.max_edge}.items() if v is not None]
-    if given and args.samples is not None:
-        raise UserError(f"--samples and --{given[0].replace('_', '-')} exclude each other: "
-                        "the target chooses the samples")
-    return targets
-
-
-def _check_method(args):
-    """Choose the method when not given; refuse options that belong to the other one."""
-    paper = [opt for opt in _FIELDS if opt not in ("threads", "heights", "diagonals", "jump")
-             and getattr(args, opt, None) is not None]
-    paper += ["flips"] if args.flips is not _UNSET else []
-    if args.method is None:  # as rangemesh.pipeline.default_method
-        target = args.vertices is not None or args.max_error is not None
-        args.method = "refine" if target and not paper else "paper"
-    args.method = ALIASES.get(args.method, args.method)
-    if args.method != "refine":
-        refine = ["no_walls"] if args.no_walls else []
-        refine += ["jump"] if args.jump is not None else []
-        refine += ["diagonals"] if getattr(args, "diagonals", None) is not None else []
-        if refine:
-            raise UserError(f"--{refine[0].replace('_', '-')} belongs to --method refine")
-        return
-    if paper:
-        raise UserError(f"--{paper[0].replace('_', '-')} belongs to --method paper; --method "
-                        f"refine takes --vertices or --max-error")
-    if args.vertices is None and args.max_error is None:
-        raise UserError("--method refine needs --vertices N or --max-error E")
-
-
 def _run_mesh(args, image, name, bg, outputs_for):
-    _check_method(args)
-    params = _params(args)
+    params, method, tiles_given = _resolve(args)
     camera = _camera(args, image.shape)
-    targets = _targets(args)
-    given = [k for k, v in targets.items() if v is not None]
-    extra = {"tiles": args.tiles} if (given and args.tiles is not None) else {}
-    try:  # bad values fail with their own message before the first-run notice
-        check_call(params.replace(**extra), method=args.method, overrides=extra, **targets)
-    except (ValueError, TypeError) as exc:
-        raise UserError(f"{name}: {_one_line(exc)}") from None
-    _first_run_notice(args)
     with _progress(args, 4, f"meshing {name}") as bar:
         try:
-            mesh = triangulate(image, params, background=bg, camera=camera, method=args.method,
-                               **targets, **extra)
+            mesh = run(image, params, background=bg, camera=camera, vertices=args.vertices,
+                       max_error=args.max_error, tiles_given=tiles_given, method=method)
         except (ValueError, TypeError, MemoryError) as exc:
             raise UserError(f"{name}: {_one_line(exc)}") from None
         bar.update(1)
@@ -447,15 +399,20 @@ def _run_mesh(args, image, name, bg, outputs_for):
             from .preview import save_preview
 
             depth, valid = prepare(image, params, bg)  # gap-filled in place: no second copy
+            weights = sampling_weights(depth, valid, params) if method == "paper" else None
             save_preview(mesh, depth, valid, preview, evaluation=ev, title=Path(name).name,
-                         weights=sampling_weights(depth, valid, params))
+                         weights=weights)
             written.append(preview)
         bar.update(1)
     if args.json:
         print(json.dumps(_clean({"input": name, "background": bg, "stats": mesh.stats.to_dict(),
                                  "evaluation": ev.to_dict(),
                                  "outputs": [str(w) for w in written]})))
-    _say(args, _mesh_lines(mesh, ev, written))
+    lines = _mesh_lines(mesh, ev, written)
+    if getattr(args, "output_defaulted", False):
+        lines = [f"{line} (no -o given: beside the input)" if line == f"wrote {out}" else line
+                 for line in lines]
+    _say(args, lines)
     return 0
 
 
@@ -544,7 +501,20 @@ def _read_scan(args):
     return rng
 
 
+def _default_output(args) -> None:
+    """Without -o or --preview: the mesh goes beside the input as ``<stem>.ply``, never over it."""
+    if args.output or args.preview:
+        return
+    image = Path(args.image)
+    out = image.with_suffix(".ply")
+    if _same_file(out, image):
+        raise UserError(f"{image}: is a .ply file; give -o FILE to choose where the mesh goes")
+    args.output = str(out)
+    args.output_defaulted = True
+
+
 def _cmd_mesh(args):
+    _default_output(args)
     _check_outputs(args, [a for a in (args.image, args.color, args.intensity) if a])
     image = _read_scan(args)
     # a LiDAR marks no return with range 0, in float images too
@@ -620,9 +590,7 @@ def _cmd_eval(args):
 def _cmd_batch(args):
     from .batch import mesh_many, summarize
 
-    _check_method(args)
-    params = _params(args)
-    targets = _targets(args)
+    params, method, _ = _resolve(args)
     camera = _camera(args)
     bg = args.background
     bg = None if bg in ("none", "nan") else bg  # 'auto' is resolved image by image
@@ -630,11 +598,12 @@ def _cmd_batch(args):
         bg = 0.0
     t0 = time.perf_counter()
     try:
-        results = mesh_many(args.inputs, args.output_dir, params, background=bg,
-                            camera=camera, scheduler=args.scheduler, workers=args.workers,
+        results = mesh_many(args.inputs, args.output_dir, background=bg, camera=camera,
+                            scheduler=args.scheduler, workers=args.workers,
                             overwrite=args.overwrite, fmt="." + args.format,
                             progress=not (args.quiet or args.json) and sys.stderr.isatty(),
-                            method=args.method, **targets)
+                            method=method, vertices=args.vertices, max_error=args.max_error,
+                            **call_options(params, method))
     except (ValueError, TypeError) as exc:
         raise UserError(_one_line(exc)) from None
     summary = summarize(results, time.perf_counter() - t0)
@@ -668,7 +637,9 @@ def build_parser() -> argparse.ArgumentParser:
                        description="Mesh one range image; print the figures on stderr.")
     m.add_argument("image", help=f"range image ({' '.join(IMAGE_SUFFIXES)}), or a KITTI-style "
                                  f"LiDAR .bin with --beams")
-    m.add_argument("-o", "--output", help=f"mesh file to write ({' '.join(MESH_SUFFIXES)})")
+    m.add_argument("-o", "--output", help=f"mesh file to write ({' '.join(MESH_SUFFIXES)}); "
+                                          f"default: the image's name with .ply, beside it "
+                                          f"(unless --preview is given)")
     m.add_argument("--preview", help="PNG picture: wireframe, samples, shaded mesh")
     col = m.add_argument_group("colour (images registered pixel to pixel with the range image)")
     col.add_argument("--color", metavar="FILE",

@@ -102,6 +102,11 @@ def read_range_image(path: str | os.PathLike) -> np.ndarray:
 
     Notes
     -----
+    Missing depth stays as the file stores it: 0 in integer images (depth
+    PNGs, disparity maps), NaN in float ones. `rangemesh.triangulate` and the
+    other entry points read it so by default (``background='auto'``: 0 in
+    integer images, NaN/inf always); give ``background=`` for another marker.
+
     PGM files whose 16-bit payload is little-endian (against the format,
     as NYU Depth v2's raw frames are) cannot be told apart from correct files;
     they read byte-swapped, as in every standard reader.

@@ -7,37 +7,178 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 
 from .camera import Orthographic, Pinhole, Rays, Spherical
-from .geometry.signals import holding_signals
 
-__all__ = ["Mesh", "Stats", "count_edges", "check_arrays"]
+__all__ = ["Mesh", "Stats", "Target", "with_fields", "count_edges", "check_arrays"]
+
+
+def with_fields(obj, **changes):
+    """``dataclasses.replace(obj, **changes)`` for `Mesh` and `Stats`, at a tenth of its cost.
+
+    Their frozen ``__init__`` sets each field through ``object.__setattr__``
+    and they have no ``__post_init__`` to run: copying the instance dict
+    gives the same object (8 us a replace, twice in every `triangulate` call).
+    """
+    new = object.__new__(type(obj))
+    new.__dict__.update(obj.__dict__)
+    new.__dict__.update(changes)
+    return new
+
+
+# Old `Stats.target` keys that the `Target` record renamed.
+_TARGET_KEYS = {"target": "kind"}
+
+
+@dataclass(frozen=True)
+class Target:
+    """What a target asked for and what the mesh achieved (`Stats.target`).
+
+    Attributes
+    ----------
+    kind : {'vertices', 'max_error', 'max_edge'}
+        The target.
+    requested : int or float
+        The value asked for (with the default target, ``DEFAULT_TARGET.max_error``).
+    achieved : int or float
+        The same quantity measured on the mesh: vertices, relative error
+        (percent) or longest edge (pixels).
+    met : bool
+        Whether `achieved` meets `requested`.
+    meshings : int
+        Meshings the search (the paper's) or the insertion (refine's) ran.
+    vertices : int
+        Vertices of the mesh.
+    default : bool
+        True when no target was given and the documented default target
+        (`rangemesh.params.DEFAULT_TARGET`) was used.
+    max_vertices : int or None
+        The vertex cap that went with `max_error` (the default target's).
+    tiles, samples : (int, int) or None
+        The paper's grid the search chose (``method='paper'`` only).
+    added_samples : int or None
+        Samples ``max_edge`` added to the grid (``method='paper'``).
+    walls_dropped : int or None
+        Triangles dropped across jumps (``walls=False``).
+    note : str
+        Why the target was not met, when it was not.
+
+    Notes
+    -----
+    Reading it as a dict (``target["achieved"]``, ``"tiles" in target``,
+    ``target.get(...)``) still works and warns: it was a dict before.
+    """
+
+    kind: str
+    requested: float
+    achieved: float
+    met: bool
+    meshings: int = 1
+    vertices: int = 0
+    default: bool = False
+    max_vertices: int | None = None
+    tiles: tuple[int, int] | None = None
+    samples: tuple[int, int] | None = None
+    added_samples: int | None = None
+    walls_dropped: int | None = None
+    note: str = ""
+
+    @classmethod
+    def from_record(cls, rec: dict, *, vertices: int, default: bool = False) -> Target:
+        """The record from a method's target dict (``{'target': kind, ...}``).
+
+        Keys it does not know are refused (TypeError): a method's new key needs a field.
+        """
+        if not rec.keys() <= _RECORD_KEYS:
+            raise TypeError(f"target record keys {sorted(rec.keys() - _RECORD_KEYS)} have no "
+                            f"Target field")
+        get = rec.get
+        tiles, samples = get("tiles"), get("samples")
+        # positional, in field order: this runs on every call (a keyword build costs 2x)
+        return cls(rec["target"], rec["requested"], rec["achieved"], rec["met"],
+                   get("meshings", 1), get("vertices", vertices), default, get("max_vertices"),
+                   None if tiles is None else tuple(tiles),
+                   None if samples is None else tuple(samples), get("added_samples"),
+                   get("walls_dropped"), get("note", ""))
+
+    def to_dict(self) -> dict:
+        """Plain-Python dictionary (JSON-ready); fields that do not apply are left out."""
+        d = {k: v for k, v in asdict(self).items() if v is not None}
+        for k in ("tiles", "samples"):
+            if k in d:
+                d[k] = list(d[k])
+        return d
+
+    # the dict it was: readable for one release, with a warning
+    def _old(self, key):
+        import warnings
+
+        warnings.warn("Stats.target is a rangemesh.Target record: read its attributes "
+                      "(target.achieved, target.kind) instead of keys; dict access goes in the "
+                      "next release", DeprecationWarning, stacklevel=3)
+        return _TARGET_KEYS.get(key, key)
+
+    def __getitem__(self, key):
+        key = self._old(key)
+        value = getattr(self, key, None) if isinstance(key, str) else None
+        if value is None or (key == "note" and not value):
+            raise KeyError(key)
+        return list(value) if key in ("tiles", "samples") else value
+
+    def __contains__(self, key):
+        key = self._old(key)
+        return key in self.to_dict() and (key != "note" or bool(self.note))
+
+    def get(self, key, default=None):
+        """``target[key]``, or `default` (deprecated dict access)."""
+        key = self._old(key)
+        d = self.to_dict()
+        return d.get(key, default) if key != "note" or self.note else default
+
+
+_RECORD_KEYS = {"target", "requested", "achieved", "met", "meshings", "vertices", "max_vertices",
+                "tiles", "samples", "added_samples", "walls_dropped", "note"}
 
 
 @dataclass(frozen=True)
 class Stats:
-    """What a meshing run produced and how long each stage took.
+    """What a meshing run produced, what its method did and how long each stage took.
 
     Attributes
     ----------
     vertices, edges, triangles : int
         Counts of the final mesh (edges are undirected and counted once).
-    flipped_edges : int
-        Number of edge flips taken by stage three (0 without flips).
-    grid_shape : (int, int)
-        Shape of the sample grid, ``((Rs-1)V+1, (Z-1)H+1)``.
+    method : {'refine', 'paper'}
+        The method that made the mesh.
+    flipped_edges : int or None
+        Edge flips taken: by the paper's disparity tests (``flips=``) or, for
+        ``method='refine'``, by the error (``diagonals='error'``); None when
+        refine meshed two strips, whose own flips the compiled core does not
+        report.
+    grid_shape : (int, int) or None
+        The paper's sample grid, ``((Rs-1)V+1, (Z-1)H+1)``; None for
+        ``method='refine'``, which has no grid.
     sampled_points : int
-        Distinct valid pixels in the sample grid (the Delaunay input).
+        Distinct valid pixels in the sample grid (the Delaunay input); for
+        ``method='refine'`` the vertices.
+    insertions : int
+        ``method='refine'``: vertices its last insertion placed, the first
+        coarse mesh and background corners included (0 for the paper).
+    strips : int
+        ``method='refine'``: 1, or 2 when the image was meshed as two strips
+        on two threads (`rangemesh.greedy.strips`); 0 for the paper.
+    heights : {'fit', 'pixel'}
+        Vertex depths: least-squares fit or copied from the pixel.
     flip_tests : dict of str to int
-        How many edges each flip test rejected (``t1_deadlock`` ...
-        ``final_test``) and how many were ``flipped``; empty without flips.
+        How many edges each of the paper's flip tests rejected
+        (``t1_deadlock`` ... ``final_test``) and how many were ``flipped``;
+        empty without them.
     seconds : dict of str to float
         Wall time of each stage (``'prepare'``, ``'sampling'``,
-        ``'triangulation'``, ``'flipping'``), of a target search
-        (``'search'``: the tries before the final meshing) and ``'total'``.
-    target : dict
-        Empty unless a target (``vertices``, ``max_error``, ``max_edge``) was
-        given: what was asked, what was achieved, the grid chosen, how many
-        meshings the search took, and a ``note`` when the target could not be
-        met.
+        ``'triangulation'``, ``'flipping'`` for the paper; ``'insertion'``,
+        ``'fit'`` for refine), of a target search (``'search'``) and
+        ``'total'``.
+    target : Target or None
+        What the target asked and what was achieved; None when the paper's
+        method ran on its grid without a target.
     reason : str
         Empty for a normal mesh; for an empty mesh, why it is empty.
     """
@@ -45,18 +186,23 @@ class Stats:
     vertices: int = 0
     edges: int = 0
     triangles: int = 0
-    flipped_edges: int = 0
-    grid_shape: tuple[int, int] = (0, 0)
+    flipped_edges: int | None = 0
+    grid_shape: tuple[int, int] | None = (0, 0)
     sampled_points: int = 0
     flip_tests: dict = field(default_factory=dict)
     seconds: dict = field(default_factory=dict)
-    target: dict = field(default_factory=dict)
+    target: Target | None = None
     reason: str = ""
+    method: str = "paper"
+    insertions: int = 0
+    strips: int = 0
+    heights: str = "pixel"
 
     def to_dict(self) -> dict:
         """Plain-Python dictionary (JSON-ready)."""
         d = asdict(self)
-        d["grid_shape"] = list(self.grid_shape)
+        d["grid_shape"] = None if self.grid_shape is None else list(self.grid_shape)
+        d["target"] = None if self.target is None else self.target.to_dict()
         return d
 
 
@@ -107,9 +253,6 @@ def check_arrays(vertices: np.ndarray, faces: np.ndarray, pixels: np.ndarray | N
             if outside.any():
                 raise ValueError(f"{what}: {int(outside.sum())} vertex pixels (row, col) lie "
                                  f"outside the {h}x{w} image")
-
-
-@holding_signals
 def count_edges(faces: np.ndarray) -> int:
     """Number of distinct undirected edges of a face array.
 

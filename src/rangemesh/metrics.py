@@ -82,7 +82,7 @@ def discontinuity_mask(depth: np.ndarray, valid: np.ndarray, threshold: float = 
     return valid & (K >= threshold)
 
 
-def evaluate(mesh: Mesh, depth, *, background=None, discontinuities: np.ndarray | None = None,
+def evaluate(mesh: Mesh, depth, *, background="auto", discontinuities: np.ndarray | None = None,
              band: int = 2) -> Evaluation:
     """The paper's relative error and companions, exact and vectorised.
 
@@ -91,9 +91,9 @@ def evaluate(mesh: Mesh, depth, *, background=None, discontinuities: np.ndarray 
     mesh : Mesh
     depth : (H, W) array_like
         The original range image (not gap-filled).
-    background : float, optional
-        Value that marks missing depth, as given to `triangulate`. NaN and
-        infinite pixels are always background.
+    background : float, 'auto' or None, default 'auto'
+        What marks missing depth, as given to `triangulate` (``'auto'``: 0 in
+        integer images). NaN and infinite pixels are always background.
     discontinuities : (H, W) ndarray of bool, optional
         Known jump and crease pixels (synthetic scenes). Default:
         `discontinuity_mask` of the image.

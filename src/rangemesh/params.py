@@ -12,7 +12,87 @@ from dataclasses import dataclass
 
 from .checks import flag, real_number, whole_number, whole_pair
 
-__all__ = ["MeshParams", "SAMPLING_CHOICES", "FLIP_CHOICES"]
+__all__ = ["MeshParams", "SAMPLING_CHOICES", "FLIP_CHOICES", "METHODS", "OPTION_METHOD",
+           "DEFAULT_TARGET", "DefaultTarget", "misplaced_option", "default_vertex_cap"]
+
+METHODS = ("refine", "paper")
+
+# Which method reads each option; options of both methods (vertices, max_error, fill_gaps,
+# wrap) are not listed. The one rule for Python and the command line (`misplaced_option`).
+OPTION_METHOD = {
+    "heights": "refine", "diagonals": "refine", "walls": "refine", "jump": "refine",
+    "tiles": "paper", "samples": "paper", "sampling": "paper", "flips": "paper",
+    "levels": "paper", "curvature_floor": "paper", "delta": "paper", "epsilon": "paper",
+    "max_angle": "paper", "min_bend": "paper", "gain_threshold": "paper",
+    "max_edge": "paper", "threads": "paper",
+}
+
+
+def misplaced_option(method: str, given, spell=None) -> str | None:
+    """Why an option of `given` does not go with `method`, or None when they all do.
+
+    Parameters
+    ----------
+    method : {'refine', 'paper'}
+    given : iterable of str
+        Option names given (keys of `OPTION_METHOD`; others are ignored).
+    spell : callable, optional
+        How the message writes an option and a method (the command line
+        writes ``--delta`` and ``--method paper``); default Python's
+        ``delta`` and ``method='paper'``.
+
+    Returns
+    -------
+    str or None
+
+    Examples
+    --------
+    >>> misplaced_option("refine", ["delta"])
+    "delta is an option of method='paper'; method='refine' does not take it"
+    """
+    def python(name, m):
+        return name, f"method={m!r}"
+
+    spell = python if spell is None else spell
+    for name in given:
+        owner = OPTION_METHOD.get(name)
+        if owner is not None and owner != method:
+            opt, own = spell(name, owner)
+            _, this = spell(name, method)
+            return f"{opt} is an option of {own}; {this} does not take it"
+    return None
+
+
+@dataclass(frozen=True)
+class DefaultTarget:
+    """The target of ``method='refine'`` when the caller gives none.
+
+    A relative error of `max_error` percent (of the valid depth range, mean
+    over the valid pixels), with at most `max_share` of the valid pixels as
+    vertices and at least `min_vertices`. The cap stops noisy images (where
+    the error bound alone would take up to 23 % of the pixels) at a size a
+    user keeps; see ``docs/benchmarks.md``, "The default target".
+    """
+
+    max_error: float = 0.5
+    max_share: float = 0.02
+    min_vertices: int = 50
+
+
+# The measured choice (benchmarks/default_target.py): median error 0.32 % against the paper
+# defaults' 0.785 %, no valid pixel left uncovered.
+DEFAULT_TARGET = DefaultTarget()
+
+
+def default_vertex_cap(n_valid: int, rule: DefaultTarget = DEFAULT_TARGET) -> int:
+    """The default target's vertex cap for an image of `n_valid` valid pixels.
+
+    Examples
+    --------
+    >>> default_vertex_cap(32_000), default_vertex_cap(1000)
+    (640, 50)
+    """
+    return max(int(rule.max_share * n_valid), rule.min_vertices)
 
 SAMPLING_CHOICES = ("adaptive", "uniform")
 FLIP_CHOICES = ("disparity", "error", None)
@@ -25,6 +105,10 @@ DIAGONAL_CHOICES = (None, "error", "delaunay")
 @dataclass(frozen=True)
 class MeshParams:
     """Parameters of the Garcia & Sappa pipeline, with the paper's defaults.
+
+    The settings the stages take (`rangemesh.sample_grid`, `flip_edges`, ...).
+    `rangemesh.triangulate` takes them as keywords (``method='paper'``,
+    ``tiles=4``); passing a `MeshParams` to it is deprecated.
 
     Parameters
     ----------
@@ -72,14 +156,15 @@ class MeshParams:
         or error target, it also chooses the samples per tile (see
         `rangemesh.paper.targets.fit_edge`).
     workers : int, default 1
-        Threads sharing stage one's tiles (the paper's parallel stage). The
-        mesh is the same for any number. ``method='refine'`` does not read
-        it: on images of 60,000 valid pixels or more, from 2000 vertices or
-        under an error bound, it meshes two strips of the image on two
-        threads where the process may use two cores, and shares its fit's
-        pass over the pixels between them (`rangemesh.greedy.threads`;
-        ``RANGEMESH_THREADS=1`` keeps one); its mesh too is the same either
-        way.
+        Threads sharing stage one's tiles (the paper's parallel stage);
+        ``threads=`` of `rangemesh.triangulate` (in calls, workers are
+        processes: `rangemesh.mesh_many`). The mesh is the same for any
+        number. ``method='refine'`` does not read it: on images of 60,000
+        valid pixels or more, from 2000 vertices or under an error bound, it
+        meshes two strips of the image on two threads where the process may
+        use two cores, and shares its fit's pass over the pixels between them
+        (`rangemesh.greedy.threads`; ``RANGEMESH_THREADS=1`` keeps one); its
+        mesh too is the same either way.
     heights : {'fit', 'pixel'} or None, default None
         Where vertex depths come from. ``'pixel'``: each vertex copies the
         depth of its pixel (the paper's eq. 4; the only choice of

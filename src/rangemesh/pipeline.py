@@ -1,8 +1,11 @@
 """The one path from a range image to a mesh: check, prepare, mesh, assemble.
 
-Every caller goes through `run`: `triangulate` for one image,
-`rangemesh.batch.mesh_stream` for frames (with reused buffers), the command
-line through `triangulate`. The method itself lives in `rangemesh.paper`.
+Every caller goes through `resolve_call` (the options, checked, and the
+method: ``method=`` alone chooses it, `rangemesh.params.OPTION_METHOD` says
+which method takes which option) and `run`: `triangulate` for one image,
+`rangemesh.batch.mesh_stream` for frames (with reused buffers),
+`rangemesh.batch.mesh_many` for files, the command line. The methods live in
+`rangemesh.greedy` (``'refine'``) and `rangemesh.paper` (``'paper'``).
 """
 
 from __future__ import annotations
@@ -11,25 +14,25 @@ import dataclasses
 import functools
 import math
 import time
+import warnings
 
 import numpy as np
 
+from ._core import valid_range
 from .camera import Spherical, as_camera, check_reach, check_shape
 from .checks import real_number, whole_number
-from .geometry.pixels import valid_range
 from .geometry.seam import seam_strip, unrolled_columns
-from .geometry.signals import holding_signals
 from .greedy import greedy_mesh
 from .greedy.walls import wall_faces
-from .mesh import Mesh, Stats, count_edges, empty_mesh
+from .mesh import Mesh, Stats, Target, count_edges, empty_mesh, with_fields
 from .paper import targets
 from .paper.sampling import fill_gaps_inplace, sample_grid, sampling_weights
 from .paper.stages import mesh_grid
-from .params import MeshParams
+from .params import DEFAULT_TARGET, METHODS, OPTION_METHOD, MeshParams, default_vertex_cap, misplaced_option
 from .prepare import check_image, mask_into, to_depth_and_mask
 
-__all__ = ["triangulate", "resolve_params", "prepare", "run", "Workspace", "check_memory",
-           "check_call", "default_method"]
+__all__ = ["triangulate", "resolve_call", "resolve_params", "prepare", "run", "Workspace",
+           "check_memory", "OPTIONS"]
 
 
 @functools.lru_cache(maxsize=1)
@@ -140,7 +143,7 @@ def prepare(image, params: MeshParams, background=None, *,
     image : (H, W) array_like
     params : MeshParams
         Only ``fill_gaps`` is read.
-    background : float, optional
+    background : float, 'auto' or None, optional
     workspace : Workspace, optional
         Write into its buffers (same shape as the image) instead of new arrays.
 
@@ -150,6 +153,11 @@ def prepare(image, params: MeshParams, background=None, *,
     valid : (H, W) ndarray of bool
     """
     arr, background = check_image(image, background)
+    return _prepare_checked(arr, params, background, workspace)
+
+
+def _prepare_checked(arr, params: MeshParams, background, workspace):
+    """`prepare` of an image `check_image` has checked (and its background resolved)."""
     if workspace is None:
         check_memory(arr.shape)
         depth = np.zeros(arr.shape, np.float64)
@@ -163,66 +171,22 @@ def prepare(image, params: MeshParams, background=None, *,
     return depth, valid
 
 
-def default_method(params: MeshParams, vertices, max_error, overrides) -> str:
-    """The method a call without ``method=`` gets.
+def _legacy_method(params: MeshParams, vertices, max_error, overrides) -> str:
+    """The method a call with ``params=`` or ``**overrides`` and no ``method=`` got before.
 
-    ``'refine'`` when a target (``vertices`` or ``max_error``) is given and
-    nothing only the paper's method reads is (a keyword, or a field of
-    `params` away from its default); ``'paper'`` otherwise, so that every
-    call written for the paper's parameters keeps meshing with them.
+    ``'refine'`` when a target is given and nothing only the paper's method
+    reads is; ``'paper'`` otherwise: the deprecated spellings keep their meshes.
     """
     if vertices is None and max_error is None:
         return "paper"
-    if set(overrides) - set(REFINE_FIELDS):
+    if set(overrides) - set(_LEGACY_REFINE_FIELDS):
         return "paper"
     defaults = _defaults()
     for f in dataclasses.fields(MeshParams):
-        if f.name not in REFINE_FIELDS and getattr(params, f.name) != getattr(defaults, f.name):
+        if f.name not in _LEGACY_REFINE_FIELDS \
+                and getattr(params, f.name) != getattr(defaults, f.name):
             return "paper"
     return "refine"
-
-
-def check_call(params: MeshParams, vertices=None, max_error=None, method=None,
-               overrides: dict | None = None) -> str:
-    """Check the targets and the method of a `triangulate` call before any work; return the method.
-
-    The command line calls it before saying that kernels will compile, so that
-    a bad value fails with its own message first.
-
-    Raises
-    ------
-    ValueError, TypeError
-        As `triangulate` does, naming the parameter.
-    """
-    overrides = {} if overrides is None else overrides
-    _targets_given(params, vertices, max_error, overrides)
-    if method is None:
-        method = default_method(params, vertices, max_error, overrides)
-    elif isinstance(method, str):
-        method = ALIASES.get(method, method)
-    _check_method(method, params, vertices, max_error, overrides)
-    return method
-
-
-def _check_method(method, params: MeshParams, vertices, max_error, overrides) -> None:
-    if method not in METHODS:
-        raise ValueError(f"method must be one of {METHODS}, got {method!r}")
-    if method == "refine":
-        if vertices is None and max_error is None:
-            raise ValueError("method='refine' needs a target: vertices=N or max_error=E")
-        paper_only = sorted(set(overrides) - set(REFINE_FIELDS))
-        if paper_only or params.max_edge is not None:
-            raise ValueError(f"{paper_only or ['max_edge']} are parameters of method='paper'; "
-                             f"method='refine' takes vertices or max_error (and "
-                             f"{', '.join(REFINE_FIELDS)})")
-    elif params.heights == "fit":
-        raise ValueError("heights='fit' belongs to method='refine'; the paper's method copies "
-                         "each vertex's depth from its pixel")
-    elif params.diagonals is not None:
-        raise ValueError(f"diagonals={params.diagonals!r} belongs to method='refine'; the "
-                         f"paper's method chooses its diagonals with flips=")
-    elif not params.walls or "jump" in overrides:
-        raise ValueError("walls=False and jump belong to method='refine'")
 
 
 def _targets_given(params: MeshParams, vertices, max_error, overrides) -> list[str]:
@@ -243,12 +207,143 @@ def _targets_given(params: MeshParams, vertices, max_error, overrides) -> list[s
     return given
 
 
-METHODS = ("paper", "refine")
-# The name "refine" had before: greedy insertion, its algorithm's (and pydelatin's) name. It says
-# how vertices are chosen, not what the method does; it is still accepted and means "refine".
+# The name "refine" had before (greedy insertion); still accepted, with a warning.
 ALIASES = {"greedy": "refine"}
-# the MeshParams fields method="refine" reads
-REFINE_FIELDS = ("fill_gaps", "workers", "heights", "diagonals", "walls", "jump", "wrap")
+# the MeshParams fields the deprecated spellings let method="refine" take
+_LEGACY_REFINE_FIELDS = ("fill_gaps", "workers", "heights", "diagonals", "walls", "jump", "wrap")
+# option -> MeshParams field (the in-call thread count is `threads`; MeshParams calls it workers)
+_FIELD_OF = {name: ("workers" if name == "threads" else name) for name in OPTION_METHOD}
+# The keyword options of `triangulate`, `mesh_stream` and `mesh_many` besides the targets.
+OPTIONS = ("fill_gaps", "wrap", *OPTION_METHOD)
+
+
+def call_options(params: MeshParams, method: str) -> dict:
+    """The keyword options that give `params` to `method` (those away from their defaults).
+
+    Examples
+    --------
+    >>> call_options(MeshParams(tiles=2, workers=3, flips=None), "paper")
+    {'tiles': (2, 2), 'flips': 'none', 'threads': 3}
+    """
+    defaults = _defaults()
+    out = {}
+    for name in OPTIONS:
+        field = _FIELD_OF.get(name, name)
+        value = getattr(params, field)
+        if value != getattr(defaults, field) and OPTION_METHOD.get(name, method) == method:
+            out[name] = "none" if name == "flips" and value is None else value
+    return out
+
+
+@functools.lru_cache(maxsize=64)
+def _params_cached(items: tuple) -> MeshParams:
+    return MeshParams(**dict(items))
+
+
+def _params_of(fields: dict) -> MeshParams:
+    """`MeshParams` of these fields, built once per distinct set (its checks cost 25 us)."""
+    if not fields:
+        return _defaults()
+    try:
+        return _params_cached(tuple(sorted(fields.items())))
+    except TypeError:  # an unhashable value (a list of tiles): build it, uncached
+        return MeshParams(**fields)
+
+
+def _method_name(method, stacklevel: int) -> str:
+    if method in ALIASES:
+        warnings.warn(f"method={method!r} is the earlier name of method={ALIASES[method]!r}; "
+                      f"it goes in the next release", DeprecationWarning, stacklevel=stacklevel + 1)
+        return ALIASES[method]
+    if method not in METHODS:
+        raise ValueError(f"method must be one of {METHODS}, got {method!r}")
+    return method
+
+
+def resolve_call(params, method, vertices, max_error, options: dict, overrides: dict, *,
+                 stacklevel: int = 3) -> tuple[MeshParams, str, bool]:
+    """The settings of a `triangulate` (or `mesh_stream`, `mesh_many`) call, checked.
+
+    Parameters
+    ----------
+    params : MeshParams or None
+        Deprecated spelling of the options.
+    method, vertices, max_error
+        As `triangulate` takes them.
+    options : dict
+        The keyword options of `OPTIONS`, None where not given (``flips``:
+        ``'disparity'`` where not given).
+    overrides : dict
+        Deprecated ``**overrides`` (``workers``: the old name of ``threads``).
+    stacklevel : int
+        Where a deprecation warning points: the user's call.
+
+    Returns
+    -------
+    params : MeshParams
+        Every setting, the method's defaults where not given.
+    method : {'refine', 'paper'}
+    tiles_given : bool
+        Whether the user gave the tiles (a target search of the paper keeps them).
+
+    Raises
+    ------
+    ValueError
+        An option of the other method (naming it and its method), a bad
+        target or value.
+    TypeError
+        An unknown keyword, or `params` not a `MeshParams`.
+    """
+    method = _method_name(method, stacklevel)
+    # None means "not given" except for flips, where it means no flips (as in MeshParams)
+    given = {k: v for k, v in options.items() if v is not None and k != "flips"}
+    flips = options.get("flips", "disparity")
+    if flips != "disparity":
+        given["flips"] = "none" if flips is None else flips
+    if overrides:
+        unknown = set(overrides) - {"workers"}
+        if unknown:
+            raise TypeError(f"unknown option(s) {sorted(unknown)}; the options are "
+                            f"{', '.join(OPTIONS)}, vertices, max_error and method")
+        warnings.warn("workers= is now threads= (in rangemesh, workers are processes: "
+                      "mesh_many); workers= goes in the next release", DeprecationWarning,
+                      stacklevel=stacklevel)
+        if "threads" in given:
+            raise TypeError("give threads= only (workers= is its old name)")
+        given["threads"] = overrides["workers"]
+    fields = {}
+    if given:
+        if "threads" in given:  # checked under its own name: MeshParams calls it workers
+            whole_number("threads", given["threads"], minimum=1)
+        fields = {_FIELD_OF.get(k, k): v for k, v in given.items()}
+        if fields.get("flips") == "none":
+            fields["flips"] = None
+    if params is not None:
+        # the deprecated spelling keeps the method and the mesh it gave before
+        if not isinstance(params, MeshParams):
+            raise TypeError(f"params must be a rangemesh.MeshParams or None, got "
+                            f"{type(params).__name__}")
+        warnings.warn("params=MeshParams(...) is deprecated: give method= and the options as "
+                      "keywords (triangulate(image, method='paper', tiles=4)); it goes in the "
+                      "next release", DeprecationWarning, stacklevel=stacklevel)
+        params = params.replace(**fields) if fields else params
+        if method == "refine":
+            method = _legacy_method(params, vertices, max_error, fields)
+        _targets_given(params, vertices, max_error, fields)
+        changed = [k for k, f in _FIELD_OF.items() if getattr(params, f) != getattr(_defaults(), f)
+                   and not (k == "threads" and method == "refine")  # refine ignored it
+                   and not (k == "heights" and params.heights == "pixel" and method == "paper")]
+        message = misplaced_option(method, changed)
+        if message:
+            raise ValueError(message)
+        return params, method, "tiles" in fields
+    if given:
+        message = misplaced_option(method, given)
+        if message:
+            raise ValueError(f"{message} (method is chosen by method= alone)")
+    params = _params_of(fields)
+    _targets_given(params, vertices, max_error, fields)
+    return params, method, "tiles" in fields
 
 
 def wraps(params: MeshParams, camera) -> bool:
@@ -283,16 +378,17 @@ def close_seam(mesh: Mesh, depth: np.ndarray, params: MeshParams) -> Mesh:
     return dataclasses.replace(mesh, faces=faces, stats=stats)
 
 
-@holding_signals
-def run(image, params: MeshParams, *, background=None, camera=None, vertices=None,
+def run(image, params: MeshParams, *, background="auto", camera=None, vertices=None,
         max_error=None, tiles_given: bool = True, workspace: Workspace | None = None,
-        method: str = "paper") -> Mesh:
-    """Prepare `image`, mesh it with the paper's method (or a target search), assemble stats.
+        method: str = "refine") -> Mesh:
+    """Prepare `image`, mesh it with `method` (for a target, or the default one), assemble stats.
 
-    The arguments are those of `triangulate`, already resolved: `params`
-    holds every setting, `tiles_given` says whether the tiles of `params` are
-    the user's (a target search then keeps them) or the defaults (the search
-    chooses them). With a `workspace`, the image's buffers are reused.
+    The arguments are those of `triangulate`, already resolved
+    (`resolve_call`): `params` holds every setting, `tiles_given` says
+    whether the tiles of `params` are the user's (a target search then keeps
+    them) or the defaults (the search chooses them). ``method='refine'``
+    without a target takes `rangemesh.params.DEFAULT_TARGET`. With a
+    `workspace`, the image's buffers are reused.
 
     Returns
     -------
@@ -302,13 +398,14 @@ def run(image, params: MeshParams, *, background=None, camera=None, vertices=Non
 
     Notes
     -----
-    Ctrl-C and termination signals are held for the whole call
-    (`rangemesh.geometry.signals`) and delivered when it returns: once, not
-    once per stage (40 us each, 4 % of a 5 ms call).
+    The compiled kernels run with the GIL released and watch for Ctrl-C: a
+    KeyboardInterrupt ends the call within a fraction of a second, whatever the
+    image's size, and leaves nothing half-made.
     """
     camera = as_camera(camera)
     t0 = time.perf_counter()
-    depth, valid = prepare(image, params, background, workspace=workspace)
+    image, background = check_image(image, background)  # resolves 'auto' by the dtype
+    depth, valid = _prepare_checked(image, params, background, workspace)
     check_shape(camera, depth.shape)
     lo, hi, n_valid = valid_range(depth, valid)
     if n_valid:
@@ -319,19 +416,25 @@ def run(image, params: MeshParams, *, background=None, camera=None, vertices=Non
     t1 = time.perf_counter()
     if not n_valid:
         # Still check the tiling so that bad parameters fail the same way on any image.
-        sample_grid(depth, valid, params.replace(sampling="uniform"))
-        stats = Stats(grid_shape=params.grid_shape, seconds={"prepare": t1 - t0, "total": t1 - t0},
+        if method == "paper":
+            sample_grid(depth, valid, params.replace(sampling="uniform"))
+        stats = Stats(grid_shape=params.grid_shape if method == "paper" else None,
+                      seconds={"prepare": t1 - t0, "total": t1 - t0}, method=method,
                       reason="the image has no valid pixel (all background)")
         return empty_mesh(camera, depth.shape, stats)
     target = {}
     tiles = params.tiles if tiles_given else None
+    default_target = method == "refine" and vertices is None and max_error is None
     if method == "refine":
+        cap = None
+        if default_target:
+            max_error, cap = DEFAULT_TARGET.max_error, default_vertex_cap(n_valid)
         ref = to_depth_and_mask(image, background) if max_error is not None else None
         mesh, target = greedy_mesh(depth, valid, camera, vertices=vertices, max_error=max_error,
                                    reference=ref, fit=params.heights != "pixel",
                                    diagonals=params.diagonals or "error",
                                    walls=params.walls, jump=params.jump,
-                                   extent=(lo, hi, n_valid))
+                                   extent=(lo, hi, n_valid), max_vertices=cap)
     elif vertices is not None:
         mesh, target = targets.fit_vertices(depth, valid, params, camera, int(vertices), tiles=tiles)
     elif max_error is not None:
@@ -356,104 +459,158 @@ def run(image, params: MeshParams, *, background=None, camera=None, vertices=Non
     if target:
         seconds["search"] = t4 - t1 - sum(mesh.stats.seconds.values())
     seconds["total"] = t4 - t0
-    stats = dataclasses.replace(mesh.stats, seconds=seconds, target=target)
-    return dataclasses.replace(mesh, stats=stats)
+    record = Target.from_record(target, vertices=mesh.stats.vertices,
+                                default=default_target) if target else None
+    changes = {"seconds": seconds, "target": record, "method": method}
+    if record is not None and record.tiles is not None:
+        # the grid the search chose; with max_edge the mesh's points are a list, not a grid
+        (v, h), (rs, z) = record.tiles, record.samples
+        changes["grid_shape"] = ((rs - 1) * v + 1, (z - 1) * h + 1)
+    return with_fields(mesh, stats=with_fields(mesh.stats, **changes))
 
 
-def triangulate(image, params: MeshParams | None = None, *, background=None, camera=None,
-                vertices: int | None = None, max_error: float | None = None,
-                method: str | None = None, color=None, **overrides) -> Mesh:
-    """Mesh a range image: refined at its worst pixels for a target, or Garcia & Sappa's pipeline.
+def triangulate(image, params: MeshParams | None = None, *,
+                method: str = "refine", vertices: int | None = None,
+                max_error: float | None = None, background="auto", camera=None, color=None,
+                fill_gaps: bool | None = None, wrap: bool | None = None,
+                heights: str | None = None, diagonals: str | None = None,
+                walls: bool | None = None, jump: float | None = None,
+                tiles: int | tuple[int, int] | None = None,
+                samples: int | tuple[int, int] | None = None, sampling: str | None = None,
+                flips: str | None = "disparity", levels: int | None = None,
+                curvature_floor: float | None = None, delta: float | None = None,
+                epsilon: float | None = None, max_angle: float | None = None,
+                min_bend: float | None = None, gain_threshold: float | None = None,
+                max_edge: float | None = None, threads: int | None = None,
+                **overrides) -> Mesh:
+    """Mesh a range image: refined at its worst pixels (default), or Garcia & Sappa's pipeline.
 
     Parameters
     ----------
     image : (H, W) array_like of int or float
         The range image (depth, disparity or range values).
     params : MeshParams, optional
-        All algorithm settings; keyword overrides below take precedence.
-    background : float, optional
-        Value that marks missing depth (``0``, ``65535``, ...). NaN and
-        infinite pixels are always background.
+        Deprecated: give `method` and the options as keywords. A call with it
+        keeps the method and mesh it gave before (the paper's method unless a
+        target and no paper option is given).
+    method : {'refine', 'paper'}, default 'refine'
+        ``'refine'``: a coarse mesh refined where it fits worst, by greedy
+        insertion (`rangemesh.greedy`): the pixel whose triangle fits worst
+        becomes a vertex until the target is met, in one pass; jumps keep
+        vertices on both sides. ``'paper'``: Garcia & Sappa's pipeline
+        (adaptive sampling grid, 2.5-D Delaunay, discontinuity-preserving
+        flips), the meshes it has always given. The method is chosen by this
+        argument alone: an option of the other method is an error.
+        (``'greedy'``, the earlier name of ``'refine'``, is deprecated.)
+    vertices : int, optional
+        ``'refine'``: exactly this many vertices (every valid pixel if there
+        are fewer). ``'paper'``: about this many, its grid searched to within
+        2 % (`rangemesh.paper.targets.fit_vertices`).
+    max_error : float, optional
+        The smallest mesh whose relative error (percent of the valid depth
+        range, mean, as `evaluate`) is at most this: ``'refine'`` stops
+        there; ``'paper'`` searches its grid (`rangemesh.paper.targets.fit_error`).
+        `vertices` and `max_error` exclude each other. With neither,
+        ``'refine'`` takes the default target `rangemesh.params.DEFAULT_TARGET`:
+        ``max_error=0.5`` with at most 2 % of the valid pixels as vertices
+        (at least 50); ``'paper'`` meshes its grid of `tiles` x `samples`.
+    background : float, 'auto' or None, default 'auto'
+        What marks missing depth. ``'auto'``: 0 in integer images, nothing
+        in float images (`rangemesh.prepare.guess_background`); a number
+        (``0``, ``65535``, ...); None: only NaN/inf. NaN and infinite pixels
+        are always missing depth.
     camera : Orthographic, Pinhole, Spherical, Rays or (kx, ky, kz), optional
         How pixels become 3-D points; default ``Orthographic(1, 1, 1)``, the
         paper's eq. (4) with unit scales. `Spherical` (a spinning LiDAR,
         ``Spherical.from_beams``) and `Rays` put each vertex at ``range *
         ray`` of its pixel; a `Spherical` camera that goes once round closes
-        the 360-degree seam (``wrap``).
-    vertices : int, optional
-        Exactly this many vertices (``method='refine'``; every valid pixel if
-        there are fewer). With ``method='paper'``: about this many, the grid
-        searched to within 2 % (`rangemesh.paper.targets.fit_vertices`).
-    max_error : float, optional
-        The smallest mesh whose relative error (percent, as `evaluate`) is at
-        most this: ``method='refine'`` stops there, in one pass; the paper's
-        method searches its grid (`rangemesh.paper.targets.fit_error`).
-    method : {'refine', 'paper'}, optional
-        ``'refine'``: a coarse mesh refined where it fits worst, by greedy
-        insertion (`rangemesh.greedy`): the pixel whose triangle ranks
-        highest by its errors becomes a vertex, until exactly `vertices`
-        vertices or a relative error of `max_error` is reached, in one
-        pass; jumps keep vertices on both sides. Needs one target and takes
-        only ``fill_gaps``, ``heights``, ``diagonals``, ``walls``, ``jump``
-        and ``wrap`` of the parameters (vertex depths are fitted by least
-        squares unless ``heights='pixel'``; ``diagonals='error'`` gives
-        each quad the diagonal that fits its pixels better; ``walls=False``
-        drops the triangles across jumps).
-        ``'paper'``: Garcia & Sappa's pipeline with every parameter below,
-        the meshes it has always given. Default (`default_method`):
-        ``'refine'`` with a target and no parameter of the paper's method,
-        ``'paper'`` otherwise. ``'greedy'``, the earlier name of ``'refine'``,
-        is still accepted.
+        the 360-degree seam (`wrap`).
     color : (H, W, 3) or (H, W) array_like, optional
         A colour image registered pixel to pixel with the range image: the
         mesh gets each vertex's colour and keeps the image as its texture
-        (`Mesh.with_colors`, which also takes the mean over the pixels a
-        vertex stands for).
+        (`Mesh.with_colors`).
+    fill_gaps : bool, optional
+        Both methods. Fill single-pixel holes (a background pixel with 8
+        valid neighbours) with their mean first (default True).
+    wrap : bool, optional
+        Both methods. Close the seam between the last and first column (a
+        360-degree scan); default: the camera's say.
+    heights : {'fit', 'pixel'}, optional
+        ``'refine'`` only. Vertex depths by least squares over the pixels,
+        jumps left out (``'fit'``, default), or copied from the pixel.
+    diagonals : {'error', 'delaunay'}, optional
+        ``'refine'`` only. Each quad's diagonal: the one that fits its pixels
+        better (``'error'``, default) or greedy insertion's Delaunay one.
+    walls : bool, optional
+        ``'refine'`` only. False drops the triangles across depth jumps, so
+        separate surfaces stay separate (default True).
+    jump : float, optional
+        ``'refine'`` only, with ``walls=False``: a depth change above this
+        share of the local depth per pixel is a jump (default 0.05).
+    tiles : int or (int, int), optional
+        ``'paper'`` only. Tiles ``(V, H)`` of stage one (default (4, 4); with
+        a target, chosen for the image unless given).
+    samples : int or (int, int), optional
+        ``'paper'`` only. Samples per tile ``(Rs, Z)`` (default (10, 10));
+        not with a target, which chooses them.
+    sampling : {'adaptive', 'uniform'}, optional
+        ``'paper'`` only. Log-curvature sampling (default) or the uniform baseline.
+    flips : {'disparity', 'error', None}, default 'disparity'
+        ``'paper'`` only. The paper's disparity tests, its error-based
+        variant, or no flips (None, or ``'none'``).
+    levels : int, optional
+        ``'paper'`` only. Resolutions summed into the curvature (default 2).
+    curvature_floor : float, optional
+        ``'paper'`` only. Curvature floor on a 0..255 depth scale (default 20).
+    delta, epsilon, max_angle, min_bend : float, optional
+        ``'paper'`` only. The flip tests' thresholds in degrees (defaults 20,
+        0.3, 160, 5; see `MeshParams`).
+    gain_threshold : float, optional
+        ``'paper'`` only. Stop flipping below this gain (default: none).
+    max_edge : float, optional
+        ``'paper'`` only. No triangle edge longer than this in the image
+        plane, pixels; alone, it also chooses the samples per tile
+        (`rangemesh.paper.targets.fit_edge`).
+    threads : int, optional
+        ``'paper'`` only. Threads sharing stage one's tiles; the mesh is the
+        same for any number (default 1). (``'refine'`` decides itself:
+        `rangemesh.greedy.threads`.)
     **overrides
-        Any field of `MeshParams`: ``tiles``, ``samples``, ``sampling``,
-        ``flips``, ``levels``, ``curvature_floor``, ``fill_gaps``, ``delta``,
-        ``epsilon``, ``max_angle``, ``min_bend``, ``gain_threshold``, and
-        ``max_edge`` (no triangle edge longer than this in the image plane,
-        pixels; alone, it also chooses the samples per tile, see
-        `rangemesh.paper.targets.fit_edge`) and ``workers`` (threads for stage
-        one's tiles; the mesh is the same for any number), and ``wrap``
-        (close the seam between the last and the first column).
+        Deprecated: ``workers``, the old name of `threads`.
 
     Returns
     -------
     Mesh
         ``vertices (V, 3)``, ``faces (F, 3)`` counter-clockwise in the image
-        plane, ``pixels (V, 2)``, and ``stats``. When nothing can be meshed (no
-        valid pixel, fewer than 3 valid samples, all collinear) the mesh is
-        empty and ``stats.reason`` says why. With a target, ``stats.target``
-        tells what was asked, what was achieved and which grid was chosen.
+        plane, ``pixels (V, 2)``, and ``stats`` (`Stats`: what the method
+        did, and ``stats.target``, a `rangemesh.Target` record of what was
+        asked and achieved). When nothing can be meshed (no valid pixel,
+        fewer than 3 valid samples, all collinear) the mesh is empty and
+        ``stats.reason`` says why.
 
     Raises
     ------
     ValueError
-        Bad image shape, parameters out of range (e.g. more tiles than fit,
-        or a sample grid with more entries than the image has pixels, see
-        `rangemesh.paper.sampling.max_grid_entries`), ``samples`` together
-        with a target, or a camera that maps pixels beyond the float range.
-        The message names the parameter.
+        An option of the other method (the message names it and its
+        method), bad image shape, parameters out of range, both targets, or
+        a camera that maps pixels beyond the float range. The message names
+        the parameter.
     TypeError
-        Wrong kind of image, camera or parameter (strings are never read as
-        numbers or flags).
+        Wrong kind of image, camera or parameter, or an unknown keyword.
     MemoryError
         The image needs more memory than the machine has available (20 bytes
         a pixel, see `check_memory`).
 
     See Also
     --------
-    sample_grid, delaunay_mesh, flip_edges : the three stages, callable one by one.
+    rangemesh.mesh_stream, rangemesh.mesh_many : the same call over many images.
     evaluate : relative error of the result.
 
     Notes
     -----
-    Vertices take their depth from the gap-filled image (paper eq. 4 uses the
-    filtered image ``R_f``). Stage timings are in ``stats.seconds``. With a
-    target, the tiles and samples of `params` are replaced by the search
-    (tiles given as a keyword are kept).
+    Vertices take their depth from the gap-filled image (paper eq. 4 uses
+    the filtered image ``R_f``) unless ``heights='fit'`` (refine's default).
+    Stage timings are in ``stats.seconds``.
 
     References
     ----------
@@ -466,17 +623,25 @@ def triangulate(image, params: MeshParams | None = None, *, background=None, cam
     >>> import numpy as np
     >>> r, c = np.mgrid[0:40, 0:50]
     >>> depth = np.where(c < 25, 100.0 + c, 150.0 - c)        # a roof crease
-    >>> mesh = triangulate(depth, tiles=2, samples=5)
-    >>> mesh.stats.vertices, mesh.faces.shape[1]
-    (81, 3)
+    >>> triangulate(depth, vertices=6).stats.vertices
+    6
+    >>> mesh = triangulate(depth, method="paper", tiles=2, samples=5)
+    >>> mesh.stats.grid_shape, mesh.faces.shape[1]
+    ((9, 9), 3)
     """
-    params = resolve_params(params, overrides)
-    method = check_call(params, vertices, max_error, method, overrides)
+    options = {"fill_gaps": fill_gaps, "wrap": wrap, "heights": heights,
+               "diagonals": diagonals, "walls": walls, "jump": jump, "tiles": tiles,
+               "samples": samples, "sampling": sampling, "flips": flips, "levels": levels,
+               "curvature_floor": curvature_floor, "delta": delta, "epsilon": epsilon,
+               "max_angle": max_angle, "min_bend": min_bend, "gain_threshold": gain_threshold,
+               "max_edge": max_edge, "threads": threads}
+    params, method, tiles_given = resolve_call(params, method, vertices, max_error, options,
+                                               overrides)
     if color is not None:
         shape, cshape = np.shape(image)[:2], np.shape(color)[:2]
         if shape != cshape:
             raise ValueError(f"color is {cshape[0]}x{cshape[1]} and the image "
                              f"{shape[0]}x{shape[1]}: they must be registered pixel to pixel")
     mesh = run(image, params, background=background, camera=camera, vertices=vertices,
-               max_error=max_error, tiles_given="tiles" in overrides, method=method)
+               max_error=max_error, tiles_given=tiles_given, method=method)
     return mesh if color is None or mesh.is_empty else mesh.with_colors(color)

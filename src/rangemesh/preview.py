@@ -103,7 +103,11 @@ def save_preview(mesh: Mesh, depth: np.ndarray, valid: np.ndarray, path: str | o
     depth, valid = depth[::step, ::step], valid[::step, ::step]  # views: no full-size copy
     shown = np.where(valid, depth, np.nan)
     s = mesh.stats
-    figs = [f"{s.vertices} vertices", f"{s.triangles} triangles", f"{s.flipped_edges} flips"]
+    did = (f"{s.flipped_edges} flips by the error" if s.method == "refine"
+           else f"{s.flipped_edges} flips")  # refine's flips follow the error, not disparity
+    if s.flipped_edges is None:  # refine on two strips: the core does not count them
+        did = "flips by the error"
+    figs = [f"{s.vertices} vertices", f"{s.triangles} triangles", s.method, did]
     if s.seconds.get("total"):
         figs.append(f"{1000 * s.seconds['total']:.1f} ms")
     if evaluation is not None:

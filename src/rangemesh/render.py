@@ -10,10 +10,8 @@ import math
 
 import numpy as np
 
+from ._core import covered_error, rasterize, valid_range
 from .camera import Orthographic, Pinhole, Rays, Spherical
-from .geometry.pixels import covered_error, valid_range
-from .geometry.raster import rasterize
-from .geometry.signals import holding_signals
 from .mesh import Mesh
 
 __all__ = ["render_depth", "relative_error"]
@@ -57,9 +55,6 @@ def _spherical_pixels(cam: Spherical, v: np.ndarray) -> tuple[np.ndarray, np.nda
 def _snap(x: np.ndarray, tol: float = 1e-3) -> np.ndarray:
     near = np.round(x)
     return np.where(np.abs(x - near) < tol, near, x)
-
-
-@holding_signals
 def render_depth(mesh: Mesh, shape: tuple[int, int] | None = None, *,
                  step: int = 1) -> tuple[np.ndarray, np.ndarray]:
     """Depth the mesh predicts at every pixel centre, in stored depth units.
@@ -115,7 +110,7 @@ def render_depth(mesh: Mesh, shape: tuple[int, int] | None = None, *,
     seam = (area < 0) & (fc.max(axis=1) - fc.min(axis=1) > 0.5 * w)
     index = np.flatnonzero(~seam)
     rasterize(np.ascontiguousarray(fr[index]), np.ascontiguousarray(fc[index]),
-              np.ascontiguousarray(val[f[index]]), h, w, out, face)
+              np.ascontiguousarray(val[f[index]]), out, face)
     if len(index) != len(f):
         hit = face >= 0
         face[hit] = index[face[hit]]

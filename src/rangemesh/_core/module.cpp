@@ -15,6 +15,8 @@ NB_MODULE(_ext, m) {
         }
     });
     rangemesh::bind::bind_geometry(m);
+    rangemesh::bind::bind_geometry_tests(m);
     rangemesh::bind::bind_paper(m);
+    rangemesh::bind::bind_heights(m);
     rangemesh::bind::bind_refine(m);
 }

@@ -1,6 +1,5 @@
-"""Shared geometry kernels (Numba): vectors, half-edges, the heap, raster lines, Delaunay.
+"""Shared geometry in Python: the 360-degree seam of a spinning LiDAR's image.
 
-Every method of rangemesh builds on these; nothing here knows about a method.
-Kernels trust their inputs: the public functions that call them check shapes,
-dtypes and values and allocate the outputs.
+The kernels every method builds on (half-edges, Delaunay, the row scan, the
+heap, rasterising) are compiled C++ (`rangemesh._core`).
 """

@@ -20,11 +20,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from .. import _core
 from ..camera import Pinhole
-from ..geometry.pixels import valid_range
-from ..geometry.signals import holding_signals
-from .heights_kernels import empty_buffers, face_order, fit_pass, gather_blocks, solve_blocks
-from .threads import executor, threads
+from .threads import threads
 
 __all__ = ["fit_heights"]
 
@@ -75,43 +73,6 @@ ORDER_MIN_PIXELS = 150_000
 CG_RTOL = 1e-8
 
 
-# The full pass of a fit of this many faces or more is shared by two threads, half the faces
-# each (`rangemesh.greedy.threads`): each face's sums land in its own rows, so the result is
-# the same bit for bit.
-SPLIT_MIN_FACES = 4000
-
-
-def _full_pass(f, order, pr, pc, h0, image, valid, thr, resid, ids, block, rhs):
-    """`fit_pass` over every pixel, on two threads for large meshes; returns the pixels used."""
-    n = order.size
-    if n < SPLIT_MIN_FACES or threads() < 2:
-        return fit_pass(f, order, pr, pc, h0, image, valid, thr, resid, ids, block, rhs, 1, 1)
-    m = n // 2  # row slices of C-contiguous arrays: the same Numba types, no copies
-    fut = executor().submit(fit_pass, f, order[:m], pr, pc, h0, image, valid, thr, resid,
-                            ids[:m], block[:m], rhs[:m], 1, 1)
-    used = fit_pass(f, order[m:], pr, pc, h0, image, valid, thr, resid, ids[m:], block[m:],
-                    rhs[m:], 1, 1)
-    return used + fut.result()
-
-
-def median_inplace(x: np.ndarray) -> float:
-    """``np.median(x)`` of a 1-D float array, bit for bit, reordering `x` in place.
-
-    NumPy's median copies the array first and adds its own checks: on the
-    fit's samples (3,000-40,000 errors) this took 0.55-0.7x its time. Like
-    it, the mean of the two middle values for an even count, and NaN when
-    `x` holds one.
-    """
-    n = x.size
-    if n == 0:
-        raise ValueError("median_inplace: an empty array has no median")
-    h = n // 2
-    x.partition([h - 1, h, n - 1] if n % 2 == 0 else [h, n - 1])  # NaNs sort last
-    if np.isnan(x[-1]):
-        return float("nan")
-    return float(x[h]) if n % 2 else float((x[h - 1] + x[h]) / 2.0)
-
-
 def sample_strides(n_faces: int) -> tuple[int, int]:
     """(row stride, face stride) of the pixels whose errors' median the fit takes.
 
@@ -124,21 +85,25 @@ def sample_strides(n_faces: int) -> tuple[int, int]:
     return 1, max(RESIDUAL_STRIDE, n_faces // RESIDUAL_SAMPLE)
 
 
+def _default_threads() -> int:
+    """The pass's threads when the caller names none: `rangemesh.greedy.threads.threads`."""
+    return threads()
+
+
 def _direct_solve(ids, block, rhs, h0):
-    """The system `solve_blocks` solves, by a sparse LU (the fallback when CG does not converge)."""
+    """The system `_core.solve_blocks` solves, by a sparse LU (the fallback when CG does not converge)."""
     from scipy import sparse
     from scipy.sparse.linalg import spsolve
 
     n = len(h0)
-    _, b, ridge = gather_blocks(ids, block, rhs, h0, RIDGE)
+    _, b, ridge = _core.gather_blocks(ids, block, rhs, h0, RIDGE)
     m = sparse.csr_matrix((block.ravel(), (np.repeat(ids, 3, axis=1).ravel(),
                                            np.tile(ids, (1, 3)).ravel())), shape=(n, n))
     return spsolve((m + sparse.diags(ridge, format="csr")).tocsc(), b)
 
 
-@holding_signals
 def fit_heights(pixels: np.ndarray, faces: np.ndarray, depth: np.ndarray, valid: np.ndarray,
-                camera, *, extent=None) -> np.ndarray:
+                camera, *, extent=None, threads: int | None = None) -> np.ndarray:
     """Least-squares vertex depths for a mesh of `depth` with fixed image positions.
 
     Parameters
@@ -152,8 +117,12 @@ def fit_heights(pixels: np.ndarray, faces: np.ndarray, depth: np.ndarray, valid:
     camera : Orthographic or Pinhole
         Decides what is interpolated: depth (orthographic) or inverse depth.
     extent : (float, float, int), optional
-        ``valid_range(depth, valid)`` (`rangemesh.geometry.pixels`) when the
+        ``valid_range(depth, valid)`` (`rangemesh._core`) when the
         caller has it: a pass over the image less.
+    threads : int, optional
+        Threads of the pass over the pixels (meshes of 4000 faces or more);
+        by default `rangemesh.greedy.threads.threads`. The result is the same
+        bit for bit for any number.
 
     Returns
     -------
@@ -175,33 +144,24 @@ def fit_heights(pixels: np.ndarray, faces: np.ndarray, depth: np.ndarray, valid:
         raise ValueError("fit_heights: every vertex must sit on a valid pixel")
     f = np.ascontiguousarray(faces, dtype=np.int64)
     if depth.size >= ORDER_MIN_PIXELS:
-        order = face_order(f, pr, pc, depth.shape[0], depth.shape[1], ORDER_TILE)
+        order = _core.face_order(f, pr, pc, depth.shape[0], depth.shape[1], ORDER_TILE)
     else:
         order = np.arange(len(f), dtype=np.int64)
-    lo_z, hi_z, n_valid = valid_range(depth, valid) if extent is None else extent
-    resid, ids, block, rhs = empty_buffers(len(f), int(n_valid))
-    # a robust sigma of the errors (1.4826 x their median: they centre on 0), from a sample
-    # of the pixels (`sample_strides`)
+    lo_z, hi_z, n_valid = _core.valid_range(depth, valid) if extent is None else extent
     rows, every = sample_strides(len(f))
-    used = fit_pass(f, order, pr, pc, h0, image, valid, -1.0, resid, ids, block, rhs, rows,
-                    every)
-    if used == 0 and (rows, every) != (1, 1):  # the sample missed every valid pixel
-        used = fit_pass(f, order, pr, pc, h0, image, valid, -1.0, resid, ids, block, rhs, 1, 1)
-    if used == 0:
+    outcome, fitted, system = _core.fit_heights(
+        f, order, pr, pc, np.ascontiguousarray(h0, dtype=np.float64),
+        np.ascontiguousarray(image, dtype=np.float64), np.ascontiguousarray(valid, dtype=bool),
+        row_stride=rows, face_stride=every, capacity=int(n_valid), outlier_mads=OUTLIER_MADS,
+        outlier_floor=OUTLIER_FLOOR, ridge=RIDGE, rtol=CG_RTOL, max_iter=10 * n,
+        threads=_default_threads() if threads is None else threads)
+    if fitted is None:
+        # No valid pixel, or most pixels fit the copied depths exactly and only pixels within
+        # rounding of them would be kept: the copied depths are the least-squares solution
+        # (quantised disparities and exact scenes at dense budgets).
         return depth[pr, pc].astype(np.float64)
-    sigma = 1.4826 * median_inplace(resid[:used])
-    lo, hi = float(np.min(h0)), float(np.max(h0))
-    floor = OUTLIER_FLOOR * (hi - lo)
-    if OUTLIER_MADS * sigma <= floor:
-        # Most pixels fit the copied depths exactly, and only pixels within rounding of them
-        # would be kept: the copied depths are the least-squares solution, no pass or solve
-        # needed (quantised disparities and exact scenes at dense budgets).
-        return depth[pr, pc].astype(np.float64)
-    thr = OUTLIER_MADS * sigma
-    _full_pass(f, order, pr, pc, h0, image, valid, thr, resid, ids, block, rhs)
-    fitted, converged = solve_blocks(ids, block, rhs, h0, RIDGE, CG_RTOL, 10 * n)
-    if not converged:  # ill-conditioned: a direct sparse solve of the same system
-        fitted = _direct_solve(ids, block, rhs, h0)
+    if outcome == "not converged":  # ill-conditioned: a direct sparse solve of the same system
+        fitted = _direct_solve(*system, h0)
     if not np.isfinite(fitted).all():
         raise RuntimeError("fit_heights: the least-squares solve failed")
     # A vertex that few pixels pin down can be thrown far off (a negative range was seen on a

@@ -6,10 +6,8 @@ import time
 
 import numpy as np
 
-from .._core import count_edges, flip_by_error, greedy_insert, greedy_insert_sums
+from .._core import count_edges, flip_by_error, greedy_insert, greedy_insert_sums, valid_faces, valid_range
 from ..camera import backproject, pixel_aspect
-from ..geometry.pixels import valid_faces, valid_range
-from ..geometry.signals import holding_signals
 from ..mesh import Mesh, Stats, empty_mesh
 from ..render import relative_error
 from .heights import fit_heights
@@ -133,29 +131,31 @@ def _bounded(faces, pixels, depth, valid, camera, shape, max_error, ref, fit, ex
     return fitted, fitted_error
 
 
-def _refine(depth, valid, start, strips, asked, max_sum, span, scales, n_grid, diagonals):
+def _refine(depth, valid, start, strips, asked, max_sum, span, scales, n_grid, diagonals,
+            info=None):
     """``vr, vc, tv`` of greedy insertion, on one strip or two (`strip_insert`).
 
     With ``diagonals='error'`` each quad then takes the diagonal that fits
-    its pixels better (`rangemesh.greedy.diagonals`; on strips,
-    each strip on its thread, then the seam).
+    its pixels better (`rangemesh.greedy.diagonals`; on strips, each strip
+    on its thread, then the seam); `info` receives ``flips`` (None on strips:
+    the core does not report the strips' own flips).
     """
+    info = {} if info is None else info
+    info["flips"] = 0
     if strips:  # two strips on two threads (`rangemesh.greedy.strips`)
+        info["flips"] = None
         return strip_insert(depth, valid, asked, span, scales, n_grid, max_sum=max_sum,
                             diagonals=diagonals)[:3]
     if diagonals != "error":
         return greedy_insert(depth, valid, *start, asked, max_sum, span, *scales)[:3]
     # the insertion's own half-edges and triangle sums: no second pass over the pixels
     vr, vc, tv, he, tsum = greedy_insert_sums(depth, valid, *start, asked, max_sum, span, *scales)
-    flip_by_error(vr, vc, tv, he, tsum, depth, valid, span)
+    info["flips"] = int(flip_by_error(vr, vc, tv, he, tsum, depth, valid, span)[0])
     return vr, vc, tv
-
-
-@holding_signals
 def greedy_mesh(depth: np.ndarray, valid: np.ndarray, camera, *, vertices: int | None = None,
                 max_error: float | None = None, reference=None, fit: bool = True,
                 diagonals: str = "error", walls: bool = True, jump: float = 0.05,
-                extent=None) -> tuple[Mesh, dict]:
+                extent=None, max_vertices: int | None = None) -> tuple[Mesh, dict]:
     """Mesh a prepared image by inserting its worst pixel until a target is met.
 
     Parameters
@@ -191,6 +191,9 @@ def greedy_mesh(depth: np.ndarray, valid: np.ndarray, camera, *, vertices: int |
         The jump rule's share of the local depth per pixel (``walls=False``).
     extent : (float, float, int), optional
         ``valid_range(depth, valid)`` when the caller has it.
+    max_vertices : int, optional
+        With `max_error`: stop at this many vertices even if the bound is not
+        met (noisy images would otherwise take a large share of their pixels).
 
     Returns
     -------
@@ -215,8 +218,12 @@ def greedy_mesh(depth: np.ndarray, valid: np.ndarray, camera, *, vertices: int |
     lo, hi, n_valid = extent
     span = hi - lo
     want = n_valid if vertices is None else min(int(vertices), n_valid)
+    if vertices is None and max_vertices is not None:
+        want = min(int(max_vertices), n_valid)
     scales = delaunay_scales(camera, (h, w))
     n_grid = grid_size(want, n_valid, vertices is None)
+    if vertices is None and max_vertices is not None:  # the first mesh stays under the cap
+        n_grid = min(n_grid, grid_size(want, n_valid, False))
     strips = use_strips((h, w), want, max_error, n_valid)
     start = None if strips else first_mesh(depth, valid, n_grid, scales)
     max_sum = -1.0 if max_error is None else float(max_error) / 100.0 * span * n_valid
@@ -226,10 +233,11 @@ def greedy_mesh(depth: np.ndarray, valid: np.ndarray, camera, *, vertices: int |
     short, beyond = 0, n_valid + 1  # requests known to give fewer / more than `want`
     best = None  # with `vertices`: the result nearest `want`, not above it if any is
     fit_seconds = 0.0  # fitting the depths (with max_error, measuring their error too)
+    info = {}
     while True:
         runs += 1
         vr, vc, tv = _refine(depth, valid, start, strips, asked, max_sum, float(span), scales,
-                             n_grid, diagonals)
+                             n_grid, diagonals, info)
         faces, pixels, n_walls = _assemble(vr, vc, tv, depth, valid, camera, walls, jump)
         got = len(pixels)
         if vertices is not None:
@@ -273,9 +281,11 @@ def greedy_mesh(depth: np.ndarray, valid: np.ndarray, camera, *, vertices: int |
         seconds["fit"] = fit_seconds
     # (the kernel itself: faces made here need no checks, which cost 70 us at 3000 faces)
     stats = Stats(vertices=got, triangles=len(faces), edges=count_edges(faces, got),
-                  sampled_points=got, seconds=seconds)
+                  sampled_points=got, seconds=seconds, method="refine", grid_shape=None,
+                  flipped_edges=info["flips"], insertions=len(vr), strips=2 if strips else 1,
+                  heights="fit" if fit else "pixel")
     if len(faces) == 0:
-        stats = Stats(seconds=seconds,
+        stats = Stats(seconds=seconds, method="refine", grid_shape=None,
                       reason="no triangle with valid corners: too few valid pixels"
                       if walls or not n_walls else
                       f"every triangle was a wall across a jump ({n_walls} dropped)")
@@ -290,9 +300,13 @@ def greedy_mesh(depth: np.ndarray, valid: np.ndarray, camera, *, vertices: int |
                   "meshings": runs}
     else:
         ok = achieved <= max_error
-        note = "" if ok else "the bound was not reached"
+        capped = not ok and max_vertices is not None and asked >= want
+        note = "" if ok else (f"stopped at max_vertices={want}" if capped
+                              else "the bound was not reached")
         target = {"target": "max_error", "requested": float(max_error), "achieved": achieved,
                   "met": ok, "meshings": runs, "vertices": got}
+        if max_vertices is not None:
+            target["max_vertices"] = want
     if not walls:
         target["walls_dropped"] = n_walls
     if note:

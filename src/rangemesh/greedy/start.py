@@ -4,8 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..geometry.delaunay import delaunay_sweep
-from ..geometry.pixels import grid_pixels, nearest_valid
+from .._core import delaunay_sweep, grid_pixels, nearest_valid
 
 __all__ = ["corner_depths", "first_mesh"]
 
@@ -15,7 +14,7 @@ def corner_depths(depth: np.ndarray, valid: np.ndarray) -> np.ndarray:
 
     The corners are (0, 0), (H-1, 0), (H-1, W-1), (0, W-1), the first vertices
     of greedy insertion. Ties between equally near pixels go to the smallest
-    (row, col) (`rangemesh.geometry.pixels.nearest_valid`: a window search,
+    (row, col) (`rangemesh._core.nearest_valid`: a window search,
     not a distance transform of the whole image, which took 10 ms at 640x480,
     a third of the insertion's own time).
     """
@@ -61,7 +60,7 @@ def first_mesh(depth: np.ndarray, valid: np.ndarray, n_grid: int, scales=(1, 1),
     sr, sc = scales
     gr = int(round(np.sqrt(n_grid * h * sr / (w * sc)))) if n_grid >= 4 else 0
     gc = int(round(np.sqrt(n_grid * w * sc / (h * sr)))) if n_grid >= 4 else 0
-    # (in Numba: NumPy's grid, unique and masks took 50-80 us a call, 2-3 % of a call on a
+    # (compiled: NumPy's grid, unique and masks took 50-80 us a call, 2-3 % of a call on a
     # 160x200 image)
     vr, vc = grid_pixels(valid, gr, gc, c_lo, c_hi, cols is not None)
     if seam is not None:
@@ -71,10 +70,9 @@ def first_mesh(depth: np.ndarray, valid: np.ndarray, n_grid: int, scales=(1, 1),
         vr = np.concatenate([vr, rows])
         vc = np.concatenate([vc, np.full(len(rows), col, np.int64)])
     if len(vr) > 4:
-        tv, he, n_t = delaunay_sweep(vr * sr, vc * sc)  # same triangles, same orientation
-        if n_t == 0:
+        tv, he = delaunay_sweep(vr * sr, vc * sc)  # same triangles, same orientation
+        if len(tv) == 0:
             raise RuntimeError("first_mesh: the image corners cannot be collinear")
-        tv, he = tv[: 3 * n_t].copy(), he[: 3 * n_t].copy()
     else:
         # (0,0) (H-1,0) (H-1,W-1) and (0,0) (H-1,W-1) (0,W-1): counter-clockwise in (r, c)
         tv = np.array([0, 1, 2, 0, 2, 3], np.int64)

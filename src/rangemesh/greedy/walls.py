@@ -26,8 +26,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._core import build_halfedges, neighbors_from_halfedges
-from ..geometry.fans import prune_dangling
+from .._core import build_halfedges, neighbors_from_halfedges, prune_dangling
 
 __all__ = ["wall_faces", "drop_walls", "pixel_lengths"]
 

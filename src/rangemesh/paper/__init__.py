@@ -1,6 +1,7 @@
 """The method of Garcia & Sappa (IEEE SMC-B 34(5), 2004), as the paper gives it.
 
-Three stages, each a module with its Numba kernels beside it:
+Three stages, one module each; their loops are compiled kernels (the
+core's ``paper/`` and the shared geometry):
 
 * `sampling` (II.A): gap filling, multiresolution curvature, the tiled
   inverse-CDF sample grid (`sample_grid`);

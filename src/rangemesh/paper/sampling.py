@@ -14,8 +14,7 @@ import os
 import numpy as np
 
 from .. import _core
-from ..geometry.pixels import valid_range
-from ..geometry.signals import holding_signals
+from .._core import valid_range
 from ..params import MeshParams
 
 __all__ = [
@@ -60,9 +59,6 @@ def fill_gaps(depth: np.ndarray, valid: np.ndarray) -> tuple[np.ndarray, np.ndar
     out_v = np.array(valid, dtype=np.bool_, order="C", copy=True)
     _core.fill_gaps_inplace(out_d, out_v)
     return out_d, out_v
-
-
-@holding_signals
 def valid_span(depth: np.ndarray, valid: np.ndarray) -> float:
     """Max - min of the valid depths (0 when there is none)."""
     lo, hi, n = valid_range(np.ascontiguousarray(depth, dtype=np.float64),
@@ -138,7 +134,10 @@ def sampling_weights(depth: np.ndarray, valid: np.ndarray, params: MeshParams, *
     v = np.ascontiguousarray(valid, dtype=np.bool_)
     d = np.ascontiguousarray(depth, dtype=np.float64)
     span = valid_span(d, v)
-    _core.add_curvature(d, v, span, int(params.levels), out)
+    if out.dtype == np.float64 and out.flags.c_contiguous:
+        _core.add_curvature(d, v, span, int(params.levels), out)
+    else:  # the kernel writes C-contiguous float64 only
+        out[:] = curvature(d, v, int(params.levels))
     if span > 0.0:
         factor = _PAPER_SCALE / span
         if math.isfinite(factor):
@@ -156,6 +155,18 @@ def sampling_weights(depth: np.ndarray, valid: np.ndarray, params: MeshParams, *
 def fill_gaps_inplace(depth: np.ndarray, valid: np.ndarray) -> None:
     """`fill_gaps` on our own C-contiguous float64/bool buffers, in place (no copies)."""
     _core.fill_gaps_inplace(depth, valid)
+
+
+def _tile_threads(workers: int) -> int:
+    """Threads for stage one's tiles: `workers`, but no more than the cores this process may use.
+
+    ``RANGEMESH_THREADS`` caps them too: batch workers set it to 1, one thread
+    per process (`rangemesh.greedy.threads`).
+    """
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    cap = os.environ.get("RANGEMESH_THREADS", "")
+    limit = min(cores or 1, int(cap)) if cap.isdigit() and int(cap) > 0 else cores or 1
+    return max(1, min(int(workers), limit))
 
 
 def tile_bounds(n: int, tiles: int, *, name: str = "tiles") -> np.ndarray:
@@ -275,6 +286,5 @@ def sample_grid(depth: np.ndarray, valid: np.ndarray, params: MeshParams | None 
     f = sampling_weights(depth, valid, params) if weights is None else weights
     f = np.ascontiguousarray(f, dtype=np.float64)
     grid = np.zeros(params.grid_shape + (2,), np.int32)
-    threads = max(min(int(workers), os.cpu_count() or 1), 1)  # more threads than cores only wait
-    _core.sample_tiles(f, rb, cb, rs, zs, grid, threads)
+    _core.sample_tiles(f, rb, cb, rs, zs, grid, _tile_threads(workers))
     return grid

@@ -7,11 +7,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._core import build_halfedges, neighbors_from_halfedges
+from .._core import build_halfedges, delaunay_sweep, legalize_all, neighbors_from_halfedges, prune_dangling
 from ..camera import as_camera, backproject
-from ..geometry.delaunay import delaunay_sweep, legalize_all
-from ..geometry.fans import prune_dangling
-from ..geometry.signals import holding_signals
 from ..mesh import Mesh, Stats, count_edges, empty_mesh
 
 __all__ = ["delaunay_mesh", "triangulate_points"]
@@ -20,9 +17,6 @@ __all__ = ["delaunay_mesh", "triangulate_points"]
 def _empty(camera, shape, grid_shape, n_points, reason):
     return empty_mesh(camera, shape, Stats(grid_shape=grid_shape, sampled_points=n_points,
                                            reason=reason))
-
-
-@holding_signals
 def triangulate_points(pts: np.ndarray, engine: str = "sweep") -> tuple[np.ndarray, np.ndarray]:
     """The canonical Delaunay triangulation of distinct integer points.
 
@@ -31,7 +25,7 @@ def triangulate_points(pts: np.ndarray, engine: str = "sweep") -> tuple[np.ndarr
     pts : (N, 2) ndarray of int
         Distinct ``(row, col)`` points; their order defines the tie-break.
     engine : {'sweep', 'qhull'}, default 'sweep'
-        ``'sweep'``: our Numba sweep-hull with exact integer predicates.
+        ``'sweep'``: our compiled sweep-hull with exact integer predicates.
         ``'qhull'``: ``scipy.spatial.Delaunay``; kept as an independent
         reference. Both end in the same triangulation.
 
@@ -59,11 +53,9 @@ def triangulate_points(pts: np.ndarray, engine: str = "sweep") -> tuple[np.ndarr
     if n < 3:
         return empty, empty
     if engine == "sweep":
-        triangles, halfedges, n_t = delaunay_sweep(pr, pc)
-        if n_t == 0:
+        triangles, halfedges = delaunay_sweep(pr, pc)
+        if len(triangles) == 0:
             return empty, empty
-        triangles = triangles.copy()
-        halfedges = halfedges.copy()
     elif engine == "qhull":
         from scipy.spatial import Delaunay, QhullError  # the reference engine only
 
@@ -95,9 +87,6 @@ def triangulate_points(pts: np.ndarray, engine: str = "sweep") -> tuple[np.ndarr
     faces = np.ascontiguousarray(faces)
     _, halfedges = build_halfedges(faces, n)
     return faces, neighbors_from_halfedges(halfedges)
-
-
-@holding_signals
 def delaunay_mesh(grid: np.ndarray, depth: np.ndarray, valid: np.ndarray, camera=None, *,
                   max_edge: float | None = None, engine: str = "sweep") -> Mesh:
     """Triangulate the valid samples and lift them to 3-D (SPEC 2.1-2.4).

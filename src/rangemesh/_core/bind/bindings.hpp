@@ -6,7 +6,9 @@
 namespace rangemesh::bind {
 
 void bind_geometry(nanobind::module_& m);
+void bind_geometry_tests(nanobind::module_& m);
 void bind_paper(nanobind::module_& m);
+void bind_heights(nanobind::module_& m);
 void bind_refine(nanobind::module_& m);
 
 }  // namespace rangemesh::bind

@@ -1,12 +1,141 @@
 // Python bindings of the shared geometry kernels.
+#include <cstdint>
+
+#include "../geometry/delaunay.hpp"
+#include "../geometry/fans.hpp"
 #include "../geometry/halfedges.hpp"
+#include "../geometry/heap.hpp"
+#include "../geometry/raster.hpp"
+#include "../geometry/pixels.hpp"
+#include "../geometry/rasterize.hpp"
 #include "bindings.hpp"
 #include "numpy.hpp"
 #include "release.hpp"
 
 namespace rangemesh::bind {
 
+namespace {
+
+PointSet points(const In1<index_t>& r, const In1<index_t>& c) { return PointSet{span(r), span(c)}; }
+
+// mask_image for images of type T: each dtype a kernel of its own, so no converted copy.
+template <class T>
+void bind_mask_image(nb::module_& m) {
+    m.def(
+        "mask_image",
+        [](In2<T> image, bool has_background, double background, Out2<double> depth, Out2<bool> valid) {
+            run_released([&] { mask_image(grid(image), has_background, background, grid(depth), grid(valid)); });
+        },
+        nb::arg("image").noconvert(), nb::arg("has_background"), nb::arg("background"), nb::arg("depth"),
+        nb::arg("valid"),
+        "Write float depth (0.0 on background) and validity of an (H, W) image into `depth` and `valid`: "
+        "NaN, inf and `background` (when `has_background`) are invalid, compared as float64.");
+}
+
+void bind_delaunay(nb::module_& m) {
+    m.def(
+        "delaunay_sweep",
+        [](In1<index_t> r, In1<index_t> c) {
+            Triangulation t = run_released([&] { return delaunay_sweep(points(r, c)); });
+            return nb::make_tuple(to_numpy(std::move(t.triangles)), to_numpy(std::move(t.halfedges)));
+        },
+        nb::arg("r"), nb::arg("c"),
+        "The sweep's Delaunay triangulation of distinct integer points as ``(triangles, halfedges)`` "
+        "(3F each, counter-clockwise in (r, c)); empty when there are fewer than 3 points or all are "
+        "collinear.");
+    m.def(
+        "legalize_all",
+        [](Out1<index_t> triangles, Out1<index_t> halfedges, In1<index_t> r, In1<index_t> c) {
+            return run_released([&] { return legalize_all(span(triangles), span(halfedges), points(r, c)); });
+        },
+        nb::arg("triangles"), nb::arg("halfedges"), nb::arg("r"), nb::arg("c"),
+        "Lawson flips, in place, until every edge is Delaunay under Simulation of Simplicity; "
+        "returns the number of flips.");
+    m.def(
+        "prune_dangling",
+        [](In2<index_t> simplices, In2<index_t> neighbors, Out1<bool> alive, index_t n_vertices) {
+            return run_released([&] {
+                return prune_dangling(LiveTriangles{grid(simplices), grid(neighbors), span(alive)}, n_vertices);
+            });
+        },
+        nb::arg("simplices"), nb::arg("neighbors"), nb::arg("alive"), nb::arg("n_vertices"),
+        "Drop dangling triangles from `alive` (in place) until every vertex has one fan; returns how "
+        "many were dropped.");
+}
+
+void bind_pixels(nb::module_& m) {
+    bind_mask_image<double>(m);
+    bind_mask_image<float>(m);
+    bind_mask_image<std::int8_t>(m);
+    bind_mask_image<std::int16_t>(m);
+    bind_mask_image<std::int32_t>(m);
+    bind_mask_image<std::int64_t>(m);
+    bind_mask_image<std::uint8_t>(m);
+    bind_mask_image<std::uint16_t>(m);
+    bind_mask_image<std::uint32_t>(m);
+    bind_mask_image<std::uint64_t>(m);
+    m.def(
+        "valid_range",
+        [](In2<double> depth, In2<bool> valid) {
+            const DepthRange d = run_released([&] { return valid_range(grid(depth), grid(valid)); });
+            return nb::make_tuple(d.lo, d.hi, d.count);
+        },
+        nb::arg("depth"), nb::arg("valid"),
+        "``(min, max, count)`` of the valid depths; ``(0.0, 0.0, 0)`` when there is none.");
+    m.def(
+        "covered_error",
+        [](In2<double> pred, In2<double> depth, In2<bool> valid) {
+            const CoveredError e = run_released([&] { return covered_error(grid(pred), grid(depth), grid(valid)); });
+            return nb::make_tuple(e.total, e.count);
+        },
+        nb::arg("pred"), nb::arg("depth"), nb::arg("valid"),
+        "``(sum of |pred - depth|, count)`` over the valid pixels where `pred` is finite.");
+    m.def(
+        "valid_faces",
+        [](In1<index_t> vr, In1<index_t> vc, In1<index_t> tv, In2<bool> valid) {
+            ValidFaces f = run_released([&] { return valid_faces(span(vr), span(vc), span(tv), grid(valid)); });
+            const std::size_t n_faces = f.faces.size() / 3, n_pixels = f.pixels.size() / 2;
+            return nb::make_tuple(to_numpy(std::move(f.faces), n_faces, 3), to_numpy(std::move(f.pixels), n_pixels, 2));
+        },
+        nb::arg("vr"), nb::arg("vc"), nb::arg("tv"), nb::arg("valid"),
+        "``(faces (F, 3) int32, pixels (U, 2) int32)``: the triangles of `tv` whose corners are valid "
+        "pixels, numbered over the vertices they use, in order, and those vertices' (row, col).");
+    m.def(
+        "nearest_valid",
+        [](In2<bool> valid, index_t r, index_t c) {
+            const Pixel p = run_released([&] { return nearest_valid(grid(valid), r, c); });
+            return nb::make_tuple(p.r, p.c);
+        },
+        nb::arg("valid"), nb::arg("r"), nb::arg("c"),
+        "The valid pixel nearest (r, c), ties to the smallest (row, col); ``(-1, -1)`` if none.");
+    m.def(
+        "grid_pixels",
+        [](In2<bool> valid, index_t n_rows, index_t n_cols, index_t c_lo, index_t c_hi, bool inner) {
+            PixelList p = run_released([&] { return grid_pixels(grid(valid), n_rows, n_cols, c_lo, c_hi, inner); });
+            return nb::make_tuple(to_numpy(std::move(p.rows)), to_numpy(std::move(p.cols)));
+        },
+        nb::arg("valid"), nb::arg("n_rows"), nb::arg("n_cols"), nb::arg("c_lo"), nb::arg("c_hi"), nb::arg("inner"),
+        "``(rows, cols)`` int64: the corners of columns c_lo..c_hi, then row by row the distinct valid "
+        "centres of an n_rows x n_cols grid over them (none on the first or last column with `inner`).");
+    m.def(
+        "rasterize",
+        [](In2<double> face_r, In2<double> face_c, In2<double> face_val, Out2<double> out_val,
+           Out2<index_t> out_face) {
+            run_released([&] {
+                rasterize(FaceValues{grid(face_r), grid(face_c), grid(face_val)},
+                          RenderTarget{grid(out_val), grid(out_face)});
+            });
+        },
+        nb::arg("face_r"), nb::arg("face_c"), nb::arg("face_val"), nb::arg("out_val"), nb::arg("out_face"),
+        "Interpolate (F, 3) corner values over the pixel centres each triangle covers, into `out_val` "
+        "(NaN-filled) and `out_face` (-1-filled); the first triangle to cover a pixel sets it.");
+}
+
+}  // namespace
+
 void bind_geometry(nb::module_& m) {
+    bind_delaunay(m);
+    bind_pixels(m);
     m.def(
         "build_halfedges",
         [](In2<index_t> faces, index_t n_vertices) {
@@ -35,6 +164,30 @@ void bind_geometry(nb::module_& m) {
         nb::arg("halfedges"),
         "SciPy-style (F, 3) neighbours: entry (t, k) is the triangle across the edge opposite "
         "corner k, -1 on the border.");
+}
+
+
+// The shared primitives that only kernels use, exposed for the tests (names with a leading
+// underscore): the heap's moves on NumPy arrays, and a triangle's row scan.
+void bind_geometry_tests(nb::module_& m) {
+    m.def("_heap_sift_up", [](Out1<double> keys, Out1<index_t> heap, Out1<index_t> slot, index_t i) {
+        return HeapView{span(keys), span(heap), span(slot)}.sift_up(i);
+    });
+    m.def("_heap_rekey", [](Out1<double> keys, Out1<index_t> heap, Out1<index_t> slot, index_t x,
+                            double key, index_t n) {
+        HeapView{span(keys), span(heap), span(slot)}.rekey(x, key, n);
+    });
+    m.def("_triangle_rows", [](index_t ar, index_t ac, index_t br, index_t bc, index_t cr, index_t cc,
+                               bool own_ab, bool own_bc, bool own_ca) {
+        TriangleRows rows(ar, ac, br, bc, cr, cc);
+        nb::list out;
+        for (index_t r = rows.r0; r <= rows.r1; ++r) {
+            if (r > rows.r0) rows.next_row();
+            const RowSpan s = rows.columns(own_ab, own_bc, own_ca);
+            out.append(nb::make_tuple(r, s.first, s.last, s.w0, s.w1, s.w2));
+        }
+        return out;
+    });
 }
 
 }  // namespace rangemesh::bind

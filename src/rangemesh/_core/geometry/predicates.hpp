@@ -5,6 +5,10 @@
 // contraction), so they round exactly as the Python references do.
 #pragma once
 
+#include <algorithm>
+
+#include "../views.hpp"
+
 namespace rangemesh {
 
 // Twice the signed area of (a, b, c); > 0 when counter-clockwise in (row, column).
@@ -30,5 +34,46 @@ inline long long floor_div(long long a, long long d) {
     long long q = a / d;
     return (a % d != 0 && a < 0) ? q - 1 : q;
 }
+
+inline long long floor_mod(long long a, long long d) { return a - floor_div(a, d) * d; }
+
+// Integer points by id, as the Delaunay triangulation sees them.
+//
+// Pixel grids are full of co-circular points, so "the" Delaunay triangulation is not unique.
+// Simulation of Simplicity makes it unique: the lifted heights r^2 + c^2 get infinitesimal
+// perturbations eps^i, the smallest id the largest. The triangulation is then the regular
+// triangulation of the perturbed lifting, which exists, is unique, and is a Delaunay
+// triangulation of the unperturbed points. Exact in int64: |incircle| stays below 2^57 for
+// images up to 16384 pixels a side.
+struct PointSet {
+    Span<const index_t> r, c;
+
+    index_t size() const { return r.size; }
+
+    // Twice the signed area of points a, b, c; > 0 counter-clockwise.
+    index_t orient(index_t a, index_t b, index_t p) const {
+        return rangemesh::orient<index_t>(r[a], c[a], r[b], c[b], r[p], c[p]);
+    }
+
+    // > 0 when point d is strictly inside the circle through counter-clockwise a, b, c.
+    index_t incircle(index_t a, index_t b, index_t p, index_t d) const {
+        return rangemesh::incircle<index_t>(r[a], c[a], r[b], c[b], r[p], c[p], r[d], c[d]);
+    }
+
+    // Whether edge uv of counter-clockwise (u, v, w), with x across it, must be flipped: x
+    // inside the circle, or on it and inside under the perturbation. With perturbations eps^i
+    // x is inside iff the barycentric weight of the dominant (smallest) id among u, v, w is
+    // positive, and never when x itself dominates. Three distinct points of a circle are never
+    // collinear, so the orientations below are never 0.
+    bool illegal(index_t u, index_t v, index_t w, index_t x) const {
+        const index_t det = incircle(u, v, w, x);
+        if (det != 0) return det > 0;
+        const index_t m = std::min(std::min(u, v), std::min(w, x));
+        if (m == x) return false;
+        if (m == u) return orient(x, v, w) > 0;
+        if (m == v) return orient(u, x, w) > 0;
+        return orient(u, v, x) > 0;
+    }
+};
 
 }  // namespace rangemesh

@@ -12,6 +12,18 @@
 
 namespace rangemesh::paper {
 
+namespace {
+
+// Whether the 8 neighbours of (r, c) are all valid.
+bool all_neighbours_valid(Grid<bool> valid, index_t r, index_t c) {
+    for (index_t dr = -1; dr <= 1; ++dr)
+        for (index_t dc = -1; dc <= 1; ++dc)
+            if ((dr != 0 || dc != 0) && !valid(r + dr, c + dc)) return false;
+    return true;
+}
+
+}  // namespace
+
 index_t fill_gaps_inplace(Grid<double> depth, Grid<bool> valid) {
     require(valid.rows == depth.rows && valid.cols == depth.cols, "fill_gaps_inplace: valid must have depth's shape");
     struct Fill {
@@ -23,15 +35,12 @@ index_t fill_gaps_inplace(Grid<double> depth, Grid<bool> valid) {
         poll_interrupt();
         const bool* row = valid.row(r);
         for (index_t c = 1; c < depth.cols - 1; ++c) {
-            // jump to the row's next background pixel (a false bool is a zero byte): most are valid
-            const void* hole = std::memchr(row + c, 0, static_cast<std::size_t>(depth.cols - 1 - c));
-            if (hole == nullptr) break;
-            c = static_cast<const bool*>(hole) - row;
-            bool ok = true;
-            for (index_t dr = -1; dr <= 1; ++dr)
-                for (index_t dc = -1; dc <= 1; ++dc)
-                    if ((dr != 0 || dc != 0) && !valid(r + dr, c + dc)) ok = false;
-            if (!ok) continue;
+            if (row[c]) {  // jump to the row's next background pixel (a false bool is a zero byte)
+                const void* hole = std::memchr(row + c, 0, static_cast<std::size_t>(depth.cols - 1 - c));
+                if (hole == nullptr) break;
+                c = static_cast<const bool*>(hole) - row;
+            }
+            if (!all_neighbours_valid(valid, r, c)) continue;
             double total = 0.0;
             for (index_t dr = -1; dr <= 1; ++dr)
                 for (index_t dc = -1; dc <= 1; ++dc)

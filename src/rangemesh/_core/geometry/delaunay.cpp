@@ -1,0 +1,297 @@
+#include "delaunay.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <utility>
+
+#include "../interrupt.hpp"
+#include "halfedges.hpp"
+
+namespace rangemesh {
+
+namespace {
+
+// The first triangle of the sweep, counter-clockwise, and its circumcentre (cr, cc).
+struct Seed {
+    index_t i0 = -1, i1 = -1, i2 = -1;  // i2 == -1: fewer than 3 points, or all collinear
+    double cr = 0.0, cc = 0.0;
+};
+
+double sq(double x) { return x * x; }
+
+// The circumcentre of (p0, p1, p2) relative to p0, and its squared radius.
+struct Circle {
+    double dr, dc;
+
+    Circle(const std::vector<double>& fr, const std::vector<double>& fc, index_t p0, index_t p1, index_t p2) {
+        const double ar = fr[p1] - fr[p0], ac = fc[p1] - fc[p0];
+        const double br = fr[p2] - fr[p0], bc = fc[p2] - fc[p0];
+        const double bl = ar * ar + ac * ac;
+        const double cl = br * br + bc * bc;
+        const double den = 0.5 / (ar * bc - ac * br);
+        dr = (bc * bl - ac * cl) * den;
+        dc = (ar * cl - br * bl) * den;
+    }
+
+    double radius2() const { return dr * dr + dc * dc; }
+};
+
+// i0 nearest the bounding box's centre, i1 nearest i0, i2 making the smallest circumcircle
+// with them; ties to the smaller id.
+Seed sweep_seed(const PointSet& pts, const std::vector<double>& fr, const std::vector<double>& fc) {
+    Seed s;
+    const index_t n = pts.size();
+    if (n < 3) return s;
+    double lo_r = fr[0], hi_r = fr[0], lo_c = fc[0], hi_c = fc[0];
+    for (index_t i = 1; i < n; ++i) {
+        lo_r = std::min(lo_r, fr[i]);
+        hi_r = std::max(hi_r, fr[i]);
+        lo_c = std::min(lo_c, fc[i]);
+        hi_c = std::max(hi_c, fc[i]);
+    }
+    const double mr = 0.5 * (lo_r + hi_r), mc = 0.5 * (lo_c + hi_c);
+    s.i0 = 0;
+    double best = INFINITY;
+    for (index_t i = 0; i < n; ++i) {
+        const double d = sq(fr[i] - mr) + sq(fc[i] - mc);
+        if (d < best) {
+            best = d;
+            s.i0 = i;
+        }
+    }
+    best = INFINITY;
+    for (index_t i = 0; i < n; ++i) {
+        if (i == s.i0) continue;
+        const double d = sq(fr[i] - fr[s.i0]) + sq(fc[i] - fc[s.i0]);
+        if (d < best) {
+            best = d;
+            s.i1 = i;
+        }
+    }
+    best = INFINITY;
+    for (index_t i = 0; i < n; ++i) {
+        if (i == s.i0 || i == s.i1 || pts.orient(s.i0, s.i1, i) == 0) continue;
+        const double rr = Circle(fr, fc, s.i0, s.i1, i).radius2();
+        if (rr < best) {
+            best = rr;
+            s.i2 = i;
+        }
+    }
+    if (s.i2 == -1) return s;  // all collinear
+    if (pts.orient(s.i0, s.i1, s.i2) < 0) std::swap(s.i1, s.i2);
+    const Circle centre(fr, fc, s.i0, s.i1, s.i2);
+    s.cr = fr[s.i0] + centre.dr;
+    s.cc = fc[s.i0] + centre.dc;
+    return s;
+}
+
+// The sweep's state: the mesh so far and its convex hull, a counter-clockwise linked list of
+// points (next[p] == p once p left it) found by angle around the seed's circumcentre.
+class Sweep {
+  public:
+    Sweep(const PointSet& pts, const std::vector<double>& fr, const std::vector<double>& fc, const Seed& seed)
+        : pts_(pts), fr_(fr), fc_(fc), cr_(seed.cr), cc_(seed.cc) {
+        const index_t n = pts.size();
+        const index_t max_t = std::max<index_t>(2 * n - 5, 1);
+        mesh_.triangles.assign(3 * max_t, -1);
+        mesh_.halfedges.assign(3 * max_t, -1);
+        stack_.assign(3 * max_t + 16, 0);
+        hash_size_ = std::max<index_t>(static_cast<index_t>(std::ceil(std::sqrt(static_cast<double>(n)))), 1);
+        hash_.assign(hash_size_, -1);
+        next_.assign(n, -1);
+        prev_.assign(n, -1);
+        tri_.assign(n, -1);
+        const index_t i0 = seed.i0, i1 = seed.i1, i2 = seed.i2;
+        next_[i0] = i1;
+        next_[i1] = i2;
+        next_[i2] = i0;
+        prev_[i0] = i2;
+        prev_[i1] = i0;
+        prev_[i2] = i1;
+        const index_t t = add_triangle(i0, i1, i2, -1, -1, -1);
+        tri_[i0] = t;
+        tri_[i1] = t + 1;
+        tri_[i2] = t + 2;
+        hash_[hash_key(i0)] = i0;
+        hash_[hash_key(i1)] = i1;
+        hash_[hash_key(i2)] = i2;
+    }
+
+    // Add point p (outside the hull): triangles to every hull edge it sees, then legalised.
+    void insert(index_t p) {
+        const index_t start = prev_[hull_near(p)];
+        // edge e -> next[e] is visible when p is strictly on its right (outside)
+        index_t e = start;
+        while (pts_.orient(e, next_[e], p) >= 0) {
+            e = next_[e];
+            require(e != start, "delaunay_sweep: a point sees no hull edge (duplicate points?)");
+        }
+        index_t after = next_[e];
+        // the first triangle, on the visible edge e -> after: (after, e, p)
+        index_t t = add_triangle(after, e, p, tri_[e], -1, -1);
+        tri_[e] = t + 1;  // e -> p
+        tri_[p] = t + 2;  // p -> after
+        legalize(t);
+        // forward: after -> q visible too? (q, after, p): q->after twins the hull edge
+        // after->q, after->p twins p->after
+        for (index_t q = next_[after]; pts_.orient(after, q, p) < 0; q = next_[after]) {
+            t = add_triangle(q, after, p, tri_[after], tri_[p], -1);
+            tri_[p] = t + 2;  // p -> q
+            legalize(t);
+            next_[after] = after;  // off the hull
+            after = q;
+        }
+        // backward: q -> e visible? (e, q, p): e->q twins q->e, p->e twins e->p
+        if (e == start) {
+            for (index_t q = prev_[e]; pts_.orient(q, e, p) < 0; q = prev_[e]) {
+                t = add_triangle(e, q, p, tri_[q], -1, tri_[e]);
+                tri_[q] = t + 1;  // q -> p
+                legalize(t);
+                next_[e] = e;
+                e = q;
+            }
+        }
+        prev_[p] = e;
+        next_[e] = p;
+        prev_[after] = p;
+        next_[p] = after;
+        hash_[hash_key(p)] = p;
+        hash_[hash_key(e)] = e;
+    }
+
+    // The triangles made, trimmed to their count.
+    Triangulation finish() && {
+        mesh_.triangles.resize(3 * n_t_);
+        mesh_.halfedges.resize(3 * n_t_);
+        return std::move(mesh_);
+    }
+
+  private:
+    // A monotone stand-in for the angle of (dr, dc), in [0, 1).
+    static double pseudo_angle(double dr, double dc) {
+        const double p = dr / (std::abs(dr) + std::abs(dc));
+        return (dc > 0 ? 3.0 - p : 1.0 + p) / 4.0;
+    }
+
+    // The hash bucket of point p's angle around the circumcentre.
+    index_t hash_key(index_t p) const {
+        const double dr = fr_[p] - cr_, dc = fc_[p] - cc_;
+        if (dr == 0.0 && dc == 0.0) return 0;
+        return floor_mod(static_cast<index_t>(std::floor(pseudo_angle(dr, dc) * static_cast<double>(hash_size_))),
+                         hash_size_);
+    }
+
+    // A hull point near p's angle, to start looking for the edges p sees.
+    index_t hull_near(index_t p) const {
+        const index_t key = hash_key(p);
+        for (index_t j = 0; j < hash_size_; ++j) {
+            const index_t s = hash_[floor_mod(key + j, hash_size_)];
+            if (s != -1 && next_[s] != s) return s;
+        }
+        require(false, "delaunay_sweep: the hull hash is empty");
+        return -1;
+    }
+
+    // Append triangle (i0, i1, i2) with twins a, b, c of its half-edges; returns its first.
+    index_t add_triangle(index_t i0, index_t i1, index_t i2, index_t a, index_t b, index_t c) {
+        const index_t t = 3 * n_t_++;
+        require(t + 2 < static_cast<index_t>(mesh_.triangles.size()), "delaunay_sweep: too many triangles");
+        mesh_.triangles[t] = i0;
+        mesh_.triangles[t + 1] = i1;
+        mesh_.triangles[t + 2] = i2;
+        const Span<index_t> he{mesh_.halfedges.data(), static_cast<index_t>(mesh_.halfedges.size())};
+        link(he, t, a);
+        link(he, t + 1, b);
+        link(he, t + 2, c);
+        return t;
+    }
+
+    // Flip the edges opposite the new point w until they are legal; keep tri_ on hull edges.
+    //
+    //        w                 w
+    //      /   \             / | \     a: u -> v in (u, v, w)
+    //     u --- v    ->     u  |  v    b: its twin, in (v, u, x)
+    //      \   /             \ | /     the diagonal u-v becomes w-x
+    //        x                 x
+    void legalize(index_t a) {
+        const Span<index_t> tri{mesh_.triangles.data(), static_cast<index_t>(mesh_.triangles.size())};
+        const Span<index_t> he{mesh_.halfedges.data(), static_cast<index_t>(mesh_.halfedges.size())};
+        index_t top = 0;
+        for (;;) {
+            const index_t b = he[a];
+            if (b != -1 && pts_.illegal(tri[a], tri[nxt(a)], tri[prv(a)], tri[prv(b)])) {
+                flip_quad(tri, he, a);
+                // hull edges among the moved outer half-edges: re-point tri_
+                for (const index_t s : {nxt(a), prv(a), nxt(b), prv(b)})
+                    if (he[s] == -1) tri_[tri[s]] = s;
+                // the edges now opposite the new point are prev(a) (u->x) and next(b) (x->v)
+                require(top + 1 < static_cast<index_t>(stack_.size()), "delaunay_sweep: flip stack overflow");
+                stack_[top++] = nxt(b);
+                a = prv(a);
+                continue;
+            }
+            if (top == 0) return;
+            a = stack_[--top];
+        }
+    }
+
+    const PointSet& pts_;
+    const std::vector<double>& fr_;
+    const std::vector<double>& fc_;
+    double cr_, cc_;
+    Triangulation mesh_;
+    index_t n_t_ = 0;
+    index_t hash_size_ = 1;
+    std::vector<index_t> hash_, next_, prev_, tri_;  // tri_[p]: the hull half-edge leaving p
+    std::vector<index_t> stack_;
+};
+
+}  // namespace
+
+Triangulation delaunay_sweep(const PointSet& pts) {
+    require(pts.r.size == pts.c.size, "delaunay_sweep: r and c differ in length");
+    const index_t n = pts.size();
+    std::vector<double> fr(n), fc(n);
+    for (index_t i = 0; i < n; ++i) {
+        fr[i] = static_cast<double>(pts.r[i]);
+        fc[i] = static_cast<double>(pts.c[i]);
+    }
+    const Seed seed = sweep_seed(pts, fr, fc);
+    if (seed.i2 == -1) return {};
+    // by distance from the seed's circumcentre; ties keep id order
+    std::vector<double> dist(n);
+    for (index_t i = 0; i < n; ++i) dist[i] = sq(fr[i] - seed.cr) + sq(fc[i] - seed.cc);
+    std::vector<index_t> order(n);
+    std::iota(order.begin(), order.end(), index_t{0});
+    std::stable_sort(order.begin(), order.end(), [&](index_t a, index_t b) { return dist[a] < dist[b]; });
+    Sweep sweep(pts, fr, fc, seed);
+    for (const index_t p : order) {
+        if (p == seed.i0 || p == seed.i1 || p == seed.i2) continue;
+        poll_interrupt();
+        sweep.insert(p);
+    }
+    return std::move(sweep).finish();
+}
+
+index_t legalize_all(Span<index_t> triangles, Span<index_t> halfedges, const PointSet& pts) {
+    require(triangles.size == halfedges.size && triangles.size % 3 == 0, "legalize_all: bad half-edge arrays");
+    std::vector<index_t> stack;
+    stack.reserve(triangles.size + 16);
+    for (index_t e = 0; e < triangles.size; ++e)
+        if (halfedges[e] > e) stack.push_back(e);
+    index_t flips = 0;
+    while (!stack.empty()) {
+        const index_t e = stack.back();
+        stack.pop_back();
+        const index_t t = halfedges[e];
+        if (t == -1 || !pts.illegal(triangles[e], triangles[nxt(e)], triangles[prv(e)], triangles[prv(t)]))
+            continue;
+        flip_quad(triangles, halfedges, e);
+        if (++flips % 1024 == 0) poll_interrupt();
+        for (const index_t s : {nxt(e), prv(e), nxt(t), prv(t)}) stack.push_back(s);
+    }
+    return flips;
+}
+
+}  // namespace rangemesh

@@ -1,0 +1,147 @@
+#include "pixels.hpp"
+
+#include <algorithm>
+
+namespace rangemesh {
+
+DepthRange valid_range(Grid<const double> depth, Grid<const bool> valid) {
+    DepthRange out;
+    double lo = INFINITY, hi = -INFINITY;
+    for (index_t r = 0; r < depth.rows; ++r) {
+        poll_interrupt();
+        for (index_t c = 0; c < depth.cols; ++c) {
+            if (!valid(r, c)) continue;
+            const double x = depth(r, c);
+            ++out.count;
+            if (x < lo) lo = x;
+            if (x > hi) hi = x;
+        }
+    }
+    if (out.count > 0) {
+        out.lo = lo;
+        out.hi = hi;
+    }
+    return out;
+}
+
+CoveredError covered_error(Grid<const double> pred, Grid<const double> depth, Grid<const bool> valid) {
+    CoveredError out;
+    for (index_t r = 0; r < depth.rows; ++r) {
+        poll_interrupt();
+        for (index_t c = 0; c < depth.cols; ++c) {
+            if (!valid(r, c)) continue;
+            const double p = pred(r, c);
+            if (std::isfinite(p)) {
+                out.total += std::abs(p - depth(r, c));
+                ++out.count;
+            }
+        }
+    }
+    return out;
+}
+
+ValidFaces valid_faces(Span<const index_t> vr, Span<const index_t> vc, Span<const index_t> tv,
+                       Grid<const bool> valid) {
+    const index_t n_t = tv.size / 3, n_v = vr.size;
+    require(vc.size == n_v, "valid_faces: vr and vc differ in length");
+    std::vector<unsigned char> on_valid(n_v), keep(n_t, 0), used(n_v, 0);
+    for (index_t v = 0; v < n_v; ++v) {
+        require(vr[v] >= 0 && vr[v] < valid.rows && vc[v] >= 0 && vc[v] < valid.cols,
+                "valid_faces: a vertex outside the image");
+        on_valid[v] = valid(vr[v], vc[v]);
+    }
+    index_t n_keep = 0;
+    for (index_t t = 0; t < n_t; ++t) {
+        const index_t a = tv[3 * t], b = tv[3 * t + 1], c = tv[3 * t + 2];
+        require(a >= 0 && a < n_v && b >= 0 && b < n_v && c >= 0 && c < n_v, "valid_faces: a vertex id out of range");
+        if (on_valid[a] && on_valid[b] && on_valid[c]) {
+            keep[t] = 1;
+            used[a] = used[b] = used[c] = 1;
+            ++n_keep;
+        }
+    }
+    // the used vertices keep their order
+    std::vector<index_t> new_id(n_v, -1);
+    index_t n_used = 0;
+    for (index_t v = 0; v < n_v; ++v)
+        if (used[v]) new_id[v] = n_used++;
+    ValidFaces out;
+    out.faces.resize(3 * n_keep);
+    out.pixels.resize(2 * n_used);
+    for (index_t t = 0, k = 0; t < n_t; ++t) {
+        if (!keep[t]) continue;
+        for (int j = 0; j < 3; ++j) out.faces[k++] = static_cast<std::int32_t>(new_id[tv[3 * t + j]]);
+    }
+    for (index_t v = 0; v < n_v; ++v) {
+        if (new_id[v] < 0) continue;
+        out.pixels[2 * new_id[v]] = static_cast<std::int32_t>(vr[v]);
+        out.pixels[2 * new_id[v] + 1] = static_cast<std::int32_t>(vc[v]);
+    }
+    return out;
+}
+
+Pixel nearest_valid(Grid<const bool> valid, index_t r, index_t c) {
+    // Square windows around (r, c), doubling until the nearest pixel found is nearer than
+    // anything outside the window can be (its half-width): O(window), not a distance transform.
+    // Visited row by row, only a strictly nearer pixel replaces the best: ties keep the first.
+    const index_t h = valid.rows, w = valid.cols;
+    for (index_t k = 8;; k *= 2) {
+        poll_interrupt();
+        const index_t r0 = std::max<index_t>(r - k + 1, 0), r1 = std::min(r + k - 1, h - 1);
+        const index_t c0 = std::max<index_t>(c - k + 1, 0), c1 = std::min(c + k - 1, w - 1);
+        index_t best = -1;
+        Pixel found{-1, -1};
+        for (index_t i = r0; i <= r1; ++i) {
+            for (index_t j = c0; j <= c1; ++j) {
+                if (!valid(i, j)) continue;
+                const index_t d = (i - r) * (i - r) + (j - c) * (j - c);
+                if (best < 0 || d < best) {
+                    best = d;
+                    found = {i, j};
+                }
+            }
+        }
+        const bool whole = r0 == 0 && c0 == 0 && r1 == h - 1 && c1 == w - 1;
+        if ((best >= 0 && best < k * k) || whole) return found;
+    }
+}
+
+namespace {
+
+// The distinct values of lo + int((i + 0.5) * extent / n) for i < n, in order (non-decreasing,
+// so equal values are neighbours).
+std::vector<index_t> grid_centres(index_t lo, index_t extent, index_t n) {
+    std::vector<index_t> out;
+    for (index_t i = 0; i < n; ++i) {
+        const index_t x = lo + static_cast<index_t>((static_cast<double>(i) + 0.5) *
+                                                    static_cast<double>(extent) / static_cast<double>(n));
+        if (out.empty() || x != out.back()) out.push_back(x);
+    }
+    return out;
+}
+
+}  // namespace
+
+PixelList grid_pixels(Grid<const bool> valid, index_t n_rows, index_t n_cols, index_t c_lo, index_t c_hi,
+                      bool inner) {
+    const index_t h = valid.rows;
+    if (n_rows < 2 || n_cols < 2) n_rows = n_cols = 0;  // no grid, the corners alone
+    const std::vector<index_t> rows = grid_centres(0, h, n_rows);
+    const std::vector<index_t> cols = grid_centres(c_lo, c_hi - c_lo + 1, n_cols);
+    PixelList out;
+    out.rows = {0, h - 1, h - 1, 0};
+    out.cols = {c_lo, c_lo, c_hi, c_hi};
+    for (const index_t r : rows) {
+        for (const index_t c : cols) {
+            if (!valid(r, c)) continue;
+            const bool side = c == c_lo || c == c_hi;
+            if ((r == 0 || r == h - 1) && side) continue;  // a corner, in already
+            if (inner && side) continue;
+            out.rows.push_back(r);
+            out.cols.push_back(c);
+        }
+    }
+    return out;
+}
+
+}  // namespace rangemesh

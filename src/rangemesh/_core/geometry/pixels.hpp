@@ -1,0 +1,70 @@
+// Kernels on the pixel grid: a raw image's float depth and validity, the range of the valid
+// depths, a rendering's error, the faces on valid pixels, the nearest valid pixel, a start grid.
+#pragma once
+
+#include <cmath>
+#include <cstdint>
+#include <vector>
+
+#include "../interrupt.hpp"
+#include "../views.hpp"
+
+namespace rangemesh {
+
+// Float depth (0.0 on background, a value no later stage reads) and validity of a raw image:
+// NaN, inf and `background` are invalid. Values are compared as float64, as NumPy compares
+// integers with a float marker.
+template <class T>
+void mask_image(Grid<const T> image, bool has_background, double background, Grid<double> depth,
+                Grid<bool> valid) {
+    for (index_t r = 0; r < image.rows; ++r) {
+        poll_interrupt();
+        const T* in = image.row(r);
+        double* d = depth.row(r);
+        bool* v = valid.row(r);
+        for (index_t c = 0; c < image.cols; ++c) {
+            const double x = static_cast<double>(in[c]);
+            const bool ok = std::isfinite(x) && !(has_background && x == background);
+            v[c] = ok;
+            d[c] = ok ? x : 0.0;
+        }
+    }
+}
+
+// The smallest and largest valid depth and the number of valid pixels; all 0 when none is.
+struct DepthRange {
+    double lo = 0.0, hi = 0.0;
+    index_t count = 0;
+};
+DepthRange valid_range(Grid<const double> depth, Grid<const bool> valid);
+
+// The summed |pred - depth| over the valid pixels where `pred` is finite, and their number.
+struct CoveredError {
+    double total = 0.0;
+    index_t count = 0;
+};
+CoveredError covered_error(Grid<const double> pred, Grid<const double> depth, Grid<const bool> valid);
+
+// The triangles (vertex ids `tv`, three a triangle) whose corners are all valid pixels, renumbered
+// over the vertices they use (in vertex order), and those vertices' (row, col).
+struct ValidFaces {
+    std::vector<std::int32_t> faces;   // 3 per kept triangle
+    std::vector<std::int32_t> pixels;  // (row, col) per used vertex
+};
+ValidFaces valid_faces(Span<const index_t> vr, Span<const index_t> vc, Span<const index_t> tv,
+                       Grid<const bool> valid);
+
+// The valid pixel nearest (r, c), ties to the smallest (row, col); (-1, -1) when there is none.
+struct Pixel {
+    index_t r, c;
+};
+Pixel nearest_valid(Grid<const bool> valid, index_t r, index_t c);
+
+// The corners of columns c_lo..c_hi, then the valid centres of an n_rows x n_cols grid over them.
+struct PixelList {
+    std::vector<index_t> rows, cols;
+};
+PixelList grid_pixels(Grid<const bool> valid, index_t n_rows, index_t n_cols, index_t c_lo, index_t c_hi,
+                      bool inner);
+
+}  // namespace rangemesh

@@ -1,0 +1,25 @@
+// Rendering a mesh in the image plane: per-vertex values interpolated over each triangle's pixels.
+#pragma once
+
+#include "../views.hpp"
+
+namespace rangemesh {
+
+// The triangles' corners in the image plane, (F, 3) each, and the values to interpolate.
+struct FaceValues {
+    Grid<const double> r, c, value;
+};
+
+// The render, filled in place: `value` NaN and `face` -1 where no triangle has written yet.
+struct RenderTarget {
+    Grid<double> value;
+    Grid<index_t> face;
+};
+
+// Interpolate each triangle's corner values over the pixel centres it covers (closed triangles;
+// degenerate ones cover nothing); the first triangle that covers a pixel sets it. A triangle
+// with pixel-centre corners is walked over its exact row spans, any other over its bounding
+// box; both give the same pixels and the same values, bit for bit.
+void rasterize(FaceValues faces, RenderTarget out);
+
+}  // namespace rangemesh

@@ -1,0 +1,50 @@
+#include "fit.hpp"
+
+#include <algorithm>
+#include <memory>
+
+#include "median.hpp"
+#include "pass.hpp"
+#include "solve.hpp"
+
+namespace rangemesh::heights {
+
+FitResult fit_heights(const FitMesh& mesh, const FitImage& image, Span<const index_t> order,
+                      const FitSettings& settings) {
+    check_mesh(mesh, image);
+    require(order.size == mesh.faces.rows, "fit: the order visits every face");
+    FitResult result;
+    // room for an error a valid pixel, left uninitialised: a sample writes a few thousand of
+    // them, and zeroing would touch every page
+    const index_t capacity = std::max<index_t>(settings.capacity, 0);
+    const std::unique_ptr<double[]> errors(new double[capacity]);
+    const Span<double> room{errors.get(), capacity};
+    index_t sampled = sample_errors(mesh, image, order, settings.sample, room);
+    const bool every_pixel = settings.sample.row_stride == 1 && settings.sample.face_stride == 1;
+    if (sampled == 0 && !every_pixel)  // the sample missed every valid pixel
+        sampled = sample_errors(mesh, image, order, Sample{}, room);
+    if (sampled == 0) return result;
+    // a robust sigma of the errors (1.4826 x their median: they centre on 0)
+    const double sigma = 1.4826 * median_inplace(Span<double>{errors.get(), sampled});
+    require(mesh.values.size > 0, "fit: pixels were sampled, so there are vertices");
+    const auto [lo, hi] = std::minmax_element(mesh.values.begin(), mesh.values.end());
+    const double floor = settings.outlier_floor * (*hi - *lo);
+    result.threshold = settings.outlier_mads * sigma;
+    if (result.threshold <= floor) {
+        // most pixels fit the copied values exactly, and only those would be kept: the copied
+        // values are the least-squares solution
+        result.outcome = FitOutcome::copied;
+        return result;
+    }
+    result.blocks.resize(order.size);
+    const Span<FaceBlock> blocks{result.blocks.data(), order.size};
+    result.used = fit_blocks(mesh, image, order, result.threshold, settings.threads, blocks);
+    result.values.resize(mesh.values.size);
+    const bool converged = solve_blocks(Span<const FaceBlock>{blocks.data, blocks.size}, mesh.values, settings.ridge,
+                                        settings.rtol, settings.max_iter,
+                                        Span<double>{result.values.data(), mesh.values.size});
+    result.outcome = converged ? FitOutcome::fitted : FitOutcome::not_converged;
+    return result;
+}
+
+}  // namespace rangemesh::heights

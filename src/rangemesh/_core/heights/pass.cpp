@@ -1,0 +1,170 @@
+#include "pass.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <exception>
+#include <stdexcept>
+#include <thread>
+#include <utility>
+
+#include "../geometry/predicates.hpp"
+#include "../geometry/raster.hpp"
+#include "../interrupt.hpp"
+#include "../refine/ownership.hpp"
+
+namespace rangemesh::heights {
+
+void check_mesh(const FitMesh& mesh, const FitImage& image) {
+    const index_t n = mesh.values.size;
+    require(mesh.rows.size == n && mesh.cols.size == n, "fit: one row, column and value a vertex");
+    require(mesh.faces.cols == 3, "fit: faces have three corners");
+    for (index_t k = 0; k < 3 * mesh.faces.rows; ++k)
+        require(0 <= mesh.faces.data[k] && mesh.faces.data[k] < n, "fit: a face's vertex id is out of range");
+    require(image.values.rows == image.valid.rows && image.values.cols == image.valid.cols,
+            "fit: the image and its mask differ in shape");
+}
+
+namespace {
+
+// A face's corners turned counter-clockwise in (row, column).
+struct Corners {
+    index_t a, b, c;
+};
+
+Corners ccw_corners(const FitMesh& mesh, index_t t) {
+    const index_t a = mesh.faces(t, 0);
+    index_t b = mesh.faces(t, 1), c = mesh.faces(t, 2);
+    if (orient<index_t>(mesh.rows[a], mesh.cols[a], mesh.rows[b], mesh.cols[b], mesh.rows[c], mesh.cols[c]) < 0)
+        std::swap(b, c);
+    return {a, b, c};
+}
+
+// Calls visit(la, lb, lc, value, error) for each valid pixel the face owns on the rows that are
+// multiples of `row_stride`: la, lb, lc the barycentric weights of corners a, b, c, `value` the
+// pixel's and `error` its distance to the mesh at the vertices' copied values. Returns how many
+// calls returned true (counted here, in a register: a count behind a reference stayed in memory).
+template <class Visit>
+index_t visit_pixels(const FitMesh& mesh, const FitImage& image, Corners v, index_t row_stride, Visit&& visit) {
+    const index_t ar = mesh.rows[v.a], ac = mesh.cols[v.a];
+    const index_t br = mesh.rows[v.b], bc = mesh.cols[v.b];
+    const index_t cr = mesh.rows[v.c], cc = mesh.cols[v.c];
+    const double az = mesh.values[v.a], bz = mesh.values[v.b], cz = mesh.values[v.c];
+    const index_t area = orient<index_t>(ar, ac, br, bc, cr, cc);
+    if (area == 0) return 0;
+    const double inv = 1.0 / static_cast<double>(area);
+    const bool own_ab = refine::owns(ar, ac, br, bc);
+    const bool own_bc = refine::owns(br, bc, cr, cc);
+    const bool own_ca = refine::owns(cr, cc, ar, ac);
+    TriangleRows walk(ar, ac, br, bc, cr, cc);
+    if (walk.r0 < 0 || walk.c0 < 0 || walk.r1 >= image.values.rows || walk.c1 >= image.values.cols)
+        throw std::invalid_argument("fit: a vertex lies outside the image");
+    // the edge functions grow by these a column (integers, held exactly as float64 too: the
+    // floats the weights are made of, without keeping six of them in registers)
+    const index_t d0 = br - ar, d1 = cr - br, d2 = ar - cr;
+    index_t count = 0;
+    for (index_t r = walk.r0; r <= walk.r1; ++r) {
+        if (r > walk.r0) walk.next_row();
+        if (r % row_stride != 0) continue;
+        const RowSpan span = walk.columns(own_ab, own_bc, own_ca);
+        if (span.first > span.last) continue;
+        const bool* valid = image.valid.row(r);
+        const double* values = image.values.row(r);
+        index_t w0 = span.w0, w1 = span.w1, w2 = span.w2;
+        for (index_t col = span.first; col <= span.last; ++col) {
+            if (valid[col]) {
+                const double la = static_cast<double>(w1) * inv;
+                const double lb = static_cast<double>(w2) * inv;
+                const double lc = static_cast<double>(w0) * inv;
+                const double value = values[col];
+                count += visit(la, lb, lc, value, std::fabs(value - (la * az + lb * bz + lc * cz)));
+            }
+            w0 += d0;
+            w1 += d1;
+            w2 += d2;
+        }
+    }
+    return count;
+}
+
+// The blocks of the faces order[first..last) (blocks[i] for face order[i]); returns the pixels used.
+index_t accumulate(const FitMesh& mesh, const FitImage& image, Span<const index_t> order, double threshold,
+                   Span<FaceBlock> blocks, index_t first, index_t last) {
+    index_t used = 0;
+    for (index_t i = first; i < last; ++i) {
+        // once a face: a poll every 64 rows of a face cost the pass 10 % (teddy at 1 %), and a
+        // face of a whole 6000 x 6000 image takes about 0.1 s
+        poll_interrupt();
+        const Corners v = ccw_corners(mesh, order[i]);
+        // the sums of this face, in locals, written to its block once
+        double m00 = 0.0, m01 = 0.0, m02 = 0.0, m11 = 0.0, m12 = 0.0, m22 = 0.0;
+        double q0 = 0.0, q1 = 0.0, q2 = 0.0;
+        used += visit_pixels(mesh, image, v, 1, [&](double la, double lb, double lc, double value, double error) {
+            if (!(error <= threshold)) return false;
+            m00 += la * la;
+            m01 += la * lb;
+            m02 += la * lc;
+            m11 += lb * lb;
+            m12 += lb * lc;
+            m22 += lc * lc;
+            q0 += la * value;
+            q1 += lb * value;
+            q2 += lc * value;
+            return true;
+        });
+        blocks[i] = FaceBlock{{v.a, v.b, v.c}, {{m00, m01, m02}, {m01, m11, m12}, {m02, m12, m22}}, {q0, q1, q2}};
+    }
+    return used;
+}
+
+void check_order(const FitMesh& mesh, Span<const index_t> order) {
+    for (const index_t t : order) require(0 <= t && t < mesh.faces.rows, "fit: an order entry is not a face");
+}
+
+}  // namespace
+
+index_t sample_errors(const FitMesh& mesh, const FitImage& image, Span<const index_t> order, Sample sample,
+                      Span<double> errors) {
+    check_order(mesh, order);
+    require(sample.row_stride > 0 && sample.face_stride > 0, "fit: strides are positive");
+    index_t k = 0;
+    for (index_t i = 0; i < order.size; i += sample.face_stride) {
+        poll_interrupt();
+        visit_pixels(mesh, image, ccw_corners(mesh, order[i]), sample.row_stride,
+                     [&](double, double, double, double, double error) {
+                         if (k < errors.size) errors[k++] = error;  // overlapping faces could visit a pixel twice
+                         return false;
+                     });
+    }
+    return k;
+}
+
+index_t fit_blocks(const FitMesh& mesh, const FitImage& image, Span<const index_t> order, double threshold,
+                   int threads, Span<FaceBlock> blocks) {
+    check_order(mesh, order);
+    require(blocks.size == order.size, "fit: one block a visited face");
+    const index_t n = order.size;
+    if (threads < 2 || n < SPLIT_MIN_FACES) return accumulate(mesh, image, order, threshold, blocks, 0, n);
+    // the first half on a worker thread, the second here; each face writes its own block
+    const index_t half = n / 2;
+    index_t used_first = 0;
+    std::exception_ptr failed;
+    std::thread worker([&] {
+        try {
+            used_first = accumulate(mesh, image, order, threshold, blocks, 0, half);
+        } catch (...) {
+            failed = std::current_exception();
+        }
+    });
+    index_t used_second = 0;
+    try {
+        used_second = accumulate(mesh, image, order, threshold, blocks, half, n);
+    } catch (...) {
+        worker.join();
+        throw;
+    }
+    worker.join();
+    if (failed) std::rethrow_exception(failed);
+    return used_first + used_second;
+}
+
+}  // namespace rangemesh::heights

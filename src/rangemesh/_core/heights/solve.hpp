@@ -1,0 +1,31 @@
+// The fit's linear system, solved without forming its matrix.
+//
+// (M + diag(ridge)) x = b + ridge * h0, where M and b gather the faces' blocks (`FaceBlock`)
+// onto their vertices and ridge = ridge_share * max(diag(M), 1) pulls each vertex towards its
+// copied value h0: it keeps a vertex that no kept pixel touches where it was, and the system
+// definite.
+#pragma once
+
+#include <vector>
+
+#include "../views.hpp"
+#include "system.hpp"
+
+namespace rangemesh::heights {
+
+// The system per vertex: its diagonal and right-hand side (both with the ridge), and the ridge.
+struct VertexSystem {
+    std::vector<double> diag;
+    std::vector<double> rhs;
+    std::vector<double> ridge;
+};
+
+VertexSystem gather_blocks(Span<const FaceBlock> blocks, Span<const double> h0, double ridge_share);
+
+// Conjugate gradients from h0, preconditioned by the diagonal (Jacobi), until the residual is at
+// most `rtol` times the right-hand side's norm or `max_iter` steps; the solution into `x`.
+// Returns whether it converged.
+bool solve_blocks(Span<const FaceBlock> blocks, Span<const double> h0, double ridge_share, double rtol,
+                  index_t max_iter, Span<double> x);
+
+}  // namespace rangemesh::heights

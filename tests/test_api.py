@@ -1,0 +1,323 @@
+"""The public call: one default method, each method its options, one rule for missing depth."""
+
+import dataclasses
+import inspect
+import subprocess
+import sys
+import textwrap
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+import rangemesh
+from rangemesh import MeshParams, Target, mesh_stream, triangulate
+from rangemesh.cli import main
+from rangemesh.io import read_mesh
+from rangemesh.params import OPTION_METHOD
+
+from .helpers import assert_valid_mesh
+
+# One valid value of each option of one method, to hand to the other.
+VALUES = {
+    "heights": "pixel", "diagonals": "delaunay", "walls": False, "jump": 0.1,
+    "tiles": 2, "samples": 5, "sampling": "uniform", "flips": "error", "levels": 1,
+    "curvature_floor": 30.0, "delta": 20.0, "epsilon": 0.5, "max_angle": 150.0,
+    "min_bend": 4.0, "gain_threshold": 0.0, "max_edge": 10.0, "threads": 2,
+}
+OTHER = {"refine": "paper", "paper": "refine"}
+
+
+def crease(h=40, w=50):
+    c = np.arange(w)[None, :].repeat(h, 0)
+    return np.where(c < 25, 100.0 + c, 150.0 - c)
+
+
+def same_mesh(a, b):
+    assert np.array_equal(a.pixels, b.pixels)
+    assert np.array_equal(a.faces, b.faces)
+    assert np.array_equal(a.vertices, b.vertices)
+
+
+# ------------------------------------------------------------ the default
+
+
+def test_default_is_refine_with_the_default_target():
+    mesh = triangulate(crease())
+    assert mesh.stats.method == "refine"
+    t = mesh.stats.target
+    assert isinstance(t, Target) and t.default and t.kind == "max_error"
+    assert t.requested == 0.5
+    # 40 x 50 = 2000 valid pixels: 2 % is 40, below the floor of 50
+    assert t.max_vertices == 50
+    # two planes meeting at a crease: met far below the cap, at (almost) zero error
+    assert t.met and mesh.stats.vertices <= 50
+    assert rangemesh.evaluate(mesh, crease()).relative_error < 0.01
+
+
+def test_default_target_caps_noise_at_two_percent():
+    rng = np.random.default_rng(1)
+    noise = 100.0 + rng.normal(0.0, 5.0, (80, 100))  # no mesh below 0.5 % short of every pixel
+    mesh = triangulate(noise)
+    t = mesh.stats.target
+    assert t.max_vertices == 160  # 2 % of 8000
+    assert mesh.stats.vertices <= 160 and not t.met and "max_vertices" in t.note
+    assert_valid_mesh(mesh)
+
+
+def test_default_with_a_target_is_refine():
+    for kw in ({"vertices": 30}, {"max_error": 1.0}):
+        mesh = triangulate(crease(), **kw)
+        assert mesh.stats.method == "refine" and not mesh.stats.target.default
+    assert triangulate(crease(), vertices=30).stats.vertices == 30
+
+
+def test_paper_reports_its_grid_and_flips():
+    s = triangulate(crease(), method="paper", tiles=2, samples=5).stats
+    # ((Rs-1)V+1, (Z-1)H+1) = (4*2+1, 4*2+1)
+    assert s.method == "paper" and s.grid_shape == (9, 9) and s.target is None
+    assert s.flip_tests  # the disparity tests ran
+    r = triangulate(crease(), vertices=30).stats
+    assert r.grid_shape is None and r.insertions >= 30 and r.strips == 1
+    assert r.heights == "fit"
+
+
+def test_target_record_is_frozen_and_typed():
+    t = triangulate(crease(), vertices=20).stats.target
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        t.achieved = 3
+    assert t.to_dict()["kind"] == "vertices"
+
+
+# ------------------------------------------------------------ one rule: method= alone
+
+
+@pytest.mark.parametrize("option", sorted(OPTION_METHOD))
+def test_an_option_of_the_other_method_is_refused(option):
+    owner = OPTION_METHOD[option]
+    with pytest.raises(ValueError, match=rf"^{option} is an option of method='{owner}'; "
+                                         rf"method='{OTHER[owner]}' does not take it"):
+        triangulate(crease(), method=OTHER[owner], **{option: VALUES[option]})
+
+
+def test_a_paper_default_passed_to_refine_is_refused():
+    # the issue's example: delta=20 is the paper's default, still the paper's option
+    with pytest.raises(ValueError, match="delta is an option of method='paper'"):
+        triangulate(crease(), vertices=300, delta=20.0)
+
+
+def test_the_table_covers_every_setting():
+    fields = {f.name for f in dataclasses.fields(MeshParams)}
+    shared = {"fill_gaps", "wrap"}
+    # MeshParams' 'workers' is the option 'threads'
+    assert set(OPTION_METHOD) | shared == (fields - {"workers"}) | {"threads"}
+
+
+@pytest.mark.filterwarnings("ignore:The TBB threading layer")  # Numba's, on first parallel use
+@pytest.mark.parametrize("option", sorted(OPTION_METHOD))
+def test_each_option_is_taken_by_its_method(option):
+    owner = OPTION_METHOD[option]
+    kw = {option: VALUES[option]}
+    if option in ("walls", "jump"):
+        kw["walls"] = False
+    if option == "max_edge":
+        kw.pop("samples", None)
+    mesh = triangulate(crease(), method=owner, **kw)
+    assert mesh.stats.method == owner
+    assert_valid_mesh(mesh)
+
+
+def test_cli_refuses_the_other_methods_flags(tmp_path, capsys):
+    img = tmp_path / "c.npy"
+    np.save(img, crease())
+    for argv, message in (
+        (["--delta", "20"], "--delta is an option of --method paper; --method refine does not"),
+        (["--method", "paper", "--no-walls"],
+         "--no-walls is an option of --method refine; --method paper does not"),
+        (["--tiles", "2x2", "--vertices", "300"], "--tiles is an option of --method paper"),
+    ):
+        rc = main(["mesh", str(img), "-o", str(tmp_path / "c.ply"), *argv])
+        err = capsys.readouterr().err
+        assert rc == 2 and message in err, err
+
+
+# ------------------------------------------------------------ deprecated spellings
+
+
+def test_params_warns_and_gives_the_same_mesh():
+    with pytest.warns(DeprecationWarning, match="params=MeshParams"):
+        old = triangulate(crease(), MeshParams(tiles=2, samples=5))
+    same_mesh(old, triangulate(crease(), method="paper", tiles=2, samples=5))
+    with pytest.warns(DeprecationWarning):
+        old = triangulate(crease(), MeshParams(), vertices=20)  # a target: refine, as before
+    same_mesh(old, triangulate(crease(), vertices=20))
+
+
+@pytest.mark.filterwarnings("ignore:The TBB threading layer")  # Numba's, on first parallel use
+def test_workers_and_greedy_warn_and_give_the_same_mesh():
+    with pytest.warns(DeprecationWarning, match="threads="):
+        old = triangulate(crease(), method="paper", workers=2)
+    same_mesh(old, triangulate(crease(), method="paper", threads=2))
+    with pytest.warns(DeprecationWarning, match="greedy"):
+        old = triangulate(crease(), method="greedy", vertices=20)
+    same_mesh(old, triangulate(crease(), method="refine", vertices=20))
+
+
+def test_target_read_as_a_dict_warns():
+    t = triangulate(crease(), vertices=20).stats.target
+    with pytest.warns(DeprecationWarning, match="Target record"):
+        assert t["achieved"] == 20 and t["target"] == "vertices"
+    with pytest.warns(DeprecationWarning):
+        assert "tiles" not in t and t.get("note", "none") == "none"
+
+
+def test_unknown_keyword_is_a_type_error():
+    with pytest.raises(TypeError, match="unknown option"):
+        triangulate(crease(), tilez=2)
+
+
+# ------------------------------------------------------------ missing depth, entry points
+
+
+def write_png(path, img):
+    from PIL import Image
+
+    Image.fromarray(img).save(path)
+
+
+def holed_uint16():
+    r, c = np.mgrid[0:48, 0:64]
+    img = (1000 + 3 * r + 2 * c).astype(np.uint16)
+    img[10:20, 30:45] = 0  # missing depth, as depth PNGs mark it
+    img[0, :] = 0
+    return img
+
+
+def test_auto_takes_zero_as_missing_in_integer_images_only():
+    img = holed_uint16()
+    mesh = triangulate(img, vertices=40)
+    same_mesh(mesh, triangulate(img, vertices=40, background=0))
+    assert mesh.vertices[:, 2].min() >= 1000  # no vertex at z = 0
+    as_float = img.astype(np.float64)  # a float 0 is a depth
+    assert triangulate(as_float, vertices=40).vertices[:, 2].min() == 0.0
+
+
+def test_four_entry_points_give_the_same_mesh(tmp_path, capsys):
+    pytest.importorskip("distributed")
+    img = holed_uint16()
+    png = tmp_path / "scan.png"
+    write_png(png, img)
+    one = triangulate(rangemesh.read_range_image(png))
+    (streamed,) = list(mesh_stream([img]))
+    same_mesh(one, streamed)
+    res = rangemesh.mesh_many([png], tmp_path / "many", workers=1)
+    assert res[0].status == "meshed", res[0].error
+    assert main(["mesh", str(png), "-o", str(tmp_path / "cli.ply"), "--quiet"]) == 0
+    for path in (tmp_path / "many" / "scan.ply", tmp_path / "cli.ply"):
+        m = read_mesh(path)
+        assert np.array_equal(m.faces, one.faces)
+        np.testing.assert_allclose(m.vertices, one.vertices, rtol=1e-6)  # PLY keeps float32
+
+
+def test_stream_and_many_take_every_option_of_triangulate():
+    tri = inspect.signature(triangulate).parameters
+    keywords = [n for n, p in tri.items() if p.kind == p.KEYWORD_ONLY and n != "color"]
+    for fn in (mesh_stream, rangemesh.mesh_many):
+        params = inspect.signature(fn).parameters
+        for name in keywords:
+            assert name in params, (fn.__name__, name)
+            assert params[name].default == tri[name].default, (fn.__name__, name)
+
+
+def test_stream_checks_at_the_call_and_takes_vertices():
+    with pytest.raises(ValueError, match="delta is an option of method='paper'"):
+        mesh_stream([crease()], delta=10.0)
+    (m,) = mesh_stream([crease()], vertices=25)
+    assert m.stats.vertices == 25
+
+
+@given(st.integers(3, 60))
+def test_stream_is_triangulate_for_any_count(n):
+    (m,) = mesh_stream([crease()], vertices=n)
+    same_mesh(m, triangulate(crease(), vertices=n))
+
+
+# ------------------------------------------------------------ command line
+
+
+def test_mesh_without_output_writes_beside_the_input(tmp_path, capsys):
+    img = tmp_path / "scan.npy"
+    np.save(img, crease())
+    assert main(["mesh", str(img)]) == 0
+    err = capsys.readouterr().err
+    out = tmp_path / "scan.ply"
+    assert out.exists() and f"wrote {out} (no -o given: beside the input)" in err
+    assert read_mesh(out).faces.shape[1] == 3
+
+
+def test_summary_says_what_each_method_did(tmp_path, capsys):
+    img = tmp_path / "c.npy"
+    np.save(img, crease())
+    main(["mesh", str(img), "-o", str(tmp_path / "r.ply")])
+    err = capsys.readouterr().err
+    assert "grid" not in err and "flips by the error" in err and "default target" in err
+    main(["mesh", str(img), "-o", str(tmp_path / "p.ply"), "--method", "paper",
+          "--tiles", "2", "--samples", "5"])
+    assert "grid 9x9" in capsys.readouterr().err
+    main(["mesh", str(img), "-o", str(tmp_path / "e.ply"), "--method", "paper",
+          "--max-edge", "8"])
+    err = capsys.readouterr().err
+    assert "x1 " not in err and "target max_edge 8.0" in err
+    main(["mesh", str(img), "-o", str(tmp_path / "v.ply"), "--method", "paper",
+          "--vertices", "60", "--max-edge", "6"])
+    err = capsys.readouterr().err
+    grid = err.split("grid ")[1].split(" ")[0]
+    assert min(int(x) for x in grid.split("x")) > 1, err  # the searched grid, not points x 1
+
+
+def test_version_and_help(capsys):
+    with pytest.raises(SystemExit):
+        main(["--version"])
+    assert capsys.readouterr().out.strip() == f"rangemesh {rangemesh.__version__}"
+    with pytest.raises(SystemExit):
+        main(["mesh", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    assert "refine (the default)" in text
+    for name in OPTION_METHOD:
+        flag = {"walls": "--no-walls"}.get(name, "--" + name.replace("_", "-"))
+        assert flag in text, flag
+
+
+def test_mesh_many_runs_from_a_plain_script(tmp_path):
+    pytest.importorskip("distributed")
+    write_png(tmp_path / "a.png", holed_uint16())
+    script = tmp_path / "plain.py"
+    script.write_text(textwrap.dedent(f"""
+        import rangemesh
+        res = rangemesh.mesh_many([{str(tmp_path / 'a.png')!r}], {str(tmp_path / 'out')!r},
+                                  workers=1)
+        print("STATUS", res[0].status)
+    """))
+    run = subprocess.run([sys.executable, str(script)], capture_output=True, text=True,
+                         timeout=240, cwd=tmp_path)
+    assert run.returncode == 0, run.stderr[-2000:]
+    assert run.stdout.count("STATUS meshed") == 1  # the workers did not run the script
+
+
+def test_with_fields_is_dataclasses_replace():
+    from rangemesh.mesh import with_fields
+
+    mesh = triangulate(crease(), vertices=12)
+    for obj, change in ((mesh.stats, {"method": "paper", "seconds": {"total": 1.0}}),
+                        (mesh, {"stats": mesh.stats})):
+        fast, slow = with_fields(obj, **change), dataclasses.replace(obj, **change)
+        assert type(fast) is type(slow)
+        assert fast.__dict__.keys() == slow.__dict__.keys()
+        assert all(fast.__dict__[k] is slow.__dict__[k] for k in fast.__dict__)
+
+
+def test_target_record_refuses_unknown_keys():
+    with pytest.raises(TypeError, match="extra"):
+        Target.from_record({"target": "vertices", "requested": 3, "achieved": 3, "met": True,
+                            "extra": 1}, vertices=3)

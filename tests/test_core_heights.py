@@ -1,0 +1,206 @@
+"""The compiled least-squares depth kernels against plain-Python references (tests/reference_heights.py)."""
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from scipy.spatial import Delaunay
+
+from rangemesh import _core, scenes, triangulate
+from rangemesh.camera import Orthographic, Pinhole
+from rangemesh.greedy import heights
+
+from . import reference_heights as ref
+
+
+@st.composite
+def fit_cases(draw):
+    """A random image and mask, and a mesh over some of its pixels (either orientation)."""
+    h = draw(st.integers(2, 30))
+    w = draw(st.integers(2, 30))
+    rng = np.random.default_rng(draw(st.integers(0, 2**32 - 1)))
+    image = 5.0 + rng.random((h, w))
+    if draw(st.booleans()):  # repeated values: exact errors, ties in the median
+        image = np.round(image * 4) / 4
+    valid = rng.random((h, w)) < draw(st.floats(0.1, 1.0))
+    pts = np.unique(np.stack([rng.integers(0, h, 40), rng.integers(0, w, 40)], axis=1), axis=0)
+    if len(pts) < 3 or np.linalg.matrix_rank((pts[1:] - pts[0]).astype(float)) < 2:
+        faces = np.array([[0, 0, 0]], np.int64)  # degenerate: owns no pixel
+        pts = np.array([[0, 0]])
+    else:
+        faces = Delaunay(pts.astype(float)).simplices.astype(np.int64)
+        faces[::2] = faces[::2, ::-1]
+    rows, cols = (np.ascontiguousarray(pts[:, k], dtype=np.int64) for k in (0, 1))
+    order = rng.permutation(len(faces)).astype(np.int64)
+    return faces, order, rows, cols, np.ascontiguousarray(image[rows, cols]), image, valid
+
+
+@settings(max_examples=60, deadline=None)
+@given(fit_cases(), st.integers(1, 4), st.integers(1, 4))
+def test_sampled_errors_are_those_of_the_owned_pixels(case, row_stride, face_stride):
+    faces, order, rows, cols, values, image, valid = case
+    want = ref.errors(faces, order, rows, cols, values, image, valid, row_stride, face_stride)
+    got = _core.fit_sample_errors(faces, order, rows, cols, values, image, valid, row_stride, face_stride,
+                                  image.size)
+    assert len(got) == len(want)
+    np.testing.assert_allclose(np.sort(got), np.sort(want), rtol=0, atol=1e-12)
+    # at most `capacity` errors are kept: the first ones visited
+    if len(want) > 2:
+        few = _core.fit_sample_errors(faces, order, rows, cols, values, image, valid, row_stride,
+                                      face_stride, 2)
+        np.testing.assert_array_equal(few, got[:2])
+
+
+@settings(max_examples=60, deadline=None)
+@given(fit_cases(), st.sampled_from([np.pi / 50, 0.5 / np.e, np.inf]))
+def test_face_blocks_sum_the_kept_pixels(case, threshold):
+    faces, order, rows, cols, values, image, valid = case
+    ids, block, rhs, used = _core.fit_blocks(faces, order, rows, cols, values, image, valid, threshold)
+    want_ids, want_block, want_rhs, want_used = ref.blocks(faces, order, rows, cols, values, image, valid,
+                                                           threshold)
+    np.testing.assert_array_equal(ids, want_ids)
+    np.testing.assert_allclose(block, want_block, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(rhs, want_rhs, rtol=1e-12, atol=1e-12)
+    assert used == want_used  # (no error lies within rounding of these irrational bounds)
+
+
+def test_a_triangulation_of_the_whole_image_visits_each_pixel_once():
+    # The faces of a triangulation of the image's corners and inner points cover it; each pixel
+    # is owned by one face, except on hull edges whose own rule gives them to the outside.
+    h, w = 17, 23
+    rng = np.random.default_rng(5)
+    inside = np.stack([rng.integers(1, h - 1, 30), rng.integers(1, w - 1, 30)], axis=1)
+    pts = np.unique(np.vstack([[[0, 0], [0, w - 1], [h - 1, 0], [h - 1, w - 1]], inside]), axis=0)
+    faces = Delaunay(pts.astype(float)).simplices.astype(np.int64)
+    rows, cols = (np.ascontiguousarray(pts[:, k], dtype=np.int64) for k in (0, 1))
+    seen = np.zeros((h, w), int)
+    for f in faces:
+        for r, c, *_ in ref.owned_pixels(f, rows, cols):
+            seen[r, c] += 1
+    assert seen.max() == 1
+    inner = seen[1:-1, 1:-1]
+    assert inner.min() == 1  # no inner pixel left out
+    image = rng.random((h, w))
+    valid = np.ones((h, w), bool)
+    order = np.arange(len(faces), dtype=np.int64)
+    values = np.ascontiguousarray(image[rows, cols])
+    *_, used = _core.fit_blocks(faces, order, rows, cols, values, image, valid, np.inf)
+    assert used == seen.sum()
+
+
+def test_the_pass_on_two_threads_is_the_pass_on_one():
+    # Past 4000 faces the pass is split between two threads; each face writes its own rows.
+    sc = scenes.make("box", (300, 300), noise=0.5)
+    m = triangulate(sc.depth, vertices=3000, method="refine", heights="pixel")
+    faces = np.ascontiguousarray(m.faces, np.int64)
+    assert len(faces) >= 4000
+    rows, cols = (np.ascontiguousarray(m.pixels[:, k], dtype=np.int64) for k in (0, 1))
+    valid = np.ones(sc.depth.shape, bool)
+    order = _core.face_order(faces, rows, cols, 300, 300, 8)
+    args = (faces, order, rows, cols, np.ascontiguousarray(sc.depth[rows, cols]), sc.depth, valid, 1.0)
+    one = _core.fit_blocks(*args, threads=1)
+    two = _core.fit_blocks(*args, threads=2)
+    for a, b in zip(one, two, strict=True):
+        assert np.array_equal(a, b)
+    z1 = heights.fit_heights(m.pixels, m.faces, sc.depth, valid, m.camera, threads=1)
+    z2 = heights.fit_heights(m.pixels, m.faces, sc.depth, valid, m.camera, threads=2)
+    assert np.array_equal(z1.view(np.int64), z2.view(np.int64))
+    assert not np.array_equal(z1, sc.depth[rows, cols])  # the fit moved the depths
+
+
+@given(st.lists(st.one_of(st.floats(0, 1e6), st.sampled_from([0.0, 1.0, 2.5, float("nan"), float("inf")])),
+                min_size=1, max_size=200))
+def test_the_median_is_numpys(values):
+    x = np.array(values, dtype=np.float64)
+    want = np.median(x)
+    y = x.copy()
+    got = _core.median_inplace(y)
+    if np.isnan(want):
+        assert np.isnan(got)
+    else:
+        assert np.float64(got).view(np.int64) == want.view(np.int64)  # bit for bit
+    assert np.array_equal(np.sort(y), np.sort(x), equal_nan=True)  # reordered in place, nothing lost
+
+
+def test_the_median_of_nothing_is_refused():
+    with pytest.raises(RuntimeError, match="no median"):
+        _core.median_inplace(np.zeros(0))
+
+
+@pytest.mark.parametrize("name, pinhole", [("box", False), ("stairs", False), ("dome", True)])
+def test_the_fit_solves_its_least_squares_problem(name, pinhole):
+    # The whole fit against the references: the outlier bound from the median of the sampled
+    # errors, the kept pixels' normal equations solved densely, the result clipped to the
+    # valid values' range.
+    sc = scenes.make(name, (50, 60), noise=0.3)
+    depth = sc.depth + 10.0
+    camera = Pinhole(60.0, 60.0, 30.0, 25.0) if pinhole else Orthographic(1.0, 1.0, 1.0)
+    m = triangulate(depth, vertices=90, method="refine", heights="pixel", camera=camera)
+    valid = np.isfinite(depth)  # the dome's background is NaN
+    image = 1.0 / depth if pinhole else depth
+    faces = np.asarray(m.faces, np.int64)
+    rows, cols = (np.asarray(m.pixels[:, k], np.int64) for k in (0, 1))
+    h0 = image[rows, cols]
+    order = np.arange(len(faces))
+    row_stride, face_stride = heights.sample_strides(len(faces))
+    sample = ref.errors(faces, order, rows, cols, h0, image, valid, row_stride, face_stride)
+    threshold = heights.OUTLIER_MADS * 1.4826 * np.median(sample)
+    assert threshold > heights.OUTLIER_FLOOR * np.ptp(h0)  # noisy: the fit runs
+    ids, block, rhs, used = ref.blocks(faces, order, rows, cols, h0, image, valid, threshold)
+    assert 0 < used < valid.sum()
+    want = np.clip(ref.solve(ids, block, rhs, h0, heights.RIDGE), image[valid].min(), image[valid].max())
+    got = heights.fit_heights(m.pixels, m.faces, depth, valid, camera)
+    got = 1.0 / got if pinhole else got
+    span = np.ptp(image[valid])
+    np.testing.assert_allclose(got, want, rtol=0, atol=1e-6 * span)
+    assert np.abs(got - h0).max() > 1e-3 * span  # and it is not the copied depths
+
+
+def test_the_kernels_refuse_a_vertex_outside_the_image():
+    faces = np.array([[0, 1, 2]], np.int64)
+    rows = np.array([-1, 3, 0], np.int64)
+    cols = np.array([0, 0, 3], np.int64)
+    image = np.ones((5, 5))
+    valid = np.ones((5, 5), bool)
+    args = (faces, np.zeros(1, np.int64), rows, cols, np.ones(3), image, valid)
+    with pytest.raises(ValueError, match="outside the image"):
+        _core.fit_sample_errors(*args, 1, 1, 25)
+    with pytest.raises(ValueError, match="outside the image"):
+        _core.fit_blocks(*args, 1.0)
+    with pytest.raises(RuntimeError, match="vertex id is out of range"):
+        _core.fit_blocks(np.array([[0, 1, 7]], np.int64), *args[1:], 1.0)
+
+
+def test_a_fit_that_does_not_converge_is_solved_directly(monkeypatch):
+    # With a relative residual of 0 asked, conjugate gradients stop at their step limit: the
+    # kernel hands back the system, and fit_heights solves it by sparse LU instead.
+    sc = scenes.make("box", (40, 50), noise=0.3)
+    m = triangulate(sc.depth, vertices=60, method="refine", heights="pixel")
+    valid = np.ones(sc.depth.shape, bool)
+    want = heights.fit_heights(m.pixels, m.faces, sc.depth, valid, m.camera)
+    outcomes = []
+    core_fit = _core.fit_heights
+
+    def fit(*args, **kwargs):
+        outcome, fitted, system = core_fit(*args, **kwargs)
+        outcomes.append(outcome)
+        if outcome == "not converged":
+            ids, block, rhs = system
+            assert ids.shape == (len(m.faces), 3) and block.shape == (len(m.faces), 3, 3)
+        return outcome, fitted, system
+
+    solved = []
+    direct_solve = heights._direct_solve
+
+    def direct(*args):
+        solved.append(direct_solve(*args))
+        return solved[-1]
+
+    monkeypatch.setattr(_core, "fit_heights", fit)
+    monkeypatch.setattr(heights, "_direct_solve", direct)
+    monkeypatch.setattr(heights, "CG_RTOL", 0.0)
+    got = heights.fit_heights(m.pixels, m.faces, sc.depth, valid, m.camera)
+    assert outcomes == ["not converged"] and len(solved) == 1
+    lo, hi = sc.depth.min(), sc.depth.max()
+    np.testing.assert_array_equal(got, np.clip(solved[0], lo, hi))  # the direct solve's depths
+    np.testing.assert_allclose(got, want, rtol=0, atol=1e-6 * np.ptp(sc.depth))

@@ -40,7 +40,9 @@ struct Plane {
     bool holds(index_t r, index_t c, double z, double span) const;
 };
 
-class Insertion {
+// Cache-line aligned: two strips' states advance side by side on two threads, and their
+// counters and scratch pointers, written every step, must not share a line.
+class alignas(64) Insertion {
   public:
     // Every triangle of `first` scanned and in the heap; room reserved for `reserve` more
     // vertices (the arrays grow beyond it).

@@ -2,7 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <condition_variable>
 #include <exception>
+#include <functional>
+#include <mutex>
 #include <optional>
 #include <thread>
 #include <tuple>
@@ -109,31 +112,85 @@ constexpr int MAX_ROUNDS = 16;
 constexpr double EXPONENT = 1.0;
 constexpr double EXPONENT_MIN = 0.75, EXPONENT_MAX = 4.0;
 
-// Run `fa` on a second thread and `fb` on this one (or both here, one after the other); an
-// exception from either reaches the caller once both are done.
+// The strips' second thread, started once a call: runs the half of each phase (the first
+// scans, each round, the flips) that `both` hands it while the calling thread runs the other.
+class Worker {
+  public:
+    Worker() : thread_([this] { loop(); }) {}
+
+    ~Worker() {
+        {
+            std::lock_guard<std::mutex> lock(mutex_);
+            stop_ = true;
+        }
+        wake_.notify_all();
+        thread_.join();
+    }
+
+    Worker(const Worker&) = delete;
+    Worker& operator=(const Worker&) = delete;
+
+    // Run `fa` on the worker and `fb` here; once both are done, rethrow what either threw.
+    template <class A, class B>
+    void both(A&& fa, B&& fb) {
+        {
+            std::lock_guard<std::mutex> lock(mutex_);
+            task_ = std::forward<A>(fa);
+            done_ = false;
+            failed_ = nullptr;
+        }
+        wake_.notify_all();
+        std::exception_ptr mine;
+        try {
+            fb();
+        } catch (...) {
+            mine = std::current_exception();
+        }
+        std::unique_lock<std::mutex> lock(mutex_);
+        wake_.wait(lock, [this] { return done_; });
+        if (mine) std::rethrow_exception(mine);
+        if (failed_) std::rethrow_exception(failed_);
+    }
+
+  private:
+    void loop() {
+        std::unique_lock<std::mutex> lock(mutex_);
+        for (;;) {
+            wake_.wait(lock, [this] { return stop_ || task_; });
+            if (!task_) return;  // stopped, nothing left to run
+            std::function<void()> task = std::move(task_);
+            task_ = nullptr;
+            lock.unlock();
+            std::exception_ptr failed;
+            try {
+                task();
+            } catch (...) {
+                failed = std::current_exception();
+            }
+            lock.lock();
+            failed_ = failed;
+            done_ = true;
+            wake_.notify_all();
+        }
+    }
+
+    std::mutex mutex_;
+    std::condition_variable wake_;
+    std::function<void()> task_;
+    bool done_ = true, stop_ = false;
+    std::exception_ptr failed_;
+    std::thread thread_;  // last: it starts once the members it uses exist
+};
+
+// Run `fa` and `fb`: on the worker and here when there is one, else one after the other.
 template <class A, class B>
-void run_both(bool two, A&& fa, B&& fb) {
-    if (!two) {
-        fa();
-        fb();
+void run_both(Worker* worker, A&& fa, B&& fb) {
+    if (worker) {
+        worker->both(std::forward<A>(fa), std::forward<B>(fb));
         return;
     }
-    std::exception_ptr failed;
-    std::thread worker([&] {
-        try {
-            fa();
-        } catch (...) {
-            failed = std::current_exception();
-        }
-    });
-    try {
-        fb();
-    } catch (...) {
-        worker.join();
-        throw;
-    }
-    worker.join();
-    if (failed) std::rethrow_exception(failed);
+    fa();
+    fb();
 }
 
 }  // namespace
@@ -187,7 +244,7 @@ double threshold(const PowerLaw laws[2], double target) {
 // and whether the last stopped a strip by its cap rather than by the threshold (only then is
 // the state not one the one-at-a-time order passes through; it is still the same on any
 // number of threads).
-std::pair<index_t, bool> rounds(Insertion& a, Insertion& b, const StripRequest& req) {
+std::pair<index_t, bool> rounds(Insertion& a, Insertion& b, const StripRequest& req, Worker* worker) {
     std::vector<std::pair<double, double>> hists[2];
     std::vector<std::pair<double, double>> errors;  // (count, summed error) after each round
     std::optional<double> key = COVER_KEY;           // first, every pixel to cover
@@ -225,7 +282,7 @@ std::pair<index_t, bool> rounds(Insertion& a, Insertion& b, const StripRequest& 
         const index_t cap_a = counts[0] + static_cast<index_t>(std::nearbyint(f * static_cast<double>(rem)));
         const index_t caps[2] = {cap_a, counts[1] + rem - (cap_a - counts[0])};
         const double k = *key;
-        run_both(req.threads >= 2, [&] { a.advance(Stop{caps[0], -1.0, k}); },
+        run_both(worker, [&] { a.advance(Stop{caps[0], -1.0, k}); },
                  [&] { b.advance(Stop{caps[1], -1.0, k}); });
         ++n_rounds;
         capped = false;
@@ -263,15 +320,17 @@ StripMesh finish(Insertion& s, const Image& image, bool flip) {
 }  // namespace
 
 Strips strip_insert(const Image& image, const FirstMesh& left, const FirstMesh& right, const StripRequest& req) {
-    const bool two = req.threads >= 2;
+    std::optional<Worker> worker;
+    if (req.threads >= 2) worker.emplace();
+    Worker* const second = worker ? &*worker : nullptr;
     std::optional<Insertion> a, b;
     // the first scans visit every pixel: half each
-    run_both(two, [&] { a.emplace(image, left, req.reserve, req.sr, req.sc); },
+    run_both(second, [&] { a.emplace(image, left, req.reserve, req.sr, req.sc); },
              [&] { b.emplace(image, right, req.reserve, req.sr, req.sc); });
     Strips out;
-    if (req.rounds) std::tie(out.rounds, out.capped) = rounds(*a, *b, req);
+    if (req.rounds) std::tie(out.rounds, out.capped) = rounds(*a, *b, req, second);
     merge_tail(*a, *b, req.target, req.budget);
-    run_both(two, [&] { out.left = finish(*a, image, req.flip); }, [&] { out.right = finish(*b, image, req.flip); });
+    run_both(second, [&] { out.left = finish(*a, image, req.flip); }, [&] { out.right = finish(*b, image, req.flip); });
     return out;
 }
 

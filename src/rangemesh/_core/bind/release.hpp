@@ -30,6 +30,8 @@ class SigintWatch {
 // Call `f()` with the GIL released and Ctrl-C watched; returns what `f` returns.
 template <class F>
 auto run_released(F&& f) {
+    // a Ctrl-C that came just before the call is raised now, not after the whole kernel
+    if (PyErr_CheckSignals() != 0) throw nanobind::python_error();
     SigintWatch watch;
     try {
         nanobind::gil_scoped_release released;

@@ -1,5 +1,7 @@
 import numpy as np
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
 from rangemesh import Pinhole, evaluate, render_depth, scenes, triangulate
 from rangemesh.mesh import Mesh, Stats
@@ -65,3 +67,15 @@ def test_evaluate_rejects_other_shape():
     m = triangulate(np.ones((20, 20)) + np.arange(20), samples=3, method="paper")
     with pytest.raises(ValueError, match="shape"):
         evaluate(m, np.ones((10, 10)))
+
+
+@given(st.integers(1, 12), st.integers(1, 12), st.integers(0, 4), st.integers(0, 2**32 - 1))
+def test_dilate_square_is_scipys_binary_dilation(h, w, radius, seed):
+    from scipy import ndimage
+
+    from rangemesh.metrics import dilate_square
+
+    mask = np.random.default_rng(seed).random((h, w)) < 0.1
+    want = mask if radius == 0 else ndimage.binary_dilation(mask, structure=np.ones((3, 3), bool),
+                                                            iterations=radius)
+    assert np.array_equal(dilate_square(mask, radius), want)

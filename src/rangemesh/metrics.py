@@ -82,6 +82,34 @@ def discontinuity_mask(depth: np.ndarray, valid: np.ndarray, threshold: float = 
     return valid & (K >= threshold)
 
 
+def dilate_square(mask: np.ndarray, radius: int) -> np.ndarray:
+    """Pixels within `radius` of a True pixel, in both directions (a (2r+1) x (2r+1) square).
+
+    What ``scipy.ndimage.binary_dilation`` gives with a 3x3 structure and
+    `radius` iterations (pixels outside the image are False), in two passes
+    of shifted ORs: importing SciPy's ndimage took 0.43 s of a 0.45 s
+    ``rangemesh mesh`` process (cProfile, chair image), the dilation itself
+    about a millisecond either way.
+
+    Examples
+    --------
+    >>> m = np.zeros((5, 5), bool); m[0, 0] = True
+    >>> dilate_square(m, 1).astype(int)[:3, :3]
+    array([[1, 1, 0],
+           [1, 1, 0],
+           [0, 0, 0]])
+    """
+    rows = mask.copy()
+    for k in range(1, min(radius, mask.shape[1] - 1) + 1):
+        rows[:, k:] |= mask[:, :-k]
+        rows[:, :-k] |= mask[:, k:]
+    out = rows.copy()
+    for k in range(1, min(radius, mask.shape[0] - 1) + 1):
+        out[k:, :] |= rows[:-k, :]
+        out[:-k, :] |= rows[k:, :]
+    return out
+
+
 def evaluate(mesh: Mesh, depth, *, background="auto", discontinuities: np.ndarray | None = None,
              band: int = 2) -> Evaluation:
     """The paper's relative error and companions, exact and vectorised.
@@ -133,10 +161,7 @@ def evaluate(mesh: Mesh, depth, *, background="auto", discontinuities: np.ndarra
         )
     near = np.asarray(discontinuities, bool)
     if band > 0:
-        from scipy import ndimage  # imported here: start-up time of the command line matters
-
-        # iterations=0 would mean "until nothing changes" to SciPy
-        near = ndimage.binary_dilation(near, structure=np.ones((3, 3), bool), iterations=band)
+        near = dilate_square(near, int(band))
     n_valid = int(np.count_nonzero(valid))
     span = valid_span(d, valid)
     # Full-size buffers are the memory of a large image: reuse them in place and

@@ -109,7 +109,7 @@ def test_shell_block(index, beside_data):
                            capture_output=True, text=True, timeout=300)
         assert p.returncode == 0, f"{line}\n{p.stderr}"
         out = p.stdout + p.stderr
-        for text in quoted(line):
-            assert text in out, f"{line}\nexpected {text!r} in:\n{out}"
+        for text in quoted(line):  # as a whole figure: "1443" is not the start of "14430"
+            assert re.search(re.escape(text) + r"(?!\d|\.\d)", out), f"{line}\nexpected {text!r} in:\n{out}"
         for name in re.findall(r"writes (\S+\.\w+)", COMMENT.split(line, maxsplit=1)[-1]):
             assert (cwd / name.rstrip(";,.")).exists(), f"{line}: no {name}"

@@ -87,6 +87,16 @@ def test_readme_has_examples():
         assert len(prints) == len(expected_prints(code)), prints
 
 
+def test_ci_runs_the_quick_start():
+    """CI installs and tests with the README's own quick-start command."""
+    quick = next(code for lang, code in EXAMPLES if "pip install" in code)
+    command = 'pip install -e ".[test]" && python -m pytest'
+    assert command in quick
+    ci = README.parent / ".ci" / "run"
+    if ci.exists():
+        assert command in ci.read_text(encoding="utf-8").splitlines()
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("index", range(len(PYTHON)), ids=lambda i: f"python-{i + 1}")
 def test_python_block(index, beside_data):

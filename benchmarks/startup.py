@@ -98,7 +98,7 @@ def main(argv=None):
     data = peers.find_data(args.data)
     if data is None:
         raise SystemExit("the shared data folder was not found (--data)")
-    chair = data / "odetics" / "chair-range.npy"
+    chair = data.resolve() / "odetics" / "chair-range.npy"  # the commands run in a temporary HOME
     cold, warm = first_mesh(chair, args.repeat)
     imp, imp_tri = imports(args.repeat)
     ours, delatin = fixed_cost()

@@ -11,7 +11,7 @@ triangulation and discontinuity-preserving edge flips.
 >>> mesh.stats.method, mesh.vertices.shape[1], mesh.faces.shape[1]
 ('refine', 3, 3)
 
-The library is layered (see the README's Development section): applications
+The library is layered (docs/method.md, "Where the code is"): applications
 (`cli`, `batch`, `preview`, `calibrate`) -> `pipeline` -> methods (`paper`)
 -> shared geometry kernels -> the compiled core. Every name here is imported
 lazily, on first use, so that ``import rangemesh`` loads nothing it does not need.

@@ -244,8 +244,8 @@ class Spherical(_RayCamera):
     def from_beams(cls, beams, *, range_scale: float = 1.0, image_shape=None) -> Spherical:
         """The camera described by a ``.beams.json`` file (or its parsed dictionary).
 
-        The layout (that of ``rellis3d_os1-64_000000.beams.json``; see the
-        README): ``elevation_deg`` (one per row), ``azimuth0_deg``,
+        The layout (that of ``rellis3d_os1-64_000000.beams.json``; see
+        docs/method.md): ``elevation_deg`` (one per row), ``azimuth0_deg``,
         ``azimuth_step_deg``, ``cols``, and optionally
         ``azimuth_row_residual_deg`` (one per row). Column ``c`` of row ``r``
         has azimuth ``azimuth0_deg + azimuth_row_residual_deg[r] + c *
@@ -271,7 +271,7 @@ class Spherical(_RayCamera):
         missing = [k for k in ("elevation_deg", "azimuth0_deg", "azimuth_step_deg", "cols")
                    if k not in beams]
         if missing:
-            raise ValueError(f"beams: missing {', '.join(missing)} (see the README's beams layout)")
+            raise ValueError(f"beams: missing {', '.join(missing)} (see the beams layout in docs/method.md)")
         try:  # JSON numbers only: strings are never read as numbers, nor 2048.9 as 2048
             cols = whole_number("beams: cols", beams["cols"], minimum=1)
             az0 = real_number("beams: azimuth0_deg", beams["azimuth0_deg"])

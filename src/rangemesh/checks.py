@@ -137,7 +137,7 @@ def whole_pair(name: str, value, *, minimum: int | None = None) -> tuple[int, in
     return a, b
 
 
-# dtypes the Numba kernels are compiled for, as stored (no conversion, no copy)
+# dtypes the compiled kernels take as stored (no conversion, no copy)
 _KERNEL_KINDS = "iuf"
 _NATIVE_FLOATS = (np.dtype(np.float32), np.dtype(np.float64))
 

@@ -127,7 +127,7 @@ def _add_camera_options(p):
                         "TUM); with --beams: range = stored value x this")
     c.add_argument("--beams", metavar="FILE.json", default=None,
                    help="spinning LiDAR: a spherical camera from a beams file (elevation per "
-                        "row, azimuth per column; see the README); vertices = range x ray")
+                        "row, azimuth per column; see docs/method.md); vertices = range x ray")
 
 
 def _default(name):
@@ -162,7 +162,7 @@ def _add_mesh_options(p):
                         "the default) or copied from the vertex's pixel (pixel)")
     r.add_argument("--diagonals", choices=["error", "delaunay"], default=None,
                    help="each quad's diagonal is the one that fits its pixels better (error, "
-                        "the default) or the Delaunay one (delaunay: about 0.85x the time, "
+                        "the default) or the Delaunay one (delaunay: a little faster, "
                         "higher error)")
     r.add_argument("--no-walls", action="store_true",
                    help="drop the triangles across depth jumps, so separate surfaces stay "

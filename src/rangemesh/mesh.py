@@ -16,7 +16,7 @@ def with_fields(obj, **changes):
 
     Their frozen ``__init__`` sets each field through ``object.__setattr__``
     and they have no ``__post_init__`` to run: copying the instance dict
-    gives the same object (8 us a replace, twice in every `triangulate` call).
+    gives the same object, and `triangulate` makes two on every call.
     """
     new = object.__new__(type(obj))
     new.__dict__.update(obj.__dict__)
@@ -92,7 +92,7 @@ class Target:
                             f"Target field")
         get = rec.get
         tiles, samples = get("tiles"), get("samples")
-        # positional, in field order: this runs on every call (a keyword build costs 2x)
+        # positional, in field order: this runs on every call, and keywords cost more
         return cls(rec["target"], rec["requested"], rec["achieved"], rec["met"],
                    get("meshings", 1), get("vertices", vertices), default, get("max_vertices"),
                    None if tiles is None else tuple(tiles),

@@ -69,9 +69,9 @@ class DefaultTarget:
 
     A relative error of `max_error` percent (of the valid depth range, mean
     over the valid pixels), with at most `max_share` of the valid pixels as
-    vertices and at least `min_vertices`. The cap stops noisy images (where
-    the error bound alone would take up to 23 % of the pixels) at a size a
-    user keeps; see ``docs/benchmarks.md``, "The default target".
+    vertices and at least `min_vertices`. The cap stops noisy images, where
+    the error bound alone follows the noise, at a size a user keeps; see
+    ``docs/benchmarks.md``, "The default target".
     """
 
     max_error: float = 0.5
@@ -79,8 +79,7 @@ class DefaultTarget:
     min_vertices: int = 50
 
 
-# The measured choice (benchmarks/default_target.py): median error 0.32 % against the paper
-# defaults' 0.785 %, no valid pixel left uncovered.
+# The measured choice (benchmarks/default_target.py, figures in docs/benchmarks.md).
 DEFAULT_TARGET = DefaultTarget()
 
 
@@ -182,8 +181,8 @@ class MeshParams:
         sensor's units, `rangemesh.greedy.insertion.delaunay_scales`).
         ``None``: ``'error'`` for ``method='refine'``; the paper's
         method chooses its diagonals with `flips`. ``'error'`` lowers the
-        mean error by a median 7 % and the error near jumps by 13 %, at
-        about 1.2x the time of ``'delaunay'`` (``benchmarks/diagonals.py``).
+        mean error and the error near jumps at some cost in time
+        (``benchmarks/diagonals.py``, docs/benchmarks.md).
     walls : bool, default True
         Keep the triangles that bridge a depth jump ("walls"). ``False``
         drops them, so separate surfaces stay separate (`method='refine'`

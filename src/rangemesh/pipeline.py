@@ -37,7 +37,7 @@ __all__ = ["triangulate", "resolve_call", "resolve_params", "prepare", "run", "W
 
 @functools.lru_cache(maxsize=1)
 def _defaults() -> MeshParams:
-    """`MeshParams()`, built once (it checks every field: 25 us, twice a call before)."""
+    """`MeshParams()`, built once (it checks every field)."""
     return MeshParams()
 
 
@@ -81,8 +81,8 @@ BYTES_PER_PIXEL = 20
 MAX_DEPTH = 1e150
 
 
-# `available_memory` reads /proc/meminfo at most once in this many seconds: the read costs
-# 0.1 ms, 4 % of a call on a 128x128 image, and a check that old still stops a runaway image.
+# `available_memory` reads /proc/meminfo at most once in this many seconds: the read weighs on
+# a call on a small image, and a check that old still stops a runaway image.
 MEMINFO_SECONDS = 1.0
 _meminfo = [-math.inf, None]  # when read (time.monotonic), what was read
 
@@ -241,7 +241,7 @@ def _params_cached(items: tuple) -> MeshParams:
 
 
 def _params_of(fields: dict) -> MeshParams:
-    """`MeshParams` of these fields, built once per distinct set (its checks cost 25 us)."""
+    """`MeshParams` of these fields, built once per distinct set (it checks every field)."""
     if not fields:
         return _defaults()
     try:

@@ -141,4 +141,4 @@ def guess_background(image: np.ndarray):
     >>> guess_background(np.zeros((2, 2), np.uint16)), guess_background(np.zeros((2, 2)))
     (0, None)
     """
-    return 0 if image.dtype.kind in "iu" else None  # np.issubdtype: 2 us a call
+    return 0 if image.dtype.kind in "iu" else None  # the kind, not np.issubdtype: every call

@@ -25,20 +25,16 @@ four outer edges of its quad are tested again, until no flip lowers the sum.
 * Every flip lowers the total strictly, so the flips end; at most
   `MAX_TESTS_PER_EDGE` tests an edge bound the time all the same.
 
-Measured with ``benchmarks/diagonals.py`` (69 cases: every shared image and
-scene at 1, 3 and 10 % of its valid pixels, fitted depths after): medians of
-0.93x the mean error and 0.87x the error within 2 px of jumps of the Delaunay
-mesh, at 1.21x the whole call's time (the flips test most edges once, two
-triangles rasterised a test). They are `method='refine'`'s default: with
-them a call still takes less time than pydelatin's over those cases (median
-0.96x; README, Results).
+They lower the mean error and the error near jumps of the Delaunay mesh at
+a moderate cost in time, so they are `method='refine'`'s default
+(``benchmarks/diagonals.py``; figures in docs/benchmarks.md).
 Two things keep them cheap: on strips (`rangemesh.greedy.strips`) each
 strip flips on its own thread, and only the seam's edges are tested after
 the join (`rangemesh._core.flip_from_edges`); and a test stops scanning once
 the other diagonal is known to be no better (`rangemesh._core.triangle_error`'s
 `stop`).
-Testing only quads with more than the mean error per pixel saved 28 % of
-the flips' time and gave back a quarter of the gain: not kept.
+Every edge is tested: filters that test fewer gave back too much of the gain
+(docs/decisions.md).
 
 The kernels are compiled (``src/rangemesh/_core/refine/diagonals.cpp``):
 `rangemesh._core.flip_by_error` on a mesh whose half-edges and triangle sums

@@ -29,22 +29,14 @@ __all__ = ["fit_heights"]
 # A pixel whose error under the copied depths exceeds OUTLIER_MADS robust
 # standard deviations (1.4826 x the median error) of all errors is left out: it
 # belongs to another surface than its triangle. A jump lies far beyond that
-# bound; what lies between 4 and 6 of them is mostly clutter (foliage in a LiDAR
-# scan), which the fit should follow: at 6 the scan's mean error at 1, 3 and 10 %
-# of its pixels was 0.955, 0.965 and 0.993x that at 4, the other images'
-# 0.975-1.017x (median 1.000, error near jumps 1.000, at most 1.056x: a dome's
-# rim at 10 %).
+# bound; below it is mostly clutter (foliage in a LiDAR scan) that the fit should
+# follow (docs/benchmarks.md, docs/decisions.md).
 OUTLIER_MADS = 6.0
 # The bound never falls below OUTLIER_FLOOR of the vertices' value range, a
 # rounding error's size: when most pixels fit their triangles exactly (quantised
 # disparities, dense meshes), only exact pixels would be fitted, so the copied
-# depths are kept as they are (`fit_heights` skips its pass and solve). A floor
-# of 0.5 % of the range (until 2026-11) kept small steps in the fit: at 10 % of
-# the pixels it moved the stereo pairs' vertices off their exact planes (fitted /
-# copied error: aloe 1.71, venus 1.27; now 1.00) and pulled the depth frames'
-# edges (error near jumps 1.03-1.10x the copied depths'). Medians of fitted /
-# copied over the 18 images and scenes not meshed exactly, at 10 %: error 0.985
-# -> 0.961, near jumps 1.051 -> 1.000; at 1 and 3 % unchanged
+# depths are kept as they are (`fit_heights` skips its pass and solve). A larger
+# floor would keep small steps in the fit and move vertices off exact planes
 # (``python benchmarks/heights.py [--floor 0.005]``).
 OUTLIER_FLOOR = 1e-9
 # Ridge towards the copied value, relative to a vertex's own weight: it keeps a
@@ -53,23 +45,19 @@ RIDGE = 1e-3
 # The errors' median is taken over a sample of the pixels: those of every k-th triangle in
 # their spatial order (`face_order`), k >= RESIDUAL_STRIDE and at most about RESIDUAL_SAMPLE
 # triangles, when that visits RESIDUAL_MIN triangles or more; else every 4th row of every
-# triangle. The median needs no more (at 50,000 triangles, 2000 of them still hold about
-# 10,000 pixels). Many small triangles: a pass over every 4th row still cost 0.55x the full
-# pass (each triangle's set-up), every 4th triangle 0.25-0.3x. Few large ones: every 4th row
-# is as cheap, and a sample of a few dozen triangles made a noisy median (a dome of 128
-# vertices: the mesh's error moved by 1.6 %).
+# triangle. The median needs no more; with many small triangles skipping whole triangles
+# saves their set-up, which skipping rows does not, and with few a sample of triangles
+# would give a noisy median.
 RESIDUAL_STRIDE = 4
 RESIDUAL_MIN = 500
 RESIDUAL_SAMPLE = 2000
 # The faces are visited in the order of these square cells of pixels (`face_order`) in images
-# of ORDER_MIN_PIXELS or more; in smaller ones, whose depth and mask stay in the cache
-# whatever the order, as they come (sorted, a fit of the 160x200 scenes took 1.05-1.15x
-# the time; of TUM, NYU and aloe 0.55-0.85x).
+# of ORDER_MIN_PIXELS or more, for the cache; smaller images stay in the cache whatever
+# the order, and are visited as the faces come.
 ORDER_TILE = 8
 ORDER_MIN_PIXELS = 150_000
 # Conjugate gradients stop at this relative residual: the fitted depths then lie within about
-# 1e-6 of the depth range of the exact solution (teddy, TUM at 10 % of the pixels), a
-# thousandth of the mesh's error, in 11 iterations instead of 20 at 1e-12.
+# 1e-6 of the depth range of the exact solution, a thousandth of the mesh's error.
 CG_RTOL = 1e-8
 
 
@@ -166,8 +154,7 @@ def fit_heights(pixels: np.ndarray, faces: np.ndarray, depth: np.ndarray, valid:
         raise RuntimeError("fit_heights: the least-squares solve failed")
     # A vertex that few pixels pin down can be thrown far off (a negative range was seen on a
     # LiDAR scan at 500 vertices): no fitted value leaves the range of the valid pixels' values.
-    # (In one Numba pass: ``image[valid]`` copied every valid pixel, 0.5 ms at 640x480. The
-    # inverse of the largest depth is the smallest inverse exactly: rounding is monotone.)
+    # (The inverse of the largest depth is the smallest inverse exactly: rounding is monotone.)
     lo, hi = lo_z, hi_z
     if not ortho:
         if lo > 0.0:

@@ -21,8 +21,7 @@ __all__ = ["greedy_mesh", "corner_depths", "first_mesh", "delaunay_scales"]
 # The first mesh: the image corners and a coarse grid of valid pixels, about this
 # share of the vertices asked (at most GRID_MAX points; GRID_ERROR_BOUND points with
 # max_error, whose count is not known beforehand). Starting from the two triangles of
-# the image rectangle, the first insertions each rescan a large part of the image:
-# 40 % of the insertion time at 640x480 and 2700 vertices.
+# the image rectangle, the first insertions would each rescan a large part of the image.
 GRID_SHARE = 1.0 / 16.0
 # Meshings at most: to land on `vertices` when fans or walls are dropped, or on `max_error`.
 MAX_RUNS = 8
@@ -33,9 +32,8 @@ GRID_MAX = 256
 GRID_ERROR_BOUND = 64
 # Rows (or columns) count an integer times more in the Delaunay test once the sensor's rows lie
 # at least ASPECT_MIN times farther apart than its columns (or the reverse): a spinning LiDAR's
-# beams (an Ouster OS1-64's 0.55 degrees against 0.18 between columns, 3.1x). Its scan, meshed
-# at 1, 3 and 10 % of its returns with rows counting 3x: mean error 0.94, 0.94 and 0.82x
-# that with square pixels (2x: 0.98, 0.97, 0.88x; 4x: 0.96, 0.94, 0.80x). Below that ratio
+# beams (an Ouster OS1-64's 0.55 degrees against 0.18 between columns): its triangles are then
+# about as wide as tall in angle, which lowers its error (docs/benchmarks.md). Below that ratio
 # (depth cameras' pixels are square to a few %) the pixels' own grid is kept. At most
 # ASPECT_MAX, and the scaled image at most EXACT_SIDE a side: the predicates stay exact in int64.
 ASPECT_MIN = 1.5
@@ -110,9 +108,9 @@ def _bounded(faces, pixels, depth, valid, camera, shape, max_error, ref, fit, ex
     """The vertices to keep under `max_error`, and their relative error against `ref`.
 
     With `fit`, fitted depths are tried first: they meet the bound far more
-    often than copied ones, so one render of the mesh usually decides (the
-    copied depths' error, measured first, cost a second render: 15-20 % of a
-    `max_error` call). Copied depths are kept only when they meet the bound
+    often than copied ones, so one render of the mesh usually decides (measuring
+    the copied depths' error first would cost a second render). Copied depths
+    are kept only when they meet the bound
     and the fitted ones do not.
     """
     def error(v):
@@ -279,7 +277,7 @@ def greedy_mesh(depth: np.ndarray, valid: np.ndarray, camera, *, vertices: int |
     seconds = {"insertion": time.perf_counter() - t0 - fit_seconds}
     if fit and len(faces):
         seconds["fit"] = fit_seconds
-    # (the kernel itself: faces made here need no checks, which cost 70 us at 3000 faces)
+    # (the kernel itself: faces made here need no checks)
     stats = Stats(vertices=got, triangles=len(faces), edges=count_edges(faces, got),
                   sampled_points=got, seconds=seconds, method="refine", grid_shape=None,
                   flipped_edges=info["flips"], insertions=len(vr), strips=2 if strips else 1,

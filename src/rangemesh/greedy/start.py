@@ -14,9 +14,9 @@ def corner_depths(depth: np.ndarray, valid: np.ndarray) -> np.ndarray:
 
     The corners are (0, 0), (H-1, 0), (H-1, W-1), (0, W-1), the first vertices
     of greedy insertion. Ties between equally near pixels go to the smallest
-    (row, col) (`rangemesh._core.nearest_valid`: a window search,
-    not a distance transform of the whole image, which took 10 ms at 640x480,
-    a third of the insertion's own time).
+    (row, col) (`rangemesh._core.nearest_valid`: a window search, not a
+    distance transform of the whole image, which would cost more than the
+    insertion).
     """
     h, w = depth.shape
     out = np.zeros(4)
@@ -60,8 +60,7 @@ def first_mesh(depth: np.ndarray, valid: np.ndarray, n_grid: int, scales=(1, 1),
     sr, sc = scales
     gr = int(round(np.sqrt(n_grid * h * sr / (w * sc)))) if n_grid >= 4 else 0
     gc = int(round(np.sqrt(n_grid * w * sc / (h * sr)))) if n_grid >= 4 else 0
-    # (compiled: NumPy's grid, unique and masks took 50-80 us a call, 2-3 % of a call on a
-    # 160x200 image)
+    # (compiled: on small images NumPy's grid, unique and masks weighed on the call)
     vr, vc = grid_pixels(valid, gr, gc, c_lo, c_hi, cols is not None)
     if seam is not None:
         rows, col = seam

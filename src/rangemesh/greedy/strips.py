@@ -27,10 +27,9 @@ The strips' insertion, rounds, tail and flips run in one compiled call
 the two strips on two native threads with the GIL released; this module
 chooses the seam and the first meshes, and joins the two meshes.
 
-Measured with ``benchmarks/strips.py`` against one strip (the README gives the
-figures): on 640 x 480 frames a call takes 0.5-0.8x the time at the same
-error. A round costs about 0.1 ms of hand-over between the threads, which is
-why strips start at STRIP_MIN_VERTICES.
+``benchmarks/strips.py`` compares them with one strip (docs/benchmarks.md). A
+round costs a hand-over between the threads, which is why strips start at
+STRIP_MIN_VERTICES.
 """
 
 from __future__ import annotations
@@ -51,15 +50,14 @@ __all__ = ["use_strips", "seam_column", "seam_rows", "strip_insert"]
 STRIP_MIN_VERTICES = 2000
 STRIP_MIN_COLUMNS = 64
 # ... on images of STRIP_MIN_PIXELS valid pixels or more, with a count or an error bound alike:
-# max_error's count is not known beforehand, and on smaller images (the 160 x 200 scenes)
-# strips cost it their set-up at small counts (2-3 ms at 67 vertices, 3x the call), while
-# vertices=N gained little there (0.78-1.05x at 3200 vertices).
+# max_error's count is not known beforehand, and on smaller images strips cost it their
+# set-up at small counts, while vertices=N gains little there.
 STRIP_MIN_PIXELS = 60_000
 # Seam vertices: this times the vertices a column gets in a mesh of uniform density.
 SEAM_DENSITY = 0.7
 # ... and under an error bound, as many as bring the seam's summed error to this share of its
-# column's part of the bound (1-D greedy insertion gets there with few; half of it cost the
-# noisy pyramid at 1 % 128 vertices against one strip's 88).
+# column's part of the bound (1-D greedy insertion gets there with few; a smaller share
+# spends more vertices in the strips).
 SEAM_ERROR_SHARE = 1.0
 # (The rounds' own settings, ROUND_SHARE to EXPONENT_RANGE, live with them in strips.cpp.)
 

@@ -131,7 +131,7 @@ def error_bounds(images, repeat, data=None, log=print, extra=None):
                 image.depth, background=image.background, vertices=n, camera=camera, **extra),
                 repeat)
             err = evaluate(mesh, image.depth, background=image.background).relative_error
-            rows.append((image.name, bound, n, err, mesh.stats.target["meshings"], ms, ms_n))
+            rows.append((image.name, bound, n, err, mesh.stats.target.meshings, ms, ms_n))
             log(f"{image.name[:30]:30s} max_error {bound}: {n} vertices, error {err:.3f} % "
                 f"({'held' if err <= bound else 'MISSED'}), {ms:.1f} ms against {ms_n:.1f} ms")
     return rows

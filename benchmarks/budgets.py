@@ -22,7 +22,7 @@ one process, measured side by side (the peers' hole filling, grid building
 and count search are not timed, as in ``benchmarks/peers.py``).
 
 With ``--diagonals delaunay`` rangemesh's meshes keep greedy insertion's Delaunay diagonals
-instead of the default's error-chosen ones (`rangemesh.greedy.diagonals`), in both variants
+instead of the default's error-chosen ones (`rangemesh.refine.diagonals`), in both variants
 and in the bound checks.
 
 A second table checks ``max_error=E`` (E = 1 % and 0.3 %) on every image:

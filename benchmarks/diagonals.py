@@ -5,7 +5,7 @@ Run ``python benchmarks/diagonals.py`` (``--only NAME`` for some images,
 of ``../shared/data`` and every synthetic scene, at 1 %, 3 % and 10 % of its
 valid pixels as vertex counts, it meshes with ``diagonals="delaunay"`` (the
 insertion's own mesh) and ``diagonals="error"`` (the default,
-`rangemesh.greedy.diagonals`: edges flipped while the two triangles fit
+`rangemesh.refine.diagonals`: edges flipped while the two triangles fit
 their pixels better), calls alternating
 in one process, everything else at its default (fitted depths), and the
 LiDAR scan with its beams' camera as in ``benchmarks/budgets.py``.

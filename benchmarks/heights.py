@@ -1,11 +1,11 @@
 """What fitted vertex depths gain over copied ones, per image and budget.
 
 Run ``python benchmarks/heights.py`` (``--only NAME`` for some images,
-``--floor F`` to try another `rangemesh.greedy.heights.OUTLIER_FLOOR`, a
+``--floor F`` to try another `rangemesh.refine.heights.OUTLIER_FLOOR`, a
 share of the vertices' value range below which the fit's outlier bound never
 falls). For every image of ``../shared/data`` and every synthetic scene, at
 1 %, 3 % and 10 % of its valid pixels as vertex counts, it meshes with
-``heights="fit"`` (the default, `rangemesh.greedy.heights.fit_heights`) and
+``heights="fit"`` (the default, `rangemesh.refine.heights.fit_heights`) and
 ``heights="pixel"`` (each vertex's depth copied from its pixel), everything
 else at its default, the LiDAR scan with its beams' camera as in
 ``benchmarks/budgets.py``.
@@ -32,7 +32,7 @@ import budgets  # noqa: E402  (the sibling scripts: images, cameras)
 import peers  # noqa: E402
 
 from rangemesh import evaluate, triangulate  # noqa: E402
-from rangemesh.greedy import heights  # noqa: E402
+from rangemesh.refine import heights  # noqa: E402
 
 
 def main(argv=None) -> int:

@@ -3,7 +3,7 @@
 Run ``python benchmarks/strips.py`` (``--only NAME`` for some images, ``--repeat K``).
 For every image of ``../shared/data`` and every synthetic scene whose budget
 (1 %, 3 % and 10 % of the valid pixels, as in ``budgets.py``) is large enough for
-strips (`rangemesh.greedy.strips.use_strips`), it meshes with
+strips (`rangemesh.refine.strips.use_strips`), it meshes with
 ``triangulate(..., vertices=N, method="refine")`` twice: as it does by default
 (two strips), and with strips switched off (one strip, the kernel of
 ``fa981af``). Calls alternate, ``--repeat`` times each; it prints one row per case
@@ -24,7 +24,7 @@ import budgets  # noqa: E402  (the sibling scripts: budgets, images, cameras)
 import peers  # noqa: E402
 
 from rangemesh import evaluate, triangulate  # noqa: E402
-from rangemesh.greedy import strips  # noqa: E402
+from rangemesh.refine import strips  # noqa: E402
 
 
 def main(argv=None):

@@ -44,7 +44,7 @@ budgets = _load_budgets()
 
 # (name, options): "budget" is a share of the valid pixels, the vertex count taken from
 # `budgets.vertex_budgets`; "strips" lifts the size limits of two strips
-# (`rangemesh.greedy.strips.use_strips`) so that small inputs are meshed as two strips too;
+# (`rangemesh.refine.strips.use_strips`) so that small inputs are meshed as two strips too;
 # "pinhole" gives the input's own pinhole camera (inputs without one skip the config).
 # Every other option is a keyword argument of rangemesh.triangulate.
 CONFIGS = [
@@ -143,13 +143,13 @@ def vertex_count(inp, share) -> int:
 def meshing(strips=False, threads=None):
     """Refine's meshing with the strips' size limits lifted and on `threads` threads, if given.
 
-    Yields a list that receives, per call of `rangemesh.greedy.strips.strip_insert`
+    Yields a list that receives, per call of `rangemesh.refine.strips.strip_insert`
     (the two-strip path), the threads it ran on. Threads are those of the strips
-    and of the fit (`rangemesh.greedy.threads`).
+    and of the fit (`rangemesh.refine.threads`).
     """
-    from rangemesh.greedy import heights, insertion
-    from rangemesh.greedy import strips as strips_module
-    from rangemesh.greedy import threads as threads_module
+    from rangemesh.refine import heights, insertion
+    from rangemesh.refine import strips as strips_module
+    from rangemesh.refine import threads as threads_module
 
     calls = []
     insert = insertion.strip_insert

@@ -8,7 +8,7 @@ from scipy.spatial import Delaunay
 
 from rangemesh import _core, scenes, triangulate
 from rangemesh.camera import Orthographic, Pinhole
-from rangemesh.greedy import heights
+from rangemesh.refine import heights
 
 from . import reference_heights as ref
 

@@ -23,7 +23,7 @@ from hypothesis import strategies as st
 
 from rangemesh import _core
 from rangemesh._core import valid_range
-from rangemesh.greedy import insertion, threads
+from rangemesh.refine import insertion, threads
 
 STEPS = 2.0**32
 

@@ -1,4 +1,4 @@
-"""Diagonals chosen by the data (`rangemesh.greedy.diagonals`, ``diagonals='error'``).
+"""Diagonals chosen by the data (`rangemesh.refine.diagonals`, ``diagonals='error'``).
 
 Expected values: a hand-made valley whose two planes one diagonal fits
 exactly, pixel sums against a brute-force barycentric sum in NumPy, and the
@@ -17,7 +17,7 @@ from hypothesis import strategies as st
 import rangemesh
 from rangemesh import _core, evaluate, triangulate
 from rangemesh._core import error_flips, flip_by_error, triangle_error, valid_range
-from rangemesh.greedy import insertion
+from rangemesh.refine import insertion
 
 from .helpers import assert_valid_mesh
 
@@ -232,7 +232,7 @@ def test_command_line_diagonals(tmp_path, capsys):
 
 
 def test_greedy_mesh_refuses_an_unknown_choice():
-    from rangemesh.greedy import greedy_mesh
+    from rangemesh.refine import greedy_mesh
 
     depth = np.ones((8, 8))
     with pytest.raises(ValueError, match="diagonals must be"):

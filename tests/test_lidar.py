@@ -9,8 +9,8 @@ import pytest
 import rangemesh
 from rangemesh import Orthographic, Rays, Spherical, backproject, triangulate
 from rangemesh.geometry.seam import is_seam, seam_strip
-from rangemesh.greedy.walls import wall_faces
 from rangemesh.io import read_lidar_bin, read_mesh, write_mesh
+from rangemesh.refine.walls import wall_faces
 
 from .helpers import assert_valid_mesh
 

@@ -1,4 +1,4 @@
-"""Greedy insertion as two strips (`rangemesh.greedy.strips`): one mesh whatever the threads.
+"""Greedy insertion as two strips (`rangemesh.refine.strips`): one mesh whatever the threads.
 
 The reference for the rounds is the one-at-a-time order (``rounds=False``):
 each step inserts into the strip whose first key is larger. Rounds on two
@@ -16,8 +16,8 @@ from hypothesis import strategies as st
 import rangemesh
 from rangemesh import MeshParams, _core, scenes, triangulate
 from rangemesh._core import valid_range
-from rangemesh.greedy import insertion, strips
 from rangemesh.pipeline import prepare
+from rangemesh.refine import insertion, strips
 
 from .helpers import assert_valid_mesh
 from .images import load
@@ -222,7 +222,7 @@ def test_error_bound_on_strips(shared_data):
 
 def test_fit_on_two_threads_is_the_fit_on_one(shared_data):
     """The fit's full pass split between two threads gives the same depths bit for bit."""
-    from rangemesh.greedy import heights
+    from rangemesh.refine import heights
 
     image = load(shared_data, "middlebury/teddy_disp2.png")
     d, v = prepare(image, MeshParams(), 0)

@@ -7,7 +7,7 @@ from hypothesis import strategies as st
 
 import rangemesh
 from rangemesh import evaluate, scenes, triangulate
-from rangemesh.greedy.walls import wall_faces
+from rangemesh.refine.walls import wall_faces
 
 from .helpers import assert_valid_mesh
 

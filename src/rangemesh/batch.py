@@ -428,7 +428,7 @@ def mesh_many(paths, out_dir, params: MeshParams | None = None, *,
     cluster = None
     if scheduler is None:
         # One single-threaded process per core: method="refine"'s second thread
-        # (`rangemesh.greedy.threads`) would only oversubscribe the cores.
+        # (`rangemesh.refine.threads`) would only oversubscribe the cores.
         with _script_not_rerun():
             cluster = LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True,
                                    dashboard_address=":0", silence_logs=40,  # any free port

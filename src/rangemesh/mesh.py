@@ -164,7 +164,7 @@ class Stats:
         coarse mesh and background corners included (0 for the paper).
     strips : int
         ``method='refine'``: 1, or 2 when the image was meshed as two strips
-        on two threads (`rangemesh.greedy.strips`); 0 for the paper.
+        on two threads (`rangemesh.refine.strips`); 0 for the paper.
     heights : {'fit', 'pixel'}
         Vertex depths: least-squares fit or copied from the pixel.
     flip_tests : dict of str to int

@@ -162,23 +162,23 @@ class MeshParams:
         valid pixels or more, from 2000 vertices or under an error bound, it
         meshes two strips of the image on two threads where the process may
         use two cores, and shares its fit's pass over the pixels between them
-        (`rangemesh.greedy.threads`; ``RANGEMESH_THREADS=1`` keeps one); its
+        (`rangemesh.refine.threads`; ``RANGEMESH_THREADS=1`` keeps one); its
         mesh too is the same either way.
     heights : {'fit', 'pixel'} or None, default None
         Where vertex depths come from. ``'pixel'``: each vertex copies the
         depth of its pixel (the paper's eq. 4; the only choice of
         ``method='paper'``). ``'fit'``: least squares over the pixels each
         vertex's triangles cover, pixels across a jump left out
-        (`rangemesh.greedy.heights.fit_heights`); ``method='refine'`` only.
+        (`rangemesh.refine.heights.fit_heights`); ``method='refine'`` only.
         ``None``: the method's default, ``'pixel'`` for the paper,
         ``'fit'`` for ``method='refine'``.
     diagonals : {'error', 'delaunay'} or None, default None
         How each quad of ``method='refine'``'s mesh picks its diagonal.
         ``'error'``: by the data, flipping an edge when the two triangles
         fit their pixels with a smaller summed error the other way
-        (data-dependent triangulation, `rangemesh.greedy.diagonals`).
+        (data-dependent triangulation, `rangemesh.refine.diagonals`).
         ``'delaunay'``: greedy insertion's Delaunay mesh as it is (in the
-        sensor's units, `rangemesh.greedy.insertion.delaunay_scales`).
+        sensor's units, `rangemesh.refine.insertion.delaunay_scales`).
         ``None``: ``'error'`` for ``method='refine'``; the paper's
         method chooses its diagonals with `flips`. ``'error'`` lowers the
         mean error and the error near jumps at some cost in time
@@ -186,7 +186,7 @@ class MeshParams:
     walls : bool, default True
         Keep the triangles that bridge a depth jump ("walls"). ``False``
         drops them, so separate surfaces stay separate (`method='refine'`
-        only; see `rangemesh.greedy.walls` for how a jump is decided).
+        only; see `rangemesh.refine.walls` for how a jump is decided).
     jump : float, default 0.05
         With ``walls=False``: an edge is a jump when depth changes along it
         by more than this share of the local depth per pixel.

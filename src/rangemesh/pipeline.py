@@ -5,7 +5,7 @@ method: ``method=`` alone chooses it, `rangemesh.params.OPTION_METHOD` says
 which method takes which option) and `run`: `triangulate` for one image,
 `rangemesh.batch.mesh_stream` for frames (with reused buffers),
 `rangemesh.batch.mesh_many` for files, the command line. The methods live in
-`rangemesh.greedy` (``'refine'``) and `rangemesh.paper` (``'paper'``).
+`rangemesh.refine` (``'refine'``) and `rangemesh.paper` (``'paper'``).
 """
 
 from __future__ import annotations
@@ -22,14 +22,14 @@ from ._core import valid_range
 from .camera import Spherical, as_camera, check_reach, check_shape
 from .checks import real_number, whole_number
 from .geometry.seam import seam_strip, unrolled_columns
-from .greedy import greedy_mesh
-from .greedy.walls import wall_faces
 from .mesh import Mesh, Stats, Target, count_edges, empty_mesh, with_fields
 from .paper import targets
 from .paper.sampling import fill_gaps_inplace, sample_grid, sampling_weights
 from .paper.stages import mesh_grid
 from .params import DEFAULT_TARGET, METHODS, OPTION_METHOD, MeshParams, default_vertex_cap, misplaced_option
 from .prepare import check_image, mask_into, to_depth_and_mask
+from .refine import greedy_mesh
+from .refine.walls import wall_faces
 
 __all__ = ["triangulate", "resolve_call", "resolve_params", "prepare", "run", "Workspace",
            "check_memory", "OPTIONS"]
@@ -495,7 +495,7 @@ def triangulate(image, params: MeshParams | None = None, *,
         target and no paper option is given).
     method : {'refine', 'paper'}, default 'refine'
         ``'refine'``: a coarse mesh refined where it fits worst, by greedy
-        insertion (`rangemesh.greedy`): the pixel whose triangle fits worst
+        insertion (`rangemesh.refine`): the pixel whose triangle fits worst
         becomes a vertex until the target is met, in one pass; jumps keep
         vertices on both sides. ``'paper'``: Garcia & Sappa's pipeline
         (adaptive sampling grid, 2.5-D Delaunay, discontinuity-preserving
@@ -574,7 +574,7 @@ def triangulate(image, params: MeshParams | None = None, *,
     threads : int, optional
         ``'paper'`` only. Threads sharing stage one's tiles; the mesh is the
         same for any number (default 1). (``'refine'`` decides itself:
-        `rangemesh.greedy.threads`.)
+        `rangemesh.refine.threads`.)
     **overrides
         Deprecated: ``workers``, the old name of `threads`.
 

@@ -161,7 +161,7 @@ def _tile_threads(workers: int) -> int:
     """Threads for stage one's tiles: `workers`, but no more than the cores this process may use.
 
     ``RANGEMESH_THREADS`` caps them too: batch workers set it to 1, one thread
-    per process (`rangemesh.greedy.threads`).
+    per process (`rangemesh.refine.threads`).
     """
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
     cap = os.environ.get("RANGEMESH_THREADS", "")

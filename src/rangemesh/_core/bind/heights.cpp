@@ -1,4 +1,4 @@
-// Python bindings of the least-squares depths of method="refine" (rangemesh.greedy.heights).
+// Python bindings of the least-squares depths of method="refine" (rangemesh.refine.heights).
 #include <vector>
 
 #include "../heights/fit.hpp"

@@ -13,7 +13,7 @@
 
 namespace rangemesh::heights {
 
-// The caller's choices; greedy/heights.py holds the library's values and the reasons for them.
+// The caller's choices; refine/heights.py holds the library's values and the reasons for them.
 struct FitSettings {
     Sample sample;                // the pixels whose errors' median sets the outlier bound
     index_t capacity = 0;         // at most this many sampled errors: the image's valid pixels

@@ -74,7 +74,7 @@ def sample_strides(n_faces: int) -> tuple[int, int]:
 
 
 def _default_threads() -> int:
-    """The pass's threads when the caller names none: `rangemesh.greedy.threads.threads`."""
+    """The pass's threads when the caller names none: `rangemesh.refine.threads.threads`."""
     return threads()
 
 
@@ -109,7 +109,7 @@ def fit_heights(pixels: np.ndarray, faces: np.ndarray, depth: np.ndarray, valid:
         caller has it: a pass over the image less.
     threads : int, optional
         Threads of the pass over the pixels (meshes of 4000 faces or more);
-        by default `rangemesh.greedy.threads.threads`. The result is the same
+        by default `rangemesh.refine.threads.threads`. The result is the same
         bit for bit for any number.
 
     Returns

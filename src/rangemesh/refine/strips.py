@@ -20,7 +20,7 @@ whose prediction was far off stops a strip by count instead; the next round
 (same threshold) brings it back to that order, unless it was the last. The
 mesh depends only on the image and the request, never on the number of
 threads. With ``diagonals='error'`` each strip's edges are then flipped on
-its own thread, and after the join the seam's (`rangemesh.greedy.diagonals`).
+its own thread, and after the join the seam's (`rangemesh.refine.diagonals`).
 
 The strips' insertion, rounds, tail and flips run in one compiled call
 (`rangemesh._core.strip_insert`, ``src/rangemesh/_core/refine/strips.cpp``),
@@ -135,7 +135,7 @@ def strip_insert(depth, valid, vertices, span, scales, n_grid, *, max_sum=-1.0, 
     threads : int, optional
         1 runs the strips one after the other; default 2 where this process
         may use two cores and ``RANGEMESH_THREADS`` is not 1
-        (`rangemesh.greedy.threads`). The mesh is the same either way.
+        (`rangemesh.refine.threads`). The mesh is the same either way.
     rounds : bool, default True
         False inserts every vertex one at a time (the tail's order): the
         same mesh, on one thread, unless the last round stopped a strip by
@@ -145,7 +145,7 @@ def strip_insert(depth, valid, vertices, span, scales, n_grid, *, max_sum=-1.0, 
         one stopped a strip by count).
     diagonals : {'delaunay', 'error'}, default 'delaunay'
         ``'error'``: each strip's edges are then flipped by the error
-        (`rangemesh.greedy.diagonals`), on both threads, and after
+        (`rangemesh.refine.diagonals`), on both threads, and after
         the join the seam's edges and those their flips touch
         (`rangemesh._core.flip_from_edges`).
 

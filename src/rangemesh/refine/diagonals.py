@@ -28,7 +28,7 @@ four outer edges of its quad are tested again, until no flip lowers the sum.
 They lower the mean error and the error near jumps of the Delaunay mesh at
 a moderate cost in time, so they are `method='refine'`'s default
 (``benchmarks/diagonals.py``; figures in docs/benchmarks.md).
-Two things keep them cheap: on strips (`rangemesh.greedy.strips`) each
+Two things keep them cheap: on strips (`rangemesh.refine.strips`) each
 strip flips on its own thread, and only the seam's edges are tested after
 the join (`rangemesh._core.flip_from_edges`); and a test stops scanning once
 the other diagonal is known to be no better (`rangemesh._core.triangle_error`'s

@@ -62,7 +62,7 @@ def test_max_error_is_met_with_few_vertices_to_spare():
     """One pass, by construction: stopping one insertion earlier would miss the bound."""
     from rangemesh import _core
     from rangemesh._core import valid_range
-    from rangemesh.greedy import insertion
+    from rangemesh.refine import insertion
 
     image = np.load(CROPS)["venus"].astype(float)
     # a property of the insertion: vertex depths copied from their pixels, as inserted
@@ -185,7 +185,7 @@ def test_anisotropic_cameras_give_delaunay_meshes_in_their_units(seed, h, w, n, 
 
 def test_delaunay_scales_follow_the_pixel_aspect():
     from rangemesh.camera import Pinhole, Rays, Spherical, pixel_aspect
-    from rangemesh.greedy.insertion import delaunay_scales
+    from rangemesh.refine.insertion import delaunay_scales
 
     # hand values: kx/ky; fx/fy; elevation step 0.5 against azimuth step 0.25 degrees
     assert pixel_aspect(rangemesh.Orthographic(2.0, 0.5)) == 4.0
@@ -401,7 +401,7 @@ def test_fitted_depths_are_not_pulled_across_a_small_step():
     # the error is the copied depths'. (A bound of 0.5 % of the range kept the step's
     # pixels in the fit: vertices moved by 0.0093, half the step, and the error grew
     # from 0.0183 to 0.0228 %.)
-    from rangemesh.greedy import heights
+    from rangemesh.refine import heights
 
     r, c = np.mgrid[0:60, 0:80]
     depth = 100.0 + 0.1 * c + np.where(c >= 40, 0.02, 0.0)
@@ -451,7 +451,7 @@ def test_block_solver_equals_a_dense_solve(n, n_faces, seed):
     # same normal equations assembled here by hand: M = sum of the faces' J^T J blocks
     # plus diag(ridge), ridge = 1e-3 max(diag(M), 1), right-hand side b + ridge * h0.
     from rangemesh._core import solve_blocks
-    from rangemesh.greedy.heights import RIDGE, _direct_solve
+    from rangemesh.refine.heights import RIDGE, _direct_solve
 
     rng = np.random.default_rng(seed)
     ids = np.stack([rng.choice(n, 3, replace=False) for _ in range(n_faces)]).astype(np.int64)
@@ -509,7 +509,7 @@ def test_the_fit_samples_its_errors_from_every_kth_face_or_row(vertices):
 
 
 def test_the_fit_samples_about_2000_faces_when_it_has_many():
-    from rangemesh.greedy.heights import sample_strides
+    from rangemesh.refine.heights import sample_strides
 
     # (row stride, face stride): every 4th row below 2000 faces, then every 4th face, then
     # every k-th with k = faces // 2000
@@ -544,7 +544,7 @@ def test_the_fit_does_not_depend_on_the_order_it_visits_the_faces(monkeypatch):
     # they come) the same system is solved: the same depths but for rounding. Noiseless
     # planes: the outlier threshold is its floor either way, whatever pixels were sampled.
     from rangemesh import _core
-    from rangemesh.greedy import heights
+    from rangemesh.refine import heights
 
     sc = scenes.make("box", (400, 400))
     m = triangulate(sc.depth, vertices=2000, method="refine", heights="pixel")
@@ -574,7 +574,7 @@ def test_the_paper_method_refuses_fitted_depths():
 @given(st.integers(0, 2**31), st.integers(1, 70), st.integers(1, 70), st.floats(0.001, 1.0))
 def test_corner_depths_are_those_of_the_nearest_valid_pixel(seed, h, w, share):
     # brute force over every valid pixel: nearest by squared distance, then smallest (row, col)
-    from rangemesh.greedy.insertion import corner_depths
+    from rangemesh.refine.insertion import corner_depths
 
     rng = np.random.default_rng(seed)
     valid = rng.random((h, w)) < share

@@ -1,6 +1,6 @@
 """The greedy insertion kernel alone against pydelatin, same images, same vertex counts.
 
-    python benchmarks/greedy_speed.py
+    python benchmarks/refine_speed.py
 
 Prints the median of 7 calls of `rangemesh._core.greedy_insert` (on
 the prepared image, background filled) and of ``pydelatin.Delatin(max_points=N)``
@@ -18,8 +18,8 @@ import numpy as np
 
 from rangemesh import MeshParams, _core
 from rangemesh._core import valid_range
-from rangemesh.greedy.insertion import first_mesh
 from rangemesh.pipeline import prepare
+from rangemesh.refine.insertion import first_mesh
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from peers import _filled  # noqa: E402  (the sibling script: background filled for pydelatin)

@@ -43,7 +43,7 @@ def first_mesh(depth: np.ndarray, valid: np.ndarray, n_grid: int, scales=(1, 1),
     cols : (int, int), optional
         Mesh only the vertical strip of columns ``cols[0]`` to ``cols[1]``
         (both included): its corners come first, in image coordinates
-        (`rangemesh.greedy.strips`).
+        (`rangemesh.refine.strips`).
     seam : sequence of (rows, column), optional
         Valid pixels on the strip's first or last column to start with as
         vertices besides the corners (the seam's vertices).

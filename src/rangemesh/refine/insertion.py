@@ -134,13 +134,13 @@ def _refine(depth, valid, start, strips, asked, max_sum, span, scales, n_grid, d
     """``vr, vc, tv`` of greedy insertion, on one strip or two (`strip_insert`).
 
     With ``diagonals='error'`` each quad then takes the diagonal that fits
-    its pixels better (`rangemesh.greedy.diagonals`; on strips, each strip
+    its pixels better (`rangemesh.refine.diagonals`; on strips, each strip
     on its thread, then the seam); `info` receives ``flips`` (None on strips:
     the core does not report the strips' own flips).
     """
     info = {} if info is None else info
     info["flips"] = 0
-    if strips:  # two strips on two threads (`rangemesh.greedy.strips`)
+    if strips:  # two strips on two threads (`rangemesh.refine.strips`)
         info["flips"] = None
         return strip_insert(depth, valid, asked, span, scales, n_grid, max_sum=max_sum,
                             diagonals=diagonals)[:3]
@@ -179,11 +179,11 @@ def greedy_mesh(depth: np.ndarray, valid: np.ndarray, camera, *, vertices: int |
     diagonals : {'error', 'delaunay'}, default 'error'
         ``'error'``: once the vertices are chosen, flip each edge whose two
         triangles fit their pixels better the other way
-        (`rangemesh.greedy.diagonals`); ``'delaunay'``: keep the Delaunay
+        (`rangemesh.refine.diagonals`); ``'delaunay'``: keep the Delaunay
         mesh of the insertion.
     walls : bool, default True
         Keep the triangles across depth jumps; ``False`` drops them
-        (`rangemesh.greedy.walls`), and insertion goes on until `vertices`
+        (`rangemesh.refine.walls`), and insertion goes on until `vertices`
         vertices remain in use.
     jump : float, default 0.05
         The jump rule's share of the local depth per pixel (``walls=False``).

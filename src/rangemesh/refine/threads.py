@@ -1,7 +1,7 @@
 """How many threads a call of method="refine" may use: the one place that decides.
 
-The strips (`rangemesh.greedy.strips`) run their two halves on two native
-threads inside the compiled core, and the fit's pass (`rangemesh.greedy.heights`)
+The strips (`rangemesh.refine.strips`) run their two halves on two native
+threads inside the compiled core, and the fit's pass (`rangemesh.refine.heights`)
 splits its faces between threads the same way. The result never depends on
 the number of threads.
 """

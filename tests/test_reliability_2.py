@@ -464,3 +464,36 @@ def test_e26_a_camera_comment_that_cannot_be_read_is_said(tmp_path, comment):
         read_mesh(path)
     # with the camera given, the file reads
     assert len(read_mesh(path, camera=rangemesh.Orthographic()).faces) == len(mesh.faces)
+
+
+def test_e3_a_sparse_image_gives_each_vertex_one_fan():
+    from .helpers import assert_valid_mesh
+
+    z = np.array([[50., 0., 50.6, 50.9], [50.5, 0., 0., 0.], [0., 0., 0., 0.], [0., 0., 52.1, 0.],
+                  [0., 52.3, 52.6, 0.]])
+    mesh = rangemesh.triangulate(z, background=0, max_error=0.1)
+    assert len(mesh.faces)  # (0,0)-(1,0)-(0,3) and its neighbour: valid pixels, kept
+    assert_valid_mesh(mesh)  # before the fix: vertex (3, 2) joined two triangles by a point
+
+
+def test_e3_random_sparse_images_give_each_vertex_one_fan():
+    from hypothesis import given, settings
+    from hypothesis import strategies as st
+
+    from .helpers import assert_valid_mesh
+
+    @settings(max_examples=2000, deadline=None)
+    @given(st.integers(3, 16), st.integers(3, 16), st.floats(0.05, 0.4), st.integers(0, 2**32 - 1),
+           st.sampled_from(["constant", "planar", "random"]), st.booleans())
+    def check(h, w, share, seed, kind, by_error):
+        rng = np.random.default_rng(seed)
+        r, c = np.mgrid[0:h, 0:w]
+        z = {"constant": np.full((h, w), 50.0), "planar": 50.0 + 0.3 * r + 0.2 * c,
+             "random": rng.uniform(40.0, 60.0, (h, w))}[kind]
+        z = np.where(rng.random((h, w)) < share, z, 0.0)
+        if (z > 0).sum() < 3:
+            return
+        kw = {"max_error": 1.0} if by_error else {"vertices": int((z > 0).sum())}
+        assert_valid_mesh(rangemesh.triangulate(z, background=0, **kw))
+
+    check()

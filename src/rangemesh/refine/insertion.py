@@ -6,7 +6,17 @@ import time
 
 import numpy as np
 
-from .._core import count_edges, flip_by_error, greedy_insert, greedy_insert_sums, valid_faces, valid_range
+from .._core import (
+    build_halfedges,
+    count_edges,
+    flip_by_error,
+    greedy_insert,
+    greedy_insert_sums,
+    neighbors_from_halfedges,
+    prune_dangling,
+    valid_faces,
+    valid_range,
+)
 from ..camera import backproject, pixel_aspect
 from ..mesh import Mesh, Stats, empty_mesh
 from ..render import relative_error
@@ -83,6 +93,8 @@ def _assemble(vr, vc, tv, depth, valid, camera, walls, jump):
     Returns the faces, pixels and the number of walls dropped.
     """
     faces, pixels = valid_faces(vr, vc, tv, valid)
+    if 0 < len(faces) < len(tv) // 3:
+        faces, pixels = _one_fan_each(faces, pixels, valid)
     n_walls = 0
     if not walls and len(faces):
         kept, wall = drop_walls(faces, pixels, depth[pixels[:, 0], pixels[:, 1]], jump, camera)
@@ -91,6 +103,22 @@ def _assemble(vr, vc, tv, depth, valid, camera, walls, jump):
             faces, pixels = valid_faces(pixels[:, 0].astype(np.int64), pixels[:, 1].astype(np.int64),
                                         faces[kept].ravel().astype(np.int64), valid)
     return faces, pixels, n_walls
+
+
+def _one_fan_each(faces, pixels, valid):
+    """Drop what leaves a vertex with two fans once the background triangles are gone (SPEC P4).
+
+    Two triangles of valid pixels may meet at one vertex only across a dropped
+    background triangle; each such vertex keeps its largest fan (`prune_dangling`,
+    as the paper's stage two and `drop_walls` do), and lone triangles stay.
+    """
+    f = faces.astype(np.int64)
+    _, halfedges = build_halfedges(f, len(pixels))
+    kept = np.ones(len(f), bool)
+    if prune_dangling(f, neighbors_from_halfedges(halfedges), kept, len(pixels), drop_lone=False):
+        faces, pixels = valid_faces(pixels[:, 0].astype(np.int64), pixels[:, 1].astype(np.int64),
+                                    f[kept].ravel(), valid)
+    return faces, pixels
 
 
 def _copied(pixels, depth, camera):

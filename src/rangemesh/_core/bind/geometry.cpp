@@ -53,14 +53,17 @@ void bind_delaunay(nb::module_& m) {
         "returns the number of flips.");
     m.def(
         "prune_dangling",
-        [](In2<index_t> simplices, In2<index_t> neighbors, Out1<bool> alive, index_t n_vertices) {
+        [](In2<index_t> simplices, In2<index_t> neighbors, Out1<bool> alive, index_t n_vertices,
+           bool drop_lone) {
             return run_released([&] {
-                return prune_dangling(LiveTriangles{grid(simplices), grid(neighbors), span(alive)}, n_vertices);
+                return prune_dangling(LiveTriangles{grid(simplices), grid(neighbors), span(alive)},
+                                      n_vertices, drop_lone);
             });
         },
         nb::arg("simplices"), nb::arg("neighbors"), nb::arg("alive"), nb::arg("n_vertices"),
+        nb::arg("drop_lone") = true,
         "Drop dangling triangles from `alive` (in place) until every vertex has one fan; returns how "
-        "many were dropped.");
+        "many were dropped. With ``drop_lone=False`` triangles that share no edge are kept.");
 }
 
 void bind_pixels(nb::module_& m) {

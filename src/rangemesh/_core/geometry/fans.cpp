@@ -124,7 +124,7 @@ index_t drop_small_fans(LiveTriangles mesh, Corners& fans, BestFans& scratch) {
 
 }  // namespace
 
-index_t prune_dangling(LiveTriangles mesh, index_t n_vertices) {
+index_t prune_dangling(LiveTriangles mesh, index_t n_vertices, bool drop_lone) {
     const index_t n_t = mesh.simplices.rows;
     require(mesh.neighbors.rows == n_t && mesh.alive.size == n_t, "prune_dangling: arrays differ in length");
     for (index_t t = 0; t < n_t; ++t)
@@ -137,7 +137,7 @@ index_t prune_dangling(LiveTriangles mesh, index_t n_vertices) {
     index_t removed = 0;
     for (bool changed = true; changed;) {
         poll_interrupt();
-        const index_t lonely = drop_lonely(mesh);
+        const index_t lonely = drop_lone ? drop_lonely(mesh) : 0;
         join_fans(mesh, fans);
         const index_t small = drop_small_fans(mesh, fans, scratch);
         removed += lonely + small;

@@ -16,6 +16,7 @@ struct LiveTriangles {
 // when it shares no edge with a live triangle, or when it lies in a fan of one of its vertices
 // that is not that vertex's largest (ties: the fan whose smallest corner slot 3t + k is smallest
 // stays). Fans are the edge-connected groups of a vertex's triangles.
-index_t prune_dangling(LiveTriangles mesh, index_t n_vertices);
+// With `drop_lone` false, a triangle that shares no edge is kept: only second fans go.
+index_t prune_dangling(LiveTriangles mesh, index_t n_vertices, bool drop_lone = true);
 
 }  // namespace rangemesh

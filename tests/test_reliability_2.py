@@ -497,3 +497,18 @@ def test_e3_random_sparse_images_give_each_vertex_one_fan():
         assert_valid_mesh(rangemesh.triangulate(z, background=0, **kw))
 
     check()
+
+
+def test_e31_three_vertices_on_a_full_image_names_the_corners():
+    z = np.add.outer(np.arange(20.0), np.arange(30.0)) ** 1.3
+    mesh = rangemesh.triangulate(z, vertices=3)
+    assert len(mesh.vertices) == 4  # the image rectangle cut in two: its four corners
+    note = mesh.stats.target.note
+    assert "corners are always vertices" in note and "background" not in note
+
+
+def test_e10_an_outlier_short_count_names_the_depth_range_not_background():
+    z = np.full((40, 40), 1.0)
+    z[20, 20] = 1e14
+    note = rangemesh.triangulate(z, vertices=20).stats.target.note
+    assert "background" not in note and "depth range 1 .. 1e+14" in note

@@ -105,6 +105,21 @@ def _assemble(vr, vc, tv, depth, valid, camera, walls, jump):
     return faces, pixels, n_walls
 
 
+def _count_note(got: int, asked: int, n_valid: int, n_pixels: int, no_walls_dropped: bool,
+                lo: float, hi: float) -> str:
+    """Why a mesh has `got` vertices, not the `asked` ones: the cause that applies, named."""
+    if n_valid < asked:
+        return f"the image has only {n_valid} valid pixels"
+    if got > asked:
+        return f"{got} vertices: the image rectangle's corners are always vertices"
+    if n_valid < n_pixels or not no_walls_dropped:
+        dropped = "background triangles" if n_valid < n_pixels else ""
+        walls = "" if no_walls_dropped else "walls"
+        return f"{got} vertices kept after dropping {' and '.join(x for x in (dropped, walls) if x)}"
+    return (f"{got} vertices: every other pixel fits its triangle to within 2^-32 of the depth "
+            f"range {lo:g} .. {hi:g}, which an outlier may stretch")
+
+
 def _one_fan_each(faces, pixels, valid):
     """Drop what leaves a vertex with two fans once the background triangles are gone (SPEC P4).
 
@@ -319,9 +334,8 @@ def greedy_mesh(depth: np.ndarray, valid: np.ndarray, camera, *, vertices: int |
     mesh = Mesh(verts, faces, pixels, camera, (h, w), stats)
     if vertices is not None:
         ok = got == int(vertices)
-        note = "" if ok else (f"the image has only {n_valid} valid pixels" if n_valid < vertices
-                              else f"{got} vertices kept after dropping background triangles"
-                              + ("" if walls else " and walls"))
+        note = "" if ok else _count_note(got, int(vertices), n_valid, h * w, walls and n_walls == 0,
+                                         lo, hi)
         target = {"target": "vertices", "requested": int(vertices), "achieved": got, "met": ok,
                   "meshings": runs}
     else:

@@ -512,3 +512,18 @@ def test_e10_an_outlier_short_count_names_the_depth_range_not_background():
     z[20, 20] = 1e14
     note = rangemesh.triangulate(z, vertices=20).stats.target.note
     assert "background" not in note and "depth range 1 .. 1e+14" in note
+
+
+def test_e20_depth_zero_with_a_pinhole_fit_says_what_to_do():
+    zz = np.full((20, 20), 1000.0)
+    zz[10, 10] = 0.0  # a float image: 0 is depth unless background says otherwise
+    cam = rangemesh.Pinhole(525, 525, 10, 10, 0.001)
+    with pytest.raises(ValueError, match=r"depth 0 at pixel \(10, 10\).*background=0"):
+        rangemesh.triangulate(zz, camera=cam, vertices=50, background=None)
+    assert len(rangemesh.triangulate(zz, camera=cam, vertices=50, background=0).vertices) == 50
+
+
+@pytest.mark.parametrize("shape, target", [((3, 100), {"vertices": 10}), ((2, 2), {"max_error": 1})])
+def test_e21_all_background_small_images_give_the_empty_mesh(shape, target):
+    mesh = rangemesh.triangulate(np.zeros(shape), background=0, **target)
+    assert len(mesh.faces) == 0 and "no valid pixel" in mesh.stats.reason

@@ -129,6 +129,11 @@ def fit_heights(pixels: np.ndarray, faces: np.ndarray, depth: np.ndarray, valid:
             image = 1.0 / depth
     h0 = image[pr, pc]
     if not np.isfinite(h0).all():
+        bad = int(np.flatnonzero(~np.isfinite(h0))[0])
+        if not ortho and depth[pr[bad], pc[bad]] == 0:
+            raise ValueError(f"depth 0 at pixel ({pr[bad]}, {pc[bad]}) cannot be fitted with a "
+                             f"pinhole camera (its inverse depth is infinite): mark missing depth "
+                             f"with background=0, or copy the depths with heights='pixel'")
         raise ValueError("fit_heights: every vertex must sit on a valid pixel")
     f = np.ascontiguousarray(faces, dtype=np.int64)
     if depth.size >= ORDER_MIN_PIXELS:

@@ -50,6 +50,38 @@ def test_edge_error_refuses_a_vertex_out_of_range():
         _core.edge_error(0, 2, pixels, vertices, *image)
 
 
+def _rays_camera(h, w, width=None):
+    """A packed per-pixel camera of an h x w image (``Camera.as_array()``'s layout), its stated
+    width replaced by ``width``."""
+    cam = np.zeros(6 + 3 * h * w)
+    cam[:3] = [2.0, h, w if width is None else width]
+    return cam
+
+
+# Found by the sanitized build (issue 35): the checks themselves converted the camera's width to
+# an integer (undefined for NaN or huge values: UBSan float-cast-overflow) and multiplied the
+# row by it (signed overflow). They now refuse these before any conversion.
+@pytest.mark.parametrize("width", [np.nan, np.inf, -np.inf, 1e300, -1.0, 0.0, 2.5])
+def test_a_per_pixel_camera_with_a_bad_width_is_refused(width):
+    cam = _rays_camera(2, 2, width)
+    with pytest.raises(ValueError, match="per-pixel camera"):
+        _core.lift(0, 0, 1.0, cam)
+    pixels, vertices = np.array([[0, 0], [1, 1]], np.int64), np.zeros((2, 3))
+    with pytest.raises(ValueError, match="must agree"):
+        _core.edge_error(0, 1, pixels, vertices, np.zeros((2, 2)), np.ones((2, 2), bool), cam)
+
+
+def test_lift_refuses_a_pixel_outside_a_per_pixel_camera():
+    cam = _rays_camera(2, 2)
+    cam[6 + 3 * 3:] = [1.0, 2.0, 3.0]  # the ray of pixel (1, 1)
+    assert _core.lift(1, 1, 2.0, cam) == (0.0, 0.0, 0.0)  # range_scale 0
+    cam[3] = 1.0
+    assert _core.lift(1, 1, 2.0, cam) == (2.0, 4.0, 6.0)
+    for r, c in [(2, 0), (0, 2), (-1, 0), (0, -1), (2**62, 0), (-(2**62), 1), (0, 2**62)]:
+        with pytest.raises(ValueError, match="per-pixel camera"):
+            _core.lift(r, c, 1.0, cam)
+
+
 _KERNEL_LOOP = textwrap.dedent("""
     import numpy as np, sys
     from rangemesh import Orthographic, _core

@@ -1,4 +1,6 @@
 // Python bindings of the paper method's kernels and the primitives they share (lift, edge error).
+#include <cmath>
+
 #include "../geometry/lines.hpp"
 #include "../paper/flipping.hpp"
 #include "../paper/sampling.hpp"
@@ -13,6 +15,16 @@ namespace {
 
 RangeImage range_image(const In2<double>& depth, const In2<bool>& valid, const In1<double>& cam) {
     return {grid(depth), grid(valid), span(cam)};
+}
+
+// Whether (r, c) is a pixel whose ray a packed per-pixel camera holds. The width is checked as a
+// double before it becomes an integer (a NaN or huge one would be undefined behaviour) and the row
+// against the rows the array holds, so no product here can overflow.
+bool rays_pixel(Span<const double> packed, index_t r, index_t c) {
+    const double width = packed[2];
+    if (!(width >= 1.0 && width <= static_cast<double>(packed.size)) || width != std::floor(width)) return false;
+    const index_t w = static_cast<index_t>(width);
+    return 0 <= r && 0 <= c && c < w && r < (packed.size - CAMERA_HEADER) / (3 * w);
 }
 
 }  // namespace
@@ -121,9 +133,7 @@ void bind_paper(nb::module_& m) {
         [](index_t r, index_t c, double d, In1<double> cam) {
             const Span<const double> packed = span(cam);
             const bool rays = packed.size >= CAMERA_HEADER && packed[0] == RAYS;
-            if (packed.size < CAMERA_HEADER ||
-                (rays && (r < 0 || c < 0 || c >= static_cast<index_t>(packed[2]) ||
-                          CAMERA_HEADER + 3 * (r * static_cast<index_t>(packed[2]) + c) + 2 >= packed.size)))
+            if (packed.size < CAMERA_HEADER || (rays && !rays_pixel(packed, r, c)))
                 throw nb::value_error("lift: a packed camera, and a pixel of its image for a per-pixel camera");
             const Vec3 p = lift(span(cam), r, c, d);
             return nb::make_tuple(p.x, p.y, p.z);

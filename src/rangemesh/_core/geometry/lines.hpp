@@ -46,7 +46,8 @@ struct RangeImage {
     bool consistent() const {
         if (valid.rows != depth.rows || valid.cols != depth.cols || cam.size < CAMERA_HEADER) return false;
         if (cam[0] != RAYS) return cam[0] == ORTHOGRAPHIC || cam[0] == PINHOLE;
-        return static_cast<index_t>(cam[1]) == depth.rows && static_cast<index_t>(cam[2]) == depth.cols &&
+        // compared as doubles: converting a NaN or huge H, W to an integer is undefined behaviour
+        return cam[1] == static_cast<double>(depth.rows) && cam[2] == static_cast<double>(depth.cols) &&
                cam.size == CAMERA_HEADER + 3 * depth.rows * depth.cols;
     }
 };

@@ -527,3 +527,25 @@ def test_e20_depth_zero_with_a_pinhole_fit_says_what_to_do():
 def test_e21_all_background_small_images_give_the_empty_mesh(shape, target):
     mesh = rangemesh.triangulate(np.zeros(shape), background=0, **target)
     assert len(mesh.faces) == 0 and "no valid pixel" in mesh.stats.reason
+
+
+def test_e23_a_bin_of_huge_values_reads_quietly_as_no_return(tmp_path):
+    path = tmp_path / "huge.bin"
+    pts = np.full((2 * 64, 4), 3e38, "<f4")  # x, y, z at float32's top: the range overflows
+    pts.tofile(path)
+    with np.errstate(all="raise"):
+        rng, _ = read_lidar_bin(path, 64, steps=2)
+    assert rng.shape == (64, 2) and np.isinf(rng).all()
+
+
+def test_e23_complex_rays_are_refused():
+    with pytest.raises(TypeError, match="not complex"):
+        Rays(np.ones((2, 3, 3), complex))
+
+
+def test_e23_a_huge_jump_is_quiet_and_drops_no_wall():
+    z = np.ones((20, 30)) * 1e10
+    z[:, 15:] = 2e10  # a jump of 1e10: a wall for any sensible jump rule
+    with np.errstate(all="raise"):
+        m = rangemesh.triangulate(z, vertices=60, walls=False, jump=1e308)
+    assert m.stats.target.walls_dropped == 0

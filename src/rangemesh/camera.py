@@ -312,6 +312,8 @@ class Rays(_RayCamera):
     range_scale: float = 1.0
 
     def __post_init__(self):
+        if np.iscomplexobj(self.directions):
+            raise TypeError("directions must be real numbers, not complex")
         d = np.array(self.directions, dtype=np.float64, copy=True)
         if d.ndim != 3 or d.shape[2] != 3 or min(d.shape[:2]) < 1:
             raise ValueError(f"directions must be (H, W, 3), got shape {d.shape}")

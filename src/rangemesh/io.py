@@ -229,7 +229,8 @@ def read_lidar_bin(path: str | os.PathLike, beams: int, *, column_shift=None,
         raise ValueError(f"{path}: {size} bytes is {size // (16 * beams)} steps of {beams} beams, "
                          f"not the {int(steps)} the beams file gives")
     pts = np.fromfile(path, dtype="<f4").reshape(-1, beams, 4).transpose(1, 0, 2)
-    rng = np.sqrt(np.sum(pts[..., :3].astype(np.float64) ** 2, axis=2)).astype(np.float32)
+    with np.errstate(over="ignore", invalid="ignore"):  # a range beyond float32 is inf: no return
+        rng = np.sqrt(np.sum(pts[..., :3].astype(np.float64) ** 2, axis=2)).astype(np.float32)
     inten = np.ascontiguousarray(pts[..., 3])
     if column_shift is not None:
         shift = np.asarray(column_shift, dtype=np.int64)

@@ -94,7 +94,8 @@ def wall_faces(faces: np.ndarray, pixels: np.ndarray, z: np.ndarray, jump: float
     for k in range(3):
         a, b = f[:, k], f[:, (k + 1) % 3]
         length = np.maximum(pixel_lengths(camera, pixels, a, b), 1.0)
-        wall |= np.abs(za[a] - za[b]) > jump * np.minimum(za[a], za[b]) * length
+        with np.errstate(over="ignore"):  # a threshold beyond the float range is inf: no wall
+            wall |= np.abs(za[a] - za[b]) > jump * np.minimum(za[a], za[b]) * length
     return wall
 
 

@@ -77,7 +77,7 @@ param_values = st.one_of(
     st.builds(np.int64, st.integers(-2, 40)), st.builds(np.float32, st.floats(-5, 200)),
 )
 FIELDS = ["tiles", "samples", "sampling", "flips", "levels", "curvature_floor", "fill_gaps",
-          "delta", "epsilon", "max_angle", "min_bend", "gain_threshold", "max_edge", "workers",
+          "delta", "epsilon", "max_angle", "min_bend", "gain_threshold", "max_edge", "threads",
           "method", "heights", "walls", "jump", "wrap"]
 
 

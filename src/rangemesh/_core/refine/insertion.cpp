@@ -52,13 +52,7 @@ Insertion::Insertion(const Image& image, const FirstMesh& first, index_t reserve
     }
     tv_.assign(first.triangles.begin(), first.triangles.end());
     he_.assign(first.halfedges.begin(), first.halfedges.end());
-    tv_.resize(3 * cap_t, 0);
-    he_.resize(3 * cap_t, -1);
-    keyed_.resize(cap_t);
-    stamp_.resize(cap_t, 0);
-    keys_.resize(cap_t, 0.0);
-    heap_.resize(cap_t, 0);
-    slot_.resize(cap_t, 0);
+    resize_triangles(cap_t);
     const HeapView heap{{keys_.data(), cap_t}, {heap_.data(), cap_t}, {slot_.data(), cap_t}};
     for (index_t t = 0; t < n_t_; ++t) {
         poll_interrupt();
@@ -101,14 +95,18 @@ bool Insertion::fit_child(index_t t, TriangleKey& out) const {
 void Insertion::make_room() {
     const index_t cap_t = static_cast<index_t>(keyed_.size());
     if (n_t_ + 2 <= cap_t) return;
-    const index_t grown = 2 * cap_t;
-    tv_.resize(3 * grown, 0);
-    he_.resize(3 * grown, -1);
-    keyed_.resize(grown);
-    stamp_.resize(grown, 0);
-    keys_.resize(grown, 0.0);
-    heap_.resize(grown, 0);
-    slot_.resize(grown, 0);
+    resize_triangles(2 * cap_t);
+}
+
+// Every per-triangle array sized for `cap_t` triangles; new slots hold no triangle.
+void Insertion::resize_triangles(index_t cap_t) {
+    tv_.resize(3 * cap_t, 0);
+    he_.resize(3 * cap_t, -1);
+    keyed_.resize(cap_t);
+    stamp_.resize(cap_t, 0);
+    keys_.resize(cap_t, 0.0);
+    heap_.resize(cap_t, 0);
+    slot_.resize(cap_t, 0);
 }
 
 void Insertion::new_triangle(index_t t, index_t a, index_t b, index_t c) {

@@ -73,6 +73,7 @@ class alignas(64) Insertion {
     TriangleKey scan(index_t t) const;
     bool fit_child(index_t t, TriangleKey& out) const;
     void make_room();
+    void resize_triangles(index_t cap_t);
     void new_triangle(index_t t, index_t a, index_t b, index_t c);
     void insert(index_t t, index_t p, const Plane* guard);
     void legalize(index_t e0, const Plane* guard);

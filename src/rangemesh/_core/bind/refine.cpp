@@ -96,7 +96,7 @@ void bind_refine(nb::module_& m) {
            In2<double> depth, In2<bool> valid, double unit) {
             const Image image = image_of(depth, valid, unit);
             const FlipMesh mesh = flip_mesh(vr, vc, tri, he, tsum);
-            return counts(run_released([&] { return refine::flip_by_error(image, mesh); }));
+            return counts(run_released([&] { return refine::flip_by_error(image, mesh); }, work(depth)));
         },
         nb::arg("vr"), nb::arg("vc"), nb::arg("tri"), nb::arg("he"), nb::arg("tsum"), nb::arg("depth"),
         nb::arg("valid"), nb::arg("span"),
@@ -204,7 +204,7 @@ void bind_refine(nb::module_& m) {
                 tv = copy(ins.triangles());
                 n_valid = ins.valid_vertices();
                 total = ins.total();
-            });
+            }, work(depth));
             return nb::make_tuple(to_numpy(std::move(vr)), to_numpy(std::move(vc)), to_numpy(std::move(tv)),
                                   n_valid, total);
         },
@@ -234,7 +234,7 @@ void bind_refine(nb::module_& m) {
                 tv = copy(ins.triangles());
                 he = copy(ins.halfedges());
                 tsum = ins.sums();
-            });
+            }, work(depth));
             return nb::make_tuple(to_numpy(std::move(vr)), to_numpy(std::move(vc)), to_numpy(std::move(tv)),
                                   to_numpy(std::move(he)), to_numpy(std::move(tsum)));
         },

@@ -150,9 +150,7 @@ class Stats:
         The method that made the mesh.
     flipped_edges : int or None
         Edge flips taken: by the paper's disparity tests (``flips=``) or, for
-        ``method='refine'``, by the error (``diagonals='error'``); None when
-        refine meshed two strips, whose own flips the compiled core does not
-        report.
+        ``method='refine'``, by the error (``diagonals='error'``).
     grid_shape : (int, int) or None
         The paper's sample grid, ``((Rs-1)V+1, (Z-1)H+1)``; None for
         ``method='refine'``, which has no grid.

@@ -178,15 +178,13 @@ def _refine(depth, valid, start, strips, asked, max_sum, span, scales, n_grid, d
 
     With ``diagonals='error'`` each quad then takes the diagonal that fits
     its pixels better (`rangemesh.refine.diagonals`; on strips, each strip
-    on its thread, then the seam); `info` receives ``flips`` (None on strips:
-    the core does not report the strips' own flips).
+    on its thread, then the seam); `info` receives ``flips``.
     """
     info = {} if info is None else info
     info["flips"] = 0
     if strips:  # two strips on two threads (`rangemesh.refine.strips`)
-        info["flips"] = None
         return strip_insert(depth, valid, asked, span, scales, n_grid, max_sum=max_sum,
-                            diagonals=diagonals)[:3]
+                            diagonals=diagonals, info=info)[:3]
     if diagonals != "error":
         return greedy_insert(depth, valid, *start, asked, max_sum, span, *scales)[:3]
     # the insertion's own half-edges and triangle sums: no second pass over the pixels

@@ -64,7 +64,7 @@ FirstMesh first_of(const FirstArrays& a) {
 
 nb::tuple strip_arrays(refine::StripMesh&& s) {
     return nb::make_tuple(to_numpy(std::move(s.vr)), to_numpy(std::move(s.vc)), to_numpy(std::move(s.triangles)),
-                          to_numpy(std::move(s.halfedges)), to_numpy(std::move(s.sums)), s.valid_vertices, s.total);
+                          to_numpy(std::move(s.halfedges)), to_numpy(std::move(s.sums)), s.valid_vertices, s.total, s.flips);
 }
 
 }  // namespace
@@ -148,7 +148,7 @@ void bind_refine(nb::module_& m) {
         "strips hold ``target`` valid vertices (the seam's twice) or their summed error is at most "
         "``budget`` (when not negative); with ``flip`` each strip's edges are then flipped by the "
         "error. Returns ``left, right, rounds, capped``, each strip as ``vr, vc, tv, he, tsum, "
-        "n_valid_vertices, total``.");
+        "n_valid_vertices, total, flips``.");
     m.def("_strip_exponent", &refine::strip_exponent, "The strips' power-law exponent through two points (tests).");
     m.def(
         "_strip_power_law",

@@ -1,12 +1,13 @@
 """Frames per second of meshing a ROS recording, against the time to decode its frames alone.
 
-    python benchmarks/recording.py [--frames 60] [--share 0.01]
+    python benchmarks/recording.py [--frames 60] [--share 0.01] [--compressed]
 
 Writes a ROS 2 recording (MCAP storage, `rosbags`' writer) of --frames 640x480
 16UC1 depth frames in millimetres, with a CameraInfo: the shared RGB-D frames
 (slambook2 ch7 and Open3D's TUM frame, both 1/5000 m; slambook2 ch5 and the
 PCL grabber frame in mm; the two RealSense frames), in turn, each with a
-little noise (+-4 mm), so that no two frames are the same. Then it times:
+little noise (+-4 mm), so that no two frames are the same; with --compressed as
+image_transport's compressedDepth (PNG) messages. Then it times:
 
 * decoding: reading every frame (header, CameraInfo match) and decoding its
   depth, nothing else;
@@ -33,7 +34,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 
-from rosbag_writer import T0, image_topic, info_topic, write_bag  # noqa: E402
+from rosbag_writer import T0, compressed_depth, image_topic, info_topic, write_bag  # noqa: E402
 
 from rangemesh.recordings import Recording, mesh_recording  # noqa: E402
 from rangemesh.recordings.decode import depth_image  # noqa: E402
@@ -62,7 +63,7 @@ def sources() -> list[np.ndarray]:
     return out
 
 
-def make_recording(path: Path, n: int) -> tuple[Path, int]:
+def make_recording(path: Path, n: int, compressed: bool = False) -> tuple[Path, int]:
     """The recording and the vertex count per frame (the share of the mean valid pixels)."""
     rng = np.random.default_rng(0)
     base = sources()
@@ -72,8 +73,14 @@ def make_recording(path: Path, n: int) -> tuple[Path, int]:
         noisy = np.clip(d + rng.integers(-4, 5, d.shape), 1, 65535)
         frames.append(np.where(d > 0, noisy, 0).astype(np.uint16))
     valid = float(np.mean([(f > 0).sum() for f in frames]))
+    if compressed:  # image_transport's compressedDepth: 12-byte header + 16-bit PNG
+        payloads = [compressed_depth(f, "16UC1") for f in frames]
+        topic = image_topic([p[1] for p in payloads], payloads[0][0], "/camera/depth/compressedDepth")
+        topic.kind = "compressed"
+    else:
+        topic = image_topic(frames, "16UC1")
     # one K for all: which camera is right for each source does not change the timing
-    write_bag(path, [image_topic(frames, "16UC1"), info_topic(stamps=[T0])], "mcap")
+    write_bag(path, [topic, info_topic(stamps=[T0])], "mcap")
     return path, valid
 
 
@@ -91,12 +98,14 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--frames", type=int, default=60)
     ap.add_argument("--share", type=float, default=0.01)
+    ap.add_argument("--compressed", action="store_true",
+                    help="the depth as compressedDepth (PNG) messages instead of raw 16UC1")
     args = ap.parse_args(argv)
     from dask.distributed import LocalCluster
 
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
-        bag, valid = make_recording(tmp / "in", args.frames)
+        bag, valid = make_recording(tmp / "in", args.frames, args.compressed)
         vertices = int(round(args.share * valid))
         decode_all(bag)  # warm the imports and the file cache
         decode_s, n = decode_all(bag)
@@ -119,7 +128,8 @@ def main(argv=None):
             res = mesh_recording(bag, tmp / "two.mcap", scheduler=cluster.scheduler_address,
                                  vertices=vertices)
             rows.append(("Dask, 2 workers", time.perf_counter() - t0, res))
-        print(f"{n} frames 640x480 16UC1 (MCAP), {vertices} vertices per frame "
+        kind = "compressedDepth (PNG)" if args.compressed else "16UC1"
+        print(f"{n} frames 640x480 {kind} (MCAP), {vertices} vertices per frame "
               f"({100 * args.share:g} % of the mean {valid:.0f} valid pixels)\n")
         print("| run | wall s | frames/s | median s per frame in the task | failed |")
         print("|---|---:|---:|---:|---:|")

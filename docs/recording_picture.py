@@ -2,10 +2,11 @@
 
     python docs/recording_picture.py [docs/recording-meshes.png]
 
-Meshes the two depth frames of ``shared/data/rosbag/librealsense_d435_single_depth_color_640x480.bag``
-(``rangemesh batch`` into an MCAP file of markers, 1 % of the valid pixels as vertices), reads the
-markers back from the MCAP file with `rosbags`, and draws each frame's triangles as seen from the
-camera (coloured by depth, shaded like `rangemesh.preview.shade`) with its stamp, frame id and counts: what RViz or
+Meshes the two depth frames of
+``shared/data/rosbag/librealsense_d435_single_depth_color_640x480.bag`` (``rangemesh batch`` into
+an MCAP file of markers, 1 % of the valid pixels as vertices), reads the markers back from the
+MCAP file with `rosbags`, and draws each frame's triangles as seen from the camera (coloured by
+depth, shaded like `rangemesh.preview.shade`) with its stamp, frame id and counts: what RViz or
 Foxglove show when they play the file.
 """
 
@@ -24,6 +25,7 @@ BAG = ROOT.parent / "shared" / "data" / "rosbag" / "librealsense_d435_single_dep
 
 
 def markers(path: Path) -> list:
+    """Every message of an MCAP file, deserialised by `rosbags`."""
     from rosbags.highlevel import AnyReader
 
     with AnyReader([path]) as r:
@@ -59,6 +61,7 @@ def draw(ax, msg, fx, cx, cy):
 
 
 def picture(out: Path) -> None:
+    """Mesh the bag into a temporary MCAP file and draw its markers into `out`."""
     import matplotlib
 
     matplotlib.use("Agg")

@@ -123,6 +123,36 @@ def test_decoded_depth_is_the_array_written(bags, frames, kind, encoding):
         assert f.camera == pinhole(scale)  # K of the CameraInfo (upper case in ROS 1)
 
 
+def test_image_payloads_decode_by_their_encoding(rng):
+    from rangemesh.recordings.decode import Payload, color_image
+
+    rgb = rng.integers(0, 256, (5, 7, 3), dtype=np.uint8)
+    alpha = np.full((5, 7, 1), 9, np.uint8)
+    pad = 3  # a row step longer than the row: the padding is dropped
+    cases = {"rgb8": rgb, "bgr8": rgb[..., ::-1], "rgba8": np.concatenate([rgb, alpha], 2),
+             "bgra8": np.concatenate([rgb[..., ::-1], alpha], 2)}
+    for enc, arr in cases.items():
+        rows = arr.reshape(5, -1)
+        data = np.concatenate([rows, np.zeros((5, pad), np.uint8)], 1).tobytes()
+        got = color_image(Payload(False, enc, 5, 7, rows.shape[1] + pad, False, data))
+        np.testing.assert_array_equal(got, rgb, err_msg=enc)
+    grey = rgb[..., 0]
+    np.testing.assert_array_equal(
+        color_image(Payload(False, "mono8", 5, 7, 7, False, grey.tobytes())), grey)
+    with pytest.raises(ValueError, match="'yuv422'"):
+        color_image(Payload(False, "yuv422", 5, 7, 14, False, bytes(70)))
+    # big-endian 16-bit depth and float depth
+    d = rng.integers(0, 5000, (5, 7)).astype(np.uint16)
+    got, scale = depth_image(Payload(False, "16UC1", 5, 7, 14, True, d.astype(">u2").tobytes()))
+    np.testing.assert_array_equal(got, d)
+    f = rng.random((5, 7)).astype(np.float32)
+    got, scale = depth_image(Payload(False, "32FC1", 5, 7, 28, False, f.tobytes()))
+    np.testing.assert_array_equal(got, f)
+    assert scale == 1.0
+    with pytest.raises(ValueError, match="truncated"):
+        depth_image(Payload(False, "16UC1", 5, 7, 14, False, d.tobytes()[:-20]))
+
+
 @pytest.mark.parametrize("kind", KINDS)
 def test_mesh_bag_gives_triangulate_s_meshes_with_the_headers(bags, frames, kind):
     want = expected([mm(d) for d in frames[0]], 0.001)
@@ -491,3 +521,18 @@ def test_the_realsense_recording(shared_data, tmp_path):
 def test_the_realsense_colour_is_said_to_look_unregistered(shared_data):
     with pytest.warns(UserWarning, match="unregistered"):
         mesh_bag(shared_data / REALSENSE, color_topic="/device_0/sensor_1/Color_0/image/data")
+
+
+def test_compressed_colour_topic_gives_the_png_s_colours(tmp_path, frames):
+    import imageio.v3 as iio
+
+    depth, color = frames
+    png = iio.imwrite("<bytes>", color, extension=".png", plugin="pillow")
+    ctopic = image_topic([png], "rgb8; png compressed rgb8", COLOR_TOPIC + "/compressed")
+    ctopic.kind = "compressed"
+    path = write_bag(tmp_path / "cc", [image_topic([mm(depth[0])], "16UC1"), ctopic,
+                                       info_topic()], "db3")
+    (got,) = [m for _, _, m in mesh_bag(path, color_topic=COLOR_TOPIC + "/compressed",
+                                        vertices=N)]
+    want = expected([mm(depth[0])], 0.001)[0]
+    np.testing.assert_array_equal(got.colors, color[want.pixels[:, 0], want.pixels[:, 1]])

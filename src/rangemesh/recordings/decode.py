@@ -170,7 +170,7 @@ def depth_image(payload: Payload, what: str = "depth") -> tuple[np.ndarray, floa
 
 
 def color_image(payload: Payload, what: str = "colour") -> np.ndarray:
-    """An (H, W, 3) uint8 RGB image of a colour message.
+    """The RGB (H, W, 3) or grey (H, W) uint8 image of a colour message.
 
     ``rgb8``, ``bgr8``, ``rgba8``, ``bgra8`` and ``mono8`` Images, and
     CompressedImages (JPEG, PNG: ``image_transport``'s ``compressed``).

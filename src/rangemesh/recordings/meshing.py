@@ -127,10 +127,10 @@ def mesh_bag(path: str | os.PathLike, topic: str | None = None, *, color_topic: 
     ImportError
         `rosbags` is missing (``pip install "rangemesh[ros]"``).
 
-    Examples
-    --------
-    >>> for stamp, frame_id, mesh in rangemesh.mesh_bag("run.bag", vertices=2000):  # doctest: +SKIP
-    ...     print(stamp, frame_id, len(mesh.faces))
+    Notes
+    -----
+    ``for stamp, frame_id, mesh in rangemesh.mesh_bag("run.bag", vertices=2000): ...`` (the
+    README's "Recordings" runs it on the shared RealSense bag).
     """
     call = resolve(method, vertices, max_error, dict(options))
     with Recording(path) as rec:  # checked at the call, not at the first next()

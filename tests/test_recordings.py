@@ -32,8 +32,6 @@ from .rosbag_writer import (
     write_bag,
 )
 
-pytest.importorskip("rosbags")
-
 KINDS = ("ros1", "db3", "mcap")
 N = 300  # vertices per frame: small meshes, quick tests
 REALSENSE = "rosbag/librealsense_d435_single_depth_color_640x480.bag"

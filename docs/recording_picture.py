@@ -81,8 +81,9 @@ def picture(out: Path) -> None:
     axes = fig.subplots(1, len(msgs))
     for ax, msg in zip(axes, msgs, strict=True):
         draw(ax, msg, fx, cx, cy)
-    fig.suptitle("rangemesh batch librealsense_d435_single_depth_color_640x480.bag -o meshes.mcap: "
-                 "the TRIANGLE_LIST markers read back from the MCAP file", fontsize=11)
+    fig.suptitle("rangemesh batch librealsense_d435_single_depth_color_640x480.bag -o meshes.mcap "
+                 "--vertices 2860: the TRIANGLE_LIST markers read back from the MCAP file",
+                 fontsize=11)
     fig.savefig(out, format="png")
 
 

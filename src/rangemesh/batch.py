@@ -112,7 +112,7 @@ class BatchResult:
     error: str = ""
     vertices: int = 0
     triangles: int = 0
-    flipped_edges: int | None = 0  # None: refine on two strips (not counted)
+    flipped_edges: int = 0
     seconds: float = 0.0
     relative_error: float = float("nan")
 

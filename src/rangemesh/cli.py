@@ -342,9 +342,8 @@ def _did(s) -> str:
     """What the method did, in a few words (the summary line and the preview)."""
     if s.method == "refine":
         strips = " on 2 strips" if s.strips == 2 else ""
-        flips = "flips by the error not counted" if s.flipped_edges is None else \
-            f"{s.flipped_edges} flips by the error"
-        return f"refine: {s.insertions} insertions{strips}, {flips}, heights {s.heights}"
+        return (f"refine: {s.insertions} insertions{strips}, {s.flipped_edges} flips by the error, "
+                f"heights {s.heights}")
     if s.grid_shape is None or 0 in s.grid_shape:
         return f"paper: {s.flipped_edges} flips"
     gr, gc = s.grid_shape

@@ -549,3 +549,57 @@ def test_e23_a_huge_jump_is_quiet_and_drops_no_wall():
     with np.errstate(all="raise"):
         m = rangemesh.triangulate(z, vertices=60, walls=False, jump=1e308)
     assert m.stats.target.walls_dropped == 0
+
+
+def _os1_scan(shared_data):
+    beams = shared_data / f"{SCAN}.beams.json"
+    shift = json.loads(beams.read_text())["column_shift"]
+    img, _ = read_lidar_bin(shared_data / f"{SCAN}.bin", 64, column_shift=shift)
+    return img, Spherical.from_beams(beams)
+
+
+@pytest.mark.parametrize("jump, vertices", [(0.01, 4000), (0.005, 800), (0.01, 800),
+                                            (0.02, 800), (0.02, 4000), (0.02, 15000),
+                                            (0.05, 4000)])
+def test_e2_walls_dropped_on_a_360_degree_scan_give_each_vertex_one_fan(shared_data, jump,
+                                                                         vertices):
+    from .helpers import assert_valid_mesh, canonical_faces
+
+    img, cam = _os1_scan(shared_data)
+    kw = {"background": 0, "camera": cam, "vertices": vertices, "walls": False, "jump": jump}
+    mesh = rangemesh.triangulate(img, **kw)
+    # before the fix (0.01, 4000): the vertex at pixel (63, 0) had two fans
+    assert_valid_mesh(mesh, wrap=True, check_overlap=vertices <= 800)
+    # the seam only adds faces: the open mesh's vertices and faces all stay
+    open_ = rangemesh.triangulate(img, wrap=False, **kw)
+    assert np.array_equal(mesh.pixels, open_.pixels)
+    both = {tuple(t) for t in canonical_faces(mesh).tolist()}
+    assert {tuple(t) for t in canonical_faces(open_).tolist()} <= both
+
+
+def test_e2_seam_strips_keep_every_mesh_a_surface():
+    from hypothesis import given, settings
+    from hypothesis import strategies as st
+
+    from .helpers import assert_valid_mesh
+
+    # narrow images: faces across the whole width are common, and walls and holes at the seam
+    @settings(max_examples=400, deadline=None)
+    @given(st.integers(3, 14), st.integers(3, 12), st.integers(0, 2**32 - 1), st.booleans(),
+           st.floats(0.0, 0.4), st.sampled_from([0.005, 0.01, 0.05, 0.2]),
+           st.one_of(st.integers(3, 200).map(lambda n: {"vertices": n}),
+                     st.sampled_from([0.1, 1.0, 5.0]).map(lambda e: {"max_error": e})))
+    def check(h, w, seed, walls, holes, jump, target):
+        rng = np.random.default_rng(seed)
+        z = rng.uniform(10.0, 12.0, (h, w))
+        for _ in range(rng.integers(0, 4)):  # blocks nearer or farther: walls at their edges
+            r0, c0 = rng.integers(0, h), rng.integers(0, w)
+            z[r0:r0 + rng.integers(1, h), c0:c0 + rng.integers(1, w)] *= rng.choice([0.5, 2.0])
+        z[rng.random((h, w)) < holes] = 0.0
+        if (z > 0).sum() < 3:
+            return
+        opts = {} if walls else {"walls": False, "jump": jump}
+        mesh = rangemesh.triangulate(z, background=0, wrap=True, **opts, **target)
+        assert_valid_mesh(mesh, wrap=True)
+
+    check()

@@ -21,7 +21,7 @@ import numpy as np
 from ._core import valid_range
 from .camera import Spherical, as_camera, check_reach, check_shape
 from .checks import real_number, whole_number
-from .geometry.seam import seam_strip, unrolled_columns
+from .geometry.seam import seam_strip, strip_to_keep, unrolled_columns
 from .mesh import Mesh, Stats, Target, count_edges, empty_mesh, with_fields
 from .paper import targets
 from .paper.sampling import fill_gaps_inplace, sample_grid, sampling_weights
@@ -358,6 +358,10 @@ def close_seam(mesh: Mesh, depth: np.ndarray, params: MeshParams) -> Mesh:
 
     With ``walls=False`` the strip's triangles across a jump are dropped by
     the same rule as the others, their pixel lengths measured across the seam.
+    Then every strip triangle that would repeat an edge of the mesh or give a
+    vertex a second fan is dropped
+    (`rangemesh.geometry.seam.strip_to_keep`): the mesh's own triangles and
+    vertices stay, so a vertex count asked for is kept.
     """
     if mesh.is_empty:
         return mesh
@@ -371,6 +375,9 @@ def close_seam(mesh: Mesh, depth: np.ndarray, params: MeshParams) -> Mesh:
             coords = np.stack([mesh.pixels[:, 0], unrolled_columns(mesh.pixels, w)], axis=1)
             walls = wall_faces(strip, coords, z, params.jump)
         strip = strip[~walls]
+    # a strip face that repeats a mesh edge or reaches a vertex across a dropped wall would
+    # break P4: such faces go, the mesh's own faces and vertices stay
+    strip = strip[strip_to_keep(mesh.faces, strip)]
     if not len(strip):
         return mesh
     faces = np.concatenate([mesh.faces, strip]).astype(np.int32)

@@ -603,3 +603,69 @@ def test_e2_seam_strips_keep_every_mesh_a_surface():
         assert_valid_mesh(mesh, wrap=True)
 
     check()
+
+
+@pytest.mark.parametrize("target", [{"vertices": 3}, {"vertices": 100}, {"max_error": 0.1}, {}])
+def test_e18_three_valid_corners_give_their_triangle(target):
+    from .helpers import assert_valid_mesh
+
+    z = np.zeros((20, 20))
+    z[0, 0], z[0, 19], z[19, 0] = 10, 11, 12  # three valid image corners, the fourth background
+    mesh = rangemesh.triangulate(z, background=0, **target)
+    assert_valid_mesh(mesh, z > 0)
+    assert sorted(map(tuple, mesh.pixels.tolist())) == [(0, 0), (0, 19), (19, 0)]
+    # the corners' own depths: a plane through three points fits them exactly
+    assert sorted(mesh.vertices[:, 2]) == [10.0, 11.0, 12.0]
+
+
+def test_e18_three_pixels_of_a_2x2_image_and_three_blobs_give_a_mesh():
+    mesh = rangemesh.triangulate(np.array([[10., 10.], [200., 0.]]), background=0, max_error=0.5,
+                                 fill_gaps=False)
+    assert len(mesh.faces) == 1 and mesh.stats.target.met  # a triangle of its three pixels: exact
+    z = np.zeros((100, 100))
+    z[:2, :2], z[-2:, :2], z[:2, -2:] = 10.0, 11.0, 12.0
+    mesh = rangemesh.triangulate(z, background=0, vertices=3)
+    assert len(mesh.vertices) == 3 and len(mesh.faces) == 1
+
+
+def _collinear(points) -> bool:
+    p = np.asarray(points, np.int64)
+    d = p[1:] - p[0]
+    return bool((d[:, 0] * d[-1, 1] - d[:, 1] * d[-1, 0] == 0).all()) if len(p) > 2 else True
+
+
+def test_e18_an_empty_mesh_only_when_no_triangle_of_valid_pixels_exists():
+    from hypothesis import given, settings
+    from hypothesis import strategies as st
+
+    from .helpers import assert_valid_mesh
+
+    @settings(max_examples=300, deadline=None)
+    @given(st.integers(2, 30), st.integers(2, 30), st.integers(0, 8), st.integers(0, 2**32 - 1),
+           st.booleans(), st.sampled_from([{"vertices": 3}, {"vertices": 4}, {"vertices": 50},
+                                          {"max_error": 0.1}, {"max_error": 5.0}, {}]))
+    def check(h, w, k, seed, fill_gaps, target):
+        rng = np.random.default_rng(seed)
+        z = np.zeros((h, w))
+        if rng.random() < 0.3:  # all on one line: a row, a column or a diagonal
+            t = np.unique(rng.integers(0, min(h, w), k))
+            line = [(t, t), (t, np.zeros_like(t)), (np.zeros_like(t), t)][int(rng.integers(3))]
+            z[line] = rng.uniform(5.0, 50.0, len(t))
+        else:
+            z[rng.integers(0, h, k), rng.integers(0, w, k)] = rng.uniform(5.0, 50.0, k)
+        mesh = rangemesh.triangulate(z, background=0, fill_gaps=fill_gaps, **target)
+        pts = np.argwhere(z > 0)  # gap filling needs 8 valid neighbours: never on a line
+        if len(pts) >= 3 and not _collinear(pts):
+            assert len(mesh.faces), mesh.stats.reason
+            assert_valid_mesh(mesh, z > 0)
+        else:
+            assert len(mesh.faces) == 0
+            reason = mesh.stats.reason
+            if len(pts) == 0:
+                assert "no valid pixel" in reason
+            elif len(pts) < 3:
+                assert f"only {len(pts)} valid pixel" in reason
+            else:
+                assert f"the {len(pts)} valid pixels lie on one line" in reason
+
+    check()

@@ -21,7 +21,7 @@ from ..camera import backproject, pixel_aspect
 from ..mesh import Mesh, Stats, empty_mesh
 from ..render import relative_error
 from .heights import fit_heights
-from .start import corner_depths, first_mesh
+from .start import corner_depths, first_mesh, hull_mesh, valid_hull
 from .strips import strip_insert, use_strips
 from .walls import drop_walls
 
@@ -196,7 +196,8 @@ def _refine(depth, valid, start, strips, asked, max_sum, span, scales, n_grid, d
 def greedy_mesh(depth: np.ndarray, valid: np.ndarray, camera, *, vertices: int | None = None,
                 max_error: float | None = None, reference=None, fit: bool = True,
                 diagonals: str = "error", walls: bool = True, jump: float = 0.05,
-                extent=None, max_vertices: int | None = None) -> tuple[Mesh, dict]:
+                extent=None, max_vertices: int | None = None,
+                first=None) -> tuple[Mesh, dict]:
     """Mesh a prepared image by inserting its worst pixel until a target is met.
 
     Parameters
@@ -235,6 +236,10 @@ def greedy_mesh(depth: np.ndarray, valid: np.ndarray, camera, *, vertices: int |
     max_vertices : int, optional
         With `max_error`: stop at this many vertices even if the bound is not
         met (noisy images would otherwise take a large share of their pixels).
+    first : tuple, optional
+        The first mesh (`first_mesh`'s arrays); default: the image corners and
+        a coarse grid, or, when that leaves no triangle of valid corners, the
+        valid pixels' hull (`hull_mesh`).
 
     Returns
     -------
@@ -265,8 +270,8 @@ def greedy_mesh(depth: np.ndarray, valid: np.ndarray, camera, *, vertices: int |
     n_grid = grid_size(want, n_valid, vertices is None)
     if vertices is None and max_vertices is not None:  # the first mesh stays under the cap
         n_grid = min(n_grid, grid_size(want, n_valid, False))
-    strips = use_strips((h, w), want, max_error, n_valid)
-    start = None if strips else first_mesh(depth, valid, n_grid, scales)
+    strips = first is None and use_strips((h, w), want, max_error, n_valid)
+    start = first if first is not None or strips else first_mesh(depth, valid, n_grid, scales)
     max_sum = -1.0 if max_error is None else float(max_error) / 100.0 * span * n_valid
     runs = 0
     asked = want
@@ -325,11 +330,22 @@ def greedy_mesh(depth: np.ndarray, valid: np.ndarray, camera, *, vertices: int |
                   sampled_points=got, seconds=seconds, method="refine", grid_shape=None,
                   flipped_edges=info["flips"], insertions=len(vr), strips=2 if strips else 1,
                   heights="fit" if fit else "pixel")
+    if len(faces) == 0 and first is None and (walls or not n_walls):
+        # every triangle had a background image corner: start again from valid pixels only
+        hull = hull_mesh(depth, valid, want, scales)
+        if hull is not None:
+            return greedy_mesh(depth, valid, camera, vertices=vertices, max_error=max_error,
+                               reference=reference, fit=fit, diagonals=diagonals, walls=walls,
+                               jump=jump, extent=extent, max_vertices=max_vertices, first=hull)
     if len(faces) == 0:
-        stats = Stats(seconds=seconds, method="refine", grid_shape=None,
-                      reason="no triangle with valid corners: too few valid pixels"
-                      if walls or not n_walls else
-                      f"every triangle was a wall across a jump ({n_walls} dropped)")
+        reason = (f"every triangle was a wall across a jump ({n_walls} dropped)"
+                  if n_walls and not walls else
+                  f"the {n_valid} valid pixels lie on one line: no triangle"
+                  if len(valid_hull(valid)) < 3 and n_valid >= 3 else
+                  f"only {n_valid} valid pixel{'s' if n_valid != 1 else ''}: a triangle needs 3"
+                  if n_valid < 3 else
+                  "no triangle with valid corners")
+        stats = Stats(seconds=seconds, method="refine", grid_shape=None, reason=reason)
         return empty_mesh(camera, (h, w), stats), {}
     mesh = Mesh(verts, faces, pixels, camera, (h, w), stats)
     if vertices is not None:

@@ -179,20 +179,27 @@ def _refine(depth, valid, start, strips, asked, max_sum, span, scales, n_grid, d
     With ``diagonals='error'`` each quad then takes the diagonal that fits
     its pixels better (`rangemesh.refine.diagonals`; on strips, each strip
     on its thread, then the seam); `info` receives ``flips`` (None on strips:
-    the core does not report the strips' own flips).
+    the core does not report the strips' own flips) and ``total``, the
+    insertion's summed error of the valid pixels where it stopped.
     """
     info = {} if info is None else info
     info["flips"] = 0
     if strips:  # two strips on two threads (`rangemesh.refine.strips`)
         info["flips"] = None
-        return strip_insert(depth, valid, asked, span, scales, n_grid, max_sum=max_sum,
-                            diagonals=diagonals)[:3]
+        vr, vc, tv, _, info["total"] = strip_insert(depth, valid, asked, span, scales, n_grid,
+                                                    max_sum=max_sum, diagonals=diagonals)
+        return vr, vc, tv
     if diagonals != "error":
-        return greedy_insert(depth, valid, *start, asked, max_sum, span, *scales)[:3]
+        vr, vc, tv, _, info["total"] = greedy_insert(depth, valid, *start, asked, max_sum, span,
+                                                     *scales)
+        return vr, vc, tv
     # the insertion's own half-edges and triangle sums: no second pass over the pixels
     vr, vc, tv, he, tsum = greedy_insert_sums(depth, valid, *start, asked, max_sum, span, *scales)
+    info["total"] = float(tsum.sum())
     info["flips"] = int(flip_by_error(vr, vc, tv, he, tsum, depth, valid, span)[0])
     return vr, vc, tv
+
+
 def greedy_mesh(depth: np.ndarray, valid: np.ndarray, camera, *, vertices: int | None = None,
                 max_error: float | None = None, reference=None, fit: bool = True,
                 diagonals: str = "error", walls: bool = True, jump: float = 0.05,
@@ -279,6 +286,7 @@ def greedy_mesh(depth: np.ndarray, valid: np.ndarray, camera, *, vertices: int |
     short, beyond = 0, n_valid + 1  # requests known to give fewer / more than `want`
     best = None  # with `vertices`: the result nearest `want`, not above it if any is
     fit_seconds = 0.0  # fitting the depths (with max_error, measuring their error too)
+    counted = None  # with max_error, once searching by count: its bounds and best result
     info = {}
     while True:
         runs += 1
@@ -312,8 +320,35 @@ def greedy_mesh(depth: np.ndarray, valid: np.ndarray, camera, *, vertices: int |
                                        max_error, ref, fit, extent)
             if fit:
                 fit_seconds += time.perf_counter() - t
-            if achieved > max_error and asked > got and runs < MAX_RUNS:
-                max_sum *= 0.9  # the running sum is an estimate: tighten and go on
+            if counted is not None:
+                if achieved <= max_error:
+                    counted["met"], counted["hi"] = (faces, pixels, n_walls, verts, achieved), asked
+                else:
+                    counted["lo"] = asked
+                lo, hi = counted["lo"], counted["hi"]
+                # the last meshing asks for the largest count if no count met the bound yet
+                nxt = want if runs == MAX_RUNS - 1 and counted["met"] is None else (lo + hi) // 2
+                if runs < MAX_RUNS and lo < nxt <= hi and nxt != asked \
+                        and (counted["met"] is None or nxt < hi):
+                    asked = nxt
+                    continue
+                if counted["met"] is not None:
+                    faces, pixels, n_walls, verts, achieved = counted["met"]
+                    got = len(pixels)
+            elif achieved > max_error and asked > got and runs < MAX_RUNS:
+                if info["total"] > 0.0:
+                    max_sum *= 0.9  # the running sum is an estimate: tighten and go on
+                    continue
+                # The insertion's own sum is 0 (every pixel fits its plane in the kernel's
+                # arithmetic) while the rendered mesh rounds otherwise (depths far from 0 with a
+                # tiny range): a tighter sum stops at the same mesh. Search by count instead,
+                # up to `want` (every valid pixel a vertex renders exactly).
+                counted = {"lo": got, "hi": want, "met": None}
+                max_sum = -1.0
+                if strips:  # (strips never insert the seam column's other pixels)
+                    strips = False
+                    start = first_mesh(depth, valid, n_grid, scales)
+                asked = want if runs == MAX_RUNS - 1 else (got + want) // 2
                 continue
         break
     t1 = time.perf_counter()

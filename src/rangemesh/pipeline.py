@@ -76,8 +76,9 @@ class Workspace:
 # Peak working memory of `run` per image pixel, bytes: float64 depth, weights, the mask and
 # the rest, measured by benchmarks/memory.py (4.2x a float32 image, 17 bytes a pixel), rounded up.
 BYTES_PER_PIXEL = 20
-# The largest depth magnitude meshed: the kernels square depths (plane fits, least squares),
-# which overflow float64 beyond about 1e154.
+# The largest depth magnitude the paper's method meshes: its kernels square depths (plane fits,
+# curvature), which overflow float64 beyond about 1e154. (method="refine" divides depths by a power
+# of two first, `rangemesh.refine.insertion.depth_exponent`: any finite depth range.)
 MAX_DEPTH = 1e150
 
 
@@ -416,7 +417,10 @@ def run(image, params: MeshParams, *, background="auto", camera=None, vertices=N
     check_shape(camera, depth.shape)
     lo, hi, n_valid = valid_range(depth, valid)
     if n_valid:
-        if max(abs(lo), abs(hi)) > MAX_DEPTH:
+        if not math.isfinite(hi - lo):
+            raise ValueError(f"depths {lo:g} .. {hi:g}: their range exceeds the float range; "
+                             f"scale the image (and its camera) down")
+        if method == "paper" and max(abs(lo), abs(hi)) > MAX_DEPTH:
             raise ValueError(f"depths {lo:g} .. {hi:g} reach beyond {MAX_DEPTH:g}, where the "
                              f"kernels' squares overflow: scale the image (and its camera) down")
         check_reach(camera, depth.shape, lo, hi)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import time
 
 import numpy as np
@@ -17,8 +18,8 @@ from .._core import (
     valid_faces,
     valid_range,
 )
-from ..camera import backproject, pixel_aspect
-from ..mesh import Mesh, Stats, empty_mesh
+from ..camera import Orthographic, backproject, pixel_aspect
+from ..mesh import Mesh, Stats, empty_mesh, with_fields
 from ..render import relative_error
 from .heights import fit_heights
 from .start import corner_depths, first_mesh, hull_mesh, valid_hull
@@ -49,6 +50,10 @@ GRID_ERROR_BOUND = 64
 ASPECT_MIN = 1.5
 ASPECT_MAX = 8
 EXACT_SIDE = 30_000
+# `greedy_mesh` divides depths by a power of two when their largest magnitude lies beyond
+# 2**DEPTH_BAND or below 2**-DEPTH_BAND: the kernels' squares (plane fits, least squares) overflow
+# from about 1e150 and underflow below about 1e-160. Within the band nothing is copied.
+DEPTH_BAND = 64
 
 
 def delaunay_scales(camera, shape) -> tuple[int, int]:
@@ -203,8 +208,7 @@ def _refine(depth, valid, start, strips, asked, max_sum, span, scales, n_grid, d
 def greedy_mesh(depth: np.ndarray, valid: np.ndarray, camera, *, vertices: int | None = None,
                 max_error: float | None = None, reference=None, fit: bool = True,
                 diagonals: str = "error", walls: bool = True, jump: float = 0.05,
-                extent=None, max_vertices: int | None = None,
-                first=None) -> tuple[Mesh, dict]:
+                extent=None, max_vertices: int | None = None) -> tuple[Mesh, dict]:
     """Mesh a prepared image by inserting its worst pixel until a target is met.
 
     Parameters
@@ -243,10 +247,6 @@ def greedy_mesh(depth: np.ndarray, valid: np.ndarray, camera, *, vertices: int |
     max_vertices : int, optional
         With `max_error`: stop at this many vertices even if the bound is not
         met (noisy images would otherwise take a large share of their pixels).
-    first : tuple, optional
-        The first mesh (`first_mesh`'s arrays); default: the image corners and
-        a coarse grid, or, when that leaves no triangle of valid corners, the
-        valid pixels' hull (`hull_mesh`).
 
     Returns
     -------
@@ -259,15 +259,77 @@ def greedy_mesh(depth: np.ndarray, valid: np.ndarray, camera, *, vertices: int |
     Triangles with a background vertex (an image corner outside the object)
     are refined until they hold no valid pixel, then dropped, so the mesh
     covers the valid pixels without spending vertices on the background.
+    When that leaves no triangle, insertion starts again from the valid
+    pixels' convex hull (`hull_mesh`).
+
+    Depths far from 1 (beyond ``2**DEPTH_BAND`` or below its inverse) are
+    divided by a power of two first (`depth_exponent`) and the vertices
+    lifted in the image's units: the mesh is the same for any depth unit
+    (SPEC P2), bit for bit.
     """
     h, w = depth.shape
     if diagonals not in ("delaunay", "error"):
         raise ValueError(f"diagonals must be 'delaunay' or 'error', got {diagonals!r}")
     if h < 2 or w < 2:
         raise ValueError(f"greedy insertion needs an image of at least 2x2 pixels, got {h}x{w}")
-    t0 = time.perf_counter()
     ref = (depth, valid) if reference is None else reference
     extent = valid_range(depth, valid) if extent is None else extent
+    exponent = depth_exponent(extent[0], extent[1])
+    if exponent:  # exact: the mesh of depth * 2**k is the same for every k
+        depth = np.ldexp(depth, -exponent)
+        ref = (np.ldexp(ref[0], -exponent), ref[1])
+        extent = (math.ldexp(extent[0], -exponent), math.ldexp(extent[1], -exponent), extent[2])
+    mesh, target = _greedy(depth, valid, camera, ref, extent, exponent, vertices=vertices,
+                           max_error=max_error, fit=fit, diagonals=diagonals, walls=walls,
+                           jump=jump, max_vertices=max_vertices, first=None)
+    if exponent and len(mesh.faces):
+        mesh = with_fields(mesh, vertices=_in_units(mesh.vertices, camera, exponent))
+    return mesh, target
+
+
+def depth_exponent(lo: float, hi: float) -> int:
+    """The power of two `greedy_mesh` divides depths by: 0 unless they lie far from 1.
+
+    0 when the largest depth magnitude lies within ``2**-DEPTH_BAND ..
+    2**DEPTH_BAND`` (every depth unit in use: the kernels' squares and sums
+    stay far from overflow and underflow there); otherwise the exponent that
+    brings it into ``[1, 2)``. Powers of two scale exactly, and the kernels
+    compute the same mesh for any depth scale within the band.
+
+    Examples
+    --------
+    >>> depth_exponent(0.5, 65535.0), depth_exponent(1e-200, 3e-200), depth_exponent(-2.0**600, 0.0)
+    (0, -663, 600)
+    """
+    top = max(abs(lo), abs(hi))
+    if top == 0.0 or not math.isfinite(top) or 2.0**-DEPTH_BAND <= top <= 2.0**DEPTH_BAND:
+        return 0
+    return math.frexp(top)[1] - 1
+
+
+def _in_units(points, camera, exponent):
+    """3-D points lifted from depths / 2**exponent, as lifted from the depths themselves (exact).
+
+    Every coordinate of `backproject` is the depth times factors of the pixel,
+    except an orthographic camera's x and y.
+    """
+    out = np.array(points, dtype=np.float64)
+    if isinstance(camera, Orthographic):
+        out[:, 2] = np.ldexp(out[:, 2], exponent)
+    else:
+        out = np.ldexp(out, exponent)
+    return out
+
+
+def _greedy(depth, valid, camera, ref, extent, exponent, *, vertices, max_error, fit, diagonals,
+            walls, jump, max_vertices, first):
+    """`greedy_mesh` on depths divided by ``2**exponent`` (`ref` and `extent` too).
+
+    Its vertices are lifted from those depths; the notes name the depth range
+    in the image's own units.
+    """
+    h, w = depth.shape
+    t0 = time.perf_counter()
     lo, hi, n_valid = extent
     span = hi - lo
     want = n_valid if vertices is None else min(int(vertices), n_valid)
@@ -325,11 +387,11 @@ def greedy_mesh(depth: np.ndarray, valid: np.ndarray, camera, *, vertices: int |
                     counted["met"], counted["hi"] = (faces, pixels, n_walls, verts, achieved), asked
                 else:
                     counted["lo"] = asked
-                lo, hi = counted["lo"], counted["hi"]
+                few, most = counted["lo"], counted["hi"]
                 # the last meshing asks for the largest count if no count met the bound yet
-                nxt = want if runs == MAX_RUNS - 1 and counted["met"] is None else (lo + hi) // 2
-                if runs < MAX_RUNS and lo < nxt <= hi and nxt != asked \
-                        and (counted["met"] is None or nxt < hi):
+                nxt = want if runs == MAX_RUNS - 1 and counted["met"] is None else (few + most) // 2
+                if runs < MAX_RUNS and few < nxt <= most and nxt != asked \
+                        and (counted["met"] is None or nxt < most):
                     asked = nxt
                     continue
                 if counted["met"] is not None:
@@ -369,9 +431,9 @@ def greedy_mesh(depth: np.ndarray, valid: np.ndarray, camera, *, vertices: int |
         # every triangle had a background image corner: start again from valid pixels only
         hull = hull_mesh(depth, valid, want, scales)
         if hull is not None:
-            return greedy_mesh(depth, valid, camera, vertices=vertices, max_error=max_error,
-                               reference=reference, fit=fit, diagonals=diagonals, walls=walls,
-                               jump=jump, extent=extent, max_vertices=max_vertices, first=hull)
+            return _greedy(depth, valid, camera, ref, extent, exponent, vertices=vertices,
+                           max_error=max_error, fit=fit, diagonals=diagonals, walls=walls,
+                           jump=jump, max_vertices=max_vertices, first=hull)
     if len(faces) == 0:
         reason = (f"every triangle was a wall across a jump ({n_walls} dropped)"
                   if n_walls and not walls else
@@ -386,7 +448,7 @@ def greedy_mesh(depth: np.ndarray, valid: np.ndarray, camera, *, vertices: int |
     if vertices is not None:
         ok = got == int(vertices)
         note = "" if ok else _count_note(got, int(vertices), n_valid, h * w, walls and n_walls == 0,
-                                         lo, hi)
+                                         math.ldexp(lo, exponent), math.ldexp(hi, exponent))
         target = {"target": "vertices", "requested": int(vertices), "achieved": got, "met": ok,
                   "meshings": runs}
     else:

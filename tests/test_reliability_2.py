@@ -755,3 +755,47 @@ def test_e9_the_reports_decimal_scales_give_the_same_triangles(shared_data, targ
     assert np.array_equal(canonical_faces(mesh), canonical_faces(base))
     assert rangemesh.evaluate(mesh, z, background=0).relative_error == pytest.approx(
         rangemesh.evaluate(base, chair, background=0).relative_error, rel=1e-9)
+
+
+def test_e19_refine_checks_its_vertices_before_work(shared_data, monkeypatch, capsys):
+    import rangemesh.pipeline as pl
+
+    chair = _chair(shared_data)
+    # 128 x 128 pixels x 32 bytes + 500 vertices x 700 bytes = 524,288 + 350,000 = 874,288
+    monkeypatch.setattr(pl, "available_memory", lambda: 874_287)
+    with pytest.raises(MemoryError, match="128x128 image needs about .* with 500 vertices"):
+        rangemesh.triangulate(chair, background=0, vertices=500)
+    monkeypatch.setattr(pl, "available_memory", lambda: 874_288)
+    assert len(rangemesh.triangulate(chair, background=0, vertices=500).vertices) == 500
+    # the paper's method keeps its 20 bytes a pixel: 327,680 bytes
+    monkeypatch.setattr(pl, "available_memory", lambda: 327_680)
+    assert not rangemesh.triangulate(chair, background=0, method="paper").is_empty
+
+
+def test_e19_an_error_bound_stops_where_memory_runs_out_and_says_so(shared_data, monkeypatch,
+                                                                    tmp_path, capsys):
+    import rangemesh.pipeline as pl
+
+    chair = _chair(shared_data)
+    # room for 200 vertices beyond the 524,288 bytes of the pixels
+    monkeypatch.setattr(pl, "available_memory", lambda: 524_288 + 200 * 700)
+    with pytest.raises(MemoryError, match="needs more than 200 vertices"):
+        rangemesh.triangulate(chair, background=0, max_error=0.1)  # 4476 vertices with room
+    mesh = rangemesh.triangulate(chair, background=0, max_error=5.0)  # 69 vertices: they fit
+    assert mesh.stats.target.met and len(mesh.vertices) < 200
+    path = tmp_path / "chair.npy"
+    np.save(path, chair.astype(np.uint8))
+    assert main(["mesh", str(path), "--max-error", "0.1", "-o", str(tmp_path / "c.ply")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "needs more than 200 vertices" in err[0]
+
+
+def test_e19_an_allocation_failure_in_the_core_says_not_enough_memory():
+    from rangemesh import _core
+    from rangemesh.refine.start import first_mesh
+
+    z = np.random.default_rng(0).random((20, 30))
+    ok = np.ones(z.shape, bool)
+    # room reserved for 2**61 vertices: beyond what a vector can hold, refused before any allocation
+    with pytest.raises(MemoryError, match="^not enough memory: the compiled core could not"):
+        _core.greedy_insert(z, ok, *first_mesh(z, ok, 10), 2**61, -1.0, 1.0)

@@ -773,7 +773,9 @@ def main(argv=None) -> int:
     except OSError as exc:
         message = _os_message(exc)
     except MemoryError as exc:
-        message = f"not enough memory ({_one_line(exc)})"
+        message = _one_line(exc)
+        if not message.startswith("not enough memory"):
+            message = f"not enough memory ({message})"
     except (ValueError, TypeError) as exc:
         message = _one_line(exc)
     print(f"rangemesh: error: {message}", file=sys.stderr)

@@ -487,6 +487,7 @@ def run(image, params: MeshParams, *, background="auto", camera=None, vertices=N
         cap = memory_cap = None
         if default_target:
             max_error, cap = DEFAULT_TARGET.max_error, default_vertex_cap(n_valid)
+        asked_cap = cap
         if vertices is None and workspace is None:
             # an error bound's count is known only at the end: stop where memory runs out
             ceiling = vertex_ceiling(depth.shape)
@@ -505,6 +506,10 @@ def run(image, params: MeshParams, *, background="auto", camera=None, vertices=N
                 f"is what the {_size(available_memory() or 0)} of memory available hold "
                 f"({REFINE_BYTES_PER_VERTEX} bytes a vertex); give a larger max_error or a "
                 f"vertex count, or mesh on a larger machine")
+        if memory_cap is not None:  # the record keeps the cap that was asked for
+            target.pop("max_vertices", None)
+            if asked_cap is not None:
+                target["max_vertices"] = asked_cap
     elif vertices is not None:
         mesh, target = targets.fit_vertices(depth, valid, params, camera, int(vertices), tiles=tiles)
     elif max_error is not None:

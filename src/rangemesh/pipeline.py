@@ -506,7 +506,7 @@ def run(image, params: MeshParams, *, background="auto", camera=None, vertices=N
                 f"is what the {_size(available_memory() or 0)} of memory available hold "
                 f"({REFINE_BYTES_PER_VERTEX} bytes a vertex); give a larger max_error or a "
                 f"vertex count, or mesh on a larger machine")
-        if memory_cap is not None:  # the record keeps the cap that was asked for
+        if memory_cap is not None and target:  # the record keeps the cap that was asked for
             target.pop("max_vertices", None)
             if asked_cap is not None:
                 target["max_vertices"] = asked_cap

@@ -799,3 +799,51 @@ def test_e19_an_allocation_failure_in_the_core_says_not_enough_memory():
     # room reserved for 2**61 vertices: beyond what a vector can hold, refused before any allocation
     with pytest.raises(MemoryError, match="^not enough memory: the compiled core could not"):
         _core.greedy_insert(z, ok, *first_mesh(z, ok, 10), 2**61, -1.0, 1.0)
+
+
+def test_e23_a_subnormal_depth_scale_evaluates_quietly_and_right(shared_data):
+    import warnings
+
+    chair = _chair(shared_data)
+    errors = []
+    for scale in (0.001, 1e-310):  # 1e-310: the 3-D depths are subnormal and 1/z overflows
+        cam = rangemesh.Pinhole(525, 525, 64, 64, scale)
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            mesh = rangemesh.triangulate(chair, background=0, camera=cam, vertices=500)
+            errors.append(rangemesh.evaluate(mesh, chair, background=0).relative_error)
+    # the prediction in stored units does not depend on the depth scale (before: 56.6 %)
+    assert errors[1] == pytest.approx(errors[0], rel=1e-9)
+
+
+@pytest.mark.parametrize("ascii_", [True, False])
+def test_e23_double_face_indices_beyond_int32_are_refused_quietly(tmp_path, ascii_):
+    import warnings
+
+    from plyfile import PlyData, PlyElement
+
+    v = np.zeros(4, dtype=[("x", "f4"), ("y", "f4"), ("z", "f4")])
+    v["x"], v["y"] = [0, 1, 0, 1], [0, 0, 1, 1]
+    f = np.zeros(2, dtype=[("vertex_indices", "f8", (3,))])
+    f["vertex_indices"] = [[0, 1, 2], [1, 3, 4294967301.0]]
+    path = tmp_path / "m.ply"
+    PlyData([PlyElement.describe(v, "vertex"), PlyElement.describe(f, "face")],
+            text=ascii_).write(str(path))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with pytest.raises(ValueError, match="face index is out of range"):
+            read_mesh(path)
+
+
+def test_e23_a_subnormal_depth_scale_mesh_file_evaluates_as_made(shared_data, tmp_path, capsys):
+    src = tmp_path / "chair.npy"
+    np.save(src, np.load(shared_data / "odetics" / "chair-range.npy"))
+    out = tmp_path / "c.ply"
+    assert main(["mesh", str(src), "--intrinsics", "525,525,64,64", "--depth-scale", "1e-310",
+                 "--vertices", "500", "-o", str(out), "--json"]) == 0
+    made = json.loads(capsys.readouterr().out)["evaluation"]
+    # float32 would write the 3-D depths (about 1e-308) as 0: the file then covered nothing
+    assert main(["eval", str(src), str(out), "--json"]) == 0
+    got = json.loads(capsys.readouterr().out)
+    assert got["relative_error"] == pytest.approx(made["relative_error"], rel=1e-6)
+    assert got["uncovered"] == 0.0

@@ -315,10 +315,23 @@ def atomic_path(path: str | os.PathLike):
             Path(tmp).unlink(missing_ok=True)
 
 
+def _coordinate_type(points: np.ndarray) -> str:
+    """``'f4'`` for points float32 holds (range and normal precision), else ``'f8'``.
+
+    Meshes of depths far from 1 (a subnormal pinhole depth scale, depths
+    beyond 1e38) would otherwise be written as 0 or inf.
+    """
+    a = np.abs(points[np.isfinite(points)])
+    f4 = np.finfo(np.float32)
+    return "f4" if not a.size or (a.max() <= f4.max and a[a > 0].min(initial=1.0) >= f4.tiny) \
+        else "f8"
+
+
 def _write_ply(mesh: Mesh, tmp: Path, ascii: bool, pixels: bool, normals: bool):
     from plyfile import PlyData, PlyElement
 
-    fields = [("x", "f4"), ("y", "f4"), ("z", "f4")]
+    xyz = _coordinate_type(mesh.vertices)
+    fields = [("x", xyz), ("y", xyz), ("z", xyz)]
     if normals:
         fields += [("nx", "f4"), ("ny", "f4"), ("nz", "f4")]
     if mesh.colors is not None:  # the names and type MeshLab, Open3D and CloudCompare read

@@ -847,3 +847,27 @@ def test_e23_a_subnormal_depth_scale_mesh_file_evaluates_as_made(shared_data, tm
     got = json.loads(capsys.readouterr().out)
     assert got["relative_error"] == pytest.approx(made["relative_error"], rel=1e-6)
     assert got["uncovered"] == 0.0
+
+
+@pytest.mark.slow
+def test_e28_batch_reads_the_bin_scans_that_mesh_reads(shared_data, beams_file, tmp_path, capsys):
+    folder = tmp_path / "in"
+    folder.mkdir()
+    shutil.copy(shared_data / f"{SCAN}.bin", folder / "s.bin")
+    shutil.copy(shared_data / f"{SCAN}.range.npy", folder / "r.npy")
+    made = tmp_path / "m.ply"
+    assert main(["mesh", str(folder / "s.bin"), "--beams", str(beams_file), "--vertices", "1500",
+                 "-o", str(made), "--pixels", "--quiet"]) == 0
+    want = read_mesh(made)
+    for name, inputs in (("file", [str(folder / "s.bin")]), ("folder", [str(folder)])):
+        out = tmp_path / name
+        assert main(["batch", *inputs, "-o", str(out), "--beams", str(beams_file), "--vertices",
+                     "1500", "--workers", "1", "--quiet"]) == 0, capsys.readouterr().err
+        got = read_mesh(out / "s.ply")  # before: "unknown image type '.bin'", or left out
+        assert np.array_equal(got.faces, want.faces)
+        np.testing.assert_allclose(got.vertices, want.vertices, rtol=1e-6)
+    assert (tmp_path / "folder" / "r.ply").exists()
+    # without --beams a named .bin fails in one line, as `rangemesh mesh` does
+    assert main(["batch", str(folder / "s.bin"), "-o", str(tmp_path / "x"), "--vertices", "1500",
+                 "--workers", "1"]) == 1
+    assert "needs --beams" in capsys.readouterr().err

@@ -24,14 +24,18 @@ from pathlib import Path
 import numpy as np
 
 from ._optional import require
-from .camera import MAX_RAY_PIXELS, Orthographic, Pinhole, Spherical
+from .camera import MAX_RAY_PIXELS, Orthographic, Pinhole, Spherical, beams_numbers, read_beams
+from .checks import whole_number
 from .mesh import Mesh, Stats, check_arrays, count_edges
 
 __all__ = [
     "IMAGE_SUFFIXES",
+    "SCAN_SUFFIX",
     "MESH_SUFFIXES",
     "read_range_image",
     "read_lidar_bin",
+    "bin_layout",
+    "read_scan",
     "read_color_image",
     "write_mesh",
     "read_mesh",
@@ -39,6 +43,8 @@ __all__ = [
 ]
 
 IMAGE_SUFFIXES = (".npy", ".png", ".pgm", ".ppm", ".pnm", ".pfm", ".tif", ".tiff", ".pcd")
+# A KITTI-style LiDAR scan: read with its beams file (`read_scan`, `bin_layout`).
+SCAN_SUFFIX = ".bin"
 MESH_SUFFIXES = (".ply", ".obj", ".off", ".stl", ".glb")
 
 
@@ -240,6 +246,63 @@ def read_lidar_bin(path: str | os.PathLike, beams: int, *, column_shift=None,
         rng = np.stack([np.roll(row, k) for row, k in zip(rng, shift, strict=True)])
         inten = np.stack([np.roll(row, k) for row, k in zip(inten, shift, strict=True)])
     return rng, inten
+
+
+def bin_layout(beams_path: str | os.PathLike) -> dict:
+    """How a ``.bin`` scan is laid out, from its beams file: `read_lidar_bin`'s arguments.
+
+    Returns
+    -------
+    dict
+        ``rows`` (beams), ``cols`` (azimuth steps, or None) and
+        ``column_shift`` (one whole number a beam, or None).
+
+    Raises
+    ------
+    ValueError
+        A beams file that cannot be read, or whose values are not whole numbers;
+        the message names the file and the key.
+    """
+    beams = read_beams(beams_path)
+    try:
+        rows = whole_number("beams: rows", beams["rows"], minimum=1)
+        cols = beams.get("cols")
+        cols = None if cols is None else whole_number("beams: cols", cols, minimum=1)
+        shift = beams.get("column_shift")
+        shift = None if shift is None else beams_numbers("column_shift", shift, whole=True)
+    except KeyError:
+        raise ValueError(f"{beams_path}: a beams file for a .bin scan gives its 'rows'") from None
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{beams_path}: {_first_line(exc)}") from None
+    return {"rows": rows, "cols": cols, "column_shift": shift}
+
+
+def read_scan(path: str | os.PathLike, layout: dict | None = None) -> np.ndarray:
+    """A range image: an image file (`read_range_image`), or a LiDAR ``.bin`` scan's ranges.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+    layout : dict, optional
+        The ``.bin`` scan's layout from its beams file (`bin_layout`); needed
+        for ``.bin`` files only.
+
+    Raises
+    ------
+    ValueError
+        A file that cannot be read as either, or a ``.bin`` without `layout`.
+    """
+    if Path(path).suffix.lower() != SCAN_SUFFIX:
+        return read_range_image(path)
+    if layout is None:
+        raise ValueError(f"{path}: a .bin LiDAR scan needs --beams FILE.json (its rows and "
+                         f"column shifts)")
+    try:
+        rng, _ = read_lidar_bin(path, layout["rows"], column_shift=layout["column_shift"],
+                                steps=layout["cols"])
+    except OSError as exc:
+        raise ValueError(f"{path}: {_first_line(exc)}") from None
+    return rng
 
 
 def _umask() -> int:

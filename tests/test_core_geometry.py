@@ -86,7 +86,12 @@ def test_mask_image_follows_numpys_rules_for_every_dtype(dtype):
     if np.dtype(dtype).kind == "f":
         arr[rng.random(arr.shape) < 0.2] = np.nan
         arr[0, 0], arr[0, 1] = np.inf, -np.inf
-    for bg in (None, 3, 2**64 - 1):
+    else:  # the type's own ends, which a marker may name
+        info = np.iinfo(dtype)
+        arr[0, 0], arr[0, 1] = info.min, info.max
+    ends = () if np.dtype(dtype).kind == "f" else (float(np.iinfo(dtype).min), float(np.iinfo(dtype).max))
+    # markers no value of the type equals (3.5, -1 for unsigned, beyond the type) match nothing
+    for bg in (None, 3, 2**64 - 1, 3.5, -1, 0.0, -0.0, 1e300, *ends):
         depth = np.full(arr.shape, -1.0)
         valid = np.zeros(arr.shape, bool)
         _core.mask_image(arr, bg is not None, 0.0 if bg is None else float(bg), depth, valid)

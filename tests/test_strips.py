@@ -310,3 +310,37 @@ def test_the_seams_flips_lower_the_error(monkeypatch):
     assert np.array_equal(with_seam.pixels, without.pixels)
     e_with = rangemesh.evaluate(with_seam, seen).relative_error
     assert e_with < rangemesh.evaluate(without, seen).relative_error
+
+
+@pytest.mark.parametrize("name, background", [("nyu", 2047), ("cones", 0)])
+def test_flips_on_strips_are_counted(name, background):
+    """Each flip makes one edge the insertion did not have: at least that many are counted.
+
+    The insertion's own mesh (``diagonals='delaunay'``) has the same vertices;
+    every edge of the flipped mesh missing from it was made by a flip.
+    """
+    def edges(tv):
+        t = tv.reshape(-1, 3)
+        e = np.concatenate([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]])
+        return {tuple(sorted(x)) for x in e.tolist()}
+
+    info = {}
+    flipped, _ = _insert(CROPS[name], background, 1500, diagonals="error", info=info)
+    plain_info = {}
+    plain, _ = _insert(CROPS[name], background, 1500, info=plain_info)
+    assert np.array_equal(flipped[0], plain[0]) and np.array_equal(flipped[1], plain[1])
+    made = len(edges(flipped[2]) - edges(plain[2]))
+    assert made > 0 and info["flips"] >= made
+    assert plain_info["flips"] == 0
+
+
+def test_a_strip_mesh_reports_its_flips(monkeypatch):
+    """`Stats.flipped_edges` is a count on two strips too (it was None), and 0 without flips."""
+    for key, value in (("STRIP_MIN_VERTICES", 0), ("STRIP_MIN_COLUMNS", 8), ("STRIP_MIN_PIXELS", 0)):
+        monkeypatch.setattr(strips, key, value)
+    image = CROPS["nyu"]
+    mesh = triangulate(image, background=2047, vertices=1500)
+    assert mesh.stats.strips == 2 and isinstance(mesh.stats.flipped_edges, int)
+    assert mesh.stats.flipped_edges > 0
+    plain = triangulate(image, background=2047, vertices=1500, diagonals="delaunay")
+    assert plain.stats.strips == 2 and plain.stats.flipped_edges == 0

@@ -48,6 +48,7 @@ _LAZY = {
     "render_depth": "render",
     "mesh_many": "batch",
     "mesh_stream": "batch",
+    "mesh_bag": "recordings",
     "calibrate_delta": "calibrate",
     "triangle_disparities": "calibrate",
 }
@@ -71,6 +72,7 @@ __all__ = [
     "evaluate",
     "fill_gaps",
     "flip_edges",
+    "mesh_bag",
     "mesh_many",
     "mesh_stream",
     "read_range_image",

@@ -14,6 +14,7 @@ EXTRAS = {
     "dask": "dask",
     "distributed": "dask",
     "open3d": "open3d",
+    "rosbags": "ros",
 }
 
 

@@ -121,7 +121,7 @@ class BatchResult:
     error: str = ""
     vertices: int = 0
     triangles: int = 0
-    flipped_edges: int | None = 0  # None: refine on two strips (not counted)
+    flipped_edges: int = 0
     seconds: float = 0.0
     relative_error: float = float("nan")
 
@@ -339,6 +339,47 @@ def _script_not_rerun():
             main.__dict__.update(saved)
 
 
+def progress_bar(total: int):
+    """The batch's progress bar on stderr: inputs done, per second, failures."""
+    from tqdm import tqdm
+
+    return tqdm(total=total, unit="image", desc="meshing", dynamic_ncols=True)
+
+
+@contextlib.contextmanager
+def dask_client(scheduler: str | None, workers: int | None, connect_timeout: float = 10.0):
+    """A Dask client and its ``as_completed``: of a local cluster started here, or of `scheduler`.
+
+    The local cluster has `workers` single-threaded processes (checked by
+    `_workers`); client and cluster are closed when the block ends.
+
+    Yields
+    ------
+    (distributed.Client, distributed.as_completed)
+    """
+    from ._optional import require
+
+    dd = require("dask.distributed", "rangemesh batch / mesh_many")
+    n_workers = _workers(workers) if scheduler is None else None
+    cluster = None
+    if scheduler is None:
+        # One single-threaded process per core: method="refine"'s second thread
+        # (`rangemesh.refine.threads`) would only oversubscribe the cores.
+        with _script_not_rerun():
+            cluster = dd.LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True,
+                                      dashboard_address=":0", silence_logs=40,  # any free port
+                                      env={"RANGEMESH_THREADS": "1"})
+        client = dd.Client(cluster)
+    else:
+        client = _connect(dd.Client, scheduler, timeout=connect_timeout)
+    try:
+        yield client, dd.as_completed
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
+
+
 def mesh_many(paths, out_dir, params: MeshParams | None = None, *,
               method: str = "refine", vertices: int | None = None,
               max_error: float | None = None, background="auto", camera=None,
@@ -410,11 +451,6 @@ def mesh_many(paths, out_dir, params: MeshParams | None = None, *,
     run the calling script again (no ``if __name__ == "__main__":`` guard
     is needed), see `_script_not_rerun`.
     """
-    from ._optional import require
-
-    dd = require("dask.distributed", "rangemesh batch / mesh_many")
-    Client, LocalCluster, as_completed = dd.Client, dd.LocalCluster, dd.as_completed  # noqa: N806
-
     if fmt not in MESH_SUFFIXES:
         raise ValueError(f"fmt must be one of {MESH_SUFFIXES}, got {fmt!r}")
     if isinstance(background, str) and background != "auto":
@@ -440,48 +476,32 @@ def mesh_many(paths, out_dir, params: MeshParams | None = None, *,
     out_dir.mkdir(parents=True, exist_ok=True)
     _clean_stale_parts(out_dir)
     outs = output_paths(files, out_dir, fmt)
-    n_workers = _workers(workers) if scheduler is None else None
     t0 = time.perf_counter()
     results: dict[int, BatchResult] = {
         i: BatchResult(str(f), str(output_path(f, out_dir, fmt)), "failed",
                        error="another input has the same file name: no unique output name")
         for i, (f, o) in enumerate(zip(files, outs, strict=True)) if o is None}
     todo = [i for i, o in enumerate(outs) if o is not None]
-    cluster = None
-    if scheduler is None:
-        # One single-threaded process per core: method="refine"'s second thread
-        # (`rangemesh.refine.threads`) would only oversubscribe the cores.
-        with _script_not_rerun():
-            cluster = LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True,
-                                   dashboard_address=":0", silence_logs=40,  # any free port
-                                   env={"RANGEMESH_THREADS": "1"})
-        client = Client(cluster)
-    else:
-        client = _connect(Client, scheduler, timeout=connect_timeout)
     bar = None
-    try:
-        futures = client.map(_one, [str(files[i]) for i in todo], [str(outs[i]) for i in todo],
-                             call=call, background=background, camera=camera,
-                             overwrite=overwrite, layout=layout, pure=False)
-        index = {f.key: i for i, f in zip(todo, futures, strict=True)}
-        if progress:
-            from tqdm import tqdm
-
-            bar = tqdm(total=len(futures), unit="image", desc="meshing", dynamic_ncols=True)
-        failed = 0
-        for fut in as_completed(futures):
-            res = fut.result()
-            results[index[fut.key]] = res
-            failed += res.status == "failed"
+    with dask_client(scheduler, workers, connect_timeout) as (client, as_completed):
+        try:
+            futures = client.map(_one, [str(files[i]) for i in todo], [str(outs[i]) for i in todo],
+                                 call=call, background=background, camera=camera,
+                                 overwrite=overwrite, layout=layout, pure=False)
+            index = {f.key: i for i, f in zip(todo, futures, strict=True)}
+            if progress:
+                bar = progress_bar(len(futures))
+            failed = 0
+            for fut in as_completed(futures):
+                res = fut.result()
+                results[index[fut.key]] = res
+                failed += res.status == "failed"
+                if bar is not None:
+                    bar.update(1)
+                    bar.set_postfix(failed=failed)
+        finally:
             if bar is not None:
-                bar.update(1)
-                bar.set_postfix(failed=failed)
-    finally:
-        if bar is not None:
-            bar.close()
-        client.close()
-        if cluster is not None:
-            cluster.close()
+                bar.close()
     ordered = [results[i] for i in range(len(files))]
     write_report(ordered, out_dir, time.perf_counter() - t0)
     return ordered
@@ -502,16 +522,20 @@ def summarize(results: list[BatchResult], wall: float) -> dict:
     }
 
 
-def write_report(results: list[BatchResult], out_dir: Path, wall: float):
-    """``rangemesh-batch.csv`` (one row per input) and ``rangemesh-batch.json`` (with the summary)."""
+def write_report(results: list[BatchResult], out_dir: Path, wall: float,
+                 names: tuple[str, str] = REPORT_NAMES):
+    """``rangemesh-batch.csv`` (one row per input) and ``rangemesh-batch.json`` (with the summary).
+
+    `names` gives other names to the two files (a recording's batch names them after its output).
+    """
     rows = [asdict(r) for r in results]
     fields = list(BatchResult.__dataclass_fields__)
-    with atomic_path(out_dir / "rangemesh-batch.csv") as tmp, open(tmp, "w", newline="") as fh:
+    with atomic_path(out_dir / names[0]) as tmp, open(tmp, "w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=fields)
         w.writeheader()
         w.writerows(rows)
     clean = [{k: (None if isinstance(v, float) and v != v else v) for k, v in r.items()}
              for r in rows]  # JSON has no NaN
     doc = {"summary": summarize(results, wall), "results": clean}
-    with atomic_path(out_dir / "rangemesh-batch.json") as tmp:
+    with atomic_path(out_dir / names[1]) as tmp:
         tmp.write_text(json.dumps(doc, indent=1))

@@ -394,6 +394,7 @@ def read_beams(path) -> dict:
 
 Camera = Orthographic | Pinhole | Spherical | Rays
 CAMERAS = (Orthographic, Pinhole, Spherical, Rays)
+_UNIT = Orthographic()  # the default camera; frozen, so one instance serves every call
 
 
 def pixel_aspect(camera) -> float:
@@ -453,7 +454,7 @@ def as_camera(camera) -> Camera:
         For anything else.
     """
     if camera is None:
-        return Orthographic()
+        return _UNIT
     if isinstance(camera, CAMERAS):
         return camera
     if isinstance(camera, (tuple, list)) and len(camera) == 3:
@@ -506,12 +507,17 @@ def backproject(r, c, z, camera=None) -> np.ndarray:
     r = np.asarray(r, dtype=np.float64)
     c = np.asarray(c, dtype=np.float64)
     z = np.asarray(z, dtype=np.float64)
+    shape = z.shape if r.shape == c.shape == z.shape else np.broadcast_shapes(r.shape, c.shape, z.shape)
+    out = np.empty(shape + (3,))
     if isinstance(camera, Orthographic):
-        return np.stack([camera.kx * r, camera.ky * c, camera.kz * z], axis=-1)
-    zz = z * camera.depth_scale
-    x = (c - camera.cx) * zz / camera.fx
-    y = (r - camera.cy) * zz / camera.fy
-    return np.stack([x, y, zz], axis=-1)
+        np.multiply(camera.kx, r, out=out[..., 0])
+        np.multiply(camera.ky, c, out=out[..., 1])
+        np.multiply(camera.kz, z, out=out[..., 2])
+        return out
+    zz = np.multiply(z, camera.depth_scale, out=out[..., 2])
+    out[..., 0] = (c - camera.cx) * zz / camera.fx
+    out[..., 1] = (r - camera.cy) * zz / camera.fy
+    return out
 
 
 def check_reach(camera, image_shape, depth_lo: float, depth_hi: float) -> None:

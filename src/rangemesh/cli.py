@@ -343,9 +343,8 @@ def _did(s) -> str:
     """What the method did, in a few words (the summary line and the preview)."""
     if s.method == "refine":
         strips = " on 2 strips" if s.strips == 2 else ""
-        flips = "flips by the error not counted" if s.flipped_edges is None else \
-            f"{s.flipped_edges} flips by the error"
-        return f"refine: {s.insertions} insertions{strips}, {flips}, heights {s.heights}"
+        return (f"refine: {s.insertions} insertions{strips}, {s.flipped_edges} flips by the error, "
+                f"heights {s.heights}")
     if s.grid_shape is None or 0 in s.grid_shape:
         return f"paper: {s.flipped_edges} flips"
     gr, gc = s.grid_shape
@@ -524,6 +523,10 @@ def _cmd_demo(args):
 
 
 def _cmd_info(args):
+    from .recordings import is_recording
+
+    if is_recording(args.image):
+        return _info_recording(args)
     image = _read_image(args.image)
     bg = _resolve_background(args.background, image)
     depth, valid = to_depth_and_mask(image, bg)
@@ -587,13 +590,18 @@ def _cmd_batch(args):
     if bg == "auto" and args.beams:  # a LiDAR marks no return with range 0, in float images too
         bg = 0.0
     t0 = time.perf_counter()
+    report = Path(args.output_dir) / "rangemesh-batch.csv"
+    recording = _recording_input(args)
     try:
-        results = mesh_many(args.inputs, args.output_dir, background=bg, camera=camera,
-                            scheduler=args.scheduler, workers=args.workers,
-                            overwrite=args.overwrite, fmt="." + args.format,
-                            progress=not (args.quiet or args.json) and sys.stderr.isatty(),
-                            method=method, vertices=args.vertices, max_error=args.max_error,
-                            beams=args.beams, **call_options(params, method))
+        if recording is not None:
+            results, report = _mesh_recording(args, recording, params, method)
+        else:
+            results = mesh_many(args.inputs, args.output_dir, background=bg, camera=camera,
+                                scheduler=args.scheduler, workers=args.workers,
+                                overwrite=args.overwrite, fmt="." + args.format,
+                                progress=not (args.quiet or args.json) and sys.stderr.isatty(),
+                                method=method, vertices=args.vertices, max_error=args.max_error,
+                                beams=args.beams, **call_options(params, method))
     except (ValueError, TypeError) as exc:
         raise UserError(_one_line(exc)) from None
     summary = summarize(results, time.perf_counter() - t0)
@@ -610,8 +618,99 @@ def _cmd_batch(args):
               f"{summary['failed']} of {summary['inputs']} in {summary['wall_seconds']:.1f} s "
               f"({summary['images_per_second']:.2f} images/s"
               + (f", median {med:.3f} s per image" if med is not None else "") + ")", file=sys.stderr)
-        print(f"per-image figures: {Path(args.output_dir) / 'rangemesh-batch.csv'}", file=sys.stderr)
+        print(f"per-image figures: {report}", file=sys.stderr)
     return 1 if failed else 0
+
+
+def _recording_input(args):
+    """The recording a batch meshes (a .bag, .db3, .mcap or ROS 2 bag folder), or None for files."""
+    from .recordings import is_recording
+
+    hits = [i for i in args.inputs if is_recording(i)]
+    if not hits:
+        for opt in ("topic", "color_topic", "camera_info_topic"):
+            if getattr(args, opt) is not None:
+                raise UserError(f"--{opt.replace('_', '-')} goes with a recording (.bag, .db3, "
+                                f".mcap or a ROS 2 bag folder)")
+        return None
+    if len(args.inputs) > 1:
+        raise UserError(f"{hits[0]}: a recording is meshed alone, not with other inputs")
+    if args.background != "auto":
+        raise UserError("--background does not apply to a recording: 0 (and NaN in 32FC1 "
+                        "images) is missing depth there")
+    return hits[0]
+
+
+def _mesh_recording(args, path, params, method):
+    """`rangemesh batch recording -o out.mcap|folder`: the results and where the figures are."""
+    import warnings
+
+    from .recordings import Recording, mesh_recording
+
+    camera = None
+    if args.intrinsics is not None and args.depth_scale is None:
+        with Recording(path) as rec:  # metres per value from the encoding, as with a CameraInfo
+            scale = rec.depth_topic(args.topic).depth_scale
+        camera = Pinhole(*args.intrinsics, depth_scale=scale)
+    elif any(x is not None for x in (args.intrinsics, args.scale, args.beams, args.depth_scale)):
+        camera = _camera(args)
+    out = Path(args.output_dir)
+    with warnings.catch_warnings(record=True) as said:
+        warnings.simplefilter("always", UserWarning)
+        results = mesh_recording(
+            path, out, args.topic, color_topic=args.color_topic, camera=camera,
+            camera_info_topic=args.camera_info_topic, scheduler=args.scheduler,
+            workers=args.workers, overwrite=args.overwrite, fmt="." + args.format,
+            progress=not (args.quiet or args.json) and sys.stderr.isatty(),
+            method=method, vertices=args.vertices, max_error=args.max_error,
+            **call_options(params, method))
+    if not args.quiet:
+        for w in said:
+            print(f"rangemesh: warning: {_one_line(w.message)}", file=sys.stderr)
+    report = out.with_name(out.stem + ".rangemesh-batch.csv") if out.suffix.lower() == ".mcap" \
+        else out / "rangemesh-batch.csv"
+    return results, report
+
+
+def _info_recording(args):
+    """`rangemesh info recording`: its depth topics (size, encoding, count) and their cameras."""
+    from .recordings import Recording
+
+    if args.background != "auto":
+        raise UserError("--background does not apply to a recording")
+    with Recording(args.image) as rec:
+        topics = rec.image_topics()
+        cams = {}
+        for t in topics:
+            if t.depth:
+                try:
+                    cams[t.topic] = rec.camera_info(t.topic, "", 0, (t.height, t.width))
+                except ValueError as exc:
+                    cams[t.topic] = _one_line(exc)
+    depth = [t for t in topics if t.depth]
+    other = [t for t in topics if not t.depth]
+
+    def camera(t):
+        c = cams.get(t.topic)
+        if c is None or isinstance(c, str):
+            return {"camera_info": None, "note": c or "no CameraInfo: give --intrinsics"}
+        return {"camera_info": c.topic, "fx": c.k[0], "fy": c.k[4], "cx": c.k[2], "cy": c.k[5],
+                "distortion_model": c.distortion_model, "distorted": any(v != 0 for v in c.d)}
+
+    if args.json:
+        print(json.dumps(_clean({"file": args.image,
+                                 "depth_topics": [{**t.to_dict(), **camera(t)} for t in depth],
+                                 "other_image_topics": [t.to_dict() for t in other]})))
+        return 0
+    print(f"{args.image}: {len(depth)} depth topic(s)")
+    for t in depth:
+        c = camera(t)
+        cam = (f"camera {c['camera_info']} (fx {c['fx']:g}, fy {c['fy']:g}, cx {c['cx']:g}, "
+               f"cy {c['cy']:g})" if c["camera_info"] else c["note"])
+        print(f"  {t.topic}: {t.width}x{t.height} {t.encoding}, {t.count} messages; {cam}")
+    for t in other:
+        print(f"  (not depth) {t.topic}: {t.width}x{t.height} {t.encoding}, {t.count} messages")
+    return 0
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -662,8 +761,11 @@ def build_parser() -> argparse.ArgumentParser:
                                    "(--scheduler). Bad files are reported and the rest go on; "
                                    "outputs already there are skipped unless --overwrite.")
     b.add_argument("inputs", nargs="+", help="image files, folders or quoted glob patterns "
-                                             "(LiDAR .bin scans with --beams)")
-    b.add_argument("-o", "--output-dir", required=True, help="folder for the meshes and the report")
+                                             "(LiDAR .bin scans with --beams); or one ROS "
+                                             "recording (.bag, .db3, .mcap, ROS 2 bag folder)")
+    b.add_argument("-o", "--output-dir", required=True,
+                   help="folder for the meshes and the report; for a recording also NAME.mcap: "
+                        "one mesh marker per frame, in step with the recording")
     b.add_argument("--format", default="ply", choices=[s[1:] for s in MESH_SUFFIXES],
                    help="mesh format (default ply)")
     b.add_argument("--workers", type=int, default=None,
@@ -671,13 +773,23 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--scheduler", default=None,
                    help="address of a running Dask scheduler, e.g. tcp://head:8786")
     b.add_argument("--overwrite", action="store_true", help="mesh again images already meshed")
+    ros = b.add_argument_group("ROS recordings (pip install \"rangemesh[ros]\")")
+    ros.add_argument("--topic", default=None,
+                     help="depth topic (16UC1/mono16 mm, 32FC1 m, compressedDepth); default: "
+                          "the recording's only one (rangemesh info lists them)")
+    ros.add_argument("--color-topic", default=None,
+                     help="colour topic registered with the depth (same size): vertex colours")
+    ros.add_argument("--camera-info-topic", default=None,
+                     help="CameraInfo topic (default: the one beside the depth topic, same "
+                          "frame id, nearest stamp)")
     _add_image_options(b)
     _add_mesh_options(b)
     _add_output_options(b)
 
-    i = sub.add_parser("info", help="describe a range image",
+    i = sub.add_parser("info", help="describe a range image or a recording's depth topics",
                        description="Size, dtype, valid share, depth range and what marks "
-                                   "missing depth.")
+                                   "missing depth; for a ROS recording its depth topics with "
+                                   "size, encoding, count and camera.")
     i.add_argument("image")
     _add_image_options(i)
     i.add_argument("--json", action="store_true", help="print as JSON on stdout")

@@ -148,11 +148,9 @@ class Stats:
         Counts of the final mesh (edges are undirected and counted once).
     method : {'refine', 'paper'}
         The method that made the mesh.
-    flipped_edges : int or None
+    flipped_edges : int
         Edge flips taken: by the paper's disparity tests (``flips=``) or, for
-        ``method='refine'``, by the error (``diagonals='error'``); None when
-        refine meshed two strips, whose own flips the compiled core does not
-        report.
+        ``method='refine'``, by the error (``diagonals='error'``).
     grid_shape : (int, int) or None
         The paper's sample grid, ``((Rs-1)V+1, (Z-1)H+1)``; None for
         ``method='refine'``, which has no grid.
@@ -186,7 +184,7 @@ class Stats:
     vertices: int = 0
     edges: int = 0
     triangles: int = 0
-    flipped_edges: int | None = 0
+    flipped_edges: int = 0
     grid_shape: tuple[int, int] | None = (0, 0)
     sampled_points: int = 0
     flip_tests: dict = field(default_factory=dict)

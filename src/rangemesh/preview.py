@@ -105,8 +105,6 @@ def save_preview(mesh: Mesh, depth: np.ndarray, valid: np.ndarray, path: str | o
     s = mesh.stats
     did = (f"{s.flipped_edges} flips by the error" if s.method == "refine"
            else f"{s.flipped_edges} flips")  # refine's flips follow the error, not disparity
-    if s.flipped_edges is None:  # refine on two strips: the core does not count them
-        did = "flips by the error"
     figs = [f"{s.vertices} vertices", f"{s.triangles} triangles", s.method, did]
     if s.seconds.get("total"):
         figs.append(f"{1000 * s.seconds['total']:.1f} ms")

@@ -125,12 +125,14 @@ def sampling_weights(depth: np.ndarray, valid: np.ndarray, params: MeshParams, *
     -------
     f : (H, W) ndarray of float64, strictly positive
     """
-    if out is None:
+    fresh = out is None
+    if fresh:  # zeros from calloc: its pages are first touched by the kernel, which polls Ctrl-C
         out = np.zeros(depth.shape)
     if params.sampling == "uniform":
         out[:] = 1.0
         return out
-    out[:] = 0.0
+    if not fresh:
+        out[:] = 0.0
     v = np.ascontiguousarray(valid, dtype=np.bool_)
     d = np.ascontiguousarray(depth, dtype=np.float64)
     span = valid_span(d, v)

@@ -147,7 +147,8 @@ def fit_heights(pixels: np.ndarray, faces: np.ndarray, depth: np.ndarray, valid:
         np.ascontiguousarray(image, dtype=np.float64), np.ascontiguousarray(valid, dtype=bool),
         row_stride=rows, face_stride=every, capacity=int(n_valid), outlier_mads=OUTLIER_MADS,
         outlier_floor=OUTLIER_FLOOR, ridge=RIDGE, rtol=CG_RTOL, max_iter=10 * n,
-        threads=_default_threads() if threads is None else threads)
+        threads=threads if threads is not None else
+        1 if len(f) < _core.FIT_SPLIT_MIN_FACES else _default_threads())
     if fitted is None:
         # No valid pixel, or most pixels fit the copied depths exactly and only pixels within
         # rounding of them would be kept: the copied depths are the least-squares solution
@@ -155,8 +156,8 @@ def fit_heights(pixels: np.ndarray, faces: np.ndarray, depth: np.ndarray, valid:
         return depth[pr, pc].astype(np.float64)
     if outcome == "not converged":  # ill-conditioned: a direct sparse solve of the same system
         fitted = _direct_solve(*system, h0)
-    if not np.isfinite(fitted).all():
-        raise RuntimeError("fit_heights: the least-squares solve failed")
+        if not np.isfinite(fitted).all():
+            raise RuntimeError("fit_heights: the least-squares solve failed")
     # A vertex that few pixels pin down can be thrown far off (a negative range was seen on a
     # LiDAR scan at 500 vertices): no fitted value leaves the range of the valid pixels' values.
     # (The inverse of the largest depth is the smallest inverse exactly: rounding is monotone.)
@@ -167,5 +168,5 @@ def fit_heights(pixels: np.ndarray, faces: np.ndarray, depth: np.ndarray, valid:
         else:  # depths <= 0 before a pinhole: the inverses' own range
             vals = image[valid]
             lo, hi = vals.min(), vals.max()
-    fitted = np.clip(fitted, lo, hi)
-    return fitted if ortho else 1.0 / fitted
+    np.minimum(np.maximum(fitted, lo, out=fitted), hi, out=fitted)  # np.clip, without its wrapper
+    return fitted if ortho else np.divide(1.0, fitted, out=fitted)

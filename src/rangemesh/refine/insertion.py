@@ -183,16 +183,15 @@ def _refine(depth, valid, start, strips, asked, max_sum, span, scales, n_grid, d
 
     With ``diagonals='error'`` each quad then takes the diagonal that fits
     its pixels better (`rangemesh.refine.diagonals`; on strips, each strip
-    on its thread, then the seam); `info` receives ``flips`` (None on strips:
-    the core does not report the strips' own flips) and ``total``, the
-    insertion's summed error of the valid pixels where it stopped.
+    on its thread, then the seam); `info` receives ``flips`` and ``total``,
+    the insertion's summed error of the valid pixels where it stopped.
     """
     info = {} if info is None else info
     info["flips"] = 0
     if strips:  # two strips on two threads (`rangemesh.refine.strips`)
-        info["flips"] = None
         vr, vc, tv, _, info["total"] = strip_insert(depth, valid, asked, span, scales, n_grid,
-                                                    max_sum=max_sum, diagonals=diagonals)
+                                                    max_sum=max_sum, diagonals=diagonals,
+                                                    info=info)
         return vr, vc, tv
     if diagonals != "error":
         vr, vc, tv, _, info["total"] = greedy_insert(depth, valid, *start, asked, max_sum, span,

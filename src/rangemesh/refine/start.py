@@ -19,8 +19,11 @@ def corner_depths(depth: np.ndarray, valid: np.ndarray) -> np.ndarray:
     insertion).
     """
     h, w = depth.shape
+    rows, cols = (0, h - 1, h - 1, 0), (0, 0, w - 1, w - 1)
+    if valid[rows, cols].all():  # the usual case, without a loop
+        return depth[rows, cols].astype(np.float64)
     out = np.zeros(4)
-    for i, (r, c) in enumerate(((0, 0), (h - 1, 0), (h - 1, w - 1), (0, w - 1))):
+    for i, (r, c) in enumerate(zip(rows, cols, strict=True)):
         rr, cc = (r, c) if valid[r, c] else nearest_valid(valid, r, c)
         if rr < 0:
             raise ValueError("corner_depths: the image has no valid pixel")

@@ -141,8 +141,9 @@ def strip_insert(depth, valid, vertices, span, scales, n_grid, *, max_sum=-1.0, 
         same mesh, on one thread, unless the last round stopped a strip by
         count (``info['capped']``); for tests.
     info : dict, optional
-        Receives ``rounds`` (how many ran) and ``capped`` (whether the last
-        one stopped a strip by count).
+        Receives ``rounds`` (how many ran), ``capped`` (whether the last
+        one stopped a strip by count) and ``flips`` (edges flipped by the
+        error, both strips and the seam).
     diagonals : {'delaunay', 'error'}, default 'delaunay'
         ``'error'``: each strip's edges are then flipped by the error
         (`rangemesh.refine.diagonals`), on both threads, and after
@@ -183,13 +184,17 @@ def strip_insert(depth, valid, vertices, span, scales, n_grid, *, max_sum=-1.0, 
     a, b, n_rounds, capped = _core.strip_insert(depth, valid, left, right, vertices, target, size,
                                                 budget, span, sr, sc, n_threads, rounds,
                                                 diagonals == "error")
-    if rounds and info is not None:
-        info.update(rounds=n_rounds, capped=capped)
+    if info is not None:
+        if rounds:
+            info.update(rounds=n_rounds, capped=capped)
+        info["flips"] = a[7] + b[7]
     vr, vc, tv, n, total = _join(a, b, m, shared)
     if diagonals == "error":
         he, seam = _joined_halfedges(a[3], b[3], tv, vc, m)
         tsum = np.concatenate([a[4], b[4]])
-        flip_from_edges(vr, vc, tv, he, tsum, depth, valid, span, seam)
+        seam_flips = flip_from_edges(vr, vc, tv, he, tsum, depth, valid, span, seam)[0]
+        if info is not None:
+            info["flips"] += seam_flips
     return vr, vc, tv, n, total + seam_error
 
 
@@ -232,11 +237,11 @@ def _joined_halfedges(he_a, he_b, tv, vc, m):
 def _join(ra, rb, m, shared):
     """One mesh from the two strips' results: B's seam vertices become A's.
 
-    `ra`, `rb`: ``vr, vc, tv, he, tsum, n_valid_vertices, total`` of each strip
+    `ra`, `rb`: ``vr, vc, tv, he, tsum, n_valid_vertices, total, flips`` of each strip
     (`rangemesh._core.strip_insert`).
     """
-    vra, vca, tva, _, _, na, ta = ra
-    vrb, vcb, tvb, _, _, nb, tb = rb
+    vra, vca, tva, _, _, na, ta, _ = ra
+    vrb, vcb, tvb, _, _, nb, tb, _ = rb
     seam_a = np.nonzero(vca == m)[0]
     order = np.argsort(vra[seam_a])
     seam_a = seam_a[order]

@@ -24,7 +24,8 @@ void bind_mask_image(nb::module_& m) {
     m.def(
         "mask_image",
         [](In2<T> image, bool has_background, double background, Out2<double> depth, Out2<bool> valid) {
-            run_released([&] { mask_image(grid(image), has_background, background, grid(depth), grid(valid)); });
+            run_released([&] { mask_image(grid(image), has_background, background, grid(depth), grid(valid)); },
+                         work(image));
         },
         nb::arg("image").noconvert(), nb::arg("has_background"), nb::arg("background"), nb::arg("depth"),
         nb::arg("valid"),
@@ -36,7 +37,7 @@ void bind_delaunay(nb::module_& m) {
     m.def(
         "delaunay_sweep",
         [](In1<index_t> r, In1<index_t> c) {
-            Triangulation t = run_released([&] { return delaunay_sweep(points(r, c)); });
+            Triangulation t = run_released([&] { return delaunay_sweep(points(r, c)); }, work(r));
             return nb::make_tuple(to_numpy(std::move(t.triangles)), to_numpy(std::move(t.halfedges)));
         },
         nb::arg("r"), nb::arg("c"),
@@ -80,7 +81,7 @@ void bind_pixels(nb::module_& m) {
     m.def(
         "valid_range",
         [](In2<double> depth, In2<bool> valid) {
-            const DepthRange d = run_released([&] { return valid_range(grid(depth), grid(valid)); });
+            const DepthRange d = run_released([&] { return valid_range(grid(depth), grid(valid)); }, work(depth));
             return nb::make_tuple(d.lo, d.hi, d.count);
         },
         nb::arg("depth"), nb::arg("valid"),
@@ -96,7 +97,8 @@ void bind_pixels(nb::module_& m) {
     m.def(
         "valid_faces",
         [](In1<index_t> vr, In1<index_t> vc, In1<index_t> tv, In2<bool> valid) {
-            ValidFaces f = run_released([&] { return valid_faces(span(vr), span(vc), span(tv), grid(valid)); });
+            ValidFaces f =
+                run_released([&] { return valid_faces(span(vr), span(vc), span(tv), grid(valid)); }, work(tv));
             const std::size_t n_faces = f.faces.size() / 3, n_pixels = f.pixels.size() / 2;
             return nb::make_tuple(to_numpy(std::move(f.faces), n_faces, 3), to_numpy(std::move(f.pixels), n_pixels, 2));
         },
@@ -106,7 +108,7 @@ void bind_pixels(nb::module_& m) {
     m.def(
         "nearest_valid",
         [](In2<bool> valid, index_t r, index_t c) {
-            const Pixel p = run_released([&] { return nearest_valid(grid(valid), r, c); });
+            const Pixel p = run_released([&] { return nearest_valid(grid(valid), r, c); }, work(valid));
             return nb::make_tuple(p.r, p.c);
         },
         nb::arg("valid"), nb::arg("r"), nb::arg("c"),
@@ -114,7 +116,8 @@ void bind_pixels(nb::module_& m) {
     m.def(
         "grid_pixels",
         [](In2<bool> valid, index_t n_rows, index_t n_cols, index_t c_lo, index_t c_hi, bool inner) {
-            PixelList p = run_released([&] { return grid_pixels(grid(valid), n_rows, n_cols, c_lo, c_hi, inner); });
+            PixelList p = run_released([&] { return grid_pixels(grid(valid), n_rows, n_cols, c_lo, c_hi, inner); },
+                                       work(valid));
             return nb::make_tuple(to_numpy(std::move(p.rows)), to_numpy(std::move(p.cols)));
         },
         nb::arg("valid"), nb::arg("n_rows"), nb::arg("n_cols"), nb::arg("c_lo"), nb::arg("c_hi"), nb::arg("inner"),
@@ -143,7 +146,7 @@ void bind_geometry(nb::module_& m) {
         "build_halfedges",
         [](In2<index_t> faces, index_t n_vertices) {
             std::vector<index_t> triangles, halfedges;
-            run_released([&] { build_halfedges(grid(faces), n_vertices, triangles, halfedges); });
+            run_released([&] { build_halfedges(grid(faces), n_vertices, triangles, halfedges); }, work(faces));
             return nb::make_tuple(to_numpy(std::move(triangles)), to_numpy(std::move(halfedges)));
         },
         nb::arg("faces"), nb::arg("n_vertices"),
@@ -152,7 +155,7 @@ void bind_geometry(nb::module_& m) {
     m.def(
         "count_edges",
         [](In2<index_t> faces, index_t n_vertices) {
-            return run_released([&] { return count_edges(grid(faces), n_vertices); });
+            return run_released([&] { return count_edges(grid(faces), n_vertices); }, work(faces));
         },
         nb::arg("faces"), nb::arg("n_vertices"),
         "Distinct undirected edges of an (F, 3) int64 face list, any orientation, manifold or not.");

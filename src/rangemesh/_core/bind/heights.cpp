@@ -75,6 +75,8 @@ const char* outcome_name(heights::FitOutcome outcome) {
 }  // namespace
 
 void bind_heights(nb::module_& m) {
+    // below this many faces the fit's pass runs on the calling thread whatever `threads` says
+    m.attr("FIT_SPLIT_MIN_FACES") = heights::SPLIT_MIN_FACES;
     m.def(
         "face_order",
         [](In2<index_t> faces, In1<index_t> rows, In1<index_t> cols, index_t h, index_t w, index_t tile) {
@@ -176,7 +178,7 @@ void bind_heights(nb::module_& m) {
             heights::FitResult fit = run_released([&] {
                 return heights::fit_heights(fit_mesh(faces, rows, cols, values), fit_image(image, valid),
                                             span(order), settings);
-            });
+            }, work(image));
             nb::object fitted = nb::none(), system = nb::none();
             if (fit.outcome == heights::FitOutcome::fitted || fit.outcome == heights::FitOutcome::not_converged)
                 fitted = nb::cast(to_numpy(std::move(fit.values)));

@@ -36,6 +36,12 @@ auto grid(const A& a) {
     return Grid<T>{a.data(), static_cast<index_t>(a.shape(0)), static_cast<index_t>(a.shape(1))};
 }
 
+// An array's element count: the work `run_released` weighs.
+template <class A>
+index_t work(const A& a) {
+    return static_cast<index_t>(a.size());
+}
+
 // A NumPy array that takes over `values` (no copy), shaped (n) or (rows, cols).
 template <class T>
 nb::ndarray<nb::numpy, T> to_numpy(std::vector<T>&& values, std::size_t rows, std::size_t cols = 0) {

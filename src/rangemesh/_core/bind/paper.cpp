@@ -82,7 +82,7 @@ void bind_paper(nb::module_& m) {
     m.def(
         "fill_gaps_inplace",
         [](Out2<double> depth, Out2<bool> valid) {
-            return run_released([&] { return fill_gaps_inplace(grid(depth), grid(valid)); });
+            return run_released([&] { return fill_gaps_inplace(grid(depth), grid(valid)); }, work(depth));
         },
         nb::arg("depth"), nb::arg("valid"),
         "SPEC 1.1 in place on C-contiguous float64 depth and bool valid; returns the pixels filled.");

@@ -64,7 +64,7 @@ FirstMesh first_of(const FirstArrays& a) {
 
 nb::tuple strip_arrays(refine::StripMesh&& s) {
     return nb::make_tuple(to_numpy(std::move(s.vr)), to_numpy(std::move(s.vc)), to_numpy(std::move(s.triangles)),
-                          to_numpy(std::move(s.halfedges)), to_numpy(std::move(s.sums)), s.valid_vertices, s.total);
+                          to_numpy(std::move(s.halfedges)), to_numpy(std::move(s.sums)), s.valid_vertices, s.total, s.flips);
 }
 
 }  // namespace
@@ -96,7 +96,7 @@ void bind_refine(nb::module_& m) {
            In2<double> depth, In2<bool> valid, double unit) {
             const Image image = image_of(depth, valid, unit);
             const FlipMesh mesh = flip_mesh(vr, vc, tri, he, tsum);
-            return counts(run_released([&] { return refine::flip_by_error(image, mesh); }));
+            return counts(run_released([&] { return refine::flip_by_error(image, mesh); }, work(depth)));
         },
         nb::arg("vr"), nb::arg("vc"), nb::arg("tri"), nb::arg("he"), nb::arg("tsum"), nb::arg("depth"),
         nb::arg("valid"), nb::arg("span"),
@@ -148,7 +148,7 @@ void bind_refine(nb::module_& m) {
         "strips hold ``target`` valid vertices (the seam's twice) or their summed error is at most "
         "``budget`` (when not negative); with ``flip`` each strip's edges are then flipped by the "
         "error. Returns ``left, right, rounds, capped``, each strip as ``vr, vc, tv, he, tsum, "
-        "n_valid_vertices, total``.");
+        "n_valid_vertices, total, flips``.");
     m.def("_strip_exponent", &refine::strip_exponent, "The strips' power-law exponent through two points (tests).");
     m.def(
         "_strip_power_law",
@@ -204,7 +204,7 @@ void bind_refine(nb::module_& m) {
                 tv = copy(ins.triangles());
                 n_valid = ins.valid_vertices();
                 total = ins.total();
-            });
+            }, work(depth));
             return nb::make_tuple(to_numpy(std::move(vr)), to_numpy(std::move(vc)), to_numpy(std::move(tv)),
                                   n_valid, total);
         },
@@ -234,7 +234,7 @@ void bind_refine(nb::module_& m) {
                 tv = copy(ins.triangles());
                 he = copy(ins.halfedges());
                 tsum = ins.sums();
-            });
+            }, work(depth));
             return nb::make_tuple(to_numpy(std::move(vr)), to_numpy(std::move(vc)), to_numpy(std::move(tv)),
                                   to_numpy(std::move(he)), to_numpy(std::move(tsum)));
         },

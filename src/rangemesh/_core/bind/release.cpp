@@ -72,7 +72,9 @@ SigintWatch::SigintWatch() {
 
 SigintWatch::~SigintWatch() {
     if (active_) restore();
-    if (counted_) --depth;
+    // a signal the kernel did not poll in time has reached Python's handler already: the
+    // flag must not stop the next kernel
+    if (counted_ && --depth == 0) interrupt_flag().store(false, std::memory_order_relaxed);
 }
 
 void raise_interrupted() {

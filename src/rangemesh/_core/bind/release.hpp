@@ -6,6 +6,7 @@
 #include <utility>
 
 #include "../interrupt.hpp"
+#include "../views.hpp"
 
 namespace rangemesh::bind {
 
@@ -27,9 +28,21 @@ class SigintWatch {
 // raises (KeyboardInterrupt by default), or KeyboardInterrupt if it raises nothing.
 [[noreturn]] void raise_interrupted();
 
-// Call `f()` with the GIL released and Ctrl-C watched; returns what `f` returns.
+// Below this many elements (pixels, faces, points) a kernel takes microseconds: it runs with
+// the GIL held and no watch, whose two signal-handler swaps would cost more than the work.
+constexpr index_t SMALL_WORK = index_t{1} << 12;
+
+// Call `f()` with the GIL released and Ctrl-C watched; returns what `f` returns. `work` is the
+// size of the input that bounds its running time; under SMALL_WORK `f` simply runs.
 template <class F>
-auto run_released(F&& f) {
+auto run_released(F&& f, index_t work = SMALL_WORK) {
+    if (work < SMALL_WORK) {
+        try {
+            return std::forward<F>(f)();
+        } catch (const Interrupted&) {  // kernels poll a flag only a watch raises: cannot happen
+            raise_interrupted();
+        }
+    }
     // a Ctrl-C that came just before the call is raised now, not after the whole kernel
     if (PyErr_CheckSignals() != 0) throw nanobind::python_error();
     SigintWatch watch;

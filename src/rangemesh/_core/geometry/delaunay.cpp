@@ -247,6 +247,31 @@ class Sweep {
     std::vector<index_t> stack_;
 };
 
+// The ids 0..n-1 sorted by `key`, ties in id order: std::stable_sort's order, made as sorted
+// runs merged pairwise (each merge stable) so that Ctrl-C is polled between steps of a sort of
+// millions of points, which takes seconds.
+std::vector<index_t> stable_order(const std::vector<double>& key) {
+    const index_t n = static_cast<index_t>(key.size());
+    constexpr index_t RUN = index_t{1} << 16;
+    const auto less = [&](index_t a, index_t b) { return key[a] < key[b]; };
+    std::vector<index_t> order(n), merged(n);
+    std::iota(order.begin(), order.end(), index_t{0});
+    for (index_t lo = 0; lo < n; lo += RUN) {
+        poll_interrupt();
+        std::stable_sort(order.begin() + lo, order.begin() + std::min(lo + RUN, n), less);
+    }
+    for (index_t width = RUN; width < n; width *= 2) {
+        for (index_t lo = 0; lo < n; lo += 2 * width) {
+            poll_interrupt();
+            const index_t mid = std::min(lo + width, n), hi = std::min(lo + 2 * width, n);
+            std::merge(order.begin() + lo, order.begin() + mid, order.begin() + mid, order.begin() + hi,
+                       merged.begin() + lo, less);
+        }
+        order.swap(merged);
+    }
+    return order;
+}
+
 }  // namespace
 
 Triangulation delaunay_sweep(const PointSet& pts) {
@@ -262,9 +287,7 @@ Triangulation delaunay_sweep(const PointSet& pts) {
     // by distance from the seed's circumcentre; ties keep id order
     std::vector<double> dist(n);
     for (index_t i = 0; i < n; ++i) dist[i] = sq(fr[i] - seed.cr) + sq(fc[i] - seed.cc);
-    std::vector<index_t> order(n);
-    std::iota(order.begin(), order.end(), index_t{0});
-    std::stable_sort(order.begin(), order.end(), [&](index_t a, index_t b) { return dist[a] < dist[b]; });
+    const std::vector<index_t> order = stable_order(dist);
     Sweep sweep(pts, fr, fc, seed);
     for (const index_t p : order) {
         if (p == seed.i0 || p == seed.i1 || p == seed.i2) continue;

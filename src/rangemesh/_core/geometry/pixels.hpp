@@ -4,6 +4,8 @@
 
 #include <cmath>
 #include <cstdint>
+#include <limits>
+#include <type_traits>
 #include <vector>
 
 #include "../interrupt.hpp"
@@ -14,9 +16,31 @@ namespace rangemesh {
 // Float depth (0.0 on background, a value no later stage reads) and validity of a raw image:
 // NaN, inf and `background` are invalid. Values are compared as float64, as NumPy compares
 // integers with a float marker.
+// A float marker as a value of the integer type T, when some T equals it (`exact`).
+template <class T>
+struct IntegerMarker {
+    bool exact = false;
+    T value{};
+    explicit IntegerMarker(double marker) {
+        if constexpr (std::is_integral_v<T> && sizeof(T) <= 4) {  // wider ones stay float64
+            if (marker >= static_cast<double>(std::numeric_limits<T>::min()) &&
+                marker <= static_cast<double>(std::numeric_limits<T>::max()) && std::trunc(marker) == marker) {
+                value = static_cast<T>(marker);
+                exact = static_cast<double>(value) == marker;
+            }
+        }
+    }
+};
+
 template <class T>
 void mask_image(Grid<const T> image, bool has_background, double background, Grid<double> depth,
                 Grid<bool> valid) {
+    // NaN as the marker when there is none: x != NaN holds for every x. Written without
+    // branches, each loop over a row vectorises (a mixed bool and double store in one loop did
+    // not, and mispredicted on scattered holes).
+    const double bg = has_background ? background : std::numeric_limits<double>::quiet_NaN();
+    constexpr double big = std::numeric_limits<double>::max();
+    const IntegerMarker<T> marker(bg);
     for (index_t r = 0; r < image.rows; ++r) {
         poll_interrupt();
         const T* in = image.row(r);
@@ -24,9 +48,16 @@ void mask_image(Grid<const T> image, bool has_background, double background, Gri
         bool* v = valid.row(r);
         for (index_t c = 0; c < image.cols; ++c) {
             const double x = static_cast<double>(in[c]);
-            const bool ok = std::isfinite(x) && !(has_background && x == background);
-            v[c] = ok;
-            d[c] = ok ? x : 0.0;
+            d[c] = (std::abs(x) <= big && x != bg) ? x : 0.0;  // |x| <= max: finite
+        }
+        if constexpr (std::is_integral_v<T> && sizeof(T) <= 4) {
+            // exact in float64: compared as T, the loop vectorises
+            for (index_t c = 0; c < image.cols; ++c) v[c] = !(marker.exact && in[c] == marker.value);
+        } else {
+            for (index_t c = 0; c < image.cols; ++c) {
+                const double x = static_cast<double>(in[c]);
+                v[c] = std::abs(x) <= big && x != bg;
+            }
         }
     }
 }

@@ -1,6 +1,7 @@
 #include "fit.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <memory>
 
 #include "median.hpp"
@@ -43,6 +44,8 @@ FitResult fit_heights(const FitMesh& mesh, const FitImage& image, Span<const ind
     const bool converged = solve_blocks(Span<const FaceBlock>{blocks.data, blocks.size}, mesh.values, settings.ridge,
                                         settings.rtol, settings.max_iter,
                                         Span<double>{result.values.data(), mesh.values.size});
+    if (converged)
+        for (const double v : result.values) require(std::isfinite(v), "fit: a converged solve is finite");
     result.outcome = converged ? FitOutcome::fitted : FitOutcome::not_converged;
     return result;
 }

@@ -304,8 +304,10 @@ StripMesh finish(Insertion& s, const Image& image, bool flip) {
     out.sums = s.sums();
     if (flip) {
         const Span<index_t> vr = s.vertex_rows(), vc = s.vertex_cols();
-        flip_by_error(image, FlipMesh{{vr.data, vr.size}, {vc.data, vc.size}, s.triangles(), s.halfedges(),
-                                      {out.sums.data(), static_cast<index_t>(out.sums.size())}});
+        out.flips = flip_by_error(image, FlipMesh{{vr.data, vr.size}, {vc.data, vc.size}, s.triangles(),
+                                                  s.halfedges(),
+                                                  {out.sums.data(), static_cast<index_t>(out.sums.size())}})
+                        .flips;
     }
     const auto copy = [](Span<index_t> x) { return std::vector<index_t>(x.begin(), x.end()); };
     out.vr = copy(s.vertex_rows());

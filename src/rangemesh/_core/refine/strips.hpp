@@ -48,6 +48,7 @@ struct StripMesh {
     std::vector<double> sums;
     index_t valid_vertices;
     double total;  // the insertion's summed error (flips leave it alone)
+    index_t flips = 0;  // edges flipped by the error on this strip
 };
 
 struct Strips {

@@ -1,0 +1,536 @@
+"""ROS recordings in, meshes back in the recording (rangemesh.recordings, `rangemesh batch`).
+
+The recordings are written by `rosbags`' writers from the shared RGB-D frames (or are the real
+RealSense bag), and the markers we write are read back by `rosbags`: expected values come from
+the arrays the fixtures wrote and from `rangemesh.triangulate` on them.
+"""
+
+import json
+import sys
+
+import numpy as np
+import pytest
+
+import rangemesh
+from rangemesh.cli import main
+from rangemesh.recordings import Recording, mesh_bag, mesh_recording
+from rangemesh.recordings.decode import depth_image
+
+from .rosbag_writer import (
+    COLOR_TOPIC,
+    DEPTH_TOPIC,
+    FRAME_ID,
+    INFO_TOPIC,
+    K_TUM,
+    LAG,
+    PERIOD,
+    T0,
+    compressed_depth,
+    image_topic,
+    info_topic,
+    mcap_file,
+    write_bag,
+)
+
+KINDS = ("ros1", "db3", "mcap")
+N = 300  # vertices per frame: small meshes, quick tests
+REALSENSE = "rosbag/librealsense_d435_single_depth_color_640x480.bag"
+
+
+def _read(path):
+    import imageio.v3 as iio
+
+    return np.asarray(iio.imread(path))
+
+
+@pytest.fixture(scope="module")
+def frames(shared_data):
+    """Three TUM depth frames in 1/5000 m (the slambook2 ch7 frame, twice with noise) and colour."""
+    depth = _read(shared_data / "rgbd" / "slambook2_ch7_1_depth.png").astype(np.uint16)
+    color = _read(shared_data / "rgbd" / "slambook2_ch7_1_color.png")[..., :3]
+    rng = np.random.default_rng(7)
+    out = [depth]
+    for _ in range(2):
+        noisy = depth.astype(np.int32) + rng.integers(-20, 21, depth.shape)
+        out.append(np.where(depth > 0, np.clip(noisy, 1, 65535), 0).astype(np.uint16))
+    return out, color
+
+
+def mm(tum):
+    """TUM units (1/5000 m) to millimetres, 0 kept (16UC1 by REP 118)."""
+    return np.where(tum > 0, np.maximum(np.round(tum / 5.0), 1), 0).astype(np.uint16)
+
+
+def metres(tum):
+    """TUM units to float32 metres, missing depth NaN (32FC1)."""
+    return np.where(tum > 0, tum / 5000.0, np.nan).astype(np.float32)
+
+
+def pinhole(scale):
+    return rangemesh.Pinhole(*K_TUM, depth_scale=scale)
+
+
+@pytest.fixture(scope="module")
+def bags(frames, tmp_path_factory):
+    """kind -> {encoding: path}: 16UC1 with colour and CameraInfo, 32FC1 with CameraInfo."""
+    depth, color = frames
+    root = tmp_path_factory.mktemp("bags")
+    out = {}
+    for kind in KINDS:
+        suffix = ".bag" if kind == "ros1" else ""
+        out[kind] = {
+            "16UC1": write_bag(root / f"mm-{kind}{suffix}",
+                               [image_topic([mm(d) for d in depth], "16UC1"),
+                                image_topic([color] * len(depth), "rgb8", COLOR_TOPIC,
+                                            "camera_color_optical_frame"),
+                                info_topic()], kind),
+            "32FC1": write_bag(root / f"m-{kind}{suffix}",
+                               [image_topic([metres(d) for d in depth], "32FC1"), info_topic()],
+                               kind),
+        }
+    return out
+
+
+def expected(arrays, scale, **kw):
+    return [rangemesh.triangulate(a, camera=pinhole(scale), background=0, vertices=N, **kw)
+            for a in arrays]
+
+
+def same_mesh(a, b):
+    np.testing.assert_array_equal(a.faces, b.faces)
+    np.testing.assert_array_equal(a.vertices, b.vertices)
+
+
+# ---------------------------------------------------------------- reading and decoding
+
+
+@pytest.mark.parametrize("kind", KINDS)
+@pytest.mark.parametrize("encoding", ["16UC1", "32FC1"])
+def test_decoded_depth_is_the_array_written(bags, frames, kind, encoding):
+    want = [mm(d) if encoding == "16UC1" else metres(d) for d in frames[0]]
+    with Recording(bags[kind][encoding]) as rec:
+        got = list(rec.frames(DEPTH_TOPIC))
+    assert len(got) == len(want)
+    for f, w, i in zip(got, want, range(len(want)), strict=True):
+        depth, scale = depth_image(f.depth)
+        np.testing.assert_array_equal(depth, w)  # NaN where NaN
+        assert depth.dtype == w.dtype
+        assert scale == (0.001 if encoding == "16UC1" else 1.0)
+        assert f.stamp == T0 + i * PERIOD and f.log_time == f.stamp + LAG
+        assert f.frame_id == FRAME_ID
+        assert f.camera == pinhole(scale)  # K of the CameraInfo (upper case in ROS 1)
+
+
+def test_image_payloads_decode_by_their_encoding(rng):
+    from rangemesh.recordings.decode import Payload, color_image
+
+    rgb = rng.integers(0, 256, (5, 7, 3), dtype=np.uint8)
+    alpha = np.full((5, 7, 1), 9, np.uint8)
+    pad = 3  # a row step longer than the row: the padding is dropped
+    cases = {"rgb8": rgb, "bgr8": rgb[..., ::-1], "rgba8": np.concatenate([rgb, alpha], 2),
+             "bgra8": np.concatenate([rgb[..., ::-1], alpha], 2)}
+    for enc, arr in cases.items():
+        rows = arr.reshape(5, -1)
+        data = np.concatenate([rows, np.zeros((5, pad), np.uint8)], 1).tobytes()
+        got = color_image(Payload(False, enc, 5, 7, rows.shape[1] + pad, False, data))
+        np.testing.assert_array_equal(got, rgb, err_msg=enc)
+    grey = rgb[..., 0]
+    np.testing.assert_array_equal(
+        color_image(Payload(False, "mono8", 5, 7, 7, False, grey.tobytes())), grey)
+    with pytest.raises(ValueError, match="'yuv422'"):
+        color_image(Payload(False, "yuv422", 5, 7, 14, False, bytes(70)))
+    # big-endian 16-bit depth and float depth
+    d = rng.integers(0, 5000, (5, 7)).astype(np.uint16)
+    got, scale = depth_image(Payload(False, "16UC1", 5, 7, 14, True, d.astype(">u2").tobytes()))
+    np.testing.assert_array_equal(got, d)
+    f = rng.random((5, 7)).astype(np.float32)
+    got, scale = depth_image(Payload(False, "32FC1", 5, 7, 28, False, f.tobytes()))
+    np.testing.assert_array_equal(got, f)
+    assert scale == 1.0
+    with pytest.raises(ValueError, match="truncated"):
+        depth_image(Payload(False, "16UC1", 5, 7, 14, False, d.tobytes()[:-20]))
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_mesh_bag_gives_triangulate_s_meshes_with_the_headers(bags, frames, kind):
+    want = expected([mm(d) for d in frames[0]], 0.001)
+    got = list(mesh_bag(bags[kind]["16UC1"], DEPTH_TOPIC, vertices=N))
+    assert [(s, f) for s, f, _ in got] == [(T0 + i * PERIOD, FRAME_ID) for i in range(3)]
+    for (_, _, m), w in zip(got, want, strict=True):
+        same_mesh(m, w)
+        assert m.stats.vertices == N
+
+
+def test_mesh_bag_takes_triangulate_s_options(bags, frames):
+    want = expected([metres(d) for d in frames[0]], 1.0, walls=False)
+    got = [m for _, _, m in mesh_bag(bags["mcap"]["32FC1"], vertices=N, walls=False)]
+    for m, w in zip(got, want, strict=True):
+        same_mesh(m, w)
+    with pytest.raises(ValueError, match="tiles"):  # an option of the other method: at the call
+        mesh_bag(bags["mcap"]["32FC1"], vertices=N, tiles=3)
+
+
+def test_a_bare_mcap_file_reads_as_its_folder(bags, frames):
+    folder = bags["mcap"]["32FC1"]
+    a = [(s, f, m.faces) for s, f, m in mesh_bag(folder, vertices=N)]
+    b = [(s, f, m.faces) for s, f, m in mesh_bag(mcap_file(folder), vertices=N)]
+    assert [x[:2] for x in a] == [x[:2] for x in b]
+    for x, y in zip(a, b, strict=True):
+        np.testing.assert_array_equal(x[2], y[2])
+
+
+@pytest.mark.parametrize("kind", ["ros1", "db3"])
+def test_compressed_depth_16uc1_is_the_png_s_values(tmp_path, frames, kind):
+    arrays = [mm(d) for d in frames[0][:2]]
+    payloads = [compressed_depth(a, "16UC1") for a in arrays]
+    topic = image_topic([p[1] for p in payloads], payloads[0][0], DEPTH_TOPIC + "/compressedDepth")
+    topic.kind = "compressed"
+    path = write_bag(tmp_path / ("c.bag" if kind == "ros1" else "c"), [topic, info_topic()], kind)
+    with Recording(path) as rec:
+        (t,) = [t for t in rec.image_topics() if t.depth]
+        assert (t.topic, t.encoding, t.height, t.width, t.count) == \
+            (DEPTH_TOPIC + "/compressedDepth", "16UC1; compressedDepth png", 480, 640, 2)
+        got = [depth_image(f.depth) for f in rec.frames()]
+    for (d, scale), a in zip(got, arrays, strict=True):
+        np.testing.assert_array_equal(d, a)
+        assert scale == 0.001
+    # beside /camera/depth/...: the CameraInfo of /camera/depth/camera_info
+    meshes = [m for _, _, m in mesh_bag(path, vertices=N)]
+    for m, w in zip(meshes, expected(arrays, 0.001), strict=True):
+        same_mesh(m, w)
+
+
+def test_compressed_depth_32fc1_is_the_quantised_inverse_depth(tmp_path, frames):
+    # image_transport_plugins' defaults: quantisation 100, depth_max 10 m
+    a = np.float32(100.0 * 101.0)
+    b = np.float32(1.0 - a / 10.0)
+    depth = metres(frames[0][0])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        q = np.where(np.isfinite(depth) & (depth < 10), a / depth + b, 0)
+    q = q.astype(np.uint16)  # the encoder's cast: truncation
+    fmt, data = compressed_depth(q, "32FC1", float(a), float(b))
+    topic = image_topic([data], fmt, DEPTH_TOPIC + "/compressedDepth")
+    topic.kind = "compressed"
+    path = write_bag(tmp_path / "c", [topic, info_topic()], "mcap")
+    with Recording(path) as rec:
+        (f,) = rec.frames()
+    got, scale = depth_image(f.depth)
+    assert scale == 1.0 and got.dtype == np.float32
+    assert np.array_equal(np.isnan(got), q == 0)
+    ok = q > 0
+    # depth = A / (q - B), in float32
+    np.testing.assert_allclose(got[ok], a / (q[ok].astype(np.float32) - b), rtol=1e-6)
+    # and within the quantisation step of the depth written: d^2 / A per unit of q
+    step = depth[ok] ** 2 / a
+    assert np.all(np.abs(got[ok] - depth[ok]) <= step * 1.01)
+
+
+def test_camera_info_of_the_frame_id_first(tmp_path, frames):
+    arrays = [mm(d) for d in frames[0]]
+    topics = [image_topic(arrays, "16UC1"),
+              # beside the depth topic, but another frame id: not taken
+              info_topic(k=(1.0, 1.0, 1.0, 1.0), frame_id="other"),
+              # far from the topic, with the frame id of the depth
+              info_topic(name="/elsewhere/camera_info")]
+    path = write_bag(tmp_path / "k.bag", topics, "ros1")
+    with Recording(path) as rec:
+        assert [f.camera for f in rec.frames()] == [pinhole(0.001)] * 3
+
+
+def test_camera_info_of_the_nearest_stamp(tmp_path, frames):
+    arrays = [mm(d) for d in frames[0]]
+    k2, k3 = (600.0, 601.0, 320.0, 240.0), (610.0, 611.0, 321.0, 241.0)
+    # frames at T0, T0 + P, T0 + 2P; CameraInfo at T0 (k2) and T0 + 1.6P (k3)
+    info = info_topic(stamps=[T0, T0 + 16 * PERIOD // 10], k=[k2, k3])
+    path = write_bag(tmp_path / "n", [image_topic(arrays, "16UC1"), info], "db3")
+    with Recording(path) as rec:
+        assert [(f.camera.fx, f.camera.cy) for f in rec.frames()] == \
+            [(600.0, 240.0), (610.0, 241.0), (610.0, 241.0)]
+
+
+def test_camera_info_topics_equally_near_are_refused_or_chosen(tmp_path, frames):
+    arrays = [mm(d) for d in frames[0][:1]]
+    path = write_bag(tmp_path / "e", [image_topic(arrays, "16UC1"),
+                                      info_topic(k=(600.0, 601.0, 320.0, 240.0)),
+                                      info_topic(name=INFO_TOPIC + "_b")], "db3")
+    with Recording(path) as rec:
+        with pytest.raises(ValueError, match="equally near"):
+            list(rec.frames())
+        (f,) = rec.frames(camera_info_topic=INFO_TOPIC + "_b")
+        assert f.camera == pinhole(0.001)
+
+
+def test_distortion_is_named_in_one_warning(tmp_path, frames):
+    path = write_bag(tmp_path / "d.bag", [image_topic([mm(frames[0][0])], "16UC1"),
+                                          info_topic(d=(0.1, -0.02, 0.0, 0.0, 0.0))], "ros1")
+    with pytest.warns(UserWarning, match="plumb_bob") as said:
+        out = list(mesh_bag(path, vertices=N))
+    assert len(said) == 1 and len(out) == 1
+
+
+# ---------------------------------------------------------------- errors in one line
+
+
+def test_no_camera_info_is_one_line_and_a_camera_mends_it(tmp_path, frames):
+    path = write_bag(tmp_path / "x", [image_topic([mm(frames[0][0])], "16UC1")], "mcap")
+    with pytest.raises(ValueError, match="no CameraInfo .*--intrinsics"):
+        mesh_bag(path)
+    (got,) = [m for _, _, m in mesh_bag(path, camera=pinhole(0.001), vertices=N)]
+    same_mesh(got, expected([mm(frames[0][0])], 0.001)[0])
+
+
+def _cli(argv, capsys):
+    code = main([str(a) for a in argv])
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+@pytest.fixture
+def odd_bags(tmp_path, frames):
+    d = mm(frames[0][0])
+    return {
+        "8UC1": write_bag(tmp_path / "u8", [image_topic([(d % 256).astype(np.uint8)], "8UC1",
+                                                        DEPTH_TOPIC), info_topic()], "db3"),
+        "two": write_bag(tmp_path / "two.bag", [image_topic([d], "16UC1"),
+                                                image_topic([d], "16UC1", "/other/depth"),
+                                                info_topic()], "ros1"),
+        "small_color": write_bag(tmp_path / "sc.bag", [
+            image_topic([d], "16UC1"),
+            image_topic([np.zeros((240, 320, 3), np.uint8)], "rgb8", COLOR_TOPIC), info_topic()],
+            "ros1"),
+    }
+
+
+def test_bad_inputs_are_one_line(odd_bags, tmp_path):
+    with pytest.raises(ValueError, match="'8UC1'") as e:
+        mesh_bag(odd_bags["8UC1"], DEPTH_TOPIC)
+    assert "\n" not in str(e.value)
+    with pytest.raises(ValueError, match="2 depth topics .*/camera/depth/image_rect_raw.*--topic"):
+        mesh_bag(odd_bags["two"])
+    assert len(list(mesh_bag(odd_bags["two"], "/other/depth", vertices=N))) == 1
+    with pytest.raises(ValueError, match="/nope is not a topic"):
+        mesh_bag(odd_bags["two"], "/nope")
+    with pytest.raises(ValueError, match="registered"):
+        mesh_bag(odd_bags["small_color"], color_topic=COLOR_TOPIC)
+    with pytest.raises(FileNotFoundError):
+        mesh_bag(tmp_path / "absent.bag")
+
+
+@pytest.mark.parametrize("case, text", [
+    ("8UC1", "'8UC1'"),
+    ("two", "2 depth topics"),
+    ("nope", "/nope is not a topic"),
+    ("small_color", "registered"),
+    ("truncated", "cannot read"),
+])
+def test_bad_inputs_through_the_cli(odd_bags, bags, tmp_path, capsys, case, text):
+    extra = []
+    path = odd_bags.get(case)
+    if case == "8UC1":
+        extra = ["--topic", DEPTH_TOPIC]
+    elif case == "nope":
+        path, extra = odd_bags["two"], ["--topic", "/nope"]
+    elif case == "small_color":
+        extra = ["--color-topic", COLOR_TOPIC]
+    elif case == "truncated":
+        src = bags["ros1"]["16UC1"]
+        path = tmp_path / "cut.bag"
+        path.write_bytes(src.read_bytes()[: src.stat().st_size // 2])
+    code, out, err = _cli(["batch", path, "-o", tmp_path / "o.mcap", "--workers", "1", *extra],
+                          capsys)
+    assert code == 2
+    assert err.count("\n") == 1 and err.startswith("rangemesh: error: ") and text in err, err
+    assert not (tmp_path / "o.mcap").exists()
+
+
+def test_truncated_mcap_is_one_line(bags, tmp_path):
+    src = mcap_file(bags["mcap"]["16UC1"])
+    cut = tmp_path / "cut.mcap"
+    cut.write_bytes(src.read_bytes()[: src.stat().st_size // 2])
+    with pytest.raises(ValueError, match="cut.mcap") as e:
+        list(mesh_bag(cut, DEPTH_TOPIC, vertices=N))
+    assert "\n" not in str(e.value)
+
+
+def test_missing_rosbags_names_the_extra(monkeypatch, bags):
+    for name in [m for m in sys.modules if m == "rosbags" or m.startswith("rosbags.")]:
+        monkeypatch.setitem(sys.modules, name, None)
+    monkeypatch.setitem(sys.modules, "rosbags", None)
+    monkeypatch.setitem(sys.modules, "rosbags.highlevel", None)
+    with pytest.raises(ImportError, match=r'pip install "rangemesh\[ros\]"'):
+        mesh_bag(bags["mcap"]["16UC1"])
+
+
+# ---------------------------------------------------------------- meshes back in the recording
+
+
+def read_markers(path):
+    """(topic, log time, message) of every message of an MCAP file, read by rosbags."""
+    from pathlib import Path
+
+    from rosbags.highlevel import AnyReader
+
+    with AnyReader([Path(path)]) as r:
+        return [(c.topic, t, r.deserialize(raw, c.msgtype), c.msgtype)
+                for c, t, raw in r.messages()]
+
+
+def check_markers(markers, want, colors=None):
+    assert len(markers) == len(want)
+    for i, ((topic, t, msg, msgtype), w) in enumerate(zip(markers, want, strict=True)):
+        assert msgtype == "visualization_msgs/msg/Marker" and topic == DEPTH_TOPIC + "/mesh"
+        stamp = T0 + i * PERIOD
+        assert t == stamp + LAG  # written at the depth message's receive time
+        assert (msg.header.stamp.sec, msg.header.stamp.nanosec) == divmod(stamp, 10**9)
+        assert msg.header.frame_id == FRAME_ID
+        assert msg.type == 11 and msg.action == 0  # TRIANGLE_LIST, ADD
+        assert len(msg.points) == 3 * len(w.faces)
+        pts = np.array([[p.x, p.y, p.z] for p in msg.points])
+        np.testing.assert_array_equal(pts, w.vertices[w.faces].reshape(-1, 3))
+        if colors is None:
+            assert msg.colors == []
+            assert msg.color.a == 1.0
+        else:
+            got = np.array([[c.r, c.g, c.b, c.a] for c in msg.colors])
+            rgb = w.with_colors(colors).colors[w.faces].reshape(-1, 3)
+            np.testing.assert_allclose(got[:, :3] * 255.0, rgb, atol=1e-9)
+            assert (got[:, 3] == 1.0).all()
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_batch_writes_markers_read_back_by_rosbags(bags, frames, tmp_path, kind):
+    depth, color = frames
+    out = tmp_path / "meshes.mcap"
+    res = mesh_recording(bags[kind]["16UC1"], out, DEPTH_TOPIC, color_topic=COLOR_TOPIC,
+                         workers=1, vertices=N)
+    assert [r.status for r in res] == ["meshed"] * 3
+    check_markers(read_markers(out), expected([mm(d) for d in depth], 0.001), colors=color)
+    doc = json.loads((tmp_path / "meshes.rangemesh-batch.json").read_text())
+    assert doc["summary"]["meshed"] == 3
+    assert [r["input"] for r in doc["results"]] == \
+        [f"{DEPTH_TOPIC}@{(T0 + i * PERIOD) // 10**9}.{(T0 + i * PERIOD) % 10**9:09d}"
+         for i in range(3)]
+    with pytest.raises(ValueError, match="exists"):  # never replaced silently
+        mesh_recording(bags[kind]["16UC1"], out, workers=1, vertices=N)
+
+
+def test_the_cli_writes_markers_without_colour(bags, frames, tmp_path, capsys):
+    out = tmp_path / "m.mcap"
+    code, _, err = _cli(["batch", bags["db3"]["32FC1"], "-o", out, "--vertices", N, "--workers",
+                         1], capsys)
+    assert code == 0, err
+    assert "meshed 3, skipped 0 (already there), failed 0 of 3" in err
+    check_markers(read_markers(out), expected([metres(d) for d in frames[0]], 1.0))
+
+
+def test_a_bad_frame_is_reported_and_the_rest_go_on(tmp_path, frames):
+    arrays = [mm(frames[0][0]), np.zeros((480, 640), np.uint16), mm(frames[0][1])]
+    path = write_bag(tmp_path / "b.bag", [image_topic(arrays, "16UC1"), info_topic()], "ros1")
+    out = tmp_path / "b.mcap"
+    res = mesh_recording(path, out, workers=1, vertices=N)
+    assert [r.status for r in res] == ["meshed", "failed", "meshed"]
+    assert res[1].error.startswith("ValueError: nothing to mesh") and "\n" not in res[1].error
+    markers = read_markers(out)
+    assert [m[2].header.stamp.nanosec for m in markers] == \
+        [(T0 + i * PERIOD) % 10**9 for i in (0, 2)]
+
+
+def test_folder_output_one_file_per_frame_named_by_stamp(bags, frames, tmp_path, capsys, open3d):
+    out = tmp_path / "meshes"
+    code, _, err = _cli(["batch", bags["ros1"]["16UC1"], "-o", out, "--vertices", N,
+                         "--workers", 1, "--color-topic", COLOR_TOPIC], capsys)
+    assert code == 0, err
+    want = expected([mm(d) for d in frames[0]], 0.001)
+    names = [f"{(T0 + i * PERIOD) // 10**9}.{(T0 + i * PERIOD) % 10**9:09d}.ply" for i in range(3)]
+    assert sorted(p.name for p in out.glob("*.ply")) == names
+    for name, w in zip(names, want, strict=True):
+        o3 = open3d.io.read_triangle_mesh(str(out / name))
+        np.testing.assert_array_equal(np.asarray(o3.triangles), w.faces)
+        np.testing.assert_allclose(np.asarray(o3.vertices), w.vertices, rtol=1e-6, atol=1e-9)
+        rgb = w.with_colors(frames[1]).colors
+        np.testing.assert_allclose(np.asarray(o3.vertex_colors) * 255, rgb, atol=1e-6)
+    # a second run skips what is there and loses nothing
+    code, _, err = _cli(["batch", bags["ros1"]["16UC1"], "-o", out, "--vertices", N,
+                         "--workers", 1], capsys)
+    assert code == 0 and "skipped 3 (already there)" in err, err
+    rows = (out / "rangemesh-batch.csv").read_text().splitlines()
+    assert len(rows) == 4 and all(",skipped," in r for r in rows[1:])
+
+
+def test_info_lists_the_depth_topics(odd_bags, bags, capsys):
+    code, out, _ = _cli(["info", odd_bags["two"]], capsys)
+    assert code == 0
+    assert f"{DEPTH_TOPIC}: 640x480 16UC1, 1 messages; camera {INFO_TOPIC}" in out
+    assert "/other/depth: 640x480 16UC1, 1 messages" in out
+    code, out, _ = _cli(["info", bags["mcap"]["16UC1"], "--json"], capsys)
+    doc = json.loads(out)
+    (d,) = doc["depth_topics"]
+    assert (d["topic"], d["width"], d["height"], d["encoding"], d["count"]) == \
+        (DEPTH_TOPIC, 640, 480, "16UC1", 3)
+    assert (d["fx"], d["fy"], d["cx"], d["cy"]) == K_TUM
+    assert [t["topic"] for t in doc["other_image_topics"]] == [COLOR_TOPIC]
+
+
+@pytest.mark.slow
+def test_dask_workers_write_what_one_process_writes(bags, tmp_path):
+    a, b = tmp_path / "a.mcap", tmp_path / "b.mcap"
+    mesh_recording(bags["mcap"]["16UC1"], a, color_topic=COLOR_TOPIC, workers=1, vertices=N)
+    res = mesh_recording(bags["mcap"]["16UC1"], b, color_topic=COLOR_TOPIC, workers=2,
+                         vertices=N)
+    assert [r.status for r in res] == ["meshed"] * 3
+    ma, mb = read_markers(a), read_markers(b)
+    assert [(t, m.header.stamp.nanosec, len(m.points)) for _, t, m, _ in ma] == \
+        [(t, m.header.stamp.nanosec, len(m.points)) for _, t, m, _ in mb]
+    for (_, _, x, _), (_, _, y, _) in zip(ma, mb, strict=True):
+        assert [(p.x, p.y, p.z) for p in x.points] == [(p.x, p.y, p.z) for p in y.points]
+        assert [(c.r, c.g, c.b, c.a) for c in x.colors] == [(c.r, c.g, c.b, c.a) for c in y.colors]
+        assert len(x.colors) == len(x.points)
+
+
+# ---------------------------------------------------------------- the real RealSense recording
+
+
+def test_the_realsense_recording(shared_data, tmp_path):
+    from rosbags.highlevel import AnyReader
+
+    path = shared_data / REALSENSE
+    with AnyReader([path]) as r:  # the reference: rosbags' own decoding of the messages
+        conns = [c for c in r.connections if c.topic.endswith("Depth_0/image/data")]
+        raw = [r.deserialize(d, c.msgtype) for c, _, d in r.messages(connections=conns)]
+    ref = [np.frombuffer(m.data.tobytes(), "<u2").reshape(480, 640) for m in raw]
+    got = list(mesh_bag(path, vertices=N))
+    assert [(s, f) for s, f, _ in got] == [(360_815_089_000, "0"), (360_981_765_000, "0")]
+    # README: fx = fy = 390.43145751953125, cx = 331.38787841796875, cy = 242.18734741210938
+    cam = rangemesh.Pinhole(390.43145751953125, 390.43145751953125, 331.38787841796875,
+                            242.18734741210938, depth_scale=0.001)
+    for (_, _, m), d in zip(got, ref, strict=True):
+        assert m.camera == cam
+        same_mesh(m, rangemesh.triangulate(d, camera=cam, background=0, vertices=N))
+        z = m.vertices[:, 2]
+        assert 0.3 < z.min() and z.max() < 3.3  # valid depth 341 .. 3182 mm
+    out = tmp_path / "rs.mcap"
+    mesh_recording(path, out, workers=1, vertices=N)
+    markers = read_markers(out)
+    assert [(m.header.frame_id, m.header.stamp.sec, m.header.stamp.nanosec)
+            for _, _, m, _ in markers] == [("0", 360, 815_089_000), ("0", 360, 981_765_000)]
+    assert markers[0][0] == "/device_0/sensor_0/Depth_0/image/data/mesh"
+
+
+def test_the_realsense_colour_is_said_to_look_unregistered(shared_data):
+    with pytest.warns(UserWarning, match="unregistered"):
+        mesh_bag(shared_data / REALSENSE, color_topic="/device_0/sensor_1/Color_0/image/data")
+
+
+def test_compressed_colour_topic_gives_the_png_s_colours(tmp_path, frames):
+    import imageio.v3 as iio
+
+    depth, color = frames
+    png = iio.imwrite("<bytes>", color, extension=".png", plugin="pillow")
+    ctopic = image_topic([png], "rgb8; png compressed rgb8", COLOR_TOPIC + "/compressed")
+    ctopic.kind = "compressed"
+    path = write_bag(tmp_path / "cc", [image_topic([mm(depth[0])], "16UC1"), ctopic,
+                                       info_topic()], "db3")
+    (got,) = [m for _, _, m in mesh_bag(path, color_topic=COLOR_TOPIC + "/compressed",
+                                        vertices=N)]
+    want = expected([mm(depth[0])], 0.001)[0]
+    np.testing.assert_array_equal(got.colors, color[want.pixels[:, 0], want.pixels[:, 1]])

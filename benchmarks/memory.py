@@ -6,7 +6,14 @@ report. The figure is the child's peak resident set size (``ru_maxrss``)
 minus the same process's peak after importing everything and loading the
 image, divided by the image's bytes.
 
+``--refine`` measures ``method="refine"`` instead, at vertex counts and error
+bounds, and fits the peak as bytes per pixel plus bytes per vertex of the mesh
+(least squares over the cases): the figures of
+`rangemesh.pipeline.REFINE_BYTES_PER_PIXEL` and ``REFINE_BYTES_PER_VERTEX``.
+
     python benchmarks/memory.py [--size 4000]
+    python benchmarks/memory.py --refine [--size 2000] [--vertices 20000,200000,1000000]
+                                [--max-error 0.01,0.001]
 """
 
 from __future__ import annotations
@@ -27,7 +34,12 @@ img = np.load(path)
 rangemesh.triangulate(img[:64, :64], background=0)   # compile/load kernels on a small image
 base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
 t0 = time.perf_counter()
-if case == "triangulate":
+vertices = None
+if case.startswith("refine:"):
+    key, value = case[len("refine:"):].split("=")
+    target = {"vertices": int(value)} if key == "vertices" else {"max_error": float(value)}
+    vertices = len(rangemesh.triangulate(img, background=0, **target).vertices)
+elif case == "triangulate":
     rangemesh.triangulate(img, background=0)
 elif case == "evaluate":
     m = rangemesh.triangulate(img, background=0)
@@ -40,7 +52,7 @@ else:
     assert rangemesh.cli.main(argv) == 0
 peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
 print(json.dumps({"case": case, "seconds": time.perf_counter() - t0, "extra_bytes": peak - base,
-                  "image_bytes": img.nbytes}))
+                  "image_bytes": img.nbytes, "pixels": img.size, "vertices": vertices}))
 """
 
 
@@ -56,18 +68,49 @@ def make_image(n: int, path: Path):
     np.save(path, img)
 
 
+def _run(path, case):
+    out = subprocess.run([sys.executable, "-c", CHILD, str(path), case], check=True,
+                         capture_output=True, text=True).stdout
+    return json.loads(out.strip().splitlines()[-1])
+
+
+def refine_cases(path, vertices, errors):
+    """Peak of `method="refine"` per case, and its fit as bytes a pixel plus bytes a vertex."""
+    import numpy as np
+
+    rows = []
+    cases = [f"refine:vertices={n}" for n in vertices] + [f"refine:max_error={e}" for e in errors]
+    for case in cases:
+        r = _run(path, case)
+        rows.append((r["pixels"], r["vertices"], r["extra_bytes"]))
+        print(f"{case:26s} {r['seconds']:6.1f} s  {r['vertices']:9d} vertices  peak above "
+              f"baseline {r['extra_bytes'] / 2**20:7.0f} MiB = "
+              f"{r['extra_bytes'] / r['pixels']:6.1f} B a pixel")
+    px, nv, extra = (np.array(x, np.float64) for x in zip(*rows, strict=True))
+    (per_px, per_v), *_ = np.linalg.lstsq(np.stack([px, nv], axis=1), extra, rcond=None)
+    worst = (extra - per_v * nv) / px
+    print(f"fit: {per_px:.1f} B a pixel + {per_v:.0f} B a vertex "
+          f"(largest per-pixel rest {worst.max():.1f} B with {per_v:.0f} B a vertex)")
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--size", type=int, default=4000)
+    ap.add_argument("--size", type=int, default=None, help="side of the image (4000; --refine 2000)")
+    ap.add_argument("--refine", action="store_true", help="measure method='refine' by budget")
+    ap.add_argument("--vertices", default="20000,200000,1000000")
+    ap.add_argument("--max-error", default="0.01,0.001")
     args = ap.parse_args()
+    size = args.size or (2000 if args.refine else 4000)
     with tempfile.TemporaryDirectory() as d:
         path = Path(d) / "big.npy"
-        make_image(args.size, path)
-        print(f"{args.size}x{args.size} float32 image, {path.stat().st_size / 2**20:.0f} MiB")
+        make_image(size, path)
+        print(f"{size}x{size} float32 image, {path.stat().st_size / 2**20:.0f} MiB")
+        if args.refine:
+            refine_cases(path, [int(x) for x in args.vertices.split(",") if x],
+                         [float(x) for x in args.max_error.split(",") if x])
+            return
         for case in ("triangulate", "evaluate", "cli", "cli+preview"):
-            out = subprocess.run([sys.executable, "-c", CHILD, str(path), case], check=True,
-                                 capture_output=True, text=True).stdout
-            r = json.loads(out.strip().splitlines()[-1])
+            r = _run(path, case)
             print(f"{case:12s} {r['seconds']:6.1f} s  peak above baseline "
                   f"{r['extra_bytes'] / 2**20:7.0f} MiB = {r['extra_bytes'] / r['image_bytes']:4.1f}x "
                   f"the image")

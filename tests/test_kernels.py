@@ -84,7 +84,10 @@ def test_walked_row_spans_by_hand():
 
 
 def _box_raster(tris, vals, h, w):
-    """Brute force: every pixel of each triangle's box, first triangle wins, the same float ops."""
+    """Brute force: every pixel of each triangle's box, first triangle wins, the same float ops.
+
+    A corner's own pixel (two weights 0) takes the corner's value as it is.
+    """
     out = np.full((h, w), np.nan)
     face = np.full((h, w), -1)
     for t, ((r0, c0), (r1, c1), (r2, c2)) in enumerate(tris):
@@ -100,7 +103,10 @@ def _box_raster(tris, vals, h, w):
                 if face[r, c] != -1 or min(ws) < 0:
                     continue
                 w0, w1, w2 = (float(x) for x in ws)
-                out[r, c] = (w0 * vals[t][0] + w1 * vals[t][1] + w2 * vals[t][2]) / (w0 + w1 + w2)
+                if [w0, w1, w2].count(0.0) == 2:
+                    out[r, c] = vals[t][[w0, w1, w2].index(max(w0, w1, w2))]
+                else:
+                    out[r, c] = (w0 * vals[t][0] + w1 * vals[t][1] + w2 * vals[t][2]) / (w0 + w1 + w2)
                 face[r, c] = t
     return out, face
 

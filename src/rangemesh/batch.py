@@ -30,7 +30,16 @@ from pathlib import Path
 
 from .camera import as_camera
 from .checks import whole_number
-from .io import IMAGE_SUFFIXES, MESH_SUFFIXES, atomic_path, part_owner, read_range_image, write_mesh
+from .io import (
+    IMAGE_SUFFIXES,
+    MESH_SUFFIXES,
+    SCAN_SUFFIX,
+    atomic_path,
+    bin_layout,
+    part_owner,
+    read_scan,
+    write_mesh,
+)
 from .mesh import Mesh
 from .metrics import evaluate
 from .params import MeshParams
@@ -127,13 +136,14 @@ def _not_an_output(path: Path) -> bool:
                 or (name.startswith(".") and ".part" in name))
 
 
-def expand_inputs(inputs: Iterable[str | os.PathLike]) -> list[Path]:
+def expand_inputs(inputs: Iterable[str | os.PathLike], *, scans: bool = False) -> list[Path]:
     """Files named by paths, folders (their range images, sorted) and glob patterns.
 
     A glob leaves out what a batch writes (meshes, its reports, temporary
     files), so a pattern that matches the output folder gives the same
     inputs on every run. A file named twice (say by a relative and an
-    absolute path) is meshed once.
+    absolute path) is meshed once. With `scans` (a beams file given), a
+    folder's LiDAR ``.bin`` scans are inputs too.
 
     Raises
     ------
@@ -144,7 +154,8 @@ def expand_inputs(inputs: Iterable[str | os.PathLike]) -> list[Path]:
     for item in inputs:
         p = Path(item)
         if p.is_dir():
-            out += sorted(f for f in p.iterdir() if f.suffix.lower() in IMAGE_SUFFIXES)
+            kinds = (*IMAGE_SUFFIXES, SCAN_SUFFIX) if scans else IMAGE_SUFFIXES
+            out += sorted(f for f in p.iterdir() if f.suffix.lower() in kinds)
         elif any(ch in str(item) for ch in "*?["):
             hits = sorted(Path(h) for h in glob.glob(str(item)) if _not_an_output(Path(h)))
             if not hits:
@@ -228,11 +239,13 @@ def _connect(client_cls, scheduler: str, timeout: float):
                          + (f": {text[0]}" if text else "") + ")") from None
 
 
-def _one(path: str, out: str, call: dict, background, camera, overwrite: bool) -> BatchResult:
+def _one(path: str, out: str, call: dict, background, camera, overwrite: bool,
+         layout: dict | None = None) -> BatchResult:
     """The task every worker runs: read, mesh, evaluate, write. Never raises.
 
     `call` holds `triangulate`'s keywords (method, targets, options), checked
-    by `mesh_many` before any work.
+    by `mesh_many` before any work; `layout`, a ``.bin`` scan's
+    (`rangemesh.io.bin_layout`).
     """
     from .pipeline import triangulate
 
@@ -240,7 +253,7 @@ def _one(path: str, out: str, call: dict, background, camera, overwrite: bool) -
     if not overwrite and Path(out).exists():
         return BatchResult(path, out, "skipped")
     try:
-        img = read_range_image(path)
+        img = read_scan(path, layout)
         mesh = triangulate(img, background=background, camera=camera, **call)
         if mesh.is_empty:
             raise ValueError(f"nothing to mesh: {mesh.stats.reason}")
@@ -382,7 +395,7 @@ def mesh_many(paths, out_dir, params: MeshParams | None = None, *,
               max_edge: float | None = None, threads: int | None = None,
               scheduler: str | None = None, workers: int | None = None, overwrite: bool = False,
               fmt: str = ".ply", progress: bool = False, connect_timeout: float = 10.0,
-              **overrides) -> list[BatchResult]:
+              beams: str | os.PathLike | None = None, **overrides) -> list[BatchResult]:
     """Mesh many range images into `out_dir`, in parallel, through Dask.
 
     Parameters
@@ -412,6 +425,11 @@ def mesh_many(paths, out_dir, params: MeshParams | None = None, *,
         Show a progress bar (images done, images per second, failures) on stderr.
     connect_timeout : float, default 10
         Seconds to wait for the scheduler given by `scheduler` to answer.
+    beams : str or os.PathLike, optional
+        A beams file (``.beams.json``): LiDAR ``.bin`` scans are read with its
+        rows and column shifts (`rangemesh.io.read_scan`), as ``rangemesh
+        mesh --beams`` reads them, and a folder's ``.bin`` files are inputs
+        too. The camera is still `camera` (``Spherical.from_beams(beams)``).
 
     Returns
     -------
@@ -449,7 +467,11 @@ def mesh_many(paths, out_dir, params: MeshParams | None = None, *,
     # deprecated spellings arrive as keywords, so the workers warn nothing
     call = {"method": method, "vertices": vertices, "max_error": max_error,
             **call_options(params, method)}
-    files = expand_inputs([paths] if isinstance(paths, (str, os.PathLike)) else paths)
+    files = expand_inputs([paths] if isinstance(paths, (str, os.PathLike)) else paths,
+                          scans=beams is not None)
+    layout = None
+    if beams is not None and any(f.suffix.lower() == SCAN_SUFFIX for f in files):
+        layout = bin_layout(beams)  # checked before any work
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     _clean_stale_parts(out_dir)
@@ -465,7 +487,7 @@ def mesh_many(paths, out_dir, params: MeshParams | None = None, *,
         try:
             futures = client.map(_one, [str(files[i]) for i in todo], [str(outs[i]) for i in todo],
                                  call=call, background=background, camera=camera,
-                                 overwrite=overwrite, pure=False)
+                                 overwrite=overwrite, layout=layout, pure=False)
             index = {f.key: i for i, f in zip(todo, futures, strict=True)}
             if progress:
                 bar = progress_bar(len(futures))

@@ -21,15 +21,16 @@ import numpy as np
 
 from . import scenes
 from ._version import __version__
-from .camera import Orthographic, Pinhole, Spherical, beams_numbers, read_beams
-from .checks import whole_number
+from .camera import Orthographic, Pinhole, Spherical
 from .io import (
     IMAGE_SUFFIXES,
     MESH_SUFFIXES,
+    SCAN_SUFFIX,
+    bin_layout,
     read_color_image,
-    read_lidar_bin,
     read_mesh,
     read_range_image,
+    read_scan,
     write_mesh,
 )
 from .metrics import evaluate
@@ -474,30 +475,19 @@ def _with_colors(args, mesh, name):
 
 def _read_scan(args):
     """The range image of a mesh command: an image file, or a LiDAR .bin read with --beams."""
-    if Path(args.image).suffix.lower() != ".bin":
+    if Path(args.image).suffix.lower() != SCAN_SUFFIX:
         return _read_image(args.image)
     if args.beams is None:
         raise UserError(f"{args.image}: a .bin LiDAR scan needs --beams FILE.json (its rows and "
                         f"column shifts)")
     try:
-        beams = read_beams(args.beams)
+        layout = bin_layout(args.beams)
     except ValueError as exc:
         raise UserError(_one_line(exc)) from None
     try:
-        rows = whole_number("beams: rows", beams["rows"], minimum=1)
-        cols = beams.get("cols")
-        cols = None if cols is None else whole_number("beams: cols", cols, minimum=1)
-        shift = beams.get("column_shift")
-        shift = None if shift is None else beams_numbers("column_shift", shift, whole=True)
-    except KeyError:
-        raise UserError(f"{args.beams}: a beams file for a .bin scan gives its 'rows'") from None
-    except (TypeError, ValueError) as exc:
-        raise UserError(f"{args.beams}: {_one_line(exc)}") from None
-    try:
-        rng, _ = read_lidar_bin(args.image, rows, column_shift=shift, steps=cols)
+        return read_scan(args.image, layout)
     except (OSError, ValueError) as exc:
-        raise UserError(f"{args.image}: {_one_line(exc)}") from None
-    return rng
+        raise UserError(_one_line(exc)) from None
 
 
 def _default_output(args) -> None:
@@ -611,7 +601,7 @@ def _cmd_batch(args):
                                 overwrite=args.overwrite, fmt="." + args.format,
                                 progress=not (args.quiet or args.json) and sys.stderr.isatty(),
                                 method=method, vertices=args.vertices, max_error=args.max_error,
-                                **call_options(params, method))
+                                beams=args.beams, **call_options(params, method))
     except (ValueError, TypeError) as exc:
         raise UserError(_one_line(exc)) from None
     summary = summarize(results, time.perf_counter() - t0)
@@ -770,9 +760,9 @@ def build_parser() -> argparse.ArgumentParser:
                                    "a local cluster of worker processes, or an existing cluster "
                                    "(--scheduler). Bad files are reported and the rest go on; "
                                    "outputs already there are skipped unless --overwrite.")
-    b.add_argument("inputs", nargs="+", help="image files, folders or quoted glob patterns; or "
-                                             "one ROS recording (.bag, .db3, .mcap, ROS 2 bag "
-                                             "folder)")
+    b.add_argument("inputs", nargs="+", help="image files, folders or quoted glob patterns "
+                                             "(LiDAR .bin scans with --beams); or one ROS "
+                                             "recording (.bag, .db3, .mcap, ROS 2 bag folder)")
     b.add_argument("-o", "--output-dir", required=True,
                    help="folder for the meshes and the report; for a recording also NAME.mcap: "
                         "one mesh marker per frame, in step with the recording")
@@ -886,7 +876,9 @@ def main(argv=None) -> int:
     except OSError as exc:
         message = _os_message(exc)
     except MemoryError as exc:
-        message = f"not enough memory ({_one_line(exc)})"
+        message = _one_line(exc)
+        if not message.startswith("not enough memory"):
+            message = f"not enough memory ({message})"
     except (ValueError, TypeError) as exc:
         message = _one_line(exc)
     print(f"rangemesh: error: {message}", file=sys.stderr)

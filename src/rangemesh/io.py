@@ -24,14 +24,18 @@ from pathlib import Path
 import numpy as np
 
 from ._optional import require
-from .camera import MAX_RAY_PIXELS, Orthographic, Pinhole, Spherical
+from .camera import MAX_RAY_PIXELS, Orthographic, Pinhole, Spherical, beams_numbers, read_beams
+from .checks import whole_number
 from .mesh import Mesh, Stats, check_arrays, count_edges
 
 __all__ = [
     "IMAGE_SUFFIXES",
+    "SCAN_SUFFIX",
     "MESH_SUFFIXES",
     "read_range_image",
     "read_lidar_bin",
+    "bin_layout",
+    "read_scan",
     "read_color_image",
     "write_mesh",
     "read_mesh",
@@ -39,6 +43,8 @@ __all__ = [
 ]
 
 IMAGE_SUFFIXES = (".npy", ".png", ".pgm", ".ppm", ".pnm", ".pfm", ".tif", ".tiff", ".pcd")
+# A KITTI-style LiDAR scan: read with its beams file (`read_scan`, `bin_layout`).
+SCAN_SUFFIX = ".bin"
 MESH_SUFFIXES = (".ply", ".obj", ".off", ".stl", ".glb")
 
 
@@ -242,6 +248,63 @@ def read_lidar_bin(path: str | os.PathLike, beams: int, *, column_shift=None,
     return rng, inten
 
 
+def bin_layout(beams_path: str | os.PathLike) -> dict:
+    """How a ``.bin`` scan is laid out, from its beams file: `read_lidar_bin`'s arguments.
+
+    Returns
+    -------
+    dict
+        ``rows`` (beams), ``cols`` (azimuth steps, or None) and
+        ``column_shift`` (one whole number a beam, or None).
+
+    Raises
+    ------
+    ValueError
+        A beams file that cannot be read, or whose values are not whole numbers;
+        the message names the file and the key.
+    """
+    beams = read_beams(beams_path)
+    try:
+        rows = whole_number("beams: rows", beams["rows"], minimum=1)
+        cols = beams.get("cols")
+        cols = None if cols is None else whole_number("beams: cols", cols, minimum=1)
+        shift = beams.get("column_shift")
+        shift = None if shift is None else beams_numbers("column_shift", shift, whole=True)
+    except KeyError:
+        raise ValueError(f"{beams_path}: a beams file for a .bin scan gives its 'rows'") from None
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{beams_path}: {_first_line(exc)}") from None
+    return {"rows": rows, "cols": cols, "column_shift": shift}
+
+
+def read_scan(path: str | os.PathLike, layout: dict | None = None) -> np.ndarray:
+    """A range image: an image file (`read_range_image`), or a LiDAR ``.bin`` scan's ranges.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+    layout : dict, optional
+        The ``.bin`` scan's layout from its beams file (`bin_layout`); needed
+        for ``.bin`` files only.
+
+    Raises
+    ------
+    ValueError
+        A file that cannot be read as either, or a ``.bin`` without `layout`.
+    """
+    if Path(path).suffix.lower() != SCAN_SUFFIX:
+        return read_range_image(path)
+    if layout is None:
+        raise ValueError(f"{path}: a .bin LiDAR scan needs --beams FILE.json (its rows and "
+                         f"column shifts)")
+    try:
+        rng, _ = read_lidar_bin(path, layout["rows"], column_shift=layout["column_shift"],
+                                steps=layout["cols"])
+    except OSError as exc:
+        raise ValueError(f"{path}: {_first_line(exc)}") from None
+    return rng
+
+
 def _umask() -> int:
     """The process's umask, read without changing it where Linux allows."""
     try:
@@ -315,10 +378,23 @@ def atomic_path(path: str | os.PathLike):
             Path(tmp).unlink(missing_ok=True)
 
 
+def _coordinate_type(points: np.ndarray) -> str:
+    """``'f4'`` for points float32 holds (range and normal precision), else ``'f8'``.
+
+    Meshes of depths far from 1 (a subnormal pinhole depth scale, depths
+    beyond 1e38) would otherwise be written as 0 or inf.
+    """
+    a = np.abs(points[np.isfinite(points)])
+    f4 = np.finfo(np.float32)
+    return "f4" if not a.size or (a.max() <= f4.max and a[a > 0].min(initial=1.0) >= f4.tiny) \
+        else "f8"
+
+
 def _write_ply(mesh: Mesh, tmp: Path, ascii: bool, pixels: bool, normals: bool):
     from plyfile import PlyData, PlyElement
 
-    fields = [("x", "f4"), ("y", "f4"), ("z", "f4")]
+    xyz = _coordinate_type(mesh.vertices)
+    fields = [("x", xyz), ("y", xyz), ("z", xyz)]
     if normals:
         fields += [("nx", "f4"), ("ny", "f4"), ("nz", "f4")]
     if mesh.colors is not None:  # the names and type MeshLab, Open3D and CloudCompare read

@@ -21,7 +21,7 @@ import numpy as np
 from ._core import valid_range
 from .camera import Spherical, as_camera, check_reach, check_shape
 from .checks import real_number, whole_number
-from .geometry.seam import seam_strip, unrolled_columns
+from .geometry.seam import seam_strip, strip_to_keep, unrolled_columns
 from .mesh import Mesh, Stats, Target, count_edges, empty_mesh, with_fields
 from .paper import targets
 from .paper.sampling import fill_gaps_inplace, sample_grid, sampling_weights
@@ -32,7 +32,7 @@ from .refine import greedy_mesh
 from .refine.walls import wall_faces
 
 __all__ = ["triangulate", "resolve_call", "resolve_params", "prepare", "run", "Workspace",
-           "check_memory", "OPTIONS"]
+           "check_memory", "memory_need", "vertex_ceiling", "OPTIONS"]
 
 
 @functools.lru_cache(maxsize=1)
@@ -76,8 +76,15 @@ class Workspace:
 # Peak working memory of `run` per image pixel, bytes: float64 depth, weights, the mask and
 # the rest, measured by benchmarks/memory.py (4.2x a float32 image, 17 bytes a pixel), rounded up.
 BYTES_PER_PIXEL = 20
-# The largest depth magnitude meshed: the kernels square depths (plane fits, least squares),
-# which overflow float64 beyond about 1e154.
+# method="refine": bytes a pixel (depth, mask, the reference and render of an error bound) plus
+# bytes a vertex (the insertion's triangles, heap and keys, the faces, the fit's system), from
+# `python benchmarks/memory.py --refine` (2000 x 2000: 11-25 B a pixel, 370-640 B a vertex
+# with strips; the report's dense max_error mesh 600), rounded up.
+REFINE_BYTES_PER_PIXEL = 32
+REFINE_BYTES_PER_VERTEX = 700
+# The largest depth magnitude the paper's method meshes: its kernels square depths (plane fits,
+# curvature), which overflow float64 beyond about 1e154. (method="refine" divides depths by a power
+# of two first, `rangemesh.refine.insertion.depth_exponent`: any finite depth range.)
 MAX_DEPTH = 1e150
 
 
@@ -108,10 +115,30 @@ def available_memory() -> int | None:
     return free
 
 
-def check_memory(shape) -> None:
+def memory_need(shape, method: str = "paper", vertices: int | None = None) -> int:
+    """Bytes `run` needs to mesh an image of `shape` with `method`, as `check_memory` counts them.
+
+    ``'paper'``: BYTES_PER_PIXEL a pixel. ``'refine'``: REFINE_BYTES_PER_PIXEL a
+    pixel plus REFINE_BYTES_PER_VERTEX for each of `vertices` (at most one a
+    pixel; None: none counted, the error bound's search watches its count
+    itself, `vertex_ceiling`).
+
+    Examples
+    --------
+    >>> memory_need((100, 100)), memory_need((100, 100), "refine", 1000)
+    (200000, 1020000)
+    """
+    pixels = int(shape[0]) * int(shape[1])
+    if method != "refine":
+        return pixels * BYTES_PER_PIXEL
+    return pixels * REFINE_BYTES_PER_PIXEL + min(int(vertices or 0), pixels) * REFINE_BYTES_PER_VERTEX
+
+
+def check_memory(shape, method: str = "paper", vertices: int | None = None) -> None:
     """Refuse an image whose meshing would need more memory than the machine has free.
 
-    The rule: ``BYTES_PER_PIXEL`` (20) bytes per pixel, against the memory
+    The rule: `memory_need` (20 bytes a pixel for the paper's method; for
+    refine 32 a pixel and 700 a requested vertex), against the memory
     available now. Failing at once with a clear message beats being killed by
     the kernel's out-of-memory handler half way, or swapping the machine to a
     halt.
@@ -120,14 +147,30 @@ def check_memory(shape) -> None:
     ------
     MemoryError
     """
-    need = int(shape[0]) * int(shape[1]) * BYTES_PER_PIXEL
+    need = memory_need(shape, method, vertices)
     free = available_memory()
     if free is not None and need > free:
+        per = (f"{BYTES_PER_PIXEL} bytes a pixel" if method != "refine" else
+               f"{REFINE_BYTES_PER_PIXEL} bytes a pixel and {REFINE_BYTES_PER_VERTEX} a vertex")
+        budget = f" with {vertices} vertices" if method == "refine" and vertices else ""
         raise MemoryError(
-            f"a {shape[0]}x{shape[1]} image needs about {_size(need)} of memory to mesh "
-            f"({BYTES_PER_PIXEL} bytes a pixel) and {_size(free)} are available; "
-            f"mesh it in parts or on a larger machine"
+            f"a {shape[0]}x{shape[1]} image needs about {_size(need)} of memory to mesh{budget} "
+            f"({per}) and {_size(free)} are available; mesh it in parts, with fewer vertices "
+            f"or on a larger machine"
         )
+
+
+def vertex_ceiling(shape) -> int | None:
+    """Vertices method="refine" can make in the memory available now (None: not known).
+
+    An error bound's search stops there (`run`) and says that memory, not
+    the bound, ended it: its count is not known before the work.
+    """
+    free = available_memory()
+    if free is None:
+        return None
+    rest = free - int(shape[0]) * int(shape[1]) * REFINE_BYTES_PER_PIXEL
+    return max(rest // REFINE_BYTES_PER_VERTEX, 0)
 
 
 def _size(n: int) -> str:
@@ -156,10 +199,13 @@ def prepare(image, params: MeshParams, background=None, *,
     return _prepare_checked(arr, params, background, workspace)
 
 
-def _prepare_checked(arr, params: MeshParams, background, workspace):
-    """`prepare` of an image `check_image` has checked (and its background resolved)."""
+def _prepare_checked(arr, params: MeshParams, background, workspace, need=("paper", None)):
+    """`prepare` of an image `check_image` has checked (and its background resolved).
+
+    `need`: the method and vertex count `check_memory` checks the image for.
+    """
     if workspace is None:
-        check_memory(arr.shape)
+        check_memory(arr.shape, *need)
         depth = np.zeros(arr.shape, np.float64)
         valid = np.zeros(arr.shape, np.bool_)
     else:
@@ -358,6 +404,10 @@ def close_seam(mesh: Mesh, depth: np.ndarray, params: MeshParams) -> Mesh:
 
     With ``walls=False`` the strip's triangles across a jump are dropped by
     the same rule as the others, their pixel lengths measured across the seam.
+    Then every strip triangle that would repeat an edge of the mesh or give a
+    vertex a second fan is dropped
+    (`rangemesh.geometry.seam.strip_to_keep`): the mesh's own triangles and
+    vertices stay, so a vertex count asked for is kept.
     """
     if mesh.is_empty:
         return mesh
@@ -371,6 +421,9 @@ def close_seam(mesh: Mesh, depth: np.ndarray, params: MeshParams) -> Mesh:
             coords = np.stack([mesh.pixels[:, 0], unrolled_columns(mesh.pixels, w)], axis=1)
             walls = wall_faces(strip, coords, z, params.jump)
         strip = strip[~walls]
+    # a strip face that repeats a mesh edge or reaches a vertex across a dropped wall would
+    # break P4: such faces go, the mesh's own faces and vertices stay
+    strip = strip[strip_to_keep(mesh.faces, strip)]
     if not len(strip):
         return mesh
     faces = np.concatenate([mesh.faces, strip]).astype(np.int32)
@@ -405,11 +458,17 @@ def run(image, params: MeshParams, *, background="auto", camera=None, vertices=N
     camera = as_camera(camera)
     t0 = time.perf_counter()
     image, background = check_image(image, background)  # resolves 'auto' by the dtype
-    depth, valid = _prepare_checked(image, params, background, workspace)
+    default_target = method == "refine" and vertices is None and max_error is None
+    # refine's need grows with its vertices: those asked, or the default target's cap at most
+    budget = default_vertex_cap(image.size) if default_target else vertices
+    depth, valid = _prepare_checked(image, params, background, workspace, (method, budget))
     check_shape(camera, depth.shape)
     lo, hi, n_valid = valid_range(depth, valid)
     if n_valid:
-        if max(abs(lo), abs(hi)) > MAX_DEPTH:
+        if not math.isfinite(hi - lo):
+            raise ValueError(f"depths {lo:g} .. {hi:g}: their range exceeds the float range; "
+                             f"scale the image (and its camera) down")
+        if method == "paper" and max(abs(lo), abs(hi)) > MAX_DEPTH:
             raise ValueError(f"depths {lo:g} .. {hi:g} reach beyond {MAX_DEPTH:g}, where the "
                              f"kernels' squares overflow: scale the image (and its camera) down")
         check_reach(camera, depth.shape, lo, hi)
@@ -424,17 +483,33 @@ def run(image, params: MeshParams, *, background="auto", camera=None, vertices=N
         return empty_mesh(camera, depth.shape, stats)
     target = {}
     tiles = params.tiles if tiles_given else None
-    default_target = method == "refine" and vertices is None and max_error is None
     if method == "refine":
-        cap = None
+        cap = memory_cap = None
         if default_target:
             max_error, cap = DEFAULT_TARGET.max_error, default_vertex_cap(n_valid)
+        asked_cap = cap
+        if vertices is None and workspace is None:
+            # an error bound's count is known only at the end: stop where memory runs out
+            ceiling = vertex_ceiling(depth.shape)
+            if ceiling is not None and ceiling < min(cap or n_valid, n_valid):
+                cap = memory_cap = max(ceiling, 3)
         ref = to_depth_and_mask(image, background) if max_error is not None else None
         mesh, target = greedy_mesh(depth, valid, camera, vertices=vertices, max_error=max_error,
                                    reference=ref, fit=params.heights != "pixel",
                                    diagonals=params.diagonals or "error",
                                    walls=params.walls, jump=params.jump,
                                    extent=(lo, hi, n_valid), max_vertices=cap)
+        if memory_cap is not None and target and not target["met"] \
+                and target.get("note", "").startswith("stopped at max_vertices"):
+            raise MemoryError(
+                f"the error bound {max_error:g} % needs more than {memory_cap} vertices, which "
+                f"is what the {_size(available_memory() or 0)} of memory available hold "
+                f"({REFINE_BYTES_PER_VERTEX} bytes a vertex); give a larger max_error or a "
+                f"vertex count, or mesh on a larger machine")
+        if memory_cap is not None and target:  # the record keeps the cap that was asked for
+            target.pop("max_vertices", None)
+            if asked_cap is not None:
+                target["max_vertices"] = asked_cap
     elif vertices is not None:
         mesh, target = targets.fit_vertices(depth, valid, params, camera, int(vertices), tiles=tiles)
     elif max_error is not None:
@@ -598,8 +673,10 @@ def triangulate(image, params: MeshParams | None = None, *,
     TypeError
         Wrong kind of image, camera or parameter, or an unknown keyword.
     MemoryError
-        The image needs more memory than the machine has available (20 bytes
-        a pixel, see `check_memory`).
+        The image needs more memory than the machine has available (see
+        `check_memory`: 20 bytes a pixel for the paper's method; for refine 32
+        a pixel and 700 a vertex asked, or, under an error bound, once its
+        vertices fill the memory available), or an allocation failed.
 
     See Also
     --------

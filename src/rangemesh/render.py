@@ -98,8 +98,14 @@ def render_depth(mesh: Mesh, shape: tuple[int, int] | None = None, *,
     if isinstance(cam, Orthographic):
         val = z / cam.kz
     elif isinstance(cam, Pinhole):
-        with np.errstate(divide="ignore"):
+        with np.errstate(divide="ignore", over="ignore"):
             val = 1.0 / z
+        # a subnormal depth scale puts 3-D depths where 1/z overflows: interpolate the inverse
+        # of the stored depth instead (the same prediction, in range)
+        stored = not np.isfinite(val[z != 0]).all()
+        if stored:
+            with np.errstate(divide="ignore"):
+                val = cam.depth_scale / z
     else:
         val = np.linalg.norm(mesh.vertices, axis=1) / cam.range_scale
     f = mesh.faces.astype(np.int64)
@@ -116,7 +122,7 @@ def render_depth(mesh: Mesh, shape: tuple[int, int] | None = None, *,
         face[hit] = index[face[hit]]
     if isinstance(cam, Pinhole):
         with np.errstate(divide="ignore", invalid="ignore"):
-            out = 1.0 / out / cam.depth_scale
+            out = 1.0 / out if stored else 1.0 / out / cam.depth_scale
     return out, face
 
 

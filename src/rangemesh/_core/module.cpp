@@ -2,6 +2,9 @@
 // and the pipeline; this module is the bottom layer and knows nothing above it.
 #include <nanobind/nanobind.h>
 
+#include <new>
+#include <stdexcept>
+
 #include "bind/bindings.hpp"
 #include "views.hpp"
 
@@ -12,6 +15,15 @@ NB_MODULE(_ext, m) {
             std::rethrow_exception(p);
         } catch (const rangemesh::InvariantError& e) {
             PyErr_Format(PyExc_RuntimeError, "rangemesh core: broken invariant: %s", e.what());
+        } catch (const std::bad_alloc&) {
+            // (a size beyond what a vector can hold is the same failure, only larger)
+            PyErr_SetString(PyExc_MemoryError,
+                            "not enough memory: the compiled core could not allocate its arrays; mesh "
+                            "a smaller image, with fewer vertices, or on a larger machine");
+        } catch (const std::length_error&) {
+            PyErr_SetString(PyExc_MemoryError,
+                            "not enough memory: the compiled core could not allocate its arrays; mesh "
+                            "a smaller image, with fewer vertices, or on a larger machine");
         }
     });
     rangemesh::bind::bind_geometry(m);

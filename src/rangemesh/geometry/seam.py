@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["seam_strip", "is_seam", "unrolled_columns"]
+__all__ = ["seam_strip", "is_seam", "unrolled_columns", "strip_to_keep"]
 
 
 def _signed_area(r, c, faces):
@@ -141,3 +141,89 @@ def seam_strip(pixels: np.ndarray, faces: np.ndarray, width: int) -> np.ndarray:
     flip = area < 0
     strip[flip] = strip[flip][:, [0, 2, 1]]
     return strip.astype(np.int32)
+
+
+def _fan_roots(faces):
+    """Union-find roots of the corners ``3t + k`` of `faces`, as an (F, 3) array.
+
+    Corners at one vertex of two faces that share an edge are joined, so each
+    vertex's fans are its distinct roots.
+    """
+    n = len(faces)
+    parent = np.arange(3 * n)
+
+    def find(i):
+        while parent[i] != i:
+            parent[i] = parent[parent[i]]
+            i = parent[i]
+        return i
+
+    corner = {}
+    for t, face in enumerate(faces.tolist()):
+        for k in range(3):
+            corner[(t, face[k])] = 3 * t + k
+    owner = {}
+    for t, face in enumerate(faces.tolist()):
+        for k in range(3):
+            owner.setdefault((face[k], face[(k + 1) % 3]), []).append(t)
+    for (a, b), ts in owner.items():
+        for u in owner.get((b, a), []) + ts[1:]:
+            for v in (a, b):
+                ra, rb = find(corner[(ts[0], v)]), find(corner[(u, v)])
+                parent[max(ra, rb)] = min(ra, rb)
+    return np.array([find(i) for i in range(3 * n)], np.int64).reshape(n, 3)
+
+
+def strip_to_keep(faces: np.ndarray, strip: np.ndarray) -> np.ndarray:
+    """Which faces of `strip` to keep so that the mesh stays a surface with one fan a vertex (SPEC P4).
+
+    `faces` (a valid mesh) stay as they are. A strip face is dropped when it
+    repeats a face of the mesh or one of its directed edges (a mesh face across
+    the image's whole width already joins those vertices), and then, until none
+    is left, when its corner at some vertex lies outside that vertex's fan of
+    `faces` (the strip reaching the vertex across a dropped wall or background
+    triangle). The strip adds no vertex, so no vertex is lost; and its faces
+    cover no pixel centre, so the mesh's error stays the same.
+
+    Parameters
+    ----------
+    faces : (F, 3) ndarray of int
+        The mesh, one fan per vertex.
+    strip : (K, 3) ndarray of int
+        Seam faces on the mesh's vertices (`seam_strip`).
+
+    Returns
+    -------
+    (K,) ndarray of bool
+    """
+    kept = np.ones(len(strip), bool)
+    if not len(strip):
+        return kept
+    on_seam = np.unique(strip)
+    # only faces at the strip's vertices can share an edge or a fan with the strip
+    near = np.isin(faces, on_seam).any(axis=1)
+    local = np.asarray(faces)[near].astype(np.int64)
+    seen = {(a, b) for a, b, c in local.tolist() for a, b in ((a, b), (b, c), (c, a))}
+    triples = {frozenset(face) for face in local.tolist()}
+    for i, (a, b, c) in enumerate(strip.tolist()):
+        edges = ((a, b), (b, c), (c, a))
+        if frozenset((a, b, c)) in triples or any(e in seen for e in edges):
+            kept[i] = False
+        else:
+            seen.update(edges)
+    while kept.any():
+        both = np.concatenate([local, strip[kept].astype(np.int64)])
+        roots = _fan_roots(both)
+        mesh_root = {}
+        for face, root in zip(both[:len(local)].tolist(), roots[:len(local)].tolist(),
+                              strict=True):
+            for v, r in zip(face, root, strict=True):
+                mesh_root.setdefault(v, r)
+        bad = np.zeros(kept.sum(), bool)
+        for i, (face, root) in enumerate(zip(both[len(local):].tolist(),
+                                             roots[len(local):].tolist(), strict=True)):
+            bad[i] = any(mesh_root.get(v, r) != r for v, r in zip(face, root, strict=True))
+        if not bad.any():
+            break
+        kept[np.flatnonzero(kept)[bad]] = False
+    return kept

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import time
 
 import numpy as np
@@ -17,11 +18,11 @@ from .._core import (
     valid_faces,
     valid_range,
 )
-from ..camera import backproject, pixel_aspect
-from ..mesh import Mesh, Stats, empty_mesh
+from ..camera import Orthographic, backproject, pixel_aspect
+from ..mesh import Mesh, Stats, empty_mesh, with_fields
 from ..render import relative_error
 from .heights import fit_heights
-from .start import corner_depths, first_mesh
+from .start import corner_depths, first_mesh, hull_mesh, valid_hull
 from .strips import strip_insert, use_strips
 from .walls import drop_walls
 
@@ -49,6 +50,10 @@ GRID_ERROR_BOUND = 64
 ASPECT_MIN = 1.5
 ASPECT_MAX = 8
 EXACT_SIDE = 30_000
+# `greedy_mesh` divides depths by a power of two when their largest magnitude lies beyond
+# 2**DEPTH_BAND or below 2**-DEPTH_BAND: the kernels' squares (plane fits, least squares) overflow
+# from about 1e150 and underflow below about 1e-160. Within the band nothing is copied.
+DEPTH_BAND = 64
 
 
 def delaunay_scales(camera, shape) -> tuple[int, int]:
@@ -178,19 +183,27 @@ def _refine(depth, valid, start, strips, asked, max_sum, span, scales, n_grid, d
 
     With ``diagonals='error'`` each quad then takes the diagonal that fits
     its pixels better (`rangemesh.refine.diagonals`; on strips, each strip
-    on its thread, then the seam); `info` receives ``flips``.
+    on its thread, then the seam); `info` receives ``flips`` and ``total``,
+    the insertion's summed error of the valid pixels where it stopped.
     """
     info = {} if info is None else info
     info["flips"] = 0
     if strips:  # two strips on two threads (`rangemesh.refine.strips`)
-        return strip_insert(depth, valid, asked, span, scales, n_grid, max_sum=max_sum,
-                            diagonals=diagonals, info=info)[:3]
+        vr, vc, tv, _, info["total"] = strip_insert(depth, valid, asked, span, scales, n_grid,
+                                                    max_sum=max_sum, diagonals=diagonals,
+                                                    info=info)
+        return vr, vc, tv
     if diagonals != "error":
-        return greedy_insert(depth, valid, *start, asked, max_sum, span, *scales)[:3]
+        vr, vc, tv, _, info["total"] = greedy_insert(depth, valid, *start, asked, max_sum, span,
+                                                     *scales)
+        return vr, vc, tv
     # the insertion's own half-edges and triangle sums: no second pass over the pixels
     vr, vc, tv, he, tsum = greedy_insert_sums(depth, valid, *start, asked, max_sum, span, *scales)
+    info["total"] = float(tsum.sum())
     info["flips"] = int(flip_by_error(vr, vc, tv, he, tsum, depth, valid, span)[0])
     return vr, vc, tv
+
+
 def greedy_mesh(depth: np.ndarray, valid: np.ndarray, camera, *, vertices: int | None = None,
                 max_error: float | None = None, reference=None, fit: bool = True,
                 diagonals: str = "error", walls: bool = True, jump: float = 0.05,
@@ -245,15 +258,77 @@ def greedy_mesh(depth: np.ndarray, valid: np.ndarray, camera, *, vertices: int |
     Triangles with a background vertex (an image corner outside the object)
     are refined until they hold no valid pixel, then dropped, so the mesh
     covers the valid pixels without spending vertices on the background.
+    When that leaves no triangle, insertion starts again from the valid
+    pixels' convex hull (`hull_mesh`).
+
+    Depths far from 1 (beyond ``2**DEPTH_BAND`` or below its inverse) are
+    divided by a power of two first (`depth_exponent`) and the vertices
+    lifted in the image's units: the mesh is the same for any depth unit
+    (SPEC P2), bit for bit.
     """
     h, w = depth.shape
     if diagonals not in ("delaunay", "error"):
         raise ValueError(f"diagonals must be 'delaunay' or 'error', got {diagonals!r}")
     if h < 2 or w < 2:
         raise ValueError(f"greedy insertion needs an image of at least 2x2 pixels, got {h}x{w}")
-    t0 = time.perf_counter()
     ref = (depth, valid) if reference is None else reference
     extent = valid_range(depth, valid) if extent is None else extent
+    exponent = depth_exponent(extent[0], extent[1])
+    if exponent:  # exact: the mesh of depth * 2**k is the same for every k
+        depth = np.ldexp(depth, -exponent)
+        ref = (np.ldexp(ref[0], -exponent), ref[1])
+        extent = (math.ldexp(extent[0], -exponent), math.ldexp(extent[1], -exponent), extent[2])
+    mesh, target = _greedy(depth, valid, camera, ref, extent, exponent, vertices=vertices,
+                           max_error=max_error, fit=fit, diagonals=diagonals, walls=walls,
+                           jump=jump, max_vertices=max_vertices, first=None)
+    if exponent and len(mesh.faces):
+        mesh = with_fields(mesh, vertices=_in_units(mesh.vertices, camera, exponent))
+    return mesh, target
+
+
+def depth_exponent(lo: float, hi: float) -> int:
+    """The power of two `greedy_mesh` divides depths by: 0 unless they lie far from 1.
+
+    0 when the largest depth magnitude lies within ``2**-DEPTH_BAND ..
+    2**DEPTH_BAND`` (every depth unit in use: the kernels' squares and sums
+    stay far from overflow and underflow there); otherwise the exponent that
+    brings it into ``[1, 2)``. Powers of two scale exactly, and the kernels
+    compute the same mesh for any depth scale within the band.
+
+    Examples
+    --------
+    >>> depth_exponent(0.5, 65535.0), depth_exponent(1e-200, 3e-200), depth_exponent(-2.0**600, 0.0)
+    (0, -663, 600)
+    """
+    top = max(abs(lo), abs(hi))
+    if top == 0.0 or not math.isfinite(top) or 2.0**-DEPTH_BAND <= top <= 2.0**DEPTH_BAND:
+        return 0
+    return math.frexp(top)[1] - 1
+
+
+def _in_units(points, camera, exponent):
+    """3-D points lifted from depths / 2**exponent, as lifted from the depths themselves (exact).
+
+    Every coordinate of `backproject` is the depth times factors of the pixel,
+    except an orthographic camera's x and y.
+    """
+    out = np.array(points, dtype=np.float64)
+    if isinstance(camera, Orthographic):
+        out[:, 2] = np.ldexp(out[:, 2], exponent)
+    else:
+        out = np.ldexp(out, exponent)
+    return out
+
+
+def _greedy(depth, valid, camera, ref, extent, exponent, *, vertices, max_error, fit, diagonals,
+            walls, jump, max_vertices, first):
+    """`greedy_mesh` on depths divided by ``2**exponent`` (`ref` and `extent` too).
+
+    Its vertices are lifted from those depths; the notes name the depth range
+    in the image's own units.
+    """
+    h, w = depth.shape
+    t0 = time.perf_counter()
     lo, hi, n_valid = extent
     span = hi - lo
     want = n_valid if vertices is None else min(int(vertices), n_valid)
@@ -263,8 +338,8 @@ def greedy_mesh(depth: np.ndarray, valid: np.ndarray, camera, *, vertices: int |
     n_grid = grid_size(want, n_valid, vertices is None)
     if vertices is None and max_vertices is not None:  # the first mesh stays under the cap
         n_grid = min(n_grid, grid_size(want, n_valid, False))
-    strips = use_strips((h, w), want, max_error, n_valid)
-    start = None if strips else first_mesh(depth, valid, n_grid, scales)
+    strips = first is None and use_strips((h, w), want, max_error, n_valid)
+    start = first if first is not None or strips else first_mesh(depth, valid, n_grid, scales)
     max_sum = -1.0 if max_error is None else float(max_error) / 100.0 * span * n_valid
     runs = 0
     asked = want
@@ -272,6 +347,7 @@ def greedy_mesh(depth: np.ndarray, valid: np.ndarray, camera, *, vertices: int |
     short, beyond = 0, n_valid + 1  # requests known to give fewer / more than `want`
     best = None  # with `vertices`: the result nearest `want`, not above it if any is
     fit_seconds = 0.0  # fitting the depths (with max_error, measuring their error too)
+    counted = None  # with max_error, once searching by count: its bounds and best result
     info = {}
     while True:
         runs += 1
@@ -305,8 +381,35 @@ def greedy_mesh(depth: np.ndarray, valid: np.ndarray, camera, *, vertices: int |
                                        max_error, ref, fit, extent)
             if fit:
                 fit_seconds += time.perf_counter() - t
-            if achieved > max_error and asked > got and runs < MAX_RUNS:
-                max_sum *= 0.9  # the running sum is an estimate: tighten and go on
+            if counted is not None:
+                if achieved <= max_error:
+                    counted["met"], counted["hi"] = (faces, pixels, n_walls, verts, achieved), asked
+                else:
+                    counted["lo"] = asked
+                few, most = counted["lo"], counted["hi"]
+                # the last meshing asks for the largest count if no count met the bound yet
+                nxt = want if runs == MAX_RUNS - 1 and counted["met"] is None else (few + most) // 2
+                if runs < MAX_RUNS and few < nxt <= most and nxt != asked \
+                        and (counted["met"] is None or nxt < most):
+                    asked = nxt
+                    continue
+                if counted["met"] is not None:
+                    faces, pixels, n_walls, verts, achieved = counted["met"]
+                    got = len(pixels)
+            elif achieved > max_error and asked > got and runs < MAX_RUNS:
+                if info["total"] > 0.0:
+                    max_sum *= 0.9  # the running sum is an estimate: tighten and go on
+                    continue
+                # The insertion's own sum is 0 (every pixel fits its plane in the kernel's
+                # arithmetic) while the rendered mesh rounds otherwise (depths far from 0 with a
+                # tiny range): a tighter sum stops at the same mesh. Search by count instead,
+                # up to `want` (every valid pixel a vertex renders exactly).
+                counted = {"lo": got, "hi": want, "met": None}
+                max_sum = -1.0
+                if strips:  # (strips never insert the seam column's other pixels)
+                    strips = False
+                    start = first_mesh(depth, valid, n_grid, scales)
+                asked = want if runs == MAX_RUNS - 1 else (got + want) // 2
                 continue
         break
     t1 = time.perf_counter()
@@ -323,17 +426,28 @@ def greedy_mesh(depth: np.ndarray, valid: np.ndarray, camera, *, vertices: int |
                   sampled_points=got, seconds=seconds, method="refine", grid_shape=None,
                   flipped_edges=info["flips"], insertions=len(vr), strips=2 if strips else 1,
                   heights="fit" if fit else "pixel")
+    if len(faces) == 0 and first is None and (walls or not n_walls):
+        # every triangle had a background image corner: start again from valid pixels only
+        hull = hull_mesh(depth, valid, want, scales)
+        if hull is not None:
+            return _greedy(depth, valid, camera, ref, extent, exponent, vertices=vertices,
+                           max_error=max_error, fit=fit, diagonals=diagonals, walls=walls,
+                           jump=jump, max_vertices=max_vertices, first=hull)
     if len(faces) == 0:
-        stats = Stats(seconds=seconds, method="refine", grid_shape=None,
-                      reason="no triangle with valid corners: too few valid pixels"
-                      if walls or not n_walls else
-                      f"every triangle was a wall across a jump ({n_walls} dropped)")
+        reason = (f"every triangle was a wall across a jump ({n_walls} dropped)"
+                  if n_walls and not walls else
+                  f"the {n_valid} valid pixels lie on one line: no triangle"
+                  if len(valid_hull(valid)) < 3 and n_valid >= 3 else
+                  f"only {n_valid} valid pixel{'s' if n_valid != 1 else ''}: a triangle needs 3"
+                  if n_valid < 3 else
+                  "no triangle with valid corners")
+        stats = Stats(seconds=seconds, method="refine", grid_shape=None, reason=reason)
         return empty_mesh(camera, (h, w), stats), {}
     mesh = Mesh(verts, faces, pixels, camera, (h, w), stats)
     if vertices is not None:
         ok = got == int(vertices)
         note = "" if ok else _count_note(got, int(vertices), n_valid, h * w, walls and n_walls == 0,
-                                         lo, hi)
+                                         math.ldexp(lo, exponent), math.ldexp(hi, exponent))
         target = {"target": "vertices", "requested": int(vertices), "achieved": got, "met": ok,
                   "meshings": runs}
     else:

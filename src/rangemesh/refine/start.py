@@ -6,7 +6,7 @@ import numpy as np
 
 from .._core import delaunay_sweep, grid_pixels, nearest_valid
 
-__all__ = ["corner_depths", "first_mesh"]
+__all__ = ["corner_depths", "first_mesh", "valid_hull", "hull_mesh"]
 
 
 def corner_depths(depth: np.ndarray, valid: np.ndarray) -> np.ndarray:
@@ -81,3 +81,66 @@ def first_mesh(depth: np.ndarray, valid: np.ndarray, n_grid: int, scales=(1, 1),
         he = np.array([-1, -1, 3, 2, -1, -1], np.int64)
     vz = np.concatenate([corner_z, depth[vr[4:], vc[4:]]])
     return vr, vc, vz, tv, he
+
+
+def valid_hull(valid: np.ndarray) -> np.ndarray:
+    """Corners of the convex hull of the valid pixels, counter-clockwise in (row, col).
+
+    Points on a hull edge are left out. Fewer than 3 corners when the valid
+    pixels are fewer than 3 or all on one line.
+
+    Returns
+    -------
+    (K, 2) ndarray of int64
+    """
+    rows = np.flatnonzero(valid.any(axis=1))
+    if not len(rows):
+        return np.zeros((0, 2), np.int64)
+    w = valid.shape[1]
+    first = np.argmax(valid[rows], axis=1)
+    last = w - 1 - np.argmax(valid[rows, ::-1], axis=1)
+    # each row's first and last valid pixels hold the hull's corners (monotone chain, exact ints)
+    pts = sorted({(int(r), int(c)) for r, c in zip(np.concatenate([rows, rows]).tolist(),
+                                                   np.concatenate([first, last]).tolist(),
+                                                   strict=True)})
+
+    def turn(o, a, b):
+        return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
+
+    def half(points):
+        out = []
+        for p in points:
+            while len(out) >= 2 and turn(out[-2], out[-1], p) <= 0:
+                out.pop()
+            out.append(p)
+        return out[:-1]
+
+    hull = half(pts) + half(pts[::-1])
+    if len(hull) < 3:
+        return np.zeros((0, 2), np.int64)
+    return np.array(hull, np.int64)
+
+
+def hull_mesh(depth: np.ndarray, valid: np.ndarray, limit: int, scales=(1, 1)):
+    """A first mesh of valid pixels only: at most `limit` corners of their convex hull.
+
+    The start when the image corners' mesh leaves no triangle of valid
+    corners (valid pixels far apart in a large background): its triangles
+    hold only valid vertices, and insertion refines within them.
+
+    Returns
+    -------
+    vr, vc, vz, tv, he : ndarrays, or None
+        As `first_mesh`; None when the valid pixels are fewer than 3 or
+        collinear (no triangle exists), or `limit` is under 3.
+    """
+    hull = valid_hull(valid)
+    if len(hull) < 3 or limit < 3:
+        return None
+    if len(hull) > limit:  # evenly spread corners of a convex polygon: still one
+        hull = hull[np.linspace(0, len(hull), int(limit), endpoint=False).astype(np.int64)]
+    vr, vc = hull[:, 0].copy(), hull[:, 1].copy()
+    tv, he = delaunay_sweep(vr * scales[0], vc * scales[1])
+    if len(tv) == 0:
+        raise RuntimeError("hull_mesh: the hull's corners cannot be collinear")
+    return vr, vc, depth[vr, vc], tv, he

@@ -49,11 +49,19 @@ struct RenderRow {
     index_t* face;
 };
 
-// Write column c from the weights w0, w1, w2 of corners 0, 1, 2, unless a triangle did.
+// Write column c from the weights w0, w1, w2 of corners 0, 1, 2, unless a triangle did. A
+// corner's own pixel takes its value as it is: (s * f) / s rounds away from f for some s, and a
+// mesh with every pixel a vertex must render exactly.
 void put(RenderRow out, index_t c, const Triangle& k, double w0, double w1, double w2) {
     if (out.face[c] != -1) return;
-    const double s = w0 + w1 + w2;
-    out.value[c] = (w0 * k.f[0] + w1 * k.f[1] + w2 * k.f[2]) / s;
+    if (w1 == 0.0 && w2 == 0.0)
+        out.value[c] = k.f[0];
+    else if (w0 == 0.0 && w2 == 0.0)
+        out.value[c] = k.f[1];
+    else if (w0 == 0.0 && w1 == 0.0)
+        out.value[c] = k.f[2];
+    else
+        out.value[c] = (w0 * k.f[0] + w1 * k.f[1] + w2 * k.f[2]) / (w0 + w1 + w2);
     out.face[c] = k.t;
 }
 

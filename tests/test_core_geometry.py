@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from scipy.spatial import Delaunay
+from scipy.spatial import ConvexHull, Delaunay
 
 from rangemesh import _core
 
@@ -102,6 +102,26 @@ def test_mask_image_follows_numpys_rules_for_every_dtype(dtype):
         assert np.array_equal(depth, np.where(want, arr.astype(np.float64), 0.0))
 
 
+@pytest.mark.parametrize("dtype", [np.int8, np.int16, np.int32, np.int64, np.uint8, np.uint16,
+                                   np.uint32, np.uint64])
+@pytest.mark.parametrize("shape", [(0, 0), (0, 3), (1, 1), (2, 2), (3, 70)])
+def test_mask_image_markers_at_the_limits_of_integer_types(dtype, shape):
+    # the marker compared as the image's own type must equal NumPy's float64 comparison, at the
+    # type's limits, just past them, and for markers no value of the type equals
+    info = np.iinfo(dtype)
+    ends = [float(info.min), float(info.max)]
+    values = np.array([info.min, info.max, info.min + 1, info.max - 1, 0], dtype)
+    arr = np.random.default_rng(3).choice(values, size=shape)
+    past = [e + d for e in ends for d in (-1.0, 1.0, -0.5, 0.5)]
+    for bg in ends + past + [2.0**63, 2.0**64, np.nan, np.inf]:
+        depth = np.full(shape, -1.0)
+        valid = np.zeros(shape, bool)
+        _core.mask_image(arr, True, bg, depth, valid)
+        want = arr.astype(np.float64) != bg
+        assert np.array_equal(valid, want), bg
+        assert np.array_equal(depth, np.where(want, arr.astype(np.float64), 0.0)), bg
+
+
 @settings(max_examples=40, deadline=None)
 @given(st.integers(0, 2**32 - 1), st.integers(1, 20), st.integers(1, 20), st.floats(0, 1))
 def test_valid_range_and_covered_error_by_plain_loops(seed, h, w, share):
@@ -186,6 +206,41 @@ def test_delaunay_sweep_is_delaunay_by_brute_force(pts):
     assert delaunay_violations(pr, pc, triangles) == []
     assert np.array_equal(halfedges, _reference_halfedges(triangles.reshape(-1, 3)))
     assert _core.legalize_all(triangles.copy(), halfedges.copy(), pr, pc) == 0
+
+
+def test_delaunay_sweep_of_more_points_than_one_sorted_run():
+    # 65536 points make one run of the distance sort; 3 runs and a short one are merged here.
+    # Checked from the definition in exact integers: counter-clockwise triangles that use every
+    # point, twins that pair reversed edges, areas that sum to the convex hull's (SciPy), and
+    # no point strictly inside the circle of the triangle across an edge. Many points of a
+    # pixel grid are co-circular, so SciPy's own triangulation may differ on such ties.
+    side = 16384  # the predicates' exact range
+    rng = np.random.default_rng(11)
+    idx = rng.choice(side * side, size=3 * 65536 + 5, replace=False)
+    pr, pc = idx // side, idx % side
+    triangles, halfedges = _core.delaunay_sweep(pr, pc)
+    t = triangles.reshape(-1, 3)
+    r, c = pr[t], pc[t]
+    area2 = (r[:, 1] - r[:, 0]) * (c[:, 2] - c[:, 0]) - (c[:, 1] - c[:, 0]) * (r[:, 2] - r[:, 0])
+    assert (area2 > 0).all()
+    assert np.array_equal(np.unique(triangles), np.arange(len(pr)))
+    hull = ConvexHull(np.c_[pr, pc].astype(float)).vertices
+    hr, hc = pr[hull], pc[hull]
+    assert area2.sum() == abs(int((hr * np.roll(hc, -1) - np.roll(hr, -1) * hc).sum()))
+    e = np.flatnonzero(halfedges >= 0)
+    twin = halfedges[e]
+    nxt = e - e % 3 + (e + 1) % 3
+    assert np.array_equal(halfedges[twin], e)
+    assert np.array_equal(triangles[twin], triangles[nxt])
+    far = triangles[twin - twin % 3 + (twin + 2) % 3]  # the twin's corner off the edge
+    dr, dc = pr[far], pc[far]
+    a = t[e // 3]
+    adr, adc = pr[a] - dr[:, None], pc[a] - dc[:, None]
+    lift = adr * adr + adc * adc
+    det = (adr[:, 0] * (adc[:, 1] * lift[:, 2] - lift[:, 1] * adc[:, 2])
+           - adc[:, 0] * (adr[:, 1] * lift[:, 2] - lift[:, 1] * adr[:, 2])
+           + lift[:, 0] * (adr[:, 1] * adc[:, 2] - adc[:, 1] * adr[:, 2]))
+    assert (det <= 0).all()
 
 
 def test_cocircular_ties_go_by_simulation_of_simplicity():

@@ -71,7 +71,7 @@ def images(draw):
 
 param_values = st.one_of(
     st.integers(-3, 70), st.floats(allow_nan=True, allow_infinity=True), st.none(), st.booleans(),
-    st.sampled_from(["4", "44", "no", "adaptive", "error", "", "1e3", "greedy", "paper", "fit",
+    st.sampled_from(["4", "44", "no", "adaptive", "error", "", "1e3", "refine", "paper", "fit",
                      "pixel"]),
     st.tuples(st.integers(-1, 12), st.integers(-1, 12)),
     st.builds(np.int64, st.integers(-2, 40)), st.builds(np.float32, st.floats(-5, 200)),

@@ -6,6 +6,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.spatial import ConvexHull, Delaunay
 
+import rangemesh
 from rangemesh import _core
 
 
@@ -241,6 +242,51 @@ def test_delaunay_sweep_of_more_points_than_one_sorted_run():
            - adc[:, 0] * (adr[:, 1] * lift[:, 2] - lift[:, 1] * adr[:, 2])
            + lift[:, 0] * (adr[:, 1] * adc[:, 2] - adc[:, 1] * adr[:, 2]))
     assert (det <= 0).all()
+
+
+def test_the_exact_span_keeps_incircle_within_int64():
+    # |incircle| <= 12 D^4 for coordinate differences up to D (three terms of D * 4 D^3)
+    assert 12 * _core.EXACT_SPAN**4 < 2**63
+    assert 12 * 29_609**4 < 2**63 <= 12 * 29_610**4
+
+
+def test_delaunay_sweep_is_exact_at_the_full_span():
+    # Points near one circle as wide as the span (in-circle determinants near their largest and
+    # near 0), the span's corners and random points: the empty-circle property holds, checked
+    # in Python's unbounded integers.
+    side = _core.EXACT_SPAN
+    rng = np.random.default_rng(5)
+    angles = np.sort(rng.random(3000)) * 2 * np.pi
+    ring = np.c_[np.rint(side / 2 + side / 2 * np.cos(angles)), np.rint(side / 2 + side / 2 * np.sin(angles))]
+    pts = np.unique(np.r_[ring, [[0, 0], [0, side], [side, 0], [side, side]],
+                          rng.integers(0, side + 1, (2000, 2))].astype(np.int64), axis=0)
+    pr, pc = pts[:, 0].copy(), pts[:, 1].copy()
+    triangles, halfedges = _core.delaunay_sweep(pr, pc)
+    assert len(np.unique(triangles)) == len(pr)
+    P = [(int(a), int(b)) for a, b in zip(pr, pc, strict=True)]
+
+    def incircle(a, b, c, d):
+        (ar, ac), (br, bc), (cr, cc), (dr, dc) = P[a], P[b], P[c], P[d]
+        adr, adc, bdr, bdc, cdr, cdc = ar - dr, ac - dc, br - dr, bc - dc, cr - dr, cc - dc
+        ad, bd, cd = adr * adr + adc * adc, bdr * bdr + bdc * bdc, cdr * cdr + cdc * cdc
+        return adr * (bdc * cd - bd * cdc) - adc * (bdr * cd - bd * cdr) + ad * (bdr * cdc - bdc * cdr)
+
+    for e in np.flatnonzero(halfedges >= 0):
+        t = int(halfedges[e])
+        f = e - e % 3
+        far = int(triangles[t - t % 3 + (t + 2) % 3])
+        assert incircle(*(int(x) for x in triangles[f:f + 3]), far) <= 0
+
+
+def test_points_beyond_the_exact_span_are_refused():
+    side = _core.EXACT_SPAN + 1
+    with pytest.raises(RuntimeError, match="EXACT_SPAN"):
+        _core.delaunay_sweep(np.array([0, 0, side]), np.array([0, 5, 0]))
+    with pytest.raises(ValueError, match="tiles"):
+        rangemesh.triangulate(np.ones((2, side + 1)), vertices=4)
+    with pytest.raises(ValueError, match="tiles"):
+        rangemesh.triangulate(np.ones((side + 1, 2)), method="paper")
+    assert len(rangemesh.triangulate(np.ones((2, side)), vertices=4).vertices) == 4
 
 
 def test_cocircular_ties_go_by_simulation_of_simplicity():

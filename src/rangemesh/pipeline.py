@@ -18,7 +18,7 @@ import warnings
 
 import numpy as np
 
-from ._core import valid_range
+from ._core import EXACT_SPAN, valid_range
 from .camera import Spherical, as_camera, check_reach, check_shape
 from .checks import real_number, whole_number
 from .geometry.seam import seam_strip, strip_to_keep, unrolled_columns
@@ -132,6 +132,21 @@ def memory_need(shape, method: str = "paper", vertices: int | None = None) -> in
     if method != "refine":
         return pixels * BYTES_PER_PIXEL
     return pixels * REFINE_BYTES_PER_PIXEL + min(int(vertices or 0), pixels) * REFINE_BYTES_PER_VERTEX
+
+
+def check_side(shape) -> None:
+    """Refuse an image with more than ``EXACT_SPAN + 1`` pixels a side (29,001).
+
+    The Delaunay tests are exact in 64-bit integers up to that span
+    (`rangemesh._core.EXACT_SPAN`); such an image would also need tens of GiB.
+
+    Raises
+    ------
+    ValueError
+    """
+    if max(shape) - 1 > EXACT_SPAN:
+        raise ValueError(f"a {shape[0]}x{shape[1]} image is more than {EXACT_SPAN + 1} pixels a "
+                         f"side, beyond the exact Delaunay tests: mesh it in tiles")
 
 
 def check_memory(shape, method: str = "paper", vertices: int | None = None) -> None:
@@ -458,6 +473,7 @@ def run(image, params: MeshParams, *, background="auto", camera=None, vertices=N
     camera = as_camera(camera)
     t0 = time.perf_counter()
     image, background = check_image(image, background)  # resolves 'auto' by the dtype
+    check_side(image.shape)
     default_target = method == "refine" and vertices is None and max_error is None
     # refine's need grows with its vertices: those asked, or the default target's cap at most
     budget = default_vertex_cap(image.size) if default_target else vertices

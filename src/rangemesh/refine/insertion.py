@@ -8,6 +8,7 @@ import time
 import numpy as np
 
 from .._core import (
+    EXACT_SPAN,
     build_halfedges,
     count_edges,
     flip_by_error,
@@ -49,7 +50,7 @@ GRID_ERROR_BOUND = 64
 # ASPECT_MAX, and the scaled image at most EXACT_SIDE a side: the predicates stay exact in int64.
 ASPECT_MIN = 1.5
 ASPECT_MAX = 8
-EXACT_SIDE = 30_000
+EXACT_SIDE = EXACT_SPAN
 # `greedy_mesh` divides depths by a power of two when their largest magnitude lies beyond
 # 2**DEPTH_BAND or below 2**-DEPTH_BAND: the kernels' squares (plane fits, least squares) overflow
 # from about 1e150 and underflow below about 1e-160. Within the band nothing is copied.

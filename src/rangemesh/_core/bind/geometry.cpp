@@ -140,6 +140,8 @@ void bind_pixels(nb::module_& m) {
 }  // namespace
 
 void bind_geometry(nb::module_& m) {
+    // the widest span of coordinates (pixels times Delaunay scales) the exact predicates take
+    m.attr("EXACT_SPAN") = EXACT_SPAN;
     bind_delaunay(m);
     bind_pixels(m);
     m.def(

@@ -276,6 +276,7 @@ std::vector<index_t> stable_order(const std::vector<double>& key) {
 
 Triangulation delaunay_sweep(const PointSet& pts) {
     require(pts.r.size == pts.c.size, "delaunay_sweep: r and c differ in length");
+    pts.check_span();
     const index_t n = pts.size();
     std::vector<double> fr(n), fc(n);
     for (index_t i = 0; i < n; ++i) {
@@ -299,6 +300,7 @@ Triangulation delaunay_sweep(const PointSet& pts) {
 
 index_t legalize_all(Span<index_t> triangles, Span<index_t> halfedges, const PointSet& pts) {
     require(triangles.size == halfedges.size && triangles.size % 3 == 0, "legalize_all: bad half-edge arrays");
+    pts.check_span();
     std::vector<index_t> stack;
     stack.reserve(triangles.size + 16);
     for (index_t e = 0; e < triangles.size; ++e)

@@ -1,6 +1,7 @@
 // Orientation and in-circle determinants in the image plane (row, column).
 //
-// Integer coordinates make both exact in int64 for images up to about 30,000 pixels a side;
+// Integer coordinates make both exact in int64 while no two points lie more than EXACT_SPAN
+// apart along an axis;
 // the floating-point forms are the same expressions, evaluated in the order written (no
 // contraction), so they round exactly as the Python references do.
 #pragma once
@@ -10,6 +11,13 @@
 #include "../views.hpp"
 
 namespace rangemesh {
+
+// With coordinate differences of at most D, |incircle| <= 12 D^4, below 2^63 for D <= 29,609:
+// the largest span along an axis (pixels, times the Delaunay scales) the predicates take.
+constexpr index_t EXACT_SPAN = 29'000;
+
+// Whether coordinates from lo to hi along an axis stay within EXACT_SPAN of each other.
+inline bool exact_span(index_t lo, index_t hi) { return hi - lo <= EXACT_SPAN; }
 
 // Twice the signed area of (a, b, c); > 0 when counter-clockwise in (row, column).
 template <class T>
@@ -43,12 +51,20 @@ inline long long floor_mod(long long a, long long d) { return a - floor_div(a, d
 // Simulation of Simplicity makes it unique: the lifted heights r^2 + c^2 get infinitesimal
 // perturbations eps^i, the smallest id the largest. The triangulation is then the regular
 // triangulation of the perturbed lifting, which exists, is unique, and is a Delaunay
-// triangulation of the unperturbed points. Exact in int64: |incircle| stays below 2^57 for
-// images up to 16384 pixels a side.
+// triangulation of the unperturbed points. Exact in int64 within EXACT_SPAN (`checked_span`).
 struct PointSet {
     Span<const index_t> r, c;
 
     index_t size() const { return r.size; }
+
+    // Raises InvariantError unless the points lie within EXACT_SPAN along each axis.
+    void check_span() const {
+        if (size() == 0) return;
+        const auto [r0, r1] = std::minmax_element(r.begin(), r.end());
+        const auto [c0, c1] = std::minmax_element(c.begin(), c.end());
+        require(exact_span(*r0, *r1) && exact_span(*c0, *c1),
+                "Delaunay: points span more than EXACT_SPAN, where the int64 predicates overflow");
+    }
 
     // Twice the signed area of points a, b, c; > 0 counter-clockwise.
     index_t orient(index_t a, index_t b, index_t p) const {

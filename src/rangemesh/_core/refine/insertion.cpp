@@ -23,6 +23,8 @@ bool Plane::holds(index_t pr, index_t pc, double pz, double span) const {
 
 Insertion::Insertion(const Image& image, const FirstMesh& first, index_t reserve, index_t sr, index_t sc)
     : image_(image), sr_(sr), sc_(sc) {
+    require(sr >= 1 && sc >= 1 && exact_span(0, (image.rows() - 1) * sr) && exact_span(0, (image.cols() - 1) * sc),
+            "insertion: the image, times its Delaunay scales, within EXACT_SPAN a side");
     const index_t n_v = first.vr.size;
     require(first.vc.size == n_v && first.vz.size == n_v, "first mesh: one row, column and depth a vertex");
     require(first.triangles.size % 3 == 0 && first.halfedges.size == first.triangles.size,

@@ -200,17 +200,18 @@ def test_face_target_peers_meet_the_vertex_count(name):
     assert e.relative_error < 1e-6
 
 
-def test_meshlab_peer_keeps_vertices_on_pixels_and_the_border():
-    # optimal placement off: every vertex is a grid point with the image's depth there;
-    # the border kept: the four corners stay, so the mesh covers every pixel
+def test_meshlab_peer_folds_no_face_over_a_jump():
+    # the box's grid triangles all turn the same way in the image plane; a decimation that
+    # refuses face flips (preservenormal) keeps them so, even across the box's jumps
     pytest.importorskip("pymeshlab")
     sc = bench.scenes.make("box", (60, 80))
     d = sc.depth
     valid = np.isfinite(d)
     mesh, _ = bench.peer_meshlab(d, valid, 150, 1)
-    rc = mesh.vertices[:, :2]
-    assert np.array_equal(rc, np.round(rc))
-    r, c = rc.astype(int).T
-    assert np.array_equal(mesh.vertices[:, 2], d[r, c])
-    assert {(0, 0), (0, 79), (59, 0), (59, 79)} <= set(zip(r.tolist(), c.tolist()))
-    assert bench.evaluate(mesh, d).uncovered == 0.0
+    a, b, c = (mesh.vertices[mesh.faces[:, k], :2] for k in range(3))
+    turn = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
+    pts, faces = bench._grid_mesh(d, valid)
+    ga, gb, gc = (pts[faces[:, k], :2] for k in range(3))
+    grid_turn = (gb[:, 0] - ga[:, 0]) * (gc[:, 1] - ga[:, 1]) - (gb[:, 1] - ga[:, 1]) * (gc[:, 0] - ga[:, 0])
+    assert np.all(np.sign(grid_turn) == np.sign(grid_turn[0]))
+    assert np.all(np.sign(turn) == np.sign(grid_turn[0]))

@@ -1,7 +1,10 @@
 """The paper's experiments and today's peers, on the same images, at the same vertex counts.
 
 Run ``python benchmarks/peers.py`` (``--quick`` for a short run, ``--help`` for
-options). For every image and budget it meshes with
+options). The budgets are the paper's four grids and about 5000 vertices, or with
+``--budgets fractions`` 1, 3 and 10 % of the valid pixels (``all``: both); MeshLab and
+Open3D take seconds a call on the larger images, a minute on aloe (1.4 Mpixel). For
+every image and budget it meshes with
 
 * rangemesh: adaptive + disparity flips (the paper), adaptive + error flips,
   adaptive without flips, uniform + error flips (the paper's Table I
@@ -13,6 +16,9 @@ options). For every image and budget it meshes with
 * quadric-error decimation of the full-resolution grid mesh through
   ``fast-simplification``, down to that count (depth rescaled to a range of
   100 for the decimation: its thresholds are absolute);
+* MeshLab's quadric edge collapse (``pymeshlab``) and Open3D's
+  ``simplify_quadric_decimation`` of the same grid mesh, at the face target
+  whose result has that count (settings in `peer_meshlab`, `peer_open3d`);
 * RTIN through ``pymartini`` (image padded to 2**k + 1), at the error
   threshold whose vertex count is nearest;
 
@@ -28,7 +34,10 @@ warm-up call; 2 calls when one takes over half a second), once the request
 that meets the vertex count has been found (that search is not timed):
 rangemesh, the whole `triangulate` call from the raw image;
 pydelatin, the ``Delatin(...)`` call; fast-simplification, the ``simplify``
-call (building the full-resolution grid mesh is not timed); pymartini,
+call (building the full-resolution grid mesh is not timed); MeshLab and Open3D,
+the decimation call alone (building their mesh objects is not timed; a call
+over half a second is timed once, the search's own call at that target, as
+their calls take seconds on the larger images); pymartini,
 ``Martini(n)`` + ``create_tile`` + ``get_mesh`` (padding is not timed). Hole
 filling for the peers that need a complete height map is not timed either.
 Peers see background pixels filled with the nearest valid depth; their
@@ -87,6 +96,9 @@ SCENES = [("crease", 0.0), ("pyramid", 0.0), ("box", 0.0), ("dome", 0.0), ("stai
           ("pyramid", 0.5), ("box", 0.5), ("dome", 0.5)]
 QUICK_SCENES = [("crease", 0.0), ("box", 0.5)]
 PAPER_BUDGETS = [(5, 5), (7, 7), (8, 8), (10, 10)]
+# budgets.py's budgets (`vertex_budgets`): these shares of the valid pixels, at least 50 vertices
+FRACTIONS = (0.01, 0.03, 0.10)
+MIN_VERTICES = 50
 
 OURS = [
     ("rangemesh adaptive+disparity (paper)", dict(method="paper", sampling="adaptive",
@@ -279,6 +291,125 @@ def peer_quadric(depth, valid, n, repeat):
     return _mesh_from(p2, f2, depth.shape), ms
 
 
+# per grid and peer, vertices minus half the faces at the last target that landed: the first
+# guess for the next budget on the same grid (each decimation of a large grid takes seconds)
+_OFFSETS: dict = {}
+
+
+def face_target_search(decimate, n, n_faces, valid_count, repeat, tol=0.02, key=None):
+    """``(output, ms)`` of the face target whose decimation puts n vertices on valid pixels.
+
+    For the peers that take a face count. ``decimate(faces)`` returns ``(output,
+    seconds of the decimation call alone)``; ``valid_count(output)`` its vertices
+    on valid pixels. A triangulation of a disc has about twice as many faces as
+    vertices, so each step moves the target by twice the vertices missing;
+    it stops within `tol` of n, when a target repeats, or when fewer faces no
+    longer give fewer vertices (a decimation that cannot go lower). A `key`
+    (the grid and the peer) starts from the last landing's offset on that
+    grid. The search is not timed: the call that landed is, and called
+    `repeat` more times (median) when it took under half a second.
+    """
+    tried = {}
+    target = min(max(int(round(2 * (n - _OFFSETS.get(key, 0.0)))), 4), n_faces)
+    for _ in range(8):
+        out, seconds = decimate(target)
+        got = valid_count(out)
+        tried[target] = (abs(got - n), out, seconds, got)
+        if abs(got - n) <= tol * n:
+            break
+        nxt = min(max(int(round(target + 2 * (n - got))), 4), n_faces)
+        stuck = [t for t, rec in tried.items() if t > target and rec[3] <= got]
+        if nxt in tried or (got > n and stuck):
+            break
+        target = nxt
+    target = min(tried, key=lambda t: tried[t][0])
+    _, out, seconds, got = tried[target]
+    if key is not None:
+        _OFFSETS[key] = got - target / 2
+    if seconds < 0.5:
+        times = []
+        for _ in range(repeat):
+            out, seconds = decimate(target)
+            times.append(seconds)
+        seconds = statistics.median(times)
+    return out, 1000.0 * seconds
+
+
+def _counter(shape, valid):
+    """Vertices on valid pixels of a decimation's ``(vertices, faces)``."""
+    return lambda out: _valid_vertex_count(_mesh_from(out[0], out[1], shape), valid)
+
+
+# MeshLab's settings for a range-image grid (the rest are MeshLab's defaults:
+# optimalplacement on, preserveboundary off, qualitythr 0.3, planarquadric off, autoclean on)
+MESHLAB_OPTIONS = dict(preservenormal=True, preservetopology=True)
+
+
+def peer_meshlab(depth, valid, n, repeat):
+    """MeshLab's quadric edge collapse (pymeshlab) of the full grid mesh, down to n vertices.
+
+    Settings (`MESHLAB_OPTIONS`): ``preservenormal`` refuses collapses that
+    flip a face, a fold-over in a height field (without it, vertices placed
+    at the quadric's optimum slide across jumps: the synthetic box had 0.9-11 %
+    mean error at 700 vertices, 0 with it and ``preservetopology``);
+    ``preservetopology`` refuses collapses that close a hole or join surfaces
+    across missing depth. ``preserveboundary`` stays off: it freezes every
+    vertex of the image border and of the rims of missing depth, so the count
+    cannot go below theirs (277 on a 60 x 80 plane), out of reach of 1-3 %
+    budgets; the pixels a shrunk border leaves uncovered are reported
+    (``uncovered``). ``optimalplacement`` stays on: without it the border is
+    frozen the same way. ``planarquadric`` stays off: it spends vertices on
+    the shape of triangles in flat parts, not on the error. Depth keeps its
+    units: with a face target the filter has no absolute threshold (quality
+    and normal checks are ratios and angles). Timed: the decimation call
+    alone (building the MeshSet is not).
+    """
+    import pymeshlab
+
+    pts, faces = _grid_mesh(depth, valid)
+    faces = faces.astype(np.int32)
+
+    def decimate(target):
+        ms = pymeshlab.MeshSet()
+        ms.add_mesh(pymeshlab.Mesh(pts, faces))
+        t = time.perf_counter()
+        ms.meshing_decimation_quadric_edge_collapse(targetfacenum=int(target), **MESHLAB_OPTIONS)
+        seconds = time.perf_counter() - t
+        m = ms.current_mesh()
+        return (m.vertex_matrix(), m.face_matrix()), seconds
+
+    key = ("meshlab", depth.shape, hash(valid.tobytes()), hash(pts[:, 2].tobytes()))
+    (v, f), ms = face_target_search(decimate, n, len(faces), _counter(depth.shape, valid), repeat,
+                                    key=key)
+    return _mesh_from(v, f, depth.shape), ms
+
+
+def peer_open3d(depth, valid, n, repeat):
+    """Open3D's ``simplify_quadric_decimation`` of the full grid mesh, down to n vertices.
+
+    Open3D's defaults: no error bound (``maximum_error`` infinite) and
+    ``boundary_weight`` 1 (its only other option). Depth keeps its units: with
+    no error bound nothing in it is absolute. Timed: the decimation call
+    alone (building the TriangleMesh is not).
+    """
+    import open3d as o3d
+
+    pts, faces = _grid_mesh(depth, valid)
+    grid = o3d.geometry.TriangleMesh(o3d.utility.Vector3dVector(pts),
+                                     o3d.utility.Vector3iVector(faces.astype(np.int32)))
+
+    def decimate(target):
+        t = time.perf_counter()
+        out = grid.simplify_quadric_decimation(target_number_of_triangles=int(target))
+        seconds = time.perf_counter() - t
+        return (np.asarray(out.vertices), np.asarray(out.triangles)), seconds
+
+    key = ("open3d", depth.shape, hash(valid.tobytes()), hash(pts[:, 2].tobytes()))
+    (v, f), ms = face_target_search(decimate, n, len(faces), _counter(depth.shape, valid), repeat,
+                                    key=key)
+    return _mesh_from(v, f, depth.shape), ms
+
+
 def peer_martini(depth, valid, n, repeat):
     """RTIN (pymartini) on the image padded to 2**k + 1, at the error giving the nearest count."""
     from pymartini import Martini
@@ -330,8 +461,15 @@ def _martini_valid(v, valid):
 PEERS = [
     ("pydelatin greedy insertion", "pydelatin", peer_delatin),
     ("fast-simplification quadric decimation", "fast_simplification", peer_quadric),
+    ("MeshLab quadric edge collapse", "pymeshlab", peer_meshlab),
+    ("Open3D quadric decimation", "open3d", peer_open3d),
     ("pymartini RTIN", "pymartini", peer_martini),
 ]
+# what to install for each peer's module
+EXTRA = {"open3d": "pip install 'rangemesh[open3d]'"}
+# the peers drawn beside ours in the figure
+FIGURE_PEERS = ("pydelatin greedy insertion", "fast-simplification quadric decimation",
+                "MeshLab quadric edge collapse")
 
 
 # ---------------------------------------------------------------- inputs
@@ -420,15 +558,20 @@ def run(images, budgets, repeat, peers=True, log=print):
         try:
             __import__(module)
             available.append((label, fn))
-        except ImportError:
-            skipped.append(f"{label}: {module} is not installed (pip install 'rangemesh[bench]')")
+        except (ImportError, OSError) as exc:  # Open3D without libusb raises OSError
+            how = EXTRA.get(module, "pip install 'rangemesh[bench]'")
+            skipped.append(f"{label}: {module} cannot be imported ({exc}; {how})")
     for image in images:
         masked, valid = to_depth_and_mask(image.depth, image.background)
         for budget in budgets:
-            kw = {"vertices": budget} if isinstance(budget, int) else {"tiles": (4, 4),
-                                                                       "samples": budget}
-            bname = f"~{budget} vertices" if isinstance(budget, int) else \
-                f"4x4 tiles, {budget[0]}x{budget[1]} samples"
+            if isinstance(budget, float):  # a share of the valid pixels
+                kw = {"vertices": max(int(budget * valid.sum()), MIN_VERTICES)}
+                bname = f"{budget:.0%} of valid pixels"
+            elif isinstance(budget, int):
+                kw, bname = {"vertices": budget}, f"~{budget} vertices"
+            else:
+                kw = {"tiles": (4, 4), "samples": budget}
+                bname = f"4x4 tiles, {budget[0]}x{budget[1]} samples"
             n = None
             for label, opts in OURS:
                 # method="refine" takes a vertex count: the paper's, as the peers get
@@ -464,29 +607,41 @@ def markdown_tables(rows):
                            f"| {r['rms_error']:.4f} | {r['max_error']:.2f} | {r['uncovered']:.2f} |")
     out.append("\n" + summary_table(rows))
     out.append("\n" + peer_table(rows))
+    out.append("\n" + peer_table(rows, by_budget=True))
     return "\n".join(out)
 
 
-def peer_table(rows, mine="rangemesh refine"):
-    """Medians over cases of `mine`'s figures divided by each other method's, same case."""
+def peer_table(rows, mine="rangemesh refine", by_budget=False):
+    """Medians over cases of `mine`'s figures divided by each other method's, same case.
+
+    With `by_budget`, one line per method and budget, for the paper's method and the peers.
+    """
     by_case = {}
     for r in rows:
         by_case.setdefault((r["image"], r["budget"]), {})[r["method"]] = r
-    lines = [f"### {mine} against each method (medians over cases of ratios, same image and "
-             "budget; below 1: lower for us)\n",
-             "| against | cases | rel. error ratio | edge-band ratio | time ratio |",
-             "|---|---:|---:|---:|---:|"]
     others = [m for m in dict.fromkeys(r["method"] for r in rows) if m != mine]
+    budgets = [None]
+    if by_budget:
+        others = [m for m in others if m == OURS[0][0] or m in {p[0] for p in PEERS}]
+        budgets = list(dict.fromkeys(r["budget"] for r in rows))
+    lines = [f"### {mine} against each method{', by budget' if by_budget else ''} (medians "
+             "over cases of ratios, same image and budget; below 1: lower for us)\n",
+             f"| against |{' budget |' if by_budget else ''} cases | rel. error ratio "
+             "| edge-band ratio | time ratio |",
+             f"|---|{'---|' if by_budget else ''}---:|---:|---:|---:|"]
     for other in others:
-        pairs = [(c[mine], c[other]) for c in by_case.values() if mine in c and other in c]
+        for budget in budgets:
+            pairs = [(c[mine], c[other]) for (_, b), c in by_case.items()
+                     if mine in c and other in c and budget in (None, b)]
 
-        def ratio(key, pairs=pairs):
-            vals = [a[key] / b[key] for a, b in pairs
-                    if b[key] > 0 and np.isfinite(a[key]) and np.isfinite(b[key])]
-            return statistics.median(vals) if vals else float("nan")
+            def ratio(key, pairs=pairs):
+                vals = [a[key] / b[key] for a, b in pairs
+                        if b[key] > 0 and np.isfinite(a[key]) and np.isfinite(b[key])]
+                return statistics.median(vals) if vals else float("nan")
 
-        lines.append(f"| {other} | {len(pairs)} | {ratio('relative_error'):.3f} "
-                     f"| {ratio('edge_band_error'):.3f} | {ratio('ms'):.2f} |")
+            lines.append(f"| {other} |{f' {budget} |' if by_budget else ''} {len(pairs)} "
+                         f"| {ratio('relative_error'):.3f} | {ratio('edge_band_error'):.3f} "
+                         f"| {ratio('ms'):.3g} |")
     return "\n".join(lines)
 
 
@@ -531,7 +686,7 @@ def summary_table(rows):
 
 
 def figure(images, out_png, n=1500):
-    """Fig. 10/11-like: method="refine", the paper's method and the two best peers, same count."""
+    """Fig. 10/11-like: method="refine", the paper's method and `FIGURE_PEERS`, same count."""
     import matplotlib
 
     matplotlib.use("Agg", force=False)
@@ -539,8 +694,9 @@ def figure(images, out_png, n=1500):
 
     from rangemesh.preview import shade
 
-    fig = Figure(figsize=(16, 4.3 * len(images)), dpi=90, layout="constrained")
-    axes = fig.subplots(len(images), 4, squeeze=False)
+    columns = 2 + len(FIGURE_PEERS)
+    fig = Figure(figsize=(4 * columns, 4.3 * len(images)), dpi=90, layout="constrained")
+    axes = fig.subplots(len(images), columns, squeeze=False)
     for row, image in zip(axes, images, strict=True):
         d, valid = to_depth_and_mask(image.depth, image.background)
         ours = triangulate(image.depth, background=image.background, vertices=n, method="paper")
@@ -548,12 +704,14 @@ def figure(images, out_png, n=1500):
         cands = [("rangemesh refine (default)", triangulate(
                      image.depth, background=image.background, vertices=n_ours)),
                  ("rangemesh paper", ours)]
-        for label, module, fn in PEERS[:2]:
+        for label, module, fn in PEERS:
+            if label not in FIGURE_PEERS:
+                continue
             try:
                 __import__(module)
-                cands.append((label, fn(d, valid, n_ours, 1)[0]))
-            except ImportError:
+            except (ImportError, OSError):
                 continue
+            cands.append((label, fn(d, valid, n_ours, 1)[0]))
         for ax, (label, mesh) in zip(row, cands, strict=False):
             e = evaluate(mesh, image.depth, background=image.background,
                          discontinuities=image.discontinuities)
@@ -587,6 +745,9 @@ def main(argv=None) -> int:
                     help="3 real images, 2 scenes, 2 budgets, 1 repeat (about a minute)")
     ap.add_argument("--repeat", type=positive_int, default=None,
                     help="timed calls per case (default 5; 1 quick)")
+    ap.add_argument("--budgets", choices=["paper", "fractions", "all"], default="paper",
+                    help="the paper's four grids and ~5000 vertices (default), 1, 3 and 10 %% "
+                         "of the valid pixels, or both")
     ap.add_argument("--no-peers", action="store_true", help="rangemesh variants only")
     ap.add_argument("--no-figure", action="store_true", help="skip the figure")
     ap.add_argument("--only", default=None, metavar="TEXT",
@@ -594,7 +755,10 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     data = find_data(args.data)
     repeat = args.repeat or (1 if args.quick else 5)
-    budgets = [(5, 5), 5000] if args.quick else PAPER_BUDGETS + [5000]
+    budgets = {"paper": PAPER_BUDGETS + [5000], "fractions": list(FRACTIONS),
+               "all": PAPER_BUDGETS + [5000, *FRACTIONS]}[args.budgets]
+    if args.quick:
+        budgets = [(5, 5), 5000]
     images, skipped_images = load_images(data, args.quick, args.only)
     t0 = time.perf_counter()
     rows, skipped = run(images, budgets, repeat, peers=not args.no_peers,

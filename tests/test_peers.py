@@ -154,3 +154,64 @@ def test_benchmark_options_refuse_what_would_measure_nothing():
     bench.add_image_options(ap)
     with pytest.raises(SystemExit, match="no image or scene name contains"):
         bench.selected_images(ap.parse_args(["--only", "no such input"]))
+
+
+def test_face_target_search_steps_by_twice_the_missing_vertices():
+    # a disc with 60 boundary vertices has V = F / 2 + 30: from 2n = 800 faces (430
+    # vertices) one step of 2 * (400 - 430) faces lands on 740 faces, exactly 400
+    calls = []
+
+    def decimate(faces):
+        calls.append(faces)
+        return faces // 2 + 30, 1.0  # a second: the landing call is not called again
+
+    out, ms = bench.face_target_search(decimate, 400, 10_000, lambda v: v, repeat=3)
+    assert calls == [800, 740] and out == 400 and ms == 1000.0
+
+
+def test_face_target_search_stops_where_the_decimation_cannot_go_lower():
+    # never under 500 vertices (holes it will not close): fewer faces give no fewer
+    # vertices, so the second call ends the search with the closest count
+    calls = []
+
+    def decimate(faces):
+        calls.append(faces)
+        return max(faces // 2, 500), 0.0
+
+    out, ms = bench.face_target_search(decimate, 300, 10_000, lambda v: v, repeat=2)
+    assert calls == [600, 200, 600, 600] and out == 500  # two to search, two timed calls
+
+
+@pytest.mark.parametrize("name", ["meshlab", "open3d"])
+def test_face_target_peers_meet_the_vertex_count(name):
+    # a tilted plane: any mesh whose vertices lie on it reproduces it exactly, so the
+    # decimation's error is rounding only, at the count asked for (within the 2 % step)
+    pytest.importorskip({"meshlab": "pymeshlab", "open3d": "open3d"}[name])
+    fn = getattr(bench, f"peer_{name}")
+    r, c = np.mgrid[0:60, 0:80]
+    d = 3.0 + 0.5 * r - 0.25 * c
+    valid = np.ones(d.shape, bool)
+    mesh, ms = fn(d, valid, 200, 1)
+    n = bench._valid_vertex_count(mesh, valid)
+    assert abs(n - 200) <= 0.02 * 200 and ms > 0
+    assert mesh.faces.min() >= 0 and mesh.faces.max() == len(mesh.vertices) - 1
+    assert len(np.unique(mesh.faces)) == len(mesh.vertices)  # every vertex in a face
+    e = bench.evaluate(mesh, d)
+    assert e.relative_error < 1e-6
+
+
+def test_meshlab_peer_folds_no_face_over_a_jump():
+    # the box's grid triangles all turn the same way in the image plane; a decimation that
+    # refuses face flips (preservenormal) keeps them so, even across the box's jumps
+    pytest.importorskip("pymeshlab")
+    sc = bench.scenes.make("box", (60, 80))
+    d = sc.depth
+    valid = np.isfinite(d)
+    mesh, _ = bench.peer_meshlab(d, valid, 150, 1)
+    a, b, c = (mesh.vertices[mesh.faces[:, k], :2] for k in range(3))
+    turn = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
+    pts, faces = bench._grid_mesh(d, valid)
+    ga, gb, gc = (pts[faces[:, k], :2] for k in range(3))
+    grid_turn = (gb[:, 0] - ga[:, 0]) * (gc[:, 1] - ga[:, 1]) - (gb[:, 1] - ga[:, 1]) * (gc[:, 0] - ga[:, 0])
+    assert np.all(np.sign(grid_turn) == np.sign(grid_turn[0]))
+    assert np.all(np.sign(turn) == np.sign(grid_turn[0]))

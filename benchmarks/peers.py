@@ -551,10 +551,14 @@ def _record(image, budget, method, mesh, ms, valid):
 
 
 def run(images, budgets, repeat, peers=True, log=print):
-    """Mesh every image at every budget with every method; returns (rows, skipped peers)."""
+    """Mesh every image at every budget with every method; returns (rows, skipped peers).
+
+    `peers`: True for every peer, False for none, or the modules of those to run.
+    """
     rows = []
     available, skipped = [], []
-    for label, module, fn in PEERS if peers else []:
+    chosen = [p for p in PEERS if peers is True or (peers and p[1] in peers)]
+    for label, module, fn in chosen:
         try:
             __import__(module)
             available.append((label, fn))
@@ -685,8 +689,11 @@ def summary_table(rows):
     return "\n".join(lines)
 
 
-def figure(images, out_png, n=1500):
-    """Fig. 10/11-like: method="refine", the paper's method and `FIGURE_PEERS`, same count."""
+def figure(images, out_png, n=1500, modules=None):
+    """Fig. 10/11-like: method="refine", the paper's method and `FIGURE_PEERS`, same count.
+
+    `modules`: the peers' modules to draw (default every one of `FIGURE_PEERS`).
+    """
     import matplotlib
 
     matplotlib.use("Agg", force=False)
@@ -705,7 +712,7 @@ def figure(images, out_png, n=1500):
                      image.depth, background=image.background, vertices=n_ours)),
                  ("rangemesh paper", ours)]
         for label, module, fn in PEERS:
-            if label not in FIGURE_PEERS:
+            if label not in FIGURE_PEERS or (modules is not None and module not in modules):
                 continue
             try:
                 __import__(module)
@@ -749,6 +756,9 @@ def main(argv=None) -> int:
                     help="the paper's four grids and ~5000 vertices (default), 1, 3 and 10 %% "
                          "of the valid pixels, or both")
     ap.add_argument("--no-peers", action="store_true", help="rangemesh variants only")
+    ap.add_argument("--peers", nargs="+", choices=[m for _, m, _ in PEERS], default=None,
+                    metavar="MODULE", help="only these peers, by module: "
+                    + ", ".join(m for _, m, _ in PEERS) + " (default: all)")
     ap.add_argument("--no-figure", action="store_true", help="skip the figure")
     ap.add_argument("--only", default=None, metavar="TEXT",
                     help="only the inputs whose name contains TEXT (e.g. rellis3d)")
@@ -761,7 +771,8 @@ def main(argv=None) -> int:
         budgets = [(5, 5), 5000]
     images, skipped_images = load_images(data, args.quick, args.only)
     t0 = time.perf_counter()
-    rows, skipped = run(images, budgets, repeat, peers=not args.no_peers,
+    peers = False if args.no_peers else (args.peers or True)
+    rows, skipped = run(images, budgets, repeat, peers=peers,
                         log=lambda s: print(s, file=sys.stderr))
     args.out.mkdir(parents=True, exist_ok=True)
     with open(args.out / "results.csv", "w", newline="") as fh:
@@ -779,7 +790,7 @@ def main(argv=None) -> int:
     if not args.no_figure:
         picks = [im for im in images if im.name in ("venus_disp2.npy",
                  "pcl_grabber_frame_20121214T142255.814212_depth.tiff")] or images[:2]
-        figure(picks[:2], args.out / "figure.png")
+        figure(picks[:2], args.out / "figure.png", modules=args.peers)
         print(f"\nfigure: {args.out / 'figure.png'}", file=sys.stderr)
     print(f"total {time.perf_counter() - t0:.1f} s", file=sys.stderr)
     return 0

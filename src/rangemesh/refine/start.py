@@ -20,8 +20,9 @@ def corner_depths(depth: np.ndarray, valid: np.ndarray) -> np.ndarray:
     """
     h, w = depth.shape
     rows, cols = (0, h - 1, h - 1, 0), (0, 0, w - 1, w - 1)
-    if valid[rows, cols].all():  # the usual case, without a loop
-        return depth[rows, cols].astype(np.float64)
+    if valid[0, 0] and valid[h - 1, 0] and valid[h - 1, w - 1] and valid[0, w - 1]:  # the usual case
+        return np.array([depth[0, 0], depth[h - 1, 0], depth[h - 1, w - 1], depth[0, w - 1]],
+                        dtype=np.float64)
     out = np.zeros(4)
     for i, (r, c) in enumerate(zip(rows, cols, strict=True)):
         rr, cc = (r, c) if valid[r, c] else nearest_valid(valid, r, c)

@@ -36,7 +36,8 @@ Insertion::Insertion(const Image& image, const FirstMesh& first, index_t reserve
         require(0 <= first.triangles[k] && first.triangles[k] < n_v && first.halfedges[k] < first.triangles.size,
                 "first mesh: corners and twins in range");
     n_t_ = first.triangles.size / 3;
-    const index_t cap_v = std::max({index_t(1024), 2 * n_v, n_v + reserve + 8});
+    // a small floor: the triangle arrays are zeroed, and on a small image that costs more than the work
+    const index_t cap_v = std::max({index_t(32), 2 * n_v, n_v + reserve + 8});
     const index_t cap_t = 2 * cap_v + 8;
     vr_.reserve(cap_v);
     vc_.reserve(cap_v);

@@ -199,8 +199,9 @@ def test_delaunay_scales_follow_the_pixel_aspect():
     assert delaunay_scales(rangemesh.Orthographic(1.0, 2.6), (64, 2048)) == (1, 3)
     assert delaunay_scales(rangemesh.Orthographic(1.4, 1.0), (64, 2048)) == (1, 1)  # < 1.5
     assert delaunay_scales(rangemesh.Orthographic(20.0, 1.0), (64, 2048)) == (8, 1)  # capped
-    # exact predicates: the scaled image stays within 30,000 pixels a side
-    assert delaunay_scales(rangemesh.Orthographic(3.0, 1.0), (15_001, 10)) == (2, 1)
+    # exact predicates: the scaled image spans at most 29,000 pixels (14,500 rows x 2)
+    assert delaunay_scales(rangemesh.Orthographic(3.0, 1.0), (14_501, 10)) == (2, 1)
+    assert delaunay_scales(rangemesh.Orthographic(3.0, 1.0), (14_502, 10)) == (1, 1)
     assert delaunay_scales(None, (10, 10)) == (1, 1)
 
 

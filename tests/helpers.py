@@ -1,6 +1,10 @@
 """assert_valid_mesh: SPEC P4, checked independently of the code under test."""
 
+import signal
+import subprocess
+
 import numpy as np
+import pytest
 
 
 def _orient(p, f):
@@ -160,3 +164,16 @@ def canonical_faces(mesh):
         return tri
     rolled = np.stack([np.roll(row, -s) for row, s in zip(tri, k, strict=True)])
     return rolled[np.lexsort(rolled.T[::-1])]
+
+
+def interrupt(proc: subprocess.Popen, timeout: float = 60) -> str:
+    """Send `proc` SIGINT and return its stderr once it ends; killed (and the test failed) if it
+    has not ended within `timeout` seconds, so no child outlives its test."""
+    proc.send_signal(signal.SIGINT)
+    try:
+        _, err = proc.communicate(timeout=timeout)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        proc.communicate()
+        pytest.fail(f"the process went on {timeout} s after SIGINT")
+    return err

@@ -11,6 +11,8 @@ import pytest
 
 from rangemesh import Orthographic, _core
 
+from .helpers import interrupt
+
 
 def _flip(pixels, faces=((0, 1, 2),), shape=(4, 4)):
     tri, he = _core.build_halfedges(np.array(faces, np.int64), 3)
@@ -117,7 +119,6 @@ def test_ctrl_c_stops_the_flips_and_the_sample_threads(tmp_path):
                                 stderr=subprocess.PIPE, text=True)
         assert proc.stdout.readline().strip() == "ready"
         time.sleep(delay)
-        proc.send_signal(signal.SIGINT)
-        _, err = proc.communicate(timeout=60)
+        err = interrupt(proc)
         assert proc.returncode == -signal.SIGINT, err  # an uncaught KeyboardInterrupt
         assert err.rstrip().endswith("KeyboardInterrupt"), err

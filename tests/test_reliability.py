@@ -25,7 +25,7 @@ import rangemesh
 from rangemesh import MeshParams, scenes
 from rangemesh.cli import main
 
-from .helpers import assert_valid_mesh
+from .helpers import assert_valid_mesh, interrupt
 
 CROPS = Path(__file__).parent / "data" / "crops.npz"
 
@@ -376,8 +376,7 @@ def test_d16_sigint_during_delaunay_never_crashes(tmp_path):
         import time
 
         time.sleep(delay)
-        proc.send_signal(signal.SIGINT)
-        _, err = proc.communicate(timeout=60)
+        err = interrupt(proc)
         # an uncaught KeyboardInterrupt ends Python by SIGINT itself (returncode -2)
         assert proc.returncode == -signal.SIGINT, err
         assert err.rstrip().endswith("KeyboardInterrupt"), err

@@ -11,7 +11,7 @@ bounds, and fits the peak as bytes per pixel plus bytes per vertex of the mesh
 (least squares over the cases): the figures of
 `rangemesh.pipeline.REFINE_BYTES_PER_PIXEL` and ``REFINE_BYTES_PER_VERTEX``.
 
-    python benchmarks/memory.py [--size 4000]
+    python benchmarks/memory.py [--size 4000] [--method paper]
     python benchmarks/memory.py --refine [--size 2000] [--vertices 20000,200000,1000000]
                                 [--max-error 0.01,0.001]
 """
@@ -29,7 +29,7 @@ CHILD = r"""
 import json, resource, sys, time
 import numpy as np
 import rangemesh, rangemesh.cli, rangemesh.preview, matplotlib.figure, scipy.ndimage
-path, case = sys.argv[1], sys.argv[2]
+path, case, method = sys.argv[1], sys.argv[2], sys.argv[3]
 img = np.load(path)
 rangemesh.triangulate(img[:64, :64], background=0)   # compile/load kernels on a small image
 base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
@@ -40,13 +40,13 @@ if case.startswith("refine:"):
     target = {"vertices": int(value)} if key == "vertices" else {"max_error": float(value)}
     vertices = len(rangemesh.triangulate(img, background=0, **target).vertices)
 elif case == "triangulate":
-    rangemesh.triangulate(img, background=0)
+    rangemesh.triangulate(img, background=0, method=method)
 elif case == "evaluate":
-    m = rangemesh.triangulate(img, background=0)
+    m = rangemesh.triangulate(img, background=0, method=method)
     rangemesh.evaluate(m, img, background=0)
 else:
     out = str(path) + ".ply"
-    argv = ["mesh", path, "-o", out, "--background", "0", "--quiet"]
+    argv = ["mesh", path, "-o", out, "--background", "0", "--quiet", "--method", method]
     if case == "cli+preview":
         argv += ["--preview", str(path) + ".png"]
     assert rangemesh.cli.main(argv) == 0
@@ -68,8 +68,8 @@ def make_image(n: int, path: Path):
     np.save(path, img)
 
 
-def _run(path, case):
-    out = subprocess.run([sys.executable, "-c", CHILD, str(path), case], check=True,
+def _run(path, case, method="refine"):
+    out = subprocess.run([sys.executable, "-c", CHILD, str(path), case, method], check=True,
                          capture_output=True, text=True).stdout
     return json.loads(out.strip().splitlines()[-1])
 
@@ -99,6 +99,8 @@ def main():
     ap.add_argument("--refine", action="store_true", help="measure method='refine' by budget")
     ap.add_argument("--vertices", default="20000,200000,1000000")
     ap.add_argument("--max-error", default="0.01,0.001")
+    ap.add_argument("--method", choices=["refine", "paper"], default="refine",
+                    help="the method of the whole-image cases, with its default target (refine)")
     args = ap.parse_args()
     size = args.size or (2000 if args.refine else 4000)
     with tempfile.TemporaryDirectory() as d:
@@ -110,7 +112,7 @@ def main():
                          [float(x) for x in args.max_error.split(",") if x])
             return
         for case in ("triangulate", "evaluate", "cli", "cli+preview"):
-            r = _run(path, case)
+            r = _run(path, case, args.method)
             print(f"{case:12s} {r['seconds']:6.1f} s  peak above baseline "
                   f"{r['extra_bytes'] / 2**20:7.0f} MiB = {r['extra_bytes'] / r['image_bytes']:4.1f}x "
                   f"the image")

@@ -159,7 +159,28 @@ def test_local_workers_run_one_thread_each(tmp_path, monkeypatch):
 
     monkeypatch.setattr(dask.distributed, "LocalCluster", fake_cluster)
     np.save(tmp_path / "a.npy", np.ones((8, 8)))
-    with pytest.raises(Stop):
-        mesh_many([tmp_path / "a.npy"], tmp_path / "out", workers=1, method="paper")
+    with pytest.raises(Stop):  # workers=None: a cluster of every core, even of one
+        mesh_many([tmp_path / "a.npy"], tmp_path / "out", method="paper")
     assert seen["threads_per_worker"] == 1
     assert seen["env"] == {"RANGEMESH_THREADS": "1"}
+
+
+def test_one_worker_meshes_in_this_process_without_dask(tmp_path, monkeypatch):
+    """workers=1: no cluster is started (Dask need not be installed); the same files come out."""
+    import rangemesh.batch as batch
+
+    def no_dask(*args, **kwargs):
+        raise AssertionError("a Dask client was asked for")
+
+    monkeypatch.setattr(batch, "dask_client", no_dask)
+    a = scenes.dome((40, 50)).depth
+    np.save(tmp_path / "a.npy", a)
+    (tmp_path / "b.png").write_bytes(b"not a png")
+    results = mesh_many([tmp_path / "a.npy", tmp_path / "b.png"], tmp_path / "out", workers=1,
+                        vertices=30, progress=True)
+    assert [r.status for r in results] == ["meshed", "failed"]
+    back = rangemesh.read_mesh(tmp_path / "out" / "a.ply")
+    want = rangemesh.triangulate(a, vertices=30)
+    assert np.array_equal(back.faces, want.faces)
+    np.testing.assert_allclose(back.vertices, want.vertices, rtol=1e-6)  # PLY keeps float32
+    assert (tmp_path / "out" / "rangemesh-batch.csv").exists()

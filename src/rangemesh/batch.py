@@ -396,7 +396,7 @@ def mesh_many(paths, out_dir, params: MeshParams | None = None, *,
               scheduler: str | None = None, workers: int | None = None, overwrite: bool = False,
               fmt: str = ".ply", progress: bool = False, connect_timeout: float = 10.0,
               beams: str | os.PathLike | None = None, **overrides) -> list[BatchResult]:
-    """Mesh many range images into `out_dir`, in parallel, through Dask.
+    """Mesh many range images into `out_dir`, in parallel through Dask, or in this process.
 
     Parameters
     ----------
@@ -415,6 +415,8 @@ def mesh_many(paths, out_dir, params: MeshParams | None = None, *,
     workers : int, optional
         Worker processes of the local cluster (default: the CPU cores this
         process may use; more are refused, as they only cost memory).
+        ``workers=1`` without a scheduler meshes in this process, one image
+        after the other: no cluster is started, and Dask is not needed.
         `workers` are processes everywhere in rangemesh; `threads` is the
         in-call thread count of the paper's method.
     overwrite : bool, default False
@@ -482,29 +484,37 @@ def mesh_many(paths, out_dir, params: MeshParams | None = None, *,
                        error="another input has the same file name: no unique output name")
         for i, (f, o) in enumerate(zip(files, outs, strict=True)) if o is None}
     todo = [i for i, o in enumerate(outs) if o is not None]
-    bar = None
-    with dask_client(scheduler, workers, connect_timeout) as (client, as_completed):
-        try:
-            futures = client.map(_one, [str(files[i]) for i in todo], [str(outs[i]) for i in todo],
-                                 call=call, background=background, camera=camera,
-                                 overwrite=overwrite, layout=layout, pure=False)
-            index = {f.key: i for i, f in zip(todo, futures, strict=True)}
-            if progress:
-                bar = progress_bar(len(futures))
-            failed = 0
-            for fut in as_completed(futures):
-                res = fut.result()
-                results[index[fut.key]] = res
-                failed += res.status == "failed"
-                if bar is not None:
-                    bar.update(1)
-                    bar.set_postfix(failed=failed)
-        finally:
-            if bar is not None:
-                bar.close()
+    task = {"call": call, "background": background, "camera": camera, "overwrite": overwrite,
+            "layout": layout}
+    bar = progress_bar(len(todo)) if progress else None
+    try:
+        if scheduler is None and workers is not None and _workers(workers) == 1:
+            # one process: no cluster to start, and no Dask needed
+            done = ((i, _one(str(files[i]), str(outs[i]), **task)) for i in todo)
+            _gather(done, results, bar)
+        else:
+            with dask_client(scheduler, workers, connect_timeout) as (client, as_completed):
+                futures = client.map(_one, [str(files[i]) for i in todo],
+                                     [str(outs[i]) for i in todo], **task, pure=False)
+                index = {f.key: i for i, f in zip(todo, futures, strict=True)}
+                _gather(((index[f.key], f.result()) for f in as_completed(futures)), results, bar)
+    finally:
+        if bar is not None:
+            bar.close()
     ordered = [results[i] for i in range(len(files))]
     write_report(ordered, out_dir, time.perf_counter() - t0)
     return ordered
+
+
+def _gather(done, results: dict, bar) -> None:
+    """Put each ``(index, BatchResult)`` of `done` into `results`, ticking the progress bar."""
+    failed = 0
+    for i, res in done:
+        results[i] = res
+        failed += res.status == "failed"
+        if bar is not None:
+            bar.update(1)
+            bar.set_postfix(failed=failed)
 
 
 def summarize(results: list[BatchResult], wall: float) -> dict:

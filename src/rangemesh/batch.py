@@ -43,7 +43,7 @@ from .io import (
 from .mesh import Mesh
 from .metrics import evaluate
 from .params import MeshParams
-from .pipeline import Workspace, call_options, resolve_call, run
+from .pipeline import Workspace, call_options, keyword_options, resolve_call, run
 from .prepare import check_image
 
 __all__ = ["mesh_stream", "mesh_many", "expand_inputs", "BatchResult", "summarize"]
@@ -85,12 +85,7 @@ def mesh_stream(frames: Iterable, params: MeshParams | None = None, *,
     buffers are reused instead of allocated per frame, and the options are
     checked once for the whole stream.
     """
-    options = {"fill_gaps": fill_gaps, "wrap": wrap, "heights": heights,
-               "diagonals": diagonals, "walls": walls, "jump": jump, "tiles": tiles,
-               "samples": samples, "sampling": sampling, "flips": flips, "levels": levels,
-               "curvature_floor": curvature_floor, "delta": delta, "epsilon": epsilon,
-               "max_angle": max_angle, "min_bend": min_bend, "gain_threshold": gain_threshold,
-               "max_edge": max_edge, "threads": threads}
+    options = keyword_options(locals())
     # checked at the call, not at the first next(): a generator would defer the errors
     params, method, tiles_given = resolve_call(params, method, vertices, max_error, options,
                                                overrides)
@@ -457,12 +452,7 @@ def mesh_many(paths, out_dir, params: MeshParams | None = None, *,
         raise ValueError(f"fmt must be one of {MESH_SUFFIXES}, got {fmt!r}")
     if isinstance(background, str) and background != "auto":
         raise ValueError(f"background must be a number, None or 'auto', got {background!r}")
-    options = {"fill_gaps": fill_gaps, "wrap": wrap, "heights": heights,
-               "diagonals": diagonals, "walls": walls, "jump": jump, "tiles": tiles,
-               "samples": samples, "sampling": sampling, "flips": flips, "levels": levels,
-               "curvature_floor": curvature_floor, "delta": delta, "epsilon": epsilon,
-               "max_angle": max_angle, "min_bend": min_bend, "gain_threshold": gain_threshold,
-               "max_edge": max_edge, "threads": threads}
+    options = keyword_options(locals())
     params, method, _ = resolve_call(params, method, vertices, max_error, options, overrides)
     camera = as_camera(camera)
     # the workers call triangulate with the resolved method and every field of params: the

@@ -278,6 +278,16 @@ _FIELD_OF = {name: ("workers" if name == "threads" else name) for name in OPTION
 OPTIONS = ("fill_gaps", "wrap", *OPTION_METHOD)
 
 
+def keyword_options(scope: dict) -> dict:
+    """The `OPTIONS` a call of `triangulate`, `mesh_stream` or `mesh_many` got: from its `locals()`.
+
+    Each of those functions names every option as a keyword; this reads them
+    back in one place, so adding an option means adding it to `OPTIONS` and to
+    the signatures only.
+    """
+    return {name: scope[name] for name in OPTIONS}
+
+
 def call_options(params: MeshParams, method: str) -> dict:
     """The keyword options that give `params` to `method` (those away from their defaults).
 
@@ -722,12 +732,7 @@ def triangulate(image, params: MeshParams | None = None, *,
     >>> mesh.stats.grid_shape, mesh.faces.shape[1]
     ((9, 9), 3)
     """
-    options = {"fill_gaps": fill_gaps, "wrap": wrap, "heights": heights,
-               "diagonals": diagonals, "walls": walls, "jump": jump, "tiles": tiles,
-               "samples": samples, "sampling": sampling, "flips": flips, "levels": levels,
-               "curvature_floor": curvature_floor, "delta": delta, "epsilon": epsilon,
-               "max_angle": max_angle, "min_bend": min_bend, "gain_threshold": gain_threshold,
-               "max_edge": max_edge, "threads": threads}
+    options = keyword_options(locals())
     params, method, tiles_given = resolve_call(params, method, vertices, max_error, options,
                                                overrides)
     if color is not None:

@@ -7,6 +7,7 @@ the arrays the fixtures wrote and from `rangemesh.triangulate` on them.
 
 import json
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -534,3 +535,20 @@ def test_compressed_colour_topic_gives_the_png_s_colours(tmp_path, frames):
                                         vertices=N)]
     want = expected([mm(depth[0])], 0.001)[0]
     np.testing.assert_array_equal(got.colors, color[want.pixels[:, 0], want.pixels[:, 1]])
+
+
+def test_an_output_never_replaces_the_recording(tmp_path, frames, capsys):
+    """`-o` naming the recording itself, or a file or folder inside a bag folder, is refused
+    before anything is written; the recording stays byte for byte."""
+    import shutil
+
+    folder = write_bag(tmp_path / "rec", [image_topic([mm(frames[0][0])], "16UC1"), info_topic()],
+                       "mcap")
+    bare = tmp_path / "bare.mcap"
+    shutil.copy(mcap_file(folder), bare)
+    before = {p: p.read_bytes() for p in [bare, *Path(folder).iterdir()]}
+    for rec, out in [(bare, bare), (folder, Path(folder) / "x.mcap"),
+                     (folder, mcap_file(folder)), (folder, Path(folder))]:
+        code, _, err = _cli(["batch", rec, "-o", out, "--workers", 1, "--overwrite"], capsys)
+        assert code == 2 and "must not be the recording" in err and err.count("\n") == 1, err
+    assert {p: p.read_bytes() for p in [bare, *Path(folder).iterdir()]} == before

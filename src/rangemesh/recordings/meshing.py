@@ -238,6 +238,7 @@ def mesh_recording(path: str | os.PathLike, output: str | os.PathLike, topic: st
         raise ValueError(f"fmt must be one of {MESH_SUFFIXES}, got {fmt!r}")
     output = Path(output)
     to_bag = output.suffix.lower() == ".mcap"
+    _check_apart(Path(path), output)
     if to_bag and output.exists() and not overwrite:
         raise ValueError(f"{output}: exists; give --overwrite (overwrite=True) to replace it")
     t0 = time.perf_counter()
@@ -269,6 +270,14 @@ def mesh_recording(path: str | os.PathLike, output: str | os.PathLike, topic: st
     else:
         write_report(results, report_dir, wall, names)
     return results
+
+
+def _check_apart(recording: Path, output: Path) -> None:
+    """Refuse an output that is the recording, or lies in its folder: it could replace it."""
+    rec, out = recording.resolve(), output.resolve()
+    if out == rec or (rec.is_dir() and rec in out.parents):
+        raise ValueError(f"{output}: the output must not be the recording {recording} or lie "
+                         f"inside it; write it elsewhere")
 
 
 class _BagSink:

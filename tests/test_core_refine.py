@@ -162,6 +162,38 @@ def test_a_spike_is_inserted_first():
     assert expected > 1.0 and total == pytest.approx(expected)
 
 
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.sampled_from([0.05, 0.3, 0.9, 3.0]))
+def test_the_first_pixel_of_the_largest_key_wins_near_ties(seed, step):
+    """Errors a fraction of a key step apart: the first pixel in row-major order of the top key.
+
+    The corners' depths are 0, so the plane is 0 exactly and each pixel's error is its depth;
+    its key, floor(depth / span * 2**32 + 0.5), is then computed here in the same IEEE
+    arithmetic as in the kernel. Only the first triangle's pixels are raised, by steps of
+    `step` key steps drawn at random (mostly rising, sometimes falling), so that many pixels
+    share a key or lie within one of the largest.
+    """
+    rng = np.random.default_rng(seed)
+    h, w = 6, 31
+    depth = np.zeros((h, w))
+    valid = np.ones((h, w), bool)
+    start = insertion.first_mesh(depth, valid, 0)
+    vr0, vc0, _, tri0, he0 = start
+    corners, pixels = _owned_pixels(tri0, he0, 0, vr0, vc0)
+    inner = [p for p in pixels if p not in corners]
+    base = 1.0
+    unit = base / STEPS  # about a key step: the span is about `base`
+    moves = rng.normal(loc=0.6, scale=1.0, size=len(inner)) * step * unit
+    for (r, c), z in zip(inner, base + np.cumsum(moves), strict=True):
+        depth[r, c] = z
+    span = float(depth.max() - depth.min())
+    keys = {p: math.floor(depth[p] / span * STEPS + 0.5) for p in inner}
+    top = max(keys.values())
+    expected = min(p for p in inner if keys[p] == top)  # tuples sort row-major
+    (vr, vc, _, _, _), _ = _insert(depth, valid, 5)
+    assert (int(vr[-1]), int(vc[-1])) == expected
+
+
 def test_an_error_bound_stops_at_the_first_mesh_under_it():
     rng = np.random.default_rng(7)
     depth = rng.normal(size=(12, 14)).cumsum(0)

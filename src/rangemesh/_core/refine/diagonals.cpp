@@ -12,32 +12,13 @@ namespace rangemesh::refine {
 
 double triangle_error(const Image& image, const Point& a, const Point& b, const Point& c, EdgeOwnership own,
                       double base, double stop) {
-    const index_t area = orient(a.r, a.c, b.r, b.c, c.r, c.c);
-    const double inv = 1.0 / static_cast<double>(area);
     const bool stops = stop < std::numeric_limits<double>::infinity();
     // a cheap bound first: only a sum of at least (stop - 0.5) key steps can quantise to stop
     const double cut = stops ? (stop - 0.5) * image.span / KEY_STEPS : std::numeric_limits<double>::infinity();
     double total = 0.0;
-    TriangleRows rows(a.r, a.c, b.r, b.c, c.r, c.c);
-    const double f0 = static_cast<double>(b.r - a.r);
-    const double f1 = static_cast<double>(c.r - b.r);
-    const double f2 = static_cast<double>(a.r - c.r);
-    for (index_t r = rows.r0; r <= rows.r1; ++r) {
-        if (r > rows.r0) rows.next_row();
-        const RowSpan span = rows.columns(own.ab, own.bc, own.ca);
-        if (span.first > span.last) continue;
-        const double* drow = image.depth.row(r);
-        const bool* vrow = image.valid.row(r);
-        double w0 = static_cast<double>(span.w0), w1 = static_cast<double>(span.w1),
-               w2 = static_cast<double>(span.w2);
-        for (index_t col = span.first; col <= span.last; ++col) {
-            if (vrow[col]) total += std::abs(drow[col] - (w1 * a.z + w2 * b.z + w0 * c.z) * inv);
-            w0 += f0;
-            w1 += f1;
-            w2 += f2;
-        }
-        if (base + total >= cut && quantize(base + total, image.span) >= stop) return total;
-    }
+    plane_errors(
+        image, a, b, c, own, [&](index_t, index_t, double err) { total += err; },
+        [&] { return !(base + total >= cut && quantize(base + total, image.span) >= stop); });
     return total;
 }
 

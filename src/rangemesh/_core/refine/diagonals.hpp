@@ -17,12 +17,6 @@ namespace rangemesh::refine {
 
 constexpr index_t MAX_TESTS_PER_EDGE = 8;
 
-// A corner of a triangle whose plane is measured: pixel and depth.
-struct Point {
-    index_t r, c;
-    double z;
-};
-
 // Sum of |depth - plane| over the valid pixels of ABC (counter-clockwise) that `scan_triangle`
 // visits, in its arithmetic and order (so cached and fresh sums compare). With a key `stop`
 // the sum is left after a row once quantize(base + sum so far) >= stop: a flip test's answer

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "../geometry/predicates.hpp"
 #include "../geometry/raster.hpp"
@@ -90,6 +91,76 @@ Cover cover_pixel(const Corner& a, const Corner& b, const Corner& cn, EdgeOwners
     return best;
 }
 
+// The pixel a full scan keys a triangle by: the first, in row-major order, of those whose error
+// has the largest key (`quantize`). Keys rise with the error, so that pixel set a new largest
+// error when it was met, and lies within a key step of the largest error. The scan keeps those
+// records alone and quantises them once at the end: quantising each new largest error cost a
+// division and a floor a pixel wherever the error grows along the rows.
+class Records {
+  public:
+    struct Entry {
+        double key = -1.0, err = -1.0;
+        index_t r = -1, c = -1;
+    };
+
+    // Records more than WINDOW key steps below the largest cannot share its key.
+    explicit Records(double span)
+        : span_(span), window_(span > 0.0 ? WINDOW * span / KEY_STEPS : std::numeric_limits<double>::infinity()) {}
+
+    double largest() const { return top_; }
+
+    // A pixel whose error exceeds every error so far.
+    void add(index_t r, index_t c, double err) {
+        // drop the records that fell out of the window (they sit first: errors rise along the list)
+        const double low = err - window_;
+        index_t keep = 0;
+        while (keep < n_ && entries_[keep].err < low) ++keep;
+        if (keep > 0) {
+            for (index_t i = keep; i < n_; ++i) entries_[i - keep] = entries_[i];
+            n_ -= keep;
+        }
+        if (n_ == CAPACITY) collapse();
+        entries_[n_++] = Entry{-1.0, err, r, c};
+        top_ = err;
+    }
+
+    Entry first_of_largest_key() const {
+        if (n_ == 0) return {};
+        const double top = quantize(entries_[n_ - 1].err, span_);
+        for (index_t i = 0; i < n_; ++i) {
+            if (quantize(entries_[i].err, span_) == top) {
+                Entry e = entries_[i];
+                e.key = top;
+                return e;
+            }
+        }
+        throw InvariantError("scan: the largest error's key belongs to a record");
+    }
+
+  private:
+    static constexpr double WINDOW = 4.0;
+    static constexpr index_t CAPACITY = 16;
+
+    // Full of records within the window (errors that rise by less than a key step): keep the
+    // first of each key, as only the first of a key can win.
+    void collapse() {
+        index_t out = 0;
+        double last = -1.0;
+        for (index_t i = 0; i < n_; ++i) {
+            const double key = quantize(entries_[i].err, span_);
+            if (out == 0 || key != last) entries_[out++] = entries_[i];
+            last = key;
+        }
+        if (out == CAPACITY) throw InvariantError("scan: more keys within the window than records kept");
+        n_ = out;
+    }
+
+    double span_, window_;
+    double top_ = -1.0;
+    Entry entries_[CAPACITY];
+    index_t n_ = 0;
+};
+
 }  // namespace
 
 TriangleKey scan_triangle(const Image& image, const Corner& a, const Corner& b, const Corner& cn,
@@ -110,43 +181,18 @@ TriangleKey scan_triangle(const Image& image, const Corner& a, const Corner& b, 
         if (!near.seen) return out;
     }
     const index_t h = image.rows(), w = image.cols();
-    double best = -1.0, best_err = -1.0, total = 0.0;
-    index_t best_r = -1, best_c = -1;
-    const double inv = 1.0 / static_cast<double>(area);
-    // each row over its span inside the triangle only; the edge functions are linear along a
-    // row, and float64 holds these integers exactly
-    TriangleRows rows(a.r, a.c, b.r, b.c, cn.r, cn.c);
-    const double f0 = static_cast<double>(b.r - a.r);
-    const double f1 = static_cast<double>(cn.r - b.r);
-    const double f2 = static_cast<double>(a.r - cn.r);
-    for (index_t r = rows.r0; r <= rows.r1; ++r) {
-        if (r > rows.r0) rows.next_row();
-        const RowSpan span = rows.columns(own.ab, own.bc, own.ca);
-        if (span.first > span.last) continue;
-        const double* drow = image.depth.row(r);
-        const bool* vrow = image.valid.row(r);
-        double w0 = static_cast<double>(span.w0), w1 = static_cast<double>(span.w1),
-               w2 = static_cast<double>(span.w2);
-        for (index_t c = span.first; c <= span.last; ++c) {
-            if (vrow[c]) {
-                const double z = (w1 * a.z + w2 * b.z + w0 * cn.z) * inv;
-                const double err = std::abs(drow[c] - z);
-                total += err;
-                if (err > best_err && !is_corner(r, c, a, b, cn)) {
-                    const double key = quantize(err, image.span);  // only a larger error can have a larger key
-                    if (key > best) {
-                        best = key;
-                        best_err = err;
-                        best_r = r;
-                        best_c = c;
-                    }
-                }
-            }
-            w0 += f0;
-            w1 += f1;
-            w2 += f2;
-        }
-    }
+    Records records(image.span);
+    double total = 0.0;
+    plane_errors(
+        image, {a.r, a.c, a.z}, {b.r, b.c, b.z}, {cn.r, cn.c, cn.z}, own,
+        [&](index_t r, index_t c, double err) {
+            total += err;
+            if (err > records.largest() && !is_corner(r, c, a, b, cn)) records.add(r, c, err);
+        },
+        [] { return true; });
+    const Records::Entry first = records.first_of_largest_key();
+    double best = first.key, best_err = first.err;
+    index_t best_r = first.r, best_c = first.c;
     if (best == 0.0) {  // every pixel fits the plane to within half a key step
         best = spread_key(area, h, w);
         const Pixel p = centroid_pixel(a.r, a.c, b.r, b.c, cn.r, cn.c, image.valid);

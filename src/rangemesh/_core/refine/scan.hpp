@@ -3,6 +3,7 @@
 #pragma once
 
 #include "image.hpp"
+#include "plane.hpp"
 
 namespace rangemesh::refine {
 
@@ -11,11 +12,6 @@ struct Corner {
     index_t r, c;
     double z;
     bool background;
-};
-
-// Which of a triangle's edges AB, BC, CA own the pixels on them (`own_edge`).
-struct EdgeOwnership {
-    bool ab, bc, ca;
 };
 
 // A triangle's standing in the heap. `key` is -1 when no pixel can be inserted; `sum` is

@@ -1,0 +1,61 @@
+// The one loop that measures a triangle against its pixels: |depth - plane| for every valid
+// pixel the triangle owns. Greedy insertion keys triangles with it (`scan_triangle`) and the
+// flips compare diagonals with it (`triangle_error`); both must give the same sums, so they
+// share this arithmetic and this order.
+#pragma once
+
+#include <cmath>
+
+#include "../geometry/predicates.hpp"
+#include "../geometry/raster.hpp"
+#include "image.hpp"
+
+namespace rangemesh::refine {
+
+// A corner of a triangle whose plane is measured: pixel and depth.
+struct Point {
+    index_t r, c;
+    double z;
+};
+
+// Which of a triangle's edges AB, BC, CA own the pixels on them (`own_edge`).
+struct EdgeOwnership {
+    bool ab, bc, ca;
+};
+
+// Calls visit(r, c, err) for each valid pixel of ABC (counter-clockwise, area > 0) that `own`
+// gives it, in row-major order, err = |depth - plane through A, B, C|. After each row that had
+// pixels, `row_done()` returning false ends the scan.
+//
+// The plane's depth at a pixel is (w1 zA + w2 zB + w0 zC) / area, its edge functions w as
+// float64 (integers, held exactly): the one formula every sum that is compared uses.
+template <class Visit, class RowDone>
+void plane_errors(const Image& image, const Point& a, const Point& b, const Point& c, EdgeOwnership own,
+                  Visit&& visit, RowDone&& row_done) {
+    const index_t area = orient(a.r, a.c, b.r, b.c, c.r, c.c);
+    const double inv = 1.0 / static_cast<double>(area);
+    // in locals: read through the references, the compiler reloads them every pixel
+    const double az = a.z, bz = b.z, cz = c.z;
+    const double f0 = static_cast<double>(b.r - a.r);
+    const double f1 = static_cast<double>(c.r - b.r);
+    const double f2 = static_cast<double>(a.r - c.r);
+    TriangleRows rows(a.r, a.c, b.r, b.c, c.r, c.c);
+    for (index_t r = rows.r0; r <= rows.r1; ++r) {
+        if (r > rows.r0) rows.next_row();
+        const RowSpan span = rows.columns(own.ab, own.bc, own.ca);
+        if (span.first > span.last) continue;
+        const double* drow = image.depth.row(r);
+        const bool* vrow = image.valid.row(r);
+        double w0 = static_cast<double>(span.w0), w1 = static_cast<double>(span.w1),
+               w2 = static_cast<double>(span.w2);
+        for (index_t col = span.first; col <= span.last; ++col) {
+            if (vrow[col]) visit(r, col, std::abs(drow[col] - (w1 * az + w2 * bz + w0 * cz) * inv));
+            w0 += f0;
+            w1 += f1;
+            w2 += f2;
+        }
+        if (!row_done()) return;
+    }
+}
+
+}  // namespace rangemesh::refine

@@ -8,6 +8,10 @@ from .._core import delaunay_sweep, grid_pixels, nearest_valid
 
 __all__ = ["corner_depths", "first_mesh", "valid_hull", "hull_mesh"]
 
+# The image rectangle cut in two, (0,0) (H-1,0) (H-1,W-1) and (0,0) (H-1,W-1) (0,W-1):
+# counter-clockwise in (r, c); its triangles and twin half-edges.
+_RECTANGLE = (np.array([0, 1, 2, 0, 2, 3], np.int64), np.array([-1, -1, 3, 2, -1, -1], np.int64))
+
 
 def corner_depths(depth: np.ndarray, valid: np.ndarray) -> np.ndarray:
     """Depth at the four image corners, from the nearest valid pixel where a corner is background.
@@ -57,6 +61,10 @@ def first_mesh(depth: np.ndarray, valid: np.ndarray, n_grid: int, scales=(1, 1),
     vr, vc, vz, tv, he : ndarrays
         As `rangemesh._core.greedy_insert` takes them.
     """
+    if n_grid < 4 and cols is None and seam is None:  # the image rectangle: a small call's start
+        return (np.array([0, depth.shape[0] - 1, depth.shape[0] - 1, 0], np.int64),
+                np.array([0, 0, depth.shape[1] - 1, depth.shape[1] - 1], np.int64),
+                corner_depths(depth, valid), _RECTANGLE[0].copy(), _RECTANGLE[1].copy())
     h = depth.shape[0]
     c_lo, c_hi = (0, depth.shape[1] - 1) if cols is None else cols
     w = c_hi - c_lo + 1
@@ -77,9 +85,7 @@ def first_mesh(depth: np.ndarray, valid: np.ndarray, n_grid: int, scales=(1, 1),
         if len(tv) == 0:
             raise RuntimeError("first_mesh: the image corners cannot be collinear")
     else:
-        # (0,0) (H-1,0) (H-1,W-1) and (0,0) (H-1,W-1) (0,W-1): counter-clockwise in (r, c)
-        tv = np.array([0, 1, 2, 0, 2, 3], np.int64)
-        he = np.array([-1, -1, 3, 2, -1, -1], np.int64)
+        tv, he = _RECTANGLE[0].copy(), _RECTANGLE[1].copy()
     vz = np.concatenate([corner_z, depth[vr[4:], vc[4:]]])
     return vr, vc, vz, tv, he
 

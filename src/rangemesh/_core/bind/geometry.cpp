@@ -160,7 +160,13 @@ void bind_geometry(nb::module_& m) {
             return run_released([&] { return count_edges(grid(faces), n_vertices); }, work(faces));
         },
         nb::arg("faces"), nb::arg("n_vertices"),
-        "Distinct undirected edges of an (F, 3) int64 face list, any orientation, manifold or not.");
+        "Distinct undirected edges of an (F, 3) int64 or int32 face list, any orientation, manifold or not.");
+    m.def(
+        "count_edges",
+        [](In2<std::int32_t> faces, index_t n_vertices) {
+            return run_released([&] { return count_edges(grid(faces), n_vertices); }, work(faces));
+        },
+        nb::arg("faces"), nb::arg("n_vertices"));
     m.def(
         "neighbors_from_halfedges",
         [](In1<index_t> halfedges) {

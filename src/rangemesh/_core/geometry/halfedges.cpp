@@ -1,6 +1,7 @@
 #include "halfedges.hpp"
 
 #include <algorithm>
+#include <cstdint>
 
 namespace rangemesh {
 
@@ -47,12 +48,13 @@ void build_halfedges(Grid<const index_t> faces, index_t n_vertices, std::vector<
     }
 }
 
-index_t count_edges(Grid<const index_t> faces, index_t n_vertices) {
+template <class Id>
+index_t count_edges(Grid<const Id> faces, index_t n_vertices) {
     // each edge counted at its smaller endpoint, with a mark per vertex of who saw it last
     const index_t n_t = faces.rows;
     std::vector<index_t> start(n_vertices + 1, 0);
     for (index_t t = 0; t < n_t; ++t)
-        for (int k = 0; k < 3; ++k) start[std::min(faces(t, k), faces(t, (k + 1) % 3)) + 1] += 1;
+        for (int k = 0; k < 3; ++k) start[std::min<index_t>(faces(t, k), faces(t, (k + 1) % 3)) + 1] += 1;
     for (index_t v = 0; v < n_vertices; ++v) start[v + 1] += start[v];
     std::vector<index_t> fill(start.begin(), start.end() - 1);
     std::vector<index_t> other(3 * n_t);
@@ -75,6 +77,9 @@ index_t count_edges(Grid<const index_t> faces, index_t n_vertices) {
     }
     return count;
 }
+
+template index_t count_edges(Grid<const index_t>, index_t);
+template index_t count_edges(Grid<const std::int32_t>, index_t);
 
 void neighbors_from_halfedges(Span<const index_t> halfedges, Grid<index_t> out) {
     const index_t n_t = halfedges.size / 3;

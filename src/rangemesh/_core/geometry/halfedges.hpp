@@ -41,8 +41,10 @@ void flip_quad(Span<index_t> triangles, Span<index_t> halfedges, index_t e0);
 void build_halfedges(Grid<const index_t> faces, index_t n_vertices, std::vector<index_t>& triangles,
                      std::vector<index_t>& halfedges);
 
-// Distinct undirected edges of a face list (any orientation, manifold or not).
-index_t count_edges(Grid<const index_t> faces, index_t n_vertices);
+// Distinct undirected edges of a face list (any orientation, manifold or not), its vertex ids
+// int64 or int32 (the meshes' own faces: no widened copy).
+template <class Id>
+index_t count_edges(Grid<const Id> faces, index_t n_vertices);
 
 // SciPy-style neighbours (F x 3): entry (t, k) is the triangle across the edge opposite corner k.
 void neighbors_from_halfedges(Span<const index_t> halfedges, Grid<index_t> out);

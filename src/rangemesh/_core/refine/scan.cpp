@@ -99,8 +99,8 @@ Cover cover_pixel(const Corner& a, const Corner& b, const Corner& cn, EdgeOwners
 class Records {
   public:
     struct Entry {
-        double key = -1.0, err = -1.0;
-        index_t r = -1, c = -1;
+        double key, err;
+        index_t r, c;
     };
 
     // Records more than WINDOW key steps below the largest cannot share its key.
@@ -125,7 +125,7 @@ class Records {
     }
 
     Entry first_of_largest_key() const {
-        if (n_ == 0) return {};
+        if (n_ == 0) return {-1.0, -1.0, -1, -1};
         const double top = quantize(entries_[n_ - 1].err, span_);
         for (index_t i = 0; i < n_; ++i) {
             if (quantize(entries_[i].err, span_) == top) {
@@ -157,7 +157,7 @@ class Records {
 
     double span_, window_;
     double top_ = -1.0;
-    Entry entries_[CAPACITY];
+    Entry entries_[CAPACITY];  // the first n_ are set
     index_t n_ = 0;
 };
 

@@ -34,23 +34,22 @@ struct EdgeWalk {
     void next() {
         q += dq;
         m += dm;
-        if (m >= d) {
-            m -= d;
-            q += 1;
-        }
+        // the carry without a branch: it follows the slope's pattern, which mispredicted
+        const index_t carry = static_cast<index_t>(m >= d);
+        m -= carry * d;
+        q += carry;
         v += dv;
     }
 
     // Narrow [lo, hi] of this row to where w >= 0 (w > 0 when the edge's pixels are not `own`).
     void clip(bool own, index_t c0, index_t& lo, index_t& hi) const {
+        // w == 0 on the bounding column exactly when v / s is whole: that pixel is left out
+        // unless the edge owns it
+        const index_t tie = static_cast<index_t>((m == 0) & !own);
         if (s > 0) {
-            index_t b = c0 - q;
-            if (m == 0 && !own) b += 1;  // w == 0 on column b exactly when v / s is whole
-            lo = std::max(lo, b);
+            lo = std::max(lo, c0 - q + tie);
         } else if (s < 0) {
-            index_t b = c0 + q;
-            if (m == 0 && !own) b -= 1;
-            hi = std::min(hi, b);
+            hi = std::min(hi, c0 + q - tie);
         } else if (v < 0 || (v == 0 && !own)) {  // along the row: all of it or none
             lo = hi + 1;
         }

@@ -23,6 +23,7 @@ import subprocess
 import sys
 import tarfile
 import tempfile
+import zipfile
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
@@ -38,13 +39,27 @@ NAME = "rangemesh_at_base"
 
 
 def import_commit(commit: str, folder: Path):
-    """The package as it was at `commit`, imported as `NAME` from `folder`."""
-    tar = subprocess.run(["git", "-C", str(HERE.parent), "archive", commit, "src/rangemesh"],
+    """The package as it was at `commit`, built (its compiled core too) and imported as `NAME`.
+
+    The commit's tree is built into a wheel (``pip wheel``, about a minute) and
+    unpacked under `folder`; its package folder is renamed. The extension keeps
+    its file name, whose init symbol does not depend on the package's name, and
+    the package imports itself relatively only: it runs as is beside this one.
+    """
+    tar = subprocess.run(["git", "-C", str(HERE.parent), "archive", commit],
                          check=True, capture_output=True).stdout
+    src = folder / "src_tree"
     with tarfile.open(fileobj=io.BytesIO(tar)) as t:
-        t.extractall(folder, filter="data")
-    (folder / "src" / "rangemesh").rename(folder / NAME)  # relative imports only: it runs as is
-    sys.path.insert(0, str(folder))
+        t.extractall(src, filter="data")
+    wheels = folder / "wheels"
+    print(f"building {commit} ...", file=sys.stderr, flush=True)
+    subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w", str(wheels), str(src)],
+                   check=True)
+    (wheel,) = wheels.glob("rangemesh-*.whl")
+    with zipfile.ZipFile(wheel) as z:
+        z.extractall(folder / "site")
+    (folder / "site" / "rangemesh").rename(folder / "site" / NAME)
+    sys.path.insert(0, str(folder / "site"))
     return importlib.import_module(NAME)
 
 

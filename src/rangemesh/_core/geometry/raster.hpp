@@ -46,13 +46,11 @@ struct EdgeWalk {
         // w == 0 on the bounding column exactly when v / s is whole: that pixel is left out
         // unless the edge owns it
         const index_t tie = static_cast<index_t>((m == 0) & !own);
-        if (s > 0) {
-            lo = std::max(lo, c0 - q + tie);
-        } else if (s < 0) {
-            hi = std::min(hi, c0 + q - tie);
-        } else if (v < 0 || (v == 0 && !own)) {  // along the row: all of it or none
-            lo = hi + 1;
-        }
+        // selects, not branches: the edges' signs change from one small triangle to the next
+        const index_t left = c0 - q + tie, right = c0 + q - tie;
+        lo = std::max(lo, s > 0 ? left : lo);
+        hi = std::min(hi, s < 0 ? right : hi);
+        if (s == 0 && (v < 0 || (v == 0 && !own))) lo = hi + 1;  // along the row: all of it or none
     }
 
     // The edge function at column `c` of this row.

@@ -128,7 +128,7 @@ class Records {
         if (n_ == 0) return {-1.0, -1.0, -1, -1};
         const double top = quantize(entries_[n_ - 1].err, span_);
         for (index_t i = 0; i < n_; ++i) {
-            if (quantize(entries_[i].err, span_) == top) {
+            if (i == n_ - 1 || quantize(entries_[i].err, span_) == top) {  // (the last is the top)
                 Entry e = entries_[i];
                 e.key = top;
                 return e;

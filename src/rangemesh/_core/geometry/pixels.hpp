@@ -54,9 +54,10 @@ void mask_image(Grid<const T> image, bool has_background, double background, Gri
             // exact in float64: compared as T, the loop vectorises
             for (index_t c = 0; c < image.cols; ++c) v[c] = !(marker.exact && in[c] == marker.value);
         } else {
+            // `&`, not `&&`: both compares on every pixel, and the loop vectorises
             for (index_t c = 0; c < image.cols; ++c) {
                 const double x = static_cast<double>(in[c]);
-                v[c] = std::abs(x) <= big && x != bg;
+                v[c] = static_cast<bool>(static_cast<int>(std::abs(x) <= big) & static_cast<int>(x != bg));
             }
         }
     }

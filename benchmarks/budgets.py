@@ -4,8 +4,10 @@ Run ``python benchmarks/budgets.py`` (``--quick`` for three images, ``--help``).
 For every image of ``../shared/data`` and every synthetic scene of the
 package, at each budget it meshes with
 
-* rangemesh ``method="refine"`` (greedy insertion), fitted vertex depths (the default) and copied
-  ones (``heights="pixel"``);
+* rangemesh ``method="refine"`` (greedy insertion), fitted vertex depths (the default), copied
+  ones (``heights="pixel"``), and copied ones with greedy insertion's Delaunay diagonals
+  (``heights="pixel", diagonals="delaunay"``: the fastest; a second table weighs what the
+  default's fit and diagonals cost in time against the error they save);
 * pydelatin (greedy insertion, Garland-Heckbert), asked for the count that
   puts as many vertices on valid pixels;
 * fast-simplification (quadric decimation) of the full-resolution grid mesh;
@@ -47,7 +49,9 @@ from rangemesh.pipeline import triangulate  # noqa: E402
 FRACTIONS = (0.01, 0.03, 0.10)
 MIN_VERTICES = 50
 MINE = "refine, fitted depths"
-VARIANTS = [(MINE, {}), ("refine, pixel depths", {"heights": "pixel"})]
+FASTEST = "refine, pixel depths, Delaunay diagonals"
+VARIANTS = [(MINE, {}), ("refine, pixel depths", {"heights": "pixel"}),
+            (FASTEST, {"heights": "pixel", "diagonals": "delaunay"})]
 
 
 def sensor_camera(image, data):
@@ -156,7 +160,12 @@ def summary(rows):
                                         g["pydelatin"]["edge_band_error"]) for g in sel)
         ms = statistics.median(_ratio(g[MINE]["ms"], g["pydelatin"]["ms"]) for g in sel)
         worst = max(g[MINE]["uncovered"] for g in sel)
-        out.append((frac, len(sel), err, fit, band, ms, worst))
+        fast_ms = statistics.median(_ratio(g[FASTEST]["ms"], g["pydelatin"]["ms"]) for g in sel)
+        fast_err = statistics.median(_ratio(g[FASTEST]["relative_error"],
+                                            g["pydelatin"]["relative_error"]) for g in sel)
+        mine_err = statistics.median(_ratio(g[MINE]["relative_error"],
+                                            g["pydelatin"]["relative_error"]) for g in sel)
+        out.append((frac, len(sel), err, fit, band, ms, worst, mine_err, fast_ms, fast_err))
     return out
 
 
@@ -179,9 +188,17 @@ def main(argv=None) -> int:
     print("\n| budget | cases | error / quadric | fitted / pixel depths | edge band / pydelatin "
           "| time / pydelatin | worst uncovered % |")
     print("|---|---:|---:|---:|---:|---:|---:|")
-    for frac, n, err, fit, band, ms, worst in summary(rows):
+    table = summary(rows)
+    for frac, n, err, fit, band, ms, worst, *_ in table:
         name = "all" if frac is None else f"{frac:.0%} of valid pixels"
         print(f"| {name} | {n} | {err:.2f} | {fit:.2f} | {band:.2f} | {ms:.2f} | {worst:.2f} |")
+    # what the default's fitted depths and error-chosen diagonals cost in time, and buy
+    print(f"\n| budget | cases | default: error / pydelatin | time / pydelatin "
+          f"| {FASTEST}: error / pydelatin | time / pydelatin |")
+    print("|---|---:|---:|---:|---:|---:|")
+    for frac, n, _, _, _, ms, _, mine_err, fast_ms, fast_err in table:
+        name = "all" if frac is None else f"{frac:.0%} of valid pixels"
+        print(f"| {name} | {n} | {mine_err:.2f} | {ms:.2f} | {fast_err:.2f} | {fast_ms:.2f} |")
     bounds = error_bounds(images, args.repeat, data, extra=extra)
     held = sum(err <= bound for _, bound, _, err, *_ in bounds)
     times = [ms / ms_n for *_, ms, ms_n in bounds]

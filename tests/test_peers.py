@@ -53,12 +53,15 @@ def test_budgets_benchmark_runs_on_one_scene():
                        capture_output=True, text=True, timeout=600)
     assert p.returncode == 0, p.stderr[-2000:]
     rows = [line for line in p.stdout.splitlines() if line.startswith("| all |")]
-    assert len(rows) == 1, p.stdout[-2000:]
+    assert len(rows) == 2, p.stdout[-2000:]  # the targets' table, then the fastest variant's
     cells = rows[0].strip("|").split("|")
     scenes = int(cells[1]) // 3  # the dome, with and without noise: 3 budgets each
     assert scenes >= 1 and int(cells[1]) == 3 * scenes
     ratios = [float(x) for x in cells[2:]]
     assert len(ratios) == 5 and all(math.isfinite(x) and x >= 0 for x in ratios)
+    fastest = rows[1].strip("|").split("|")
+    assert fastest[1] == cells[1]
+    assert len(fastest[2:]) == 4 and all(math.isfinite(float(x)) and float(x) >= 0 for x in fastest[2:])
     assert f"the bound held on {2 * scenes} of {2 * scenes} cases" in p.stdout
 
 

@@ -169,6 +169,13 @@ def test_the_kernels_refuse_a_vertex_outside_the_image():
         _core.fit_blocks(*args, 1.0)
     with pytest.raises(RuntimeError, match="vertex id is out of range"):
         _core.fit_blocks(np.array([[0, 1, 7]], np.int64), *args[1:], 1.0)
+    # whether or not its pixels are visited: in a flat face, in no face
+    rows = np.array([-1, 3, 0, 1], np.int64)
+    cols = np.array([0, 0, 0, 3], np.int64)
+    for face in ([0, 1, 2], [1, 2, 3]):
+        args = (np.array([face], np.int64), np.zeros(1, np.int64), rows, cols, np.ones(4), image, valid)
+        with pytest.raises(ValueError, match="outside the image"):
+            _core.fit_sample_errors(*args, 1, 1, 25)
 
 
 def test_a_fit_that_does_not_converge_is_solved_directly(monkeypatch):

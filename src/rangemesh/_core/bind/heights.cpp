@@ -167,7 +167,7 @@ void bind_heights(nb::module_& m) {
             return run_released([&] { return heights::median_inplace(span(x)); });
         },
         nb::arg("x"),
-        "``np.median(x)`` of a non-empty float64 array, bit for bit, reordering ``x`` in place.");
+        "``np.median(x)`` of a non-empty float64 array, bit for bit; overwrites ``x``.");
     m.def(
         "fit_heights",
         [](In2<index_t> faces, In1<index_t> order, In1<index_t> rows, In1<index_t> cols, In1<double> values,

@@ -236,3 +236,53 @@ def test_a_fit_that_does_not_converge_is_solved_directly(monkeypatch):
     lo, hi = sc.depth.min(), sc.depth.max()
     np.testing.assert_array_equal(got, np.clip(solved[0], lo, hi))  # the direct solve's depths
     np.testing.assert_allclose(got, want, rtol=0, atol=1e-6 * np.ptp(sc.depth))
+
+
+def test_the_kernel_clips_the_fitted_values_as_numpy_does():
+    # [lo, hi] narrower than the fit's values: what np.minimum(np.maximum(v, lo), hi) makes
+    # of the unbounded values, bit for bit.
+    sc = scenes.make("stairs", (40, 50), noise=0.3)
+    m = triangulate(sc.depth, vertices=60, method="refine", heights="pixel")
+    valid = np.ones(sc.depth.shape, bool)
+    kw = dict(row_stride=4, face_stride=1, capacity=valid.sum(), outlier_mads=heights.OUTLIER_MADS,
+              outlier_floor=heights.OUTLIER_FLOOR, ridge=heights.RIDGE, rtol=heights.CG_RTOL,
+              max_iter=1000, threads=1)
+    outcome, free, _ = _core.fit_heights(m.faces, m.pixels, sc.depth, valid, None, -np.inf, np.inf, **kw)
+    assert outcome == "fitted"
+    lo, hi = np.quantile(free, [0.25, 0.75])
+    _, got, _ = _core.fit_heights(m.faces, m.pixels, sc.depth, valid, None, lo, hi, **kw)
+    want = np.minimum(np.maximum(free, lo), hi)
+    assert np.array_equal(got.view(np.int64), want.view(np.int64))
+    assert (got == lo).any() and (got == hi).any()
+
+
+def test_the_fit_takes_any_integer_arrays():
+    # int32 (the insertion's) and int64 without a copy, others converted: one result.
+    sc = scenes.make("box", (40, 50), noise=0.3)
+    m = triangulate(sc.depth, vertices=60, method="refine", heights="pixel")
+    valid = np.ones(sc.depth.shape, bool)
+    want = heights.fit_heights(m.pixels, m.faces, sc.depth, valid, m.camera)
+    for dtype in (np.int64, np.uint16, np.int32):
+        pixels = np.asfortranarray(m.pixels.astype(dtype))  # not C-contiguous either
+        got = heights.fit_heights(pixels, m.faces.astype(dtype), sc.depth, valid, m.camera)
+        assert np.array_equal(got.view(np.int64), want.view(np.int64))
+    assert not np.array_equal(want, sc.depth[m.pixels[:, 0], m.pixels[:, 1]])  # fitted, not copied
+
+
+def test_a_vertex_without_a_finite_value_is_named():
+    sc = scenes.make("box", (40, 50), noise=0.3)
+    depth = sc.depth + 10.0
+    m = triangulate(depth, vertices=60, method="refine", heights="pixel")
+    valid = np.ones(depth.shape, bool)
+    r, c = m.pixels[7]
+    hole = depth.copy()
+    hole[r, c] = 0.0
+    with pytest.raises(ValueError, match=rf"depth 0 at pixel \({r}, {c}\) cannot be fitted with a pinhole"):
+        heights.fit_heights(m.pixels, m.faces, hole, valid, Pinhole(60.0, 60.0, 25.0, 20.0))
+    hole[r, c] = np.nan
+    with pytest.raises(ValueError, match="every vertex must sit on a valid pixel"):
+        heights.fit_heights(m.pixels, m.faces, hole, valid, Orthographic(1.0, 1.0, 1.0))
+    outside = m.pixels.copy()
+    outside[7] = (depth.shape[0], 0)
+    with pytest.raises(ValueError, match="outside the image"):
+        heights.fit_heights(outside, m.faces, depth, valid, m.camera)

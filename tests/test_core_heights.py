@@ -119,7 +119,32 @@ def test_the_median_is_numpys(values):
         assert np.isnan(got)
     else:
         assert np.float64(got).view(np.int64) == want.view(np.int64)  # bit for bit
-    assert np.array_equal(np.sort(y), np.sort(x), equal_nan=True)  # reordered in place, nothing lost
+
+
+@settings(max_examples=80, deadline=None)
+@given(st.integers(256, 3000), st.integers(0, 2**32 - 1),
+       st.sampled_from(["spread", "ties", "zeros", "inf", "sorted", "signed", "gap", "two"]))
+def test_the_median_of_many_values_is_numpys(n, seed, kind):
+    # From 256 values on the median is selected by partitions between the array and a buffer
+    # (and by std::nth_element when a value is negative): np.median's bits either way.
+    rng = np.random.default_rng(seed)
+    x = rng.exponential(size=n)  # errors: none below 0
+    if kind == "ties":
+        x = np.round(x * 4) / 4
+    elif kind == "zeros":  # most pixels exact
+        x[rng.random(n) < 0.6] = 0.0
+    elif kind == "inf":
+        x[rng.random(n) < 0.3] = np.inf
+    elif kind == "sorted":
+        x = np.sort(x)
+    elif kind == "signed":
+        x -= 1.0
+    elif kind in ("gap", "two"):  # the two middle values far apart, the lower one repeated
+        x[: n // 2] = 0.25
+        x[n // 2:] = 0.5 if kind == "two" else 1.0 + x[n // 2:]
+        rng.shuffle(x)
+    want = np.median(x)
+    assert np.float64(_core.median_inplace(x)).view(np.int64) == want.view(np.int64)
 
 
 def test_the_median_of_nothing_is_refused():
@@ -169,6 +194,13 @@ def test_the_kernels_refuse_a_vertex_outside_the_image():
         _core.fit_blocks(*args, 1.0)
     with pytest.raises(RuntimeError, match="vertex id is out of range"):
         _core.fit_blocks(np.array([[0, 1, 7]], np.int64), *args[1:], 1.0)
+    # whether or not its pixels are visited: in a flat face, in no face
+    rows = np.array([-1, 3, 0, 1], np.int64)
+    cols = np.array([0, 0, 0, 3], np.int64)
+    for face in ([0, 1, 2], [1, 2, 3]):
+        args = (np.array([face], np.int64), np.zeros(1, np.int64), rows, cols, np.ones(4), image, valid)
+        with pytest.raises(ValueError, match="outside the image"):
+            _core.fit_sample_errors(*args, 1, 1, 25)
 
 
 def test_a_fit_that_does_not_converge_is_solved_directly(monkeypatch):
@@ -204,3 +236,53 @@ def test_a_fit_that_does_not_converge_is_solved_directly(monkeypatch):
     lo, hi = sc.depth.min(), sc.depth.max()
     np.testing.assert_array_equal(got, np.clip(solved[0], lo, hi))  # the direct solve's depths
     np.testing.assert_allclose(got, want, rtol=0, atol=1e-6 * np.ptp(sc.depth))
+
+
+def test_the_kernel_clips_the_fitted_values_as_numpy_does():
+    # [lo, hi] narrower than the fit's values: what np.minimum(np.maximum(v, lo), hi) makes
+    # of the unbounded values, bit for bit.
+    sc = scenes.make("stairs", (40, 50), noise=0.3)
+    m = triangulate(sc.depth, vertices=60, method="refine", heights="pixel")
+    valid = np.ones(sc.depth.shape, bool)
+    kw = dict(row_stride=4, face_stride=1, capacity=valid.sum(), outlier_mads=heights.OUTLIER_MADS,
+              outlier_floor=heights.OUTLIER_FLOOR, ridge=heights.RIDGE, rtol=heights.CG_RTOL,
+              max_iter=1000, threads=1)
+    outcome, free, _ = _core.fit_heights(m.faces, m.pixels, sc.depth, valid, None, -np.inf, np.inf, **kw)
+    assert outcome == "fitted"
+    lo, hi = np.quantile(free, [0.25, 0.75])
+    _, got, _ = _core.fit_heights(m.faces, m.pixels, sc.depth, valid, None, lo, hi, **kw)
+    want = np.minimum(np.maximum(free, lo), hi)
+    assert np.array_equal(got.view(np.int64), want.view(np.int64))
+    assert (got == lo).any() and (got == hi).any()
+
+
+def test_the_fit_takes_any_integer_arrays():
+    # int32 (the insertion's) and int64 without a copy, others converted: one result.
+    sc = scenes.make("box", (40, 50), noise=0.3)
+    m = triangulate(sc.depth, vertices=60, method="refine", heights="pixel")
+    valid = np.ones(sc.depth.shape, bool)
+    want = heights.fit_heights(m.pixels, m.faces, sc.depth, valid, m.camera)
+    for dtype in (np.int64, np.uint16, np.int32):
+        pixels = np.asfortranarray(m.pixels.astype(dtype))  # not C-contiguous either
+        got = heights.fit_heights(pixels, m.faces.astype(dtype), sc.depth, valid, m.camera)
+        assert np.array_equal(got.view(np.int64), want.view(np.int64))
+    assert not np.array_equal(want, sc.depth[m.pixels[:, 0], m.pixels[:, 1]])  # fitted, not copied
+
+
+def test_a_vertex_without_a_finite_value_is_named():
+    sc = scenes.make("box", (40, 50), noise=0.3)
+    depth = sc.depth + 10.0
+    m = triangulate(depth, vertices=60, method="refine", heights="pixel")
+    valid = np.ones(depth.shape, bool)
+    r, c = m.pixels[7]
+    hole = depth.copy()
+    hole[r, c] = 0.0
+    with pytest.raises(ValueError, match=rf"depth 0 at pixel \({r}, {c}\) cannot be fitted with a pinhole"):
+        heights.fit_heights(m.pixels, m.faces, hole, valid, Pinhole(60.0, 60.0, 25.0, 20.0))
+    hole[r, c] = np.nan
+    with pytest.raises(ValueError, match="every vertex must sit on a valid pixel"):
+        heights.fit_heights(m.pixels, m.faces, hole, valid, Orthographic(1.0, 1.0, 1.0))
+    outside = m.pixels.copy()
+    outside[7] = (depth.shape[0], 0)
+    with pytest.raises(ValueError, match="outside the image"):
+        heights.fit_heights(outside, m.faces, depth, valid, m.camera)

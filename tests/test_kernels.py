@@ -68,6 +68,22 @@ def test_walked_row_spans_hold_exactly_the_pixels_inside(pts, owns):
         assert list(range(lo, hi + 1)) == inside
 
 
+@given(st.lists(st.tuples(coord, coord), min_size=3, max_size=3, unique=True),
+       st.tuples(st.booleans(), st.booleans(), st.booleans()), st.integers(1, 5), st.integers(0, 4))
+def test_a_walk_by_steps_of_rows_visits_those_rows_of_the_full_walk(pts, owns, step, skip):
+    # From any row on, every step-th row: the spans and edge functions of the row-by-row walk
+    # (itself checked against the pixels inside above), nothing else.
+    a, b, c = pts
+    if orient(*a, *b, *c) == 0:
+        return
+    if orient(*a, *b, *c) < 0:
+        b, c = c, b
+    full = {r[0]: r for r in _core._triangle_rows(*a, *b, *c, *owns)}
+    first = min(full) + skip
+    got = _core._triangle_rows(*a, *b, *c, *owns, first=first, step=step)
+    assert got == [full[r] for r in range(first, max(full) + 1, step)]
+
+
 def test_walked_row_spans_by_hand():
     # (0,0) (4,0) (0,4), counter-clockwise in (row, col). A -> B is the column c == 0,
     # B -> C the hypotenuse r + c == 4, C -> A the row r == 0. With every edge owned, row r

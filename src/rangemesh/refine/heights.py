@@ -118,55 +118,49 @@ def fit_heights(pixels: np.ndarray, faces: np.ndarray, depth: np.ndarray, valid:
         Fitted depth per vertex, in stored units. Vertices no kept pixel
         touches keep the depth of their pixel.
     """
-    pr = np.ascontiguousarray(pixels[:, 0], dtype=np.int64)
-    pc = np.ascontiguousarray(pixels[:, 1], dtype=np.int64)
-    n = len(pr)
     ortho = not isinstance(camera, Pinhole)  # a pinhole's flat triangles are linear in 1/depth
+    lo, hi, n_valid = _core.valid_range(depth, valid) if extent is None else extent
     if ortho:
         image = depth  # the interpolated quantity
     else:
         with np.errstate(divide="ignore"):
             image = 1.0 / depth
-    h0 = image[pr, pc]
-    if not np.isfinite(h0).all():
-        bad = int(np.flatnonzero(~np.isfinite(h0))[0])
-        if not ortho and depth[pr[bad], pc[bad]] == 0:
-            raise ValueError(f"depth 0 at pixel ({pr[bad]}, {pc[bad]}) cannot be fitted with a "
-                             f"pinhole camera (its inverse depth is infinite): mark missing depth "
-                             f"with background=0, or copy the depths with heights='pixel'")
-        raise ValueError("fit_heights: every vertex must sit on a valid pixel")
-    f = np.ascontiguousarray(faces, dtype=np.int64)
+        # (The inverse of the largest depth is the smallest inverse exactly: rounding is monotone.)
+        if lo > 0.0:
+            lo, hi = 1.0 / hi, 1.0 / lo
+        elif n_valid:  # depths <= 0 before a pinhole: the inverses' own range
+            vals = image[valid]
+            lo, hi = vals.min(), vals.max()
+    order = None  # the faces as they come
     if depth.size >= ORDER_MIN_PIXELS:
-        order = _core.face_order(f, pr, pc, depth.shape[0], depth.shape[1], ORDER_TILE)
-    else:
-        order = np.arange(len(f), dtype=np.int64)
-    lo_z, hi_z, n_valid = _core.valid_range(depth, valid) if extent is None else extent
-    rows, every = sample_strides(len(f))
+        order = _core.face_order(np.ascontiguousarray(faces, dtype=np.int64),
+                                 np.ascontiguousarray(pixels[:, 0], dtype=np.int64),
+                                 np.ascontiguousarray(pixels[:, 1], dtype=np.int64),
+                                 depth.shape[0], depth.shape[1], ORDER_TILE)
+    rows, every = sample_strides(len(faces))
+    # A vertex that few pixels pin down can be thrown far off (a negative range was seen on a
+    # LiDAR scan at 500 vertices): no fitted value leaves [lo, hi], the valid pixels' values.
     outcome, fitted, system = _core.fit_heights(
-        f, order, pr, pc, np.ascontiguousarray(h0, dtype=np.float64),
-        np.ascontiguousarray(image, dtype=np.float64), np.ascontiguousarray(valid, dtype=bool),
-        row_stride=rows, face_stride=every, capacity=int(n_valid), outlier_mads=OUTLIER_MADS,
-        outlier_floor=OUTLIER_FLOOR, ridge=RIDGE, rtol=CG_RTOL, max_iter=10 * n,
+        faces, pixels, image, valid, order, lo, hi, row_stride=rows, face_stride=every,
+        capacity=int(n_valid), outlier_mads=OUTLIER_MADS, outlier_floor=OUTLIER_FLOOR, ridge=RIDGE,
+        rtol=CG_RTOL, max_iter=10 * len(pixels),
         threads=threads if threads is not None else
-        1 if len(f) < _core.FIT_SPLIT_MIN_FACES else _default_threads())
+        1 if len(faces) < _core.FIT_SPLIT_MIN_FACES else _default_threads())
+    if outcome == "not finite":
+        r, c = pixels[fitted]
+        if not ortho and depth[r, c] == 0:
+            raise ValueError(f"depth 0 at pixel ({r}, {c}) cannot be fitted with a pinhole camera "
+                             f"(its inverse depth is infinite): mark missing depth with "
+                             f"background=0, or copy the depths with heights='pixel'")
+        raise ValueError("fit_heights: every vertex must sit on a valid pixel")
     if fitted is None:
         # No valid pixel, or most pixels fit the copied depths exactly and only pixels within
         # rounding of them would be kept: the copied depths are the least-squares solution
         # (quantised disparities and exact scenes at dense budgets).
-        return depth[pr, pc].astype(np.float64)
+        return depth[pixels[:, 0], pixels[:, 1]].astype(np.float64)
     if outcome == "not converged":  # ill-conditioned: a direct sparse solve of the same system
-        fitted = _direct_solve(*system, h0)
+        fitted = _direct_solve(*system, image[pixels[:, 0], pixels[:, 1]])
         if not np.isfinite(fitted).all():
             raise RuntimeError("fit_heights: the least-squares solve failed")
-    # A vertex that few pixels pin down can be thrown far off (a negative range was seen on a
-    # LiDAR scan at 500 vertices): no fitted value leaves the range of the valid pixels' values.
-    # (The inverse of the largest depth is the smallest inverse exactly: rounding is monotone.)
-    lo, hi = lo_z, hi_z
-    if not ortho:
-        if lo > 0.0:
-            lo, hi = 1.0 / hi, 1.0 / lo
-        else:  # depths <= 0 before a pinhole: the inverses' own range
-            vals = image[valid]
-            lo, hi = vals.min(), vals.max()
-    np.minimum(np.maximum(fitted, lo, out=fitted), hi, out=fitted)  # np.clip, without its wrapper
+        np.minimum(np.maximum(fitted, lo, out=fitted), hi, out=fitted)  # np.clip, without its wrapper
     return fitted if ortho else np.divide(1.0, fitted, out=fitted)

@@ -1,5 +1,8 @@
 // Python bindings of the shared geometry kernels.
+#include <nanobind/stl/optional.h>
+
 #include <cstdint>
+#include <optional>
 
 #include "../geometry/delaunay.hpp"
 #include "../geometry/fans.hpp"
@@ -191,17 +194,24 @@ void bind_geometry_tests(nb::module_& m) {
                             double key, index_t n) {
         HeapView{span(keys), span(heap), span(slot)}.rekey(x, key, n);
     });
-    m.def("_triangle_rows", [](index_t ar, index_t ac, index_t br, index_t bc, index_t cr, index_t cc,
-                               bool own_ab, bool own_bc, bool own_ca) {
-        TriangleRows rows(ar, ac, br, bc, cr, cc);
-        nb::list out;
-        for (index_t r = rows.r0; r <= rows.r1; ++r) {
-            if (r > rows.r0) rows.next_row();
-            const RowSpan s = rows.columns(own_ab, own_bc, own_ca);
-            out.append(nb::make_tuple(r, s.first, s.last, s.w0, s.w1, s.w2));
-        }
-        return out;
-    });
+    // (every `step`-th row from `first` when given, else every row)
+    m.def(
+        "_triangle_rows",
+        [](index_t ar, index_t ac, index_t br, index_t bc, index_t cr, index_t cc, bool own_ab, bool own_bc,
+           bool own_ca, std::optional<index_t> first, index_t step) {
+            const TriangleRows top(ar, ac, br, bc, cr, cc);
+            const index_t r0 = first.value_or(top.r0);
+            TriangleRows rows = first ? TriangleRows(ar, ac, br, bc, cr, cc, r0, step) : top;
+            nb::list out;
+            for (index_t r = r0; r <= rows.r1; r += first ? step : 1) {
+                if (r > r0) rows.next_row();
+                const RowSpan s = rows.columns(own_ab, own_bc, own_ca);
+                out.append(nb::make_tuple(r, s.first, s.last, s.w0, s.w1, s.w2));
+            }
+            return out;
+        },
+        nb::arg("ar"), nb::arg("ac"), nb::arg("br"), nb::arg("bc"), nb::arg("cr"), nb::arg("cc"), nb::arg("own_ab"),
+        nb::arg("own_bc"), nb::arg("own_ca"), nb::arg("first") = nb::none(), nb::arg("step") = 1);
 }
 
 }  // namespace rangemesh::bind

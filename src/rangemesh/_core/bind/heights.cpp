@@ -1,4 +1,12 @@
 // Python bindings of the least-squares depths of method="refine" (rangemesh.refine.heights).
+#include <nanobind/stl/optional.h>
+
+#include <cmath>
+#include <cstdint>
+#include <numeric>
+#include <optional>
+#include <stdexcept>
+#include <type_traits>
 #include <vector>
 
 #include "../heights/fit.hpp"
@@ -70,6 +78,78 @@ const char* outcome_name(heights::FitOutcome outcome) {
         case heights::FitOutcome::not_converged: return "not converged";
     }
     return "";
+}
+
+
+// The fit of the vertices' values to `image` from the caller's arrays: faces (F, 3) and
+// pixels (V, 2) of an integer type I, each vertex's copied value read from its pixel.
+template <class I>
+void bind_fit(nb::module_& m) {
+    m.def(
+        "fit_heights",
+        [](In2<I> faces, In2<I> pixels, In2<double> image, In2<bool> valid, std::optional<In1<index_t>> order,
+           double lo, double hi, index_t row_stride, index_t face_stride, index_t capacity, double outlier_mads,
+           double outlier_floor, double ridge, double rtol, index_t max_iter, int threads) {
+            require(pixels.shape(1) == 2, "fit: pixels are (V, 2)");
+            const heights::FitSettings settings{heights::Sample{row_stride, face_stride}, capacity, outlier_mads,
+                                                outlier_floor, ridge, rtol, max_iter, threads, lo, hi};
+            const index_t n = static_cast<index_t>(pixels.shape(0));
+            index_t not_finite = -1;  // the first vertex whose value is not finite
+            heights::FitResult fit = run_released([&] {
+                const Grid<const double> values = grid(image);
+                std::vector<index_t> rows(n), cols(n);
+                std::vector<double> copied(n);
+                for (index_t i = 0; i < n; ++i) {
+                    rows[i] = static_cast<index_t>(pixels.data()[2 * i]);
+                    cols[i] = static_cast<index_t>(pixels.data()[2 * i + 1]);
+                    if (rows[i] < 0 || rows[i] >= values.rows || cols[i] < 0 || cols[i] >= values.cols)
+                        throw std::invalid_argument("fit: a vertex lies outside the image");
+                }
+                for (index_t i = 0; i < n && not_finite < 0; ++i) {
+                    copied[i] = values(rows[i], cols[i]);
+                    if (!std::isfinite(copied[i])) not_finite = i;
+                }
+                if (not_finite >= 0) return heights::FitResult{};
+                std::vector<index_t> wide;  // the faces in 64 bits, unless they came so
+                const index_t* ids;
+                if constexpr (std::is_same_v<I, index_t>) {
+                    ids = faces.data();
+                } else {
+                    wide.assign(faces.data(), faces.data() + faces.size());
+                    ids = wide.data();
+                }
+                const index_t n_faces = static_cast<index_t>(faces.shape(0));
+                std::vector<index_t> identity;  // the faces as they come, when no order is given
+                Span<const index_t> visit;
+                if (order) {
+                    visit = span(*order);
+                } else {
+                    identity.resize(n_faces);
+                    std::iota(identity.begin(), identity.end(), index_t{0});
+                    visit = Span<const index_t>{identity.data(), n_faces};
+                }
+                const heights::FitMesh mesh{{ids, n_faces, static_cast<index_t>(faces.shape(1))},
+                                            {rows.data(), n},
+                                            {cols.data(), n},
+                                            {copied.data(), n}};
+                return heights::fit_heights(mesh, fit_image(image, valid), visit, settings);
+            }, work(image));
+            if (not_finite >= 0) return nb::make_tuple("not finite", not_finite, nb::none());
+            nb::object fitted = nb::none(), system = nb::none();
+            if (fit.outcome == heights::FitOutcome::fitted || fit.outcome == heights::FitOutcome::not_converged)
+                fitted = nb::cast(to_numpy(std::move(fit.values)));
+            if (fit.outcome == heights::FitOutcome::not_converged) system = arrays_from_blocks(fit.blocks);
+            return nb::make_tuple(outcome_name(fit.outcome), fitted, system);
+        },
+        nb::arg("faces"), nb::arg("pixels"), nb::arg("image"), nb::arg("valid"), nb::arg("order").none(),
+        nb::arg("lo"), nb::arg("hi"), nb::arg("row_stride"), nb::arg("face_stride"), nb::arg("capacity"),
+        nb::arg("outlier_mads"), nb::arg("outlier_floor"), nb::arg("ridge"), nb::arg("rtol"), nb::arg("max_iter"),
+        nb::arg("threads"),
+        "The least-squares fit to ``image`` of the values of the vertices at ``pixels`` (row, column), copied "
+        "from their pixels, the faces visited in ``order`` (None: as they come): ``(outcome, fitted, system)``, "
+        "outcome 'no pixels' or 'copied' (keep the values; fitted None), 'fitted' (clipped to [lo, hi]), "
+        "'not converged' (system the ``(ids, block, rhs)`` arrays for a direct solve), or 'not finite' (fitted "
+        "the first vertex whose value is not; ValueError when one lies outside the image).");
 }
 
 }  // namespace
@@ -167,31 +247,10 @@ void bind_heights(nb::module_& m) {
             return run_released([&] { return heights::median_inplace(span(x)); });
         },
         nb::arg("x"),
-        "``np.median(x)`` of a non-empty float64 array, bit for bit, reordering ``x`` in place.");
-    m.def(
-        "fit_heights",
-        [](In2<index_t> faces, In1<index_t> order, In1<index_t> rows, In1<index_t> cols, In1<double> values,
-           In2<double> image, In2<bool> valid, index_t row_stride, index_t face_stride, index_t capacity,
-           double outlier_mads, double outlier_floor, double ridge, double rtol, index_t max_iter, int threads) {
-            const heights::FitSettings settings{heights::Sample{row_stride, face_stride}, capacity, outlier_mads,
-                                                outlier_floor, ridge, rtol, max_iter, threads};
-            heights::FitResult fit = run_released([&] {
-                return heights::fit_heights(fit_mesh(faces, rows, cols, values), fit_image(image, valid),
-                                            span(order), settings);
-            }, work(image));
-            nb::object fitted = nb::none(), system = nb::none();
-            if (fit.outcome == heights::FitOutcome::fitted || fit.outcome == heights::FitOutcome::not_converged)
-                fitted = nb::cast(to_numpy(std::move(fit.values)));
-            if (fit.outcome == heights::FitOutcome::not_converged) system = arrays_from_blocks(fit.blocks);
-            return nb::make_tuple(outcome_name(fit.outcome), fitted, system);
-        },
-        nb::arg("faces"), nb::arg("order"), nb::arg("rows"), nb::arg("cols"), nb::arg("values"), nb::arg("image"),
-        nb::arg("valid"), nb::arg("row_stride"), nb::arg("face_stride"), nb::arg("capacity"),
-        nb::arg("outlier_mads"), nb::arg("outlier_floor"), nb::arg("ridge"), nb::arg("rtol"), nb::arg("max_iter"),
-        nb::arg("threads"),
-        "The least-squares fit of the vertices' ``values`` to ``image``: ``(outcome, fitted, system)``, outcome "
-        "'no pixels' or 'copied' (keep the values; fitted None), 'fitted', or 'not converged' (system the "
-        "``(ids, block, rhs)`` arrays for a direct solve).");
+        "``np.median(x)`` of a non-empty float64 array, bit for bit; overwrites ``x``.");
+    // int64 first: other integer arrays are widened to it, never narrowed to int32
+    bind_fit<index_t>(m);
+    bind_fit<std::int32_t>(m);
 }
 
 }  // namespace rangemesh::bind

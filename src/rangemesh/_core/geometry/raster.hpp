@@ -3,7 +3,8 @@
 // An edge P -> Q has the linear edge function w(r, c) = orient(P, Q, (r, c)): w = v + s (c - c0)
 // on a row, and v grows by dv a row. The columns where w >= 0 start at c0 - floor(v / s)
 // (s > 0) or end at c0 + floor(v / -s) (s < 0). `EdgeWalk` keeps that quotient and its
-// remainder and moves them down a row with integer adds: one division per edge, none per row.
+// remainder and moves them down a row (or `step` rows) with integer adds: one division per
+// edge, none per row.
 #pragma once
 
 #include <algorithm>
@@ -17,10 +18,11 @@ namespace rangemesh {
 struct EdgeWalk {
     index_t s, v, q, m, dv, dq, dm, d;
 
-    static EdgeWalk start(index_t pr, index_t pc, index_t qr, index_t qc, index_t r0, index_t c0) {
+    static EdgeWalk start(index_t pr, index_t pc, index_t qr, index_t qc, index_t r0, index_t c0,
+                          index_t step = 1) {
         EdgeWalk e;
         e.s = qr - pr;
-        e.dv = pc - qc;
+        e.dv = (pc - qc) * step;
         e.v = orient<index_t>(pr, pc, qr, qc, r0, c0);
         e.d = std::max<index_t>(std::llabs(e.s), 1);  // an edge along a row (s == 0) uses v alone
         e.q = floor_div(e.v, e.d);
@@ -30,7 +32,7 @@ struct EdgeWalk {
         return e;
     }
 
-    // One row down.
+    // One row (or step) down.
     void next() {
         q += dq;
         m += dm;
@@ -71,13 +73,18 @@ struct TriangleRows {
     EdgeWalk ab, bc, ca;
 
     TriangleRows(index_t ar, index_t ac, index_t br, index_t bc_, index_t cr, index_t cc)
+        : TriangleRows(ar, ac, br, bc_, cr, cc, std::min(ar, std::min(br, cr)), 1) {}
+
+    // The rows first, first + step, first + 2 step, ... only: next_row() moves `step` rows down.
+    TriangleRows(index_t ar, index_t ac, index_t br, index_t bc_, index_t cr, index_t cc, index_t first,
+                 index_t step)
         : r0(std::min(ar, std::min(br, cr))),
           r1(std::max(ar, std::max(br, cr))),
           c0(std::min(ac, std::min(bc_, cc))),
           c1(std::max(ac, std::max(bc_, cc))),
-          ab(EdgeWalk::start(ar, ac, br, bc_, r0, c0)),
-          bc(EdgeWalk::start(br, bc_, cr, cc, r0, c0)),
-          ca(EdgeWalk::start(cr, cc, ar, ac, r0, c0)) {}
+          ab(EdgeWalk::start(ar, ac, br, bc_, first, c0, step)),
+          bc(EdgeWalk::start(br, bc_, cr, cc, first, c0, step)),
+          ca(EdgeWalk::start(cr, cc, ar, ac, first, c0, step)) {}
 
     void next_row() {
         ab.next();

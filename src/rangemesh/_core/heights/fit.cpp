@@ -45,7 +45,12 @@ FitResult fit_heights(const FitMesh& mesh, const FitImage& image, Span<const ind
                                         settings.rtol, settings.max_iter,
                                         Span<double>{result.values.data(), mesh.values.size});
     if (converged)
-        for (const double v : result.values) require(std::isfinite(v), "fit: a converged solve is finite");
+        for (double& v : result.values) {
+            require(std::isfinite(v), "fit: a converged solve is finite");
+            // np.minimum(np.maximum(v, lo), hi): the bound when equal, as NumPy's (+-0 alike)
+            v = v > settings.lo ? v : settings.lo;
+            v = v < settings.hi ? v : settings.hi;
+        }
     result.outcome = converged ? FitOutcome::fitted : FitOutcome::not_converged;
     return result;
 }

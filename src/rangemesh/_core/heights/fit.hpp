@@ -6,6 +6,7 @@
 // deviations (1.4826 x the median error of a sample) lie across a jump and are left out.
 #pragma once
 
+#include <limits>
 #include <vector>
 
 #include "../views.hpp"
@@ -24,12 +25,14 @@ struct FitSettings {
     double rtol = 0.0;            // conjugate gradients' relative residual
     index_t max_iter = 0;         // and most steps
     int threads = 1;              // for the pass over the pixels
+    double lo = -std::numeric_limits<double>::infinity();  // a fitted value below lo is lo,
+    double hi = std::numeric_limits<double>::infinity();   // one above hi is hi
 };
 
 enum class FitOutcome {
     no_pixels,      // the faces own no valid pixel: keep the copied values
     copied,         // the bound sits at its floor: the copied values are the solution
-    fitted,         // `values` holds the solution
+    fitted,         // `values` holds the solution, within [lo, hi]
     not_converged,  // `values` holds conjugate gradients' last iterate; `blocks` the system
 };
 

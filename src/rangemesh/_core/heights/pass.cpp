@@ -22,6 +22,10 @@ void check_mesh(const FitMesh& mesh, const FitImage& image) {
         require(0 <= mesh.faces.data[k] && mesh.faces.data[k] < n, "fit: a face's vertex id is out of range");
     require(image.values.rows == image.valid.rows && image.values.cols == image.valid.cols,
             "fit: the image and its mask differ in shape");
+    for (index_t i = 0; i < n; ++i)
+        if (mesh.rows[i] < 0 || mesh.rows[i] >= image.values.rows || mesh.cols[i] < 0 ||
+            mesh.cols[i] >= image.values.cols)
+            throw std::invalid_argument("fit: a vertex lies outside the image");
 }
 
 namespace {
@@ -43,28 +47,31 @@ Corners ccw_corners(const FitMesh& mesh, index_t t) {
 // multiples of `row_stride`: la, lb, lc the barycentric weights of corners a, b, c, `value` the
 // pixel's and `error` its distance to the mesh at the vertices' copied values. Returns how many
 // calls returned true (counted here, in a register: a count behind a reference stayed in memory).
+// The vertices lie in the image (`check_mesh`).
 template <class Visit>
 index_t visit_pixels(const FitMesh& mesh, const FitImage& image, Corners v, index_t row_stride, Visit&& visit) {
     const index_t ar = mesh.rows[v.a], ac = mesh.cols[v.a];
     const index_t br = mesh.rows[v.b], bc = mesh.cols[v.b];
     const index_t cr = mesh.rows[v.c], cc = mesh.cols[v.c];
-    const double az = mesh.values[v.a], bz = mesh.values[v.b], cz = mesh.values[v.c];
+    // the first row at or below the face's top that is a multiple of row_stride (rows are >= 0)
+    const index_t top = std::min(ar, std::min(br, cr));
+    const index_t first = (top + row_stride - 1) / row_stride * row_stride;
+    const index_t bottom = std::max(ar, std::max(br, cr));
+    if (first > bottom) return 0;  // no sampled row: not even the walk's set-up
     const index_t area = orient<index_t>(ar, ac, br, bc, cr, cc);
     if (area == 0) return 0;
+    const double az = mesh.values[v.a], bz = mesh.values[v.b], cz = mesh.values[v.c];
     const double inv = 1.0 / static_cast<double>(area);
     const bool own_ab = refine::owns(ar, ac, br, bc);
     const bool own_bc = refine::owns(br, bc, cr, cc);
     const bool own_ca = refine::owns(cr, cc, ar, ac);
-    TriangleRows walk(ar, ac, br, bc, cr, cc);
-    if (walk.r0 < 0 || walk.c0 < 0 || walk.r1 >= image.values.rows || walk.c1 >= image.values.cols)
-        throw std::invalid_argument("fit: a vertex lies outside the image");
+    TriangleRows walk(ar, ac, br, bc, cr, cc, first, row_stride);
     // the edge functions grow by these a column (integers, held exactly as float64 too: the
     // floats the weights are made of, without keeping six of them in registers)
     const index_t d0 = br - ar, d1 = cr - br, d2 = ar - cr;
     index_t count = 0;
-    for (index_t r = walk.r0; r <= walk.r1; ++r) {
-        if (r > walk.r0) walk.next_row();
-        if (r % row_stride != 0) continue;
+    for (index_t r = first; r <= bottom; r += row_stride) {
+        if (r > first) walk.next_row();
         const RowSpan span = walk.columns(own_ab, own_bc, own_ca);
         if (span.first > span.last) continue;
         const bool* valid = image.valid.row(r);

@@ -9,17 +9,9 @@ namespace rangemesh::heights {
 
 namespace {
 
-// x . y, summed in index order.
-double dot(const std::vector<double>& x, const std::vector<double>& y) {
-    double s = 0.0;
-    for (std::size_t i = 0; i < x.size(); ++i) s += x[i] * y[i];
-    return s;
-}
-
 // y = (the faces' blocks + diag(ridge)) x, the matrix never formed: 9 multiply-adds a face.
-void block_product(Span<const FaceBlock> blocks, const std::vector<double>& ridge, const std::vector<double>& x,
-                   std::vector<double>& y) {
-    for (std::size_t i = 0; i < x.size(); ++i) y[i] = ridge[i] * x[i];
+void block_product(Span<const FaceBlock> blocks, const double* ridge, const double* x, double* y, std::size_t n) {
+    for (std::size_t i = 0; i < n; ++i) y[i] = ridge[i] * x[i];
     for (const FaceBlock& f : blocks) {
         const index_t a = f.ids[0], b = f.ids[1], c = f.ids[2];
         const double xa = x[a], xb = x[b], xc = x[c];
@@ -54,41 +46,57 @@ bool solve_blocks(Span<const FaceBlock> blocks, Span<const double> h0, double ri
     require(x.size == h0.size, "solve: one unknown a vertex");
     const std::size_t n = static_cast<std::size_t>(h0.size);
     const VertexSystem s = gather_blocks(blocks, h0, ridge_share);
-    std::vector<double> xs(h0.begin(), h0.end());  // the iterate, in a vector for the products
-    std::vector<double> r(n), z(n), p(n), q(n);
-    block_product(blocks, s.ridge, xs, r);
-    double bb = 0.0;
+    // the iterate, residual, preconditioned residual, direction and product, in one allocation
+    std::vector<double> room(5 * n);
+    double* const xs = room.data();
+    double* const r = xs + n;
+    double* const z = r + n;
+    double* const p = z + n;
+    double* const q = p + n;
+    std::copy(h0.begin(), h0.end(), xs);
+    const double* const diag = s.diag.data();
+    block_product(blocks, s.ridge.data(), xs, r, n);
+    // Every sum runs in index order, as a plain dot product would; sums over one loop are
+    // independent chains, so fusing them costs one pass of latency, not three.
+    double bb = 0.0, rz = 0.0, rr = 0.0;
     for (std::size_t i = 0; i < n; ++i) {
         r[i] = s.rhs[i] - r[i];
         bb += s.rhs[i] * s.rhs[i];
+        z[i] = r[i] / diag[i];
+        p[i] = z[i];
+        rz += r[i] * z[i];
+        rr += r[i] * r[i];
     }
     const double stop = rtol * std::sqrt(bb);
-    for (std::size_t i = 0; i < n; ++i) z[i] = r[i] / s.diag[i];
-    p = z;
-    double rz = dot(r, z);
     bool converged = false;
     for (index_t step = 0;; ++step) {
-        if (std::sqrt(dot(r, r)) <= stop) {
+        if (std::sqrt(rr) <= stop) {
             converged = true;
             break;
         }
         if (step >= max_iter) break;
         poll_interrupt();
-        block_product(blocks, s.ridge, p, q);
-        const double pq = dot(p, q);
+        block_product(blocks, s.ridge.data(), p, q, n);
+        double pq = 0.0;
+        for (std::size_t i = 0; i < n; ++i) pq += p[i] * q[i];
         if (pq <= 0.0) break;  // not positive definite along p (the ridge rules it out): stop
         const double alpha = rz / pq;
-        for (std::size_t i = 0; i < n; ++i) {
+        for (std::size_t i = 0; i < n; ++i) {  // (vectorised: no sum in this loop)
             xs[i] += alpha * p[i];
             r[i] -= alpha * q[i];
-            z[i] = r[i] / s.diag[i];
+            z[i] = r[i] / diag[i];
         }
-        const double rz_new = dot(r, z);
+        double rz_new = 0.0;
+        rr = 0.0;
+        for (std::size_t i = 0; i < n; ++i) {
+            rz_new += r[i] * z[i];
+            rr += r[i] * r[i];
+        }
         const double beta = rz_new / rz;
         rz = rz_new;
         for (std::size_t i = 0; i < n; ++i) p[i] = z[i] + beta * p[i];
     }
-    std::copy(xs.begin(), xs.end(), x.begin());
+    std::copy(xs, xs + n, x.begin());
     return converged;
 }
 

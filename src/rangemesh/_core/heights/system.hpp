@@ -36,7 +36,9 @@ struct Sample {
     index_t face_stride = 1;
 };
 
-// Sizes and ids the kernels trust: faces over the vertices, an image and mask of one shape.
+// Sizes, ids and positions the kernels trust: faces over the vertices, an image and mask of one
+// shape, every vertex in the image. The passes (`sample_errors`, `fit_blocks`) read pixels
+// unchecked after it.
 void check_mesh(const FitMesh& mesh, const FitImage& image);
 
 }  // namespace rangemesh::heights

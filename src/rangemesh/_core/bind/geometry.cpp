@@ -53,6 +53,19 @@ void bind_delaunay(nb::module_& m) {
         "Lawson flips, in place, until every edge is Delaunay under Simulation of Simplicity; "
         "returns the number of flips.");
     m.def(
+        "canonical_faces",
+        [](In1<index_t> triangles, index_t n_vertices) {
+            check_input(triangles.shape(0) % 3 == 0 && n_vertices >= 0,
+                        "canonical_faces: three vertex ids a triangle, n_vertices not negative");
+            std::vector<index_t> faces =
+                run_released([&] { return canonical_faces(span(triangles), n_vertices); }, work(triangles));
+            const std::size_t n_t = faces.size() / 3;
+            return to_numpy(std::move(faces), n_t, 3);
+        },
+        nb::arg("triangles"), nb::arg("n_vertices"),
+        "The (F, 3) faces of flat ``triangles`` (3F ids below ``n_vertices``) in the canonical order: "
+        "each starts at its smallest vertex, keeping its turn; sorted by first, second, third vertex.");
+    m.def(
         "prune_dangling",
         [](In2<index_t> simplices, In2<index_t> neighbors, Out1<bool> alive, index_t n_vertices,
            bool drop_lone) {
@@ -65,6 +78,30 @@ void bind_delaunay(nb::module_& m) {
         nb::arg("drop_lone") = true,
         "Drop dangling triangles from `alive` (in place) until every vertex has one fan; returns how "
         "many were dropped. With ``drop_lone=False`` triangles that share no edge are kept.");
+}
+
+// build_halfedges and count_edges on (F, 3) faces of ids of type T.
+template <class T>
+void bind_face_lists(nb::module_& m) {
+    m.def(
+        "build_halfedges",
+        [](In2<T> faces, index_t n_vertices) {
+            check_input(faces.shape(1) == 3 && n_vertices >= 0, "build_halfedges: faces are (F, 3), n_vertices not negative");
+            std::vector<index_t> triangles, halfedges;
+            run_released([&] { build_halfedges(grid(faces), n_vertices, triangles, halfedges); }, work(faces));
+            return nb::make_tuple(to_numpy(std::move(triangles)), to_numpy(std::move(halfedges)));
+        },
+        nb::arg("faces"), nb::arg("n_vertices"),
+        "Flat ``(triangles, halfedges)`` int64 arrays (3F each) of an oriented, edge-manifold (F, 3) "
+        "int64 or int32 face list; a border half-edge's twin is -1.");
+    m.def(
+        "count_edges",
+        [](In2<T> faces, index_t n_vertices) {
+            check_input(faces.shape(1) == 3 && n_vertices >= 0, "count_edges: faces are (F, 3), n_vertices not negative");
+            return run_released([&] { return count_edges(grid(faces), n_vertices); }, work(faces));
+        },
+        nb::arg("faces"), nb::arg("n_vertices"),
+        "Distinct undirected edges of an (F, 3) int64 or int32 face list, any orientation, manifold or not.");
 }
 
 void bind_pixels(nb::module_& m) {
@@ -144,29 +181,18 @@ void bind_geometry(nb::module_& m) {
     m.attr("EXACT_SPAN") = EXACT_SPAN;
     bind_delaunay(m);
     bind_pixels(m);
-    m.def(
-        "build_halfedges",
-        [](In2<index_t> faces, index_t n_vertices) {
-            std::vector<index_t> triangles, halfedges;
-            run_released([&] { build_halfedges(grid(faces), n_vertices, triangles, halfedges); }, work(faces));
-            return nb::make_tuple(to_numpy(std::move(triangles)), to_numpy(std::move(halfedges)));
-        },
-        nb::arg("faces"), nb::arg("n_vertices"),
-        "Flat ``(triangles, halfedges)`` arrays (3F each) of an oriented, edge-manifold (F, 3) "
-        "int64 face list; a border half-edge's twin is -1.");
-    m.def(
-        "count_edges",
-        [](In2<index_t> faces, index_t n_vertices) {
-            return run_released([&] { return count_edges(grid(faces), n_vertices); }, work(faces));
-        },
-        nb::arg("faces"), nb::arg("n_vertices"),
-        "Distinct undirected edges of an (F, 3) int64 face list, any orientation, manifold or not.");
+    bind_face_lists<index_t>(m);
+    bind_face_lists<std::int32_t>(m);  // (a mesh's own faces: no int64 copy of millions)
     m.def(
         "neighbors_from_halfedges",
         [](In1<index_t> halfedges) {
             const index_t n_t = halfedges.shape(0) / 3;
-            std::vector<index_t> out(3 * n_t);
-            run_released([&] { neighbors_from_halfedges(span(halfedges), Grid<index_t>{out.data(), n_t, 3}); });
+            std::vector<index_t> out;
+            run_released([&] {
+                const FreeLater late(on_throw, out);
+                fill_polled(out, 3 * n_t, index_t{0});
+                neighbors_from_halfedges(span(halfedges), Grid<index_t>{out.data(), n_t, 3});
+            });
             return to_numpy(std::move(out), n_t, 3);
         },
         nb::arg("halfedges"),

@@ -26,12 +26,6 @@ using refine::Image;
 using refine::Insertion;
 using refine::Stop;
 
-// A kernel's array, copied out of its state.
-template <class T>
-std::vector<T> copy(Span<T> s) {
-    return std::vector<T>(s.begin(), s.end());
-}
-
 Image image_of(const In2<double>& depth, const In2<bool>& valid, double span) {
     require(depth.shape(0) == valid.shape(0) && depth.shape(1) == valid.shape(1),
             "depth and valid: one shape");
@@ -199,9 +193,9 @@ void bind_refine(nb::module_& m) {
             double total = 0.0;
             run_released([&] {
                 Insertion ins = insert_all(image, first, max_vertices, max_sum, sr, sc);
-                vr = copy(ins.vertex_rows());
-                vc = copy(ins.vertex_cols());
-                tv = copy(ins.triangles());
+                vr = copy_polled(ins.vertex_rows());
+                vc = copy_polled(ins.vertex_cols());
+                tv = copy_polled(ins.triangles());
                 n_valid = ins.valid_vertices();
                 total = ins.total();
             }, work(depth));
@@ -229,10 +223,10 @@ void bind_refine(nb::module_& m) {
             std::vector<double> tsum;
             run_released([&] {
                 Insertion ins = insert_all(image, first, max_vertices, max_sum, sr, sc);
-                vr = copy(ins.vertex_rows());
-                vc = copy(ins.vertex_cols());
-                tv = copy(ins.triangles());
-                he = copy(ins.halfedges());
+                vr = copy_polled(ins.vertex_rows());
+                vc = copy_polled(ins.vertex_cols());
+                tv = copy_polled(ins.triangles());
+                he = copy_polled(ins.halfedges());
                 tsum = ins.sums();
             }, work(depth));
             return nb::make_tuple(to_numpy(std::move(vr)), to_numpy(std::move(vc)), to_numpy(std::move(tv)),

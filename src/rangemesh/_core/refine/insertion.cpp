@@ -69,6 +69,9 @@ Insertion::Insertion(const Image& image, const FirstMesh& first, index_t reserve
     }
 }
 
+// Under an error bound the arrays reach gigabytes: freed on a thread of their own.
+Insertion::~Insertion() { free_later(vr_, vc_, vz_, vbg_, tv_, he_, keyed_, stamp_, keys_, heap_, slot_); }
+
 TriangleKey Insertion::scan(index_t t) const {
     const index_t e = 3 * t;
     const Corner a = corner(tv_[e]), b = corner(tv_[e + 1]), c = corner(tv_[e + 2]);
@@ -94,22 +97,30 @@ bool Insertion::fit_child(index_t t, TriangleKey& out) const {
     return true;
 }
 
-// Room for up to two more triangles: the per-triangle arrays double when full.
+// Room for one more vertex and up to two more triangles: the arrays double when full.
 void Insertion::make_room() {
+    if (vr_.size() == vr_.capacity()) {
+        const std::size_t cap_v = 2 * vr_.capacity();
+        reserve_polled(vr_, cap_v);
+        reserve_polled(vc_, cap_v);
+        reserve_polled(vz_, cap_v);
+        reserve_polled(vbg_, cap_v);
+    }
     const index_t cap_t = static_cast<index_t>(keyed_.size());
     if (n_t_ + 2 <= cap_t) return;
     resize_triangles(2 * cap_t);
 }
 
-// Every per-triangle array sized for `cap_t` triangles; new slots hold no triangle.
+// Every per-triangle array sized for `cap_t` triangles; new slots hold no triangle. Hundreds of
+// megabytes for millions of vertices: grown with polls, so Ctrl-C is not kept waiting.
 void Insertion::resize_triangles(index_t cap_t) {
-    tv_.resize(3 * cap_t, 0);
-    he_.resize(3 * cap_t, -1);
-    keyed_.resize(cap_t);
-    stamp_.resize(cap_t, 0);
-    keys_.resize(cap_t, 0.0);
-    heap_.resize(cap_t, 0);
-    slot_.resize(cap_t, 0);
+    grow_polled(tv_, 3 * cap_t, index_t{0});
+    grow_polled(he_, 3 * cap_t, index_t{-1});
+    grow_polled(keyed_, cap_t);
+    grow_polled(stamp_, cap_t, index_t{0});
+    grow_polled(keys_, cap_t, 0.0);
+    grow_polled(heap_, cap_t, index_t{0});
+    grow_polled(slot_, cap_t, index_t{0});
 }
 
 void Insertion::new_triangle(index_t t, index_t a, index_t b, index_t c) {
@@ -309,8 +320,12 @@ void Insertion::advance(const Stop& stop) {
 }
 
 std::vector<double> Insertion::sums() const {
-    std::vector<double> out(n_t_);
-    for (index_t t = 0; t < n_t_; ++t) out[t] = keyed_[t].sum;
+    std::vector<double> out;
+    out.reserve(n_t_);
+    for (index_t t = 0; t < n_t_; ++t) {
+        poll_every(t);
+        out.push_back(keyed_[t].sum);
+    }
     return out;
 }
 

@@ -37,6 +37,15 @@ auto grid(const A& a) {
     return Grid<T>{a.data(), static_cast<index_t>(a.shape(0)), static_cast<index_t>(a.shape(1))};
 }
 
+// Whether two arrays have the same shape.
+template <class A, class B>
+bool same_shape(const A& a, const B& b) {
+    if (a.ndim() != b.ndim()) return false;
+    for (std::size_t k = 0; k < a.ndim(); ++k)
+        if (a.shape(k) != b.shape(k)) return false;
+    return true;
+}
+
 // An array's element count: the work `run_released` weighs.
 template <class A>
 index_t work(const A& a) {

@@ -88,6 +88,15 @@ void bind_paper(nb::module_& m) {
         "disparity_verdict",
         [](In1<index_t> triangles, In1<index_t> halfedges, In2<double> normals, In2<double> vertices, index_t e0,
            double delta, double epsilon, double max_angle, double min_bend) {
+            check_input(halfedges.shape(0) == triangles.shape(0) && triangles.shape(0) % 3 == 0 &&
+                            vertices.shape(1) == 3,
+                        "disparity_verdict: triangles and halfedges 3F long each, vertices (V, 3)");
+            // the fans' walks follow the twins: every id in range, every twin paired
+            const Span<const index_t> tri = span(triangles), he = span(halfedges);
+            for (index_t e = 0; e < tri.size; ++e)
+                check_input(0 <= tri[e] && tri[e] < static_cast<index_t>(vertices.shape(0)) &&
+                                (he[e] == -1 || (0 <= he[e] && he[e] < he.size && he[he[e]] == e)),
+                            "disparity_verdict: a vertex id out of range or an unpaired twin");
             const DisparityTests tests{delta, epsilon, max_angle, min_bend};
             return index_t{run_released([&] {
                 return disparity_verdict(span(triangles), span(halfedges), grid(normals), grid(vertices), e0, tests);

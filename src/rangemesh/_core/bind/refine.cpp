@@ -71,6 +71,9 @@ void bind_refine(nb::module_& m) {
            bool own0, bool own1, bool own2, In2<double> depth, In2<bool> valid, double base, double unit,
            double stop) {
             const Image image = image_of(depth, valid, unit);
+            for (const auto& [r, c] : {std::pair{ar, ac}, std::pair{br, bc}, std::pair{cr, cc}})
+                check_input(0 <= r && r < image.rows() && 0 <= c && c < image.cols(),
+                            "triangle_error: the corners must be pixels of the image");
             return run_released([&] {
                 return refine::triangle_error(image, {ar, ac, az}, {br, bc, bz}, {cr, cc, cz}, EdgeOwnership{own0, own1, own2},
                                               base, stop);

@@ -335,6 +335,8 @@ index_t legalize_all(Span<index_t> triangles, Span<index_t> halfedges, const Poi
     stack.reserve(triangles.size + 16);
     for (index_t e = 0; e < triangles.size; ++e) {
         poll_every(e);
+        check_input(0 <= triangles[e] && triangles[e] < pts.size() && -1 <= halfedges[e] && halfedges[e] < halfedges.size,
+                    "legalize_all: a vertex id or twin half-edge out of range");
         if (halfedges[e] > e) stack.push_back(e);
     }
     index_t flips = 0;

@@ -41,6 +41,8 @@ class Flipper {
         fill_polled(vz_, n_v, 0.0);
         for (index_t v = 0; v < n_v; ++v) {
             poll_every(v);
+            check_input(0 <= mesh.vr[v] && mesh.vr[v] < image.rows() && 0 <= mesh.vc[v] && mesh.vc[v] < image.cols(),
+                        "flips: the vertices must be pixels of the image");
             if (valid(v)) vz_[v] = image.depth(mesh.vr[v], mesh.vc[v]);
         }
         const index_t n_t = mesh.sums.size;

@@ -33,7 +33,8 @@ Insertion::Insertion(const Image& image, const FirstMesh& first, index_t reserve
         require(0 <= first.vr[i] && first.vr[i] < image.rows() && 0 <= first.vc[i] && first.vc[i] < image.cols(),
                 "first mesh: vertices on the image's pixels");
     for (index_t k = 0; k < first.triangles.size; ++k)
-        require(0 <= first.triangles[k] && first.triangles[k] < n_v && first.halfedges[k] < first.triangles.size,
+        require(0 <= first.triangles[k] && first.triangles[k] < n_v && -1 <= first.halfedges[k] &&
+                    first.halfedges[k] < first.triangles.size,
                 "first mesh: corners and twins in range");
     n_t_ = first.triangles.size / 3;
     // a small floor: the triangle arrays are zeroed, and on a small image that costs more than the work

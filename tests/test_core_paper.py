@@ -124,6 +124,48 @@ def test_ctrl_c_stops_the_flips_and_the_sample_threads(tmp_path):
         assert err.rstrip().endswith("KeyboardInterrupt"), err
 
 
+_STAGE_TWO_LOOP = textwrap.dedent("""
+    import numpy as np
+    from rangemesh import _core
+    n = 700  # stage two's whole-mesh kernels on a regular mesh of n x n pixels, one after another
+    r, c = np.divmod(np.arange(n * n), n)
+    pts = np.stack([r, c], axis=1).astype(np.int64)
+    v = (r * n + c).reshape(n, n)
+    faces = np.concatenate([np.stack([v[:-1, :-1], v[1:, :-1], v[:-1, 1:]], -1).reshape(-1, 3),
+                            np.stack([v[1:, :-1], v[1:, 1:], v[:-1, 1:]], -1).reshape(-1, 3)])
+    faces32 = faces.astype(np.int32)
+    valid = np.ones((n, n), bool)
+    alive = np.empty(len(faces), bool)
+    print("ready", flush=True)
+    while True:
+        tri, he = _core.delaunay_sweep(pts[:, 0].copy(), pts[:, 1].copy())
+        _core.legalize_all(tri, he, pts[:, 0].copy(), pts[:, 1].copy())
+        f = _core.canonical_faces(faces.reshape(-1), n * n)
+        _, he = _core.build_halfedges(faces32, n * n)
+        neighbors = _core.neighbors_from_halfedges(he)
+        _core.count_edges(faces32, n * n)
+        _core.keep_faces(faces, pts, valid, np.inf, alive)
+        _core.prune_dangling(faces, neighbors, alive, n * n)
+        _core.compact_faces(faces, alive, pts)
+        _core.valid_samples(pts, valid)
+""")
+
+
+def test_ctrl_c_stops_stage_two_and_its_arrays_are_freed(tmp_path):
+    """SIGINT at various moments of stage two's kernels (their fills, loops and sorts, arrays freed
+    on threads of their own): KeyboardInterrupt, never a crash."""
+    script = tmp_path / "loop.py"
+    script.write_text(_STAGE_TWO_LOOP)
+    for delay in (0.1, 0.5, 1.1, 1.9, 2.8):
+        proc = subprocess.Popen([sys.executable, str(script)], stdout=subprocess.PIPE,
+                                stderr=subprocess.PIPE, text=True)
+        assert proc.stdout.readline().strip() == "ready"
+        time.sleep(delay)
+        err = interrupt(proc)
+        assert proc.returncode == -signal.SIGINT, err  # an uncaught KeyboardInterrupt
+        assert err.rstrip().endswith("KeyboardInterrupt"), err
+
+
 # --- stage two's whole-mesh steps (`rangemesh.paper.triangulation`) against NumPy -------------
 
 @pytest.mark.parametrize("dtype", [np.int32, np.int64])

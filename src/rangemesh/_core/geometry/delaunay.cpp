@@ -96,6 +96,7 @@ class Sweep {
     Sweep(const PointSet& pts, const std::vector<double>& fr, const std::vector<double>& fc, const Seed& seed)
         : pts_(pts), fr_(fr), fc_(fc), cr_(seed.cr), cc_(seed.cc) {
         const index_t n = pts.size();
+        const FreeLater late(on_throw, mesh_.triangles, mesh_.halfedges, stack_, hash_, next_, prev_, tri_);
         const index_t max_t = std::max<index_t>(2 * n - 5, 1);
         // gigabytes for millions of points: filled with polls between strides
         fill_polled(mesh_.triangles, 3 * max_t, index_t{-1});

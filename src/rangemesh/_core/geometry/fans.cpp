@@ -15,6 +15,7 @@ struct Corners {
     std::vector<index_t> parent;
 
     explicit Corners(index_t n) {
+        const FreeLater late(on_throw, parent);
         parent.reserve(n);
         for (index_t i = 0; i < n; ++i) {
             poll_every(i);
@@ -98,6 +99,7 @@ struct BestFans {
     std::vector<index_t> best_root, best_size;
 
     BestFans(index_t n_t, index_t n_vertices) {
+        const FreeLater late(on_throw, size, best_root, best_size);
         fill_polled(size, 3 * n_t, index_t{0});
         fill_polled(best_root, n_vertices, index_t{0});
         fill_polled(best_size, n_vertices, index_t{0});

@@ -74,6 +74,9 @@ double disparity(const Vec3& span, const Vec3& normal, double delta) {
 class PairSet {
   public:
     explicit PairSet(index_t n_vertices) : n_vertices_(n_vertices) {}
+    ~PairSet() { free_later(keys_); }
+    PairSet(const PairSet&) = delete;
+    PairSet& operator=(const PairSet&) = delete;
 
     bool contains(index_t a, index_t b) const {
         const index_t key = pair_key(a, b);
@@ -156,6 +159,8 @@ class FlipStage {
 
 FlipStage::FlipStage(const FlipMesh& mesh, const RangeImage& image, const FlipSettings& settings)
     : mesh_(mesh), image_(image), settings_(settings), former_(mesh.points.vertices.rows) {
+    // stopped half way, no destructor runs: the arrays made so far are freed later all the same
+    const FreeLater late(on_throw, he_edge_, edge_he_, normals_, err_, gain_, keys_, heap_, slot_);
     const Span<const index_t> halfedges = read_only(mesh_.halfedges);
     const index_t n_he = mesh_.triangles.size;
     fill_polled(he_edge_, n_he, index_t{-1});

@@ -31,6 +31,7 @@ class Flipper {
         require(mesh.vc.size == mesh.vr.size && mesh.halfedges.size == mesh.triangles.size &&
                     mesh.triangles.size == 3 * mesh.sums.size,
                 "flips: one column a vertex, one twin a half-edge, one sum a triangle");
+        const FreeLater late(on_throw, vz_, queued_, stack_);  // (no destructor when stopped here)
         const index_t n_v = mesh.vr.size;
         for (index_t k = 0; k < mesh.triangles.size; ++k) {
             poll_every(k);

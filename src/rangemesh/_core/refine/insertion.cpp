@@ -23,6 +23,8 @@ bool Plane::holds(index_t pr, index_t pc, double pz, double span) const {
 
 Insertion::Insertion(const Image& image, const FirstMesh& first, index_t reserve, index_t sr, index_t sc)
     : image_(image), sr_(sr), sc_(sc) {
+    // stopped half way, no destructor runs: the arrays made so far are freed later all the same
+    const FreeLater late(on_throw, vr_, vc_, vz_, vbg_, tv_, he_, keyed_, stamp_, keys_, heap_, slot_);
     require(sr >= 1 && sc >= 1 && exact_span(0, (image.rows() - 1) * sr) && exact_span(0, (image.cols() - 1) * sc),
             "insertion: the image, times its Delaunay scales, within EXACT_SPAN a side");
     const index_t n_v = first.vr.size;

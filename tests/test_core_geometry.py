@@ -313,3 +313,37 @@ def test_legalize_all_flips_a_bad_diagonal_by_hand():
     assert _core.legalize_all(triangles, halfedges, pr, pc) == 1
     assert sorted(sorted(triangles[3 * t:3 * t + 3].tolist()) for t in range(2)) == [[0, 1, 3], [1, 2, 3]]
     assert _core.legalize_all(triangles, halfedges, pr, pc) == 0
+
+
+# --- the canonical face order ---------------------------------------------------------------
+
+@settings(max_examples=60, deadline=None)
+@given(meshes(), st.integers(0, 2**32 - 1))
+def test_canonical_faces_are_numpys_rotation_and_lexsort(mesh, seed):
+    # the definition in NumPy: each face from its smallest corner (argmin, turn kept), then the
+    # faces in lexicographic order (a stable lexsort); faces shuffled, and some repeated
+    faces, n = mesh
+    rng = np.random.default_rng(seed)
+    faces = np.concatenate([faces, faces[rng.integers(0, len(faces), size=len(faces) // 3)]])
+    faces = faces[rng.permutation(len(faces))]
+    k = np.argmin(faces, axis=1)
+    rotated = np.take_along_axis(faces, (k[:, None] + np.arange(3)) % 3, axis=1)
+    want = rotated[np.lexsort((rotated[:, 2], rotated[:, 1], rotated[:, 0]))]
+    got = _core.canonical_faces(np.ascontiguousarray(faces).reshape(-1), n)
+    assert got.dtype == np.int64 and np.array_equal(got, want)
+
+
+def test_canonical_faces_by_hand():
+    # (5, 2, 7) starts at 2: (2, 7, 5); (3, 1, 4) at 1: (1, 4, 3); (9, 2, 0) at 0: (0, 9, 2)
+    got = _core.canonical_faces(np.array([5, 2, 7, 3, 1, 4, 9, 2, 0], np.int64), 10)
+    assert got.tolist() == [[0, 9, 2], [1, 4, 3], [2, 7, 5]]
+
+
+@settings(max_examples=40, deadline=None)
+@given(meshes())
+def test_int32_faces_give_what_int64_faces_give(mesh):
+    faces, n = mesh
+    faces32 = faces.astype(np.int32)
+    for a, b in zip(_core.build_halfedges(faces, n), _core.build_halfedges(faces32, n), strict=True):
+        assert np.array_equal(a, b)
+    assert _core.count_edges(faces32, n) == _core.count_edges(faces, n)

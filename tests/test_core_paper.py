@@ -122,3 +122,95 @@ def test_ctrl_c_stops_the_flips_and_the_sample_threads(tmp_path):
         err = interrupt(proc)
         assert proc.returncode == -signal.SIGINT, err  # an uncaught KeyboardInterrupt
         assert err.rstrip().endswith("KeyboardInterrupt"), err
+
+
+_STAGE_TWO_LOOP = textwrap.dedent("""
+    import numpy as np
+    from rangemesh import _core
+    n = 700  # stage two's whole-mesh kernels on a regular mesh of n x n pixels, one after another
+    r, c = np.divmod(np.arange(n * n), n)
+    pts = np.stack([r, c], axis=1).astype(np.int64)
+    v = (r * n + c).reshape(n, n)
+    faces = np.concatenate([np.stack([v[:-1, :-1], v[1:, :-1], v[:-1, 1:]], -1).reshape(-1, 3),
+                            np.stack([v[1:, :-1], v[1:, 1:], v[:-1, 1:]], -1).reshape(-1, 3)])
+    faces32 = faces.astype(np.int32)
+    valid = np.ones((n, n), bool)
+    alive = np.empty(len(faces), bool)
+    print("ready", flush=True)
+    while True:
+        tri, he = _core.delaunay_sweep(pts[:, 0].copy(), pts[:, 1].copy())
+        _core.legalize_all(tri, he, pts[:, 0].copy(), pts[:, 1].copy())
+        f = _core.canonical_faces(faces.reshape(-1), n * n)
+        _, he = _core.build_halfedges(faces32, n * n)
+        neighbors = _core.neighbors_from_halfedges(he)
+        _core.count_edges(faces32, n * n)
+        _core.keep_faces(faces, pts, valid, np.inf, alive)
+        _core.prune_dangling(faces, neighbors, alive, n * n)
+        _core.compact_faces(faces, alive, pts)
+        _core.valid_samples(pts, valid)
+""")
+
+
+def test_ctrl_c_stops_stage_two_and_its_arrays_are_freed(tmp_path):
+    """SIGINT at various moments of stage two's kernels (their fills, loops and sorts, arrays freed
+    on threads of their own): KeyboardInterrupt, never a crash."""
+    script = tmp_path / "loop.py"
+    script.write_text(_STAGE_TWO_LOOP)
+    for delay in (0.1, 0.5, 1.1, 1.9, 2.8):
+        proc = subprocess.Popen([sys.executable, str(script)], stdout=subprocess.PIPE,
+                                stderr=subprocess.PIPE, text=True)
+        assert proc.stdout.readline().strip() == "ready"
+        time.sleep(delay)
+        err = interrupt(proc)
+        assert proc.returncode == -signal.SIGINT, err  # an uncaught KeyboardInterrupt
+        assert err.rstrip().endswith("KeyboardInterrupt"), err
+
+
+# --- stage two's whole-mesh steps (`rangemesh.paper.triangulation`) against NumPy -------------
+
+@pytest.mark.parametrize("dtype", [np.int32, np.int64])
+def test_valid_samples_are_numpys_marks_in_row_major_order(dtype):
+    # the definition: samples inside the image, marked on a pixel grid, masked by valid, read
+    # back in linear order
+    rng = np.random.default_rng(7)
+    h, w = 23, 31
+    valid = rng.random((h, w)) > 0.3
+    samples = rng.integers(-3, 35, size=(400, 2)).astype(dtype)
+    g = samples.astype(np.int64)
+    g = g[(g[:, 0] >= 0) & (g[:, 0] < h) & (g[:, 1] >= 0) & (g[:, 1] < w)]
+    mark = np.zeros(h * w, bool)
+    mark[g[:, 0] * w + g[:, 1]] = True
+    lin = np.flatnonzero(mark & valid.ravel())
+    got = _core.valid_samples(samples, valid)
+    assert got.dtype == np.int64
+    assert np.array_equal(got, np.stack([lin // w, lin % w], axis=1))
+
+
+@pytest.mark.parametrize("max_edge", [None, 4.0, 6.5])
+def test_keep_faces_and_compact_faces_are_numpys(max_edge):
+    from scipy.spatial import Delaunay
+
+    rng = np.random.default_rng(11)
+    h, w = 20, 24
+    valid = rng.random((h, w)) > 0.25
+    lin = np.sort(rng.choice(h * w, size=90, replace=False))
+    pts = np.stack([lin // w, lin % w], axis=1).astype(np.int64)
+    faces = Delaunay(pts.astype(float)).simplices.astype(np.int64)
+    # the definition: the pixel at the rounded barycentre valid, no edge longer than max_edge
+    bary = (pts[faces].sum(axis=1) + 1) // 3
+    want = valid[bary[:, 0], bary[:, 1]]
+    if max_edge is not None:
+        corner = pts[faces]
+        d2 = ((corner - np.roll(corner, 1, axis=1)) ** 2).sum(axis=2)
+        want &= (d2 <= max_edge ** 2).all(axis=1)
+    alive = np.empty(len(faces), bool)
+    _core.keep_faces(faces, pts, valid, np.inf if max_edge is None else max_edge ** 2, alive)
+    assert np.array_equal(alive, want) and 0 < want.sum() < len(want)
+    # the kept faces renumbered over the points they use, in order
+    used = np.unique(faces[want])
+    remap = np.full(len(pts), -1)
+    remap[used] = np.arange(len(used))
+    got_faces, got_pixels = _core.compact_faces(faces, alive, pts)
+    assert got_faces.dtype == np.int32 and got_pixels.dtype == np.int32
+    assert np.array_equal(got_faces, remap[faces[want]])
+    assert np.array_equal(got_pixels, pts[used])

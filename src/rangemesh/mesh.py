@@ -251,6 +251,10 @@ def check_arrays(vertices: np.ndarray, faces: np.ndarray, pixels: np.ndarray | N
             if outside.any():
                 raise ValueError(f"{what}: {int(outside.sum())} vertex pixels (row, col) lie "
                                  f"outside the {h}x{w} image")
+# the face ids `count_edges` hands the kernel as they are
+_FACE_TYPES = (np.dtype(np.int32), np.dtype(np.int64))
+
+
 def count_edges(faces: np.ndarray) -> int:
     """Number of distinct undirected edges of a face array.
 
@@ -267,7 +271,9 @@ def count_edges(faces: np.ndarray) -> int:
     >>> count_edges(np.array([[0, 1, 2], [2, 1, 3]]))
     5
     """
-    faces = np.ascontiguousarray(faces, dtype=np.int64)
+    faces = np.asarray(faces)
+    # the kernel takes int32 (a mesh's own) and int64 ids: no copy of millions of faces
+    faces = np.ascontiguousarray(faces, dtype=faces.dtype if faces.dtype in _FACE_TYPES else np.int64)
     if len(faces) == 0:
         return 0
     if faces.min() < 0:

@@ -11,6 +11,7 @@ import math
 import numpy as np
 
 from ._core import covered_error, rasterize, valid_range
+from .blocks import BLOCK, blocks, filled, take
 from .camera import Orthographic, Pinhole, Rays, Spherical
 from .mesh import Mesh
 
@@ -86,8 +87,9 @@ def render_depth(mesh: Mesh, shape: tuple[int, int] | None = None, *,
     """
     h, w = mesh.image_shape if shape is None else shape
     h, w = -(-h // step), -(-w // step)
-    out = np.full((h, w), np.nan)
-    face = np.full((h, w), -1, np.int64)
+    # (whole images and every face: a block at a time, so Ctrl-C is seen between blocks)
+    out = filled((h, w), np.nan)
+    face = filled((h, w), -1, np.int64)
     if mesh.is_empty:
         return out, face
     r, c = _image_coords(mesh)
@@ -108,22 +110,43 @@ def render_depth(mesh: Mesh, shape: tuple[int, int] | None = None, *,
                 val = cam.depth_scale / z
     else:
         val = np.linalg.norm(mesh.vertices, axis=1) / cam.range_scale
-    f = mesh.faces.astype(np.int64)
-    # Seam faces of a wrap-around mesh: clockwise and as wide as the image (other meshes'
-    # faces may be clockwise, but not that wide). They cover no pixel centre.
-    fr, fc = r[f], c[f]
-    area = (fr[:, 1] - fr[:, 0]) * (fc[:, 2] - fc[:, 0]) - (fc[:, 1] - fc[:, 0]) * (fr[:, 2] - fr[:, 0])
-    seam = (area < 0) & (fc.max(axis=1) - fc.min(axis=1) > 0.5 * w)
+    f = mesh.faces
+    if 3 * len(f) <= BLOCK:
+        fr, fc, fv, seam = _face_corners(f, r, c, val, w)
+    else:  # a block of faces at a time: Ctrl-C is seen between blocks
+        fr, fc, fv = (np.empty((len(f), 3)) for _ in range(3))
+        seam = np.empty(len(f), bool)
+        for b in blocks(len(f), per=3):
+            fr[b], fc[b], fv[b], seam[b] = _face_corners(f[b], r, c, val, w)
     index = np.flatnonzero(~seam)
-    rasterize(np.ascontiguousarray(fr[index]), np.ascontiguousarray(fc[index]),
-              np.ascontiguousarray(val[f[index]]), out, face)
     if len(index) != len(f):
-        hit = face >= 0
-        face[hit] = index[face[hit]]
+        fr, fc, fv = take(fr, index), take(fc, index), take(fv, index)
+    rasterize(fr, fc, fv, out, face)
+    if len(index) != len(f):
+        for b in blocks(h, per=w):
+            fb = face[b]
+            hit = fb >= 0
+            fb[hit] = index[fb[hit]]
     if isinstance(cam, Pinhole):
         with np.errstate(divide="ignore", invalid="ignore"):
-            out = 1.0 / out if stored else 1.0 / out / cam.depth_scale
+            for b in blocks(h, per=w):
+                o = out[b]
+                np.divide(1.0, o, out=o)
+                if not stored:
+                    np.divide(o, cam.depth_scale, out=o)
     return out, face
+
+
+def _face_corners(f, r, c, val, w):
+    """Faces' corner rows, columns and values (F, 3 each), and which are seam faces.
+
+    Seam faces of a wrap-around mesh are clockwise and as wide as the image
+    (other meshes' faces may be clockwise, but not that wide); they cover no
+    pixel centre.
+    """
+    fr, fc = r[f], c[f]
+    area = (fr[:, 1] - fr[:, 0]) * (fc[:, 2] - fc[:, 0]) - (fc[:, 1] - fc[:, 0]) * (fr[:, 2] - fr[:, 0])
+    return fr, fc, val[f], (area < 0) & (fc.max(axis=1) - fc.min(axis=1) > 0.5 * w)
 
 
 def relative_error(mesh: Mesh, depth: np.ndarray, valid: np.ndarray) -> float:

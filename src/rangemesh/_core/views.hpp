@@ -43,4 +43,10 @@ inline void require(bool ok, const char* what) {
     if (!ok) throw InvariantError(what);
 }
 
+// Input a kernel cannot work on: arrays of mismatched shapes or lengths, ids out of range (a raw
+// call of the kernels; the library's own calls never make one). Raised to Python as ValueError.
+inline void check_input(bool ok, const char* what) {
+    if (!ok) throw std::invalid_argument(what);
+}
+
 }  // namespace rangemesh

@@ -15,6 +15,7 @@ import numpy as np
 
 from .. import _core
 from .._core import valid_range
+from ..blocks import blocks
 from ..params import MeshParams
 
 __all__ = [
@@ -128,11 +129,15 @@ def sampling_weights(depth: np.ndarray, valid: np.ndarray, params: MeshParams, *
     fresh = out is None
     if fresh:  # zeros from calloc: its pages are first touched by the kernel, which polls Ctrl-C
         out = np.zeros(depth.shape)
+    # (whole-image steps go a block of rows at a time: Ctrl-C is seen between blocks)
+    rows = list(blocks(out.shape[0], per=out.shape[1]))
     if params.sampling == "uniform":
-        out[:] = 1.0
+        for b in rows:
+            out[b] = 1.0
         return out
     if not fresh:
-        out[:] = 0.0
+        for b in rows:
+            out[b] = 0.0
     v = np.ascontiguousarray(valid, dtype=np.bool_)
     d = np.ascontiguousarray(depth, dtype=np.float64)
     span = valid_span(d, v)
@@ -140,18 +145,21 @@ def sampling_weights(depth: np.ndarray, valid: np.ndarray, params: MeshParams, *
         _core.add_curvature(d, v, span, int(params.levels), out)
     else:  # the kernel writes C-contiguous float64 only
         out[:] = curvature(d, v, int(params.levels))
-    if span > 0.0:
-        factor = _PAPER_SCALE / span
-        if math.isfinite(factor):
-            np.multiply(out, factor, out=out)
-        else:  # a subnormal span: 255 / span overflows, so divide first
-            np.divide(out, span, out=out)
-            np.multiply(out, _PAPER_SCALE, out=out)
-    else:
-        out[:] = 0.0  # a constant scene has no curvature anywhere
-    # in place: this runs on every pixel, and each temporary is a full image
-    np.maximum(out, params.curvature_floor, out=out)
-    return np.log(out, out=out)
+    factor = _PAPER_SCALE / span if span > 0.0 else 0.0
+    for b in rows:
+        o = out[b]
+        if span > 0.0:
+            if math.isfinite(factor):
+                np.multiply(o, factor, out=o)
+            else:  # a subnormal span: 255 / span overflows, so divide first
+                np.divide(o, span, out=o)
+                np.multiply(o, _PAPER_SCALE, out=o)
+        else:
+            o[...] = 0.0  # a constant scene has no curvature anywhere
+        # in place: this runs on every pixel, and each temporary would be a block more
+        np.maximum(o, params.curvature_floor, out=o)
+        np.log(o, out=o)
+    return out
 
 
 def fill_gaps_inplace(depth: np.ndarray, valid: np.ndarray) -> None:

@@ -7,7 +7,18 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._core import build_halfedges, delaunay_sweep, legalize_all, neighbors_from_halfedges, prune_dangling
+from .._core import (
+    build_halfedges,
+    canonical_faces,
+    compact_faces,
+    delaunay_sweep,
+    keep_faces,
+    legalize_all,
+    neighbors_from_halfedges,
+    prune_dangling,
+    valid_samples,
+)
+from ..blocks import blocks
 from ..camera import as_camera, backproject
 from ..mesh import Mesh, Stats, count_edges, empty_mesh
 
@@ -74,17 +85,8 @@ def triangulate_points(pts: np.ndarray, engine: str = "sweep") -> tuple[np.ndarr
     else:
         raise ValueError(f"engine must be 'sweep' or 'qhull', got {engine!r}")
     legalize_all(triangles, halfedges, pr, pc)
-    faces = triangles.reshape(-1, 3)
-    # canonical order: start each face at its smallest vertex (keeping its turn), then sort
-    k = np.argmin(faces, axis=1)
-    idx = (k[:, None] + np.arange(3)[None, :]) % 3
-    faces = np.take_along_axis(faces, idx, axis=1)
-    if n < 2**20:  # one int64 key per face: an argsort instead of a lexsort
-        key = (faces[:, 0] * n + faces[:, 1]) * n + faces[:, 2]
-        faces = faces[np.argsort(key, kind="stable")]
-    else:
-        faces = faces[np.lexsort((faces[:, 2], faces[:, 1], faces[:, 0]))]
-    faces = np.ascontiguousarray(faces)
+    # canonical order: each face starts at its smallest vertex (keeping its turn), faces sorted
+    faces = canonical_faces(triangles, n)
     _, halfedges = build_halfedges(faces, n)
     return faces, neighbors_from_halfedges(halfedges)
 def delaunay_mesh(grid: np.ndarray, depth: np.ndarray, valid: np.ndarray, camera=None, *,
@@ -133,50 +135,36 @@ def delaunay_mesh(grid: np.ndarray, depth: np.ndarray, valid: np.ndarray, camera
     camera = as_camera(camera)
     h, w = depth.shape
     grid_shape = tuple(int(x) for x in np.shape(grid)[:2])
-    g = np.asarray(grid, dtype=np.int64).reshape(-1, 2)
-    inside = (g[:, 0] >= 0) & (g[:, 0] < h) & (g[:, 1] >= 0) & (g[:, 1] < w)
-    g = g[inside]
-    # distinct valid samples in linear-index order (a mark per pixel: cheaper than a sort)
-    mark = np.zeros(h * w, bool)
-    mark[g[:, 0] * w + g[:, 1]] = True
-    mark &= valid.ravel()
-    lin = np.flatnonzero(mark)
-    n_points = int(lin.size)
+    g = np.asarray(grid)
+    if g.dtype != np.int32 and g.dtype != np.int64:  # (stage one's grids are int32)
+        g = g.astype(np.int64)
+    # distinct valid samples in linear-index order (the whole image and millions of samples: the
+    # kernels here poll Ctrl-C, as NumPy's steps could not)
+    pts = valid_samples(np.ascontiguousarray(g.reshape(-1, 2)), valid)
+    n_points = len(pts)
     if n_points < 3:
         return _empty(camera, (h, w), grid_shape, n_points,
                       f"only {n_points} valid sample(s); a triangle needs 3")
-    pts = np.stack([lin // w, lin % w], axis=1)
     simplices, neighbors = triangulate_points(pts, engine=engine)
     if len(simplices) == 0:
         return _empty(camera, (h, w), grid_shape, n_points,
                       "all valid samples are collinear; no triangle can be formed")
-    alive = np.ones(len(simplices), bool)
-    # Background triangles: the pixel at the rounded barycentre is background.
-    sr = pts[simplices, 0].sum(axis=1)
-    sc = pts[simplices, 1].sum(axis=1)
-    bary_r = (sr + 1) // 3
-    bary_c = (sc + 1) // 3
-    alive &= valid[bary_r, bary_c]
-    if max_edge is not None:
-        corner = pts[simplices]  # (F, 3, 2)
-        d2 = ((corner - np.roll(corner, 1, axis=1)) ** 2).sum(axis=2)
-        alive &= (d2 <= float(max_edge) ** 2).all(axis=1)
+    # Background triangles (the pixel at the rounded barycentre is background) and, with
+    # max_edge, those with a longer edge are not alive.
+    alive = np.empty(len(simplices), bool)
+    keep_faces(simplices, pts, valid, np.inf if max_edge is None else float(max_edge) ** 2, alive)
     if alive.any():
         prune_dangling(simplices, neighbors, alive, n_points)
     if not alive.any():
         return _empty(camera, (h, w), grid_shape, n_points,
                       "no triangle is left after removing background and dangling triangles")
-    faces = simplices[alive]
-    in_use = np.zeros(n_points, bool)
-    in_use[faces.ravel()] = True
-    used = np.flatnonzero(in_use)
-    remap = np.full(n_points, -1, np.int64)
-    remap[used] = np.arange(used.size)
-    faces = remap[faces].astype(np.int32)
-    pixels = pts[used].astype(np.int32)
-    vertices = backproject(pixels[:, 0], pixels[:, 1], depth[pixels[:, 0], pixels[:, 1]], camera)
+    faces, pixels = compact_faces(simplices, alive, pts)
+    vertices = np.empty((len(pixels), 3))
+    for b in blocks(len(pixels), per=3):  # a block at a time: Ctrl-C is seen between them
+        p = pixels[b]
+        vertices[b] = backproject(p[:, 0], p[:, 1], depth[p[:, 0], p[:, 1]], camera)
     stats = Stats(
-        vertices=int(used.size),
+        vertices=len(pixels),
         edges=count_edges(faces),
         triangles=int(len(faces)),
         flipped_edges=0,

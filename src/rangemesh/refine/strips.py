@@ -40,6 +40,7 @@ import numpy as np
 
 from .. import _core
 from .._core import flip_from_edges
+from ..blocks import blocks, concat, take
 from . import threads as _threads
 from .start import first_mesh
 
@@ -191,7 +192,7 @@ def strip_insert(depth, valid, vertices, span, scales, n_grid, *, max_sum=-1.0, 
     vr, vc, tv, n, total = _join(a, b, m, shared)
     if diagonals == "error":
         he, seam = _joined_halfedges(a[3], b[3], tv, vc, m)
-        tsum = np.concatenate([a[4], b[4]])
+        tsum = concat([a[4], b[4]])
         seam_flips = flip_from_edges(vr, vc, tv, he, tsum, depth, valid, span, seam)[0]
         if info is not None:
             info["flips"] += seam_flips
@@ -214,7 +215,9 @@ def _joined_halfedges(he_a, he_b, tv, vc, m):
     column `m`, each now the twin of B's half-edge the other way.
     """
     n_a = len(he_a)
-    he = np.concatenate([he_a, np.where(he_b >= 0, he_b + n_a, -1)])
+    he = concat([he_a, he_b])  # (millions of half-edges: a block at a time, Ctrl-C seen between)
+    for b in blocks(len(he_b)):
+        he[n_a + b.start:n_a + b.stop] = np.where(he_b[b] >= 0, he_b[b] + n_a, -1)
     hull = np.nonzero(he < 0)[0]
     u, v = tv[hull], tv[hull - hull % 3 + (hull + 1) % 3]
     down = (vc[u] == m) & (vc[v] == m)
@@ -253,7 +256,7 @@ def _join(ra, rb, m, shared):
     new_id[on_b] = seam_a[pos]
     own = np.nonzero(~on_b)[0]
     new_id[own] = len(vra) + np.arange(len(own))
-    vr = np.concatenate([vra, vrb[own]])
-    vc = np.concatenate([vca, vcb[own]])
-    tv = np.concatenate([tva, new_id[tvb]])
+    vr = concat([vra, take(vrb, own)])  # (a block at a time: Ctrl-C is seen between blocks)
+    vc = concat([vca, take(vcb, own)])
+    tv = concat([tva, take(new_id, tvb)])
     return vr, vc, tv, int(na + nb - shared), float(ta + tb)

@@ -27,6 +27,8 @@ void bind_mask_image(nb::module_& m) {
     m.def(
         "mask_image",
         [](In2<T> image, bool has_background, double background, Out2<double> depth, Out2<bool> valid) {
+            check_input(same_shape(depth, image) && same_shape(valid, image),
+                        "mask_image: depth and valid must have the image's shape");
             run_released([&] { mask_image(grid(image), has_background, background, grid(depth), grid(valid)); },
                          work(image));
         },
@@ -50,15 +52,31 @@ void bind_delaunay(nb::module_& m) {
     m.def(
         "legalize_all",
         [](Out1<index_t> triangles, Out1<index_t> halfedges, In1<index_t> r, In1<index_t> c) {
+            check_input(r.shape(0) == c.shape(0), "legalize_all: r and c must have one length");
             return run_released([&] { return legalize_all(span(triangles), span(halfedges), points(r, c)); });
         },
         nb::arg("triangles"), nb::arg("halfedges"), nb::arg("r"), nb::arg("c"),
         "Lawson flips, in place, until every edge is Delaunay under Simulation of Simplicity; "
         "returns the number of flips.");
     m.def(
+        "canonical_faces",
+        [](In1<index_t> triangles, index_t n_vertices) {
+            check_input(triangles.shape(0) % 3 == 0 && n_vertices >= 0,
+                        "canonical_faces: three vertex ids a triangle, n_vertices not negative");
+            std::vector<index_t> faces =
+                run_released([&] { return canonical_faces(span(triangles), n_vertices); }, work(triangles));
+            const std::size_t n_t = faces.size() / 3;
+            return to_numpy(std::move(faces), n_t, 3);
+        },
+        nb::arg("triangles"), nb::arg("n_vertices"),
+        "The (F, 3) faces of flat ``triangles`` (3F ids below ``n_vertices``) in the canonical order: "
+        "each starts at its smallest vertex, keeping its turn; sorted by first, second, third vertex.");
+    m.def(
         "prune_dangling",
         [](In2<index_t> simplices, In2<index_t> neighbors, Out1<bool> alive, index_t n_vertices,
            bool drop_lone) {
+            check_input(simplices.shape(1) == 3 && neighbors.shape(1) == 3 && n_vertices >= 0,
+                        "prune_dangling: simplices and neighbors are (F, 3), n_vertices not negative");
             return run_released([&] {
                 return prune_dangling(LiveTriangles{grid(simplices), grid(neighbors), span(alive)},
                                       n_vertices, drop_lone);
@@ -68,6 +86,30 @@ void bind_delaunay(nb::module_& m) {
         nb::arg("drop_lone") = true,
         "Drop dangling triangles from `alive` (in place) until every vertex has one fan; returns how "
         "many were dropped. With ``drop_lone=False`` triangles that share no edge are kept.");
+}
+
+// build_halfedges and count_edges on (F, 3) faces of ids of type T.
+template <class T>
+void bind_face_lists(nb::module_& m) {
+    m.def(
+        "build_halfedges",
+        [](In2<T> faces, index_t n_vertices) {
+            check_input(faces.shape(1) == 3 && n_vertices >= 0, "build_halfedges: faces are (F, 3), n_vertices not negative");
+            std::vector<index_t> triangles, halfedges;
+            run_released([&] { build_halfedges(grid(faces), n_vertices, triangles, halfedges); }, work(faces));
+            return nb::make_tuple(to_numpy(std::move(triangles)), to_numpy(std::move(halfedges)));
+        },
+        nb::arg("faces"), nb::arg("n_vertices"),
+        "Flat ``(triangles, halfedges)`` int64 arrays (3F each) of an oriented, edge-manifold (F, 3) "
+        "int64 or int32 face list; a border half-edge's twin is -1.");
+    m.def(
+        "count_edges",
+        [](In2<T> faces, index_t n_vertices) {
+            check_input(faces.shape(1) == 3 && n_vertices >= 0, "count_edges: faces are (F, 3), n_vertices not negative");
+            return run_released([&] { return count_edges(grid(faces), n_vertices); }, work(faces));
+        },
+        nb::arg("faces"), nb::arg("n_vertices"),
+        "Distinct undirected edges of an (F, 3) int64 or int32 face list, any orientation, manifold or not.");
 }
 
 void bind_pixels(nb::module_& m) {
@@ -84,6 +126,7 @@ void bind_pixels(nb::module_& m) {
     m.def(
         "valid_range",
         [](In2<double> depth, In2<bool> valid) {
+            check_input(same_shape(depth, valid), "valid_range: depth and valid must have one shape");
             const DepthRange d = run_released([&] { return valid_range(grid(depth), grid(valid)); }, work(depth));
             return nb::make_tuple(d.lo, d.hi, d.count);
         },
@@ -92,6 +135,8 @@ void bind_pixels(nb::module_& m) {
     m.def(
         "covered_error",
         [](In2<double> pred, In2<double> depth, In2<bool> valid) {
+            check_input(same_shape(pred, depth) && same_shape(valid, depth),
+                        "covered_error: pred, depth and valid must have one shape");
             const CoveredError e = run_released([&] { return covered_error(grid(pred), grid(depth), grid(valid)); });
             return nb::make_tuple(e.total, e.count);
         },
@@ -100,6 +145,7 @@ void bind_pixels(nb::module_& m) {
     m.def(
         "valid_faces",
         [](In1<index_t> vr, In1<index_t> vc, In1<index_t> tv, In2<bool> valid) {
+            check_input(tv.shape(0) % 3 == 0, "valid_faces: tv holds three vertex ids a triangle");
             ValidFaces f =
                 run_released([&] { return valid_faces(span(vr), span(vc), span(tv), grid(valid)); }, work(tv));
             const std::size_t n_faces = f.faces.size() / 3, n_pixels = f.pixels.size() / 2;
@@ -111,6 +157,9 @@ void bind_pixels(nb::module_& m) {
     m.def(
         "nearest_valid",
         [](In2<bool> valid, index_t r, index_t c) {
+            check_input(0 <= r && r < static_cast<index_t>(valid.shape(0)) && 0 <= c &&
+                            c < static_cast<index_t>(valid.shape(1)),
+                        "nearest_valid: (r, c) must be a pixel of the image");
             const Pixel p = run_released([&] { return nearest_valid(grid(valid), r, c); }, work(valid));
             return nb::make_tuple(p.r, p.c);
         },
@@ -119,6 +168,8 @@ void bind_pixels(nb::module_& m) {
     m.def(
         "grid_pixels",
         [](In2<bool> valid, index_t n_rows, index_t n_cols, index_t c_lo, index_t c_hi, bool inner) {
+            check_input(valid.shape(0) >= 1 && 0 <= c_lo && c_lo <= c_hi && c_hi < static_cast<index_t>(valid.shape(1)),
+                        "grid_pixels: columns c_lo <= c_hi of a non-empty image");
             PixelList p = run_released([&] { return grid_pixels(grid(valid), n_rows, n_cols, c_lo, c_hi, inner); },
                                        work(valid));
             return nb::make_tuple(to_numpy(std::move(p.rows)), to_numpy(std::move(p.cols)));
@@ -130,6 +181,8 @@ void bind_pixels(nb::module_& m) {
         "rasterize",
         [](In2<double> face_r, In2<double> face_c, In2<double> face_val, Out2<double> out_val,
            Out2<index_t> out_face) {
+            check_input(face_r.shape(1) == 3 && face_c.shape(1) == 3 && face_val.shape(1) == 3,
+                        "rasterize: face_r, face_c and face_val are (F, 3)");
             run_released([&] {
                 rasterize(FaceValues{grid(face_r), grid(face_c), grid(face_val)},
                           RenderTarget{grid(out_val), grid(out_face)});
@@ -147,35 +200,19 @@ void bind_geometry(nb::module_& m) {
     m.attr("EXACT_SPAN") = EXACT_SPAN;
     bind_delaunay(m);
     bind_pixels(m);
-    m.def(
-        "build_halfedges",
-        [](In2<index_t> faces, index_t n_vertices) {
-            std::vector<index_t> triangles, halfedges;
-            run_released([&] { build_halfedges(grid(faces), n_vertices, triangles, halfedges); }, work(faces));
-            return nb::make_tuple(to_numpy(std::move(triangles)), to_numpy(std::move(halfedges)));
-        },
-        nb::arg("faces"), nb::arg("n_vertices"),
-        "Flat ``(triangles, halfedges)`` arrays (3F each) of an oriented, edge-manifold (F, 3) "
-        "int64 face list; a border half-edge's twin is -1.");
-    m.def(
-        "count_edges",
-        [](In2<index_t> faces, index_t n_vertices) {
-            return run_released([&] { return count_edges(grid(faces), n_vertices); }, work(faces));
-        },
-        nb::arg("faces"), nb::arg("n_vertices"),
-        "Distinct undirected edges of an (F, 3) int64 or int32 face list, any orientation, manifold or not.");
-    m.def(
-        "count_edges",
-        [](In2<std::int32_t> faces, index_t n_vertices) {
-            return run_released([&] { return count_edges(grid(faces), n_vertices); }, work(faces));
-        },
-        nb::arg("faces"), nb::arg("n_vertices"));
+    bind_face_lists<index_t>(m);
+    bind_face_lists<std::int32_t>(m);  // (a mesh's own faces: no int64 copy of millions)
     m.def(
         "neighbors_from_halfedges",
         [](In1<index_t> halfedges) {
+            check_input(halfedges.shape(0) % 3 == 0, "neighbors_from_halfedges: three half-edges a triangle");
             const index_t n_t = halfedges.shape(0) / 3;
-            std::vector<index_t> out(3 * n_t);
-            run_released([&] { neighbors_from_halfedges(span(halfedges), Grid<index_t>{out.data(), n_t, 3}); });
+            std::vector<index_t> out;
+            run_released([&] {
+                const FreeLater late(on_throw, out);
+                fill_polled(out, 3 * n_t, index_t{0});
+                neighbors_from_halfedges(span(halfedges), Grid<index_t>{out.data(), n_t, 3});
+            });
             return to_numpy(std::move(out), n_t, 3);
         },
         nb::arg("halfedges"),
@@ -184,14 +221,31 @@ void bind_geometry(nb::module_& m) {
 }
 
 
+namespace {
+
+// A heap of `n` entries on these arrays: keys and ids beside each other, ids with a slot each.
+void check_heap(const Out1<double>& keys, const Out1<index_t>& heap, const Out1<index_t>& slot, index_t n) {
+    check_input(keys.shape(0) == heap.shape(0) && 0 <= n && n <= static_cast<index_t>(heap.shape(0)),
+                "heap: one key an entry, at most that many entries");
+    for (index_t i = 0; i < n; ++i)
+        check_input(0 <= heap(i) && heap(i) < static_cast<index_t>(slot.shape(0)), "heap: an id without a slot");
+}
+
+}  // namespace
+
 // The shared primitives that only kernels use, exposed for the tests (names with a leading
 // underscore): the heap's moves on NumPy arrays, and a triangle's row scan.
 void bind_geometry_tests(nb::module_& m) {
     m.def("_heap_sift_up", [](Out1<double> keys, Out1<index_t> heap, Out1<index_t> slot, index_t i) {
+        check_heap(keys, heap, slot, static_cast<index_t>(heap.shape(0)));
+        check_input(0 <= i && i < static_cast<index_t>(heap.shape(0)), "heap: the position is in the heap");
         return HeapView{span(keys), span(heap), span(slot)}.sift_up(i);
     });
     m.def("_heap_rekey", [](Out1<double> keys, Out1<index_t> heap, Out1<index_t> slot, index_t x,
                             double key, index_t n) {
+        check_heap(keys, heap, slot, n);
+        check_input(0 <= x && x < static_cast<index_t>(slot.shape(0)) && 0 <= slot(x) && slot(x) < n,
+                    "heap: the id is in the heap");
         HeapView{span(keys), span(heap), span(slot)}.rekey(x, key, n);
     });
     // (every `step`-th row from `first` when given, else every row)

@@ -160,6 +160,8 @@ void bind_heights(nb::module_& m) {
     m.def(
         "face_order",
         [](In2<index_t> faces, In1<index_t> rows, In1<index_t> cols, index_t h, index_t w, index_t tile) {
+            check_input(faces.shape(1) == 3 && rows.shape(0) == cols.shape(0) && h >= 1 && w >= 1 && tile >= 1,
+                        "face_order: faces (F, 3), one row and column a vertex, a non-empty image, tile >= 1");
             std::vector<index_t> order(faces.shape(0));
             run_released([&] {
                 heights::face_order(grid(faces), span(rows), span(cols), h, w, tile,

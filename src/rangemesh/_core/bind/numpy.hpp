@@ -7,6 +7,7 @@
 #include <utility>
 #include <vector>
 
+#include "../interrupt.hpp"
 #include "../views.hpp"
 
 namespace rangemesh::bind {
@@ -36,6 +37,15 @@ auto grid(const A& a) {
     return Grid<T>{a.data(), static_cast<index_t>(a.shape(0)), static_cast<index_t>(a.shape(1))};
 }
 
+// Whether two arrays have the same shape.
+template <class A, class B>
+bool same_shape(const A& a, const B& b) {
+    if (a.ndim() != b.ndim()) return false;
+    for (std::size_t k = 0; k < a.ndim(); ++k)
+        if (a.shape(k) != b.shape(k)) return false;
+    return true;
+}
+
 // An array's element count: the work `run_released` weighs.
 template <class A>
 index_t work(const A& a) {
@@ -46,7 +56,11 @@ index_t work(const A& a) {
 template <class T>
 nb::ndarray<nb::numpy, T> to_numpy(std::vector<T>&& values, std::size_t rows, std::size_t cols = 0) {
     auto* owned = new std::vector<T>(std::move(values));
-    nb::capsule owner(owned, [](void* p) noexcept { delete static_cast<std::vector<T>*>(p); });
+    nb::capsule owner(owned, [](void* p) noexcept {
+        auto* v = static_cast<std::vector<T>*>(p);
+        free_later(*v);  // a gigabyte's pages on a thread of their own: Python is not kept waiting
+        delete v;
+    });
     if (cols == 0) {
         std::size_t shape[1] = {rows};
         return nb::ndarray<nb::numpy, T>(owned->data(), 1, shape, owner);

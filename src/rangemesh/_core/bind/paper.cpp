@@ -4,6 +4,7 @@
 #include "../geometry/lines.hpp"
 #include "../paper/flipping.hpp"
 #include "../paper/sampling.hpp"
+#include "../paper/triangulation.hpp"
 #include "bindings.hpp"
 #include "numpy.hpp"
 #include "release.hpp"
@@ -25,6 +26,22 @@ bool rays_pixel(Span<const double> packed, index_t r, index_t c) {
     if (!(width >= 1.0 && width <= static_cast<double>(packed.size)) || width != std::floor(width)) return false;
     const index_t w = static_cast<index_t>(width);
     return 0 <= r && 0 <= c && c < w && r < (packed.size - CAMERA_HEADER) / (3 * w);
+}
+
+// valid_samples for samples of type T (stage one's int32 grid, or int64 points).
+template <class T>
+void bind_valid_samples(nb::module_& m) {
+    m.def(
+        "valid_samples",
+        [](In2<T> samples, In2<bool> valid) {
+            std::vector<index_t> points =
+                run_released([&] { return paper::valid_samples(grid(samples), grid(valid)); }, work(valid));
+            const std::size_t n = points.size() / 2;
+            return to_numpy(std::move(points), n, 2);
+        },
+        nb::arg("samples"), nb::arg("valid"),
+        "The distinct (row, col) samples (N, 2) that are valid pixels, in row-major order, as an (M, 2) "
+        "int64 array; samples outside the image are left out.");
 }
 
 }  // namespace
@@ -71,6 +88,15 @@ void bind_paper(nb::module_& m) {
         "disparity_verdict",
         [](In1<index_t> triangles, In1<index_t> halfedges, In2<double> normals, In2<double> vertices, index_t e0,
            double delta, double epsilon, double max_angle, double min_bend) {
+            check_input(halfedges.shape(0) == triangles.shape(0) && triangles.shape(0) % 3 == 0 &&
+                            vertices.shape(1) == 3,
+                        "disparity_verdict: triangles and halfedges 3F long each, vertices (V, 3)");
+            // the fans' walks follow the twins: every id in range, every twin paired
+            const Span<const index_t> tri = span(triangles), he = span(halfedges);
+            for (index_t e = 0; e < tri.size; ++e)
+                check_input(0 <= tri[e] && tri[e] < static_cast<index_t>(vertices.shape(0)) &&
+                                (he[e] == -1 || (0 <= he[e] && he[e] < he.size && he[he[e]] == e)),
+                            "disparity_verdict: a vertex id out of range or an unpaired twin");
             const DisparityTests tests{delta, epsilon, max_angle, min_bend};
             return index_t{run_released([&] {
                 return disparity_verdict(span(triangles), span(halfedges), grid(normals), grid(vertices), e0, tests);
@@ -107,6 +133,28 @@ void bind_paper(nb::module_& m) {
         nb::arg("workers") = 1,
         "Fills the (Gr, Gc, 2) int32 sample grid from the weights ``f``, tile by tile; ``workers`` "
         "threads share the tiles and give the same grid for any number.");
+    bind_valid_samples<index_t>(m);
+    bind_valid_samples<std::int32_t>(m);
+    m.def(
+        "keep_faces",
+        [](In2<index_t> faces, In2<index_t> points, In2<bool> valid, double max_edge2, Out1<bool> alive) {
+            run_released([&] { keep_faces(grid(faces), grid(points), grid(valid), max_edge2, span(alive)); },
+                         work(faces));
+        },
+        nb::arg("faces"), nb::arg("points"), nb::arg("valid"), nb::arg("max_edge2"), nb::arg("alive"),
+        "Writes to ``alive`` whether each (F, 3) face of the (N, 2) ``points`` stays: the pixel at its "
+        "rounded barycentre is valid and no edge's squared length exceeds ``max_edge2``.");
+    m.def(
+        "compact_faces",
+        [](In2<index_t> faces, In1<bool> alive, In2<index_t> points) {
+            CompactMesh c = run_released([&] { return compact_faces(grid(faces), span(alive), grid(points)); },
+                                         work(faces));
+            const std::size_t n_f = c.faces.size() / 3, n_v = c.pixels.size() / 2;
+            return nb::make_tuple(to_numpy(std::move(c.faces), n_f, 3), to_numpy(std::move(c.pixels), n_v, 2));
+        },
+        nb::arg("faces"), nb::arg("alive"), nb::arg("points"),
+        "``(faces (F', 3) int32, pixels (V, 2) int32)``: the faces ``alive``, numbered over the points "
+        "they use, in order, and those points.");
     m.def(
         "edge_error",
         [](index_t va, index_t vb, In2<index_t> pixels, In2<double> vertices, In2<double> depth, In2<bool> valid,

@@ -26,12 +26,6 @@ using refine::Image;
 using refine::Insertion;
 using refine::Stop;
 
-// A kernel's array, copied out of its state.
-template <class T>
-std::vector<T> copy(Span<T> s) {
-    return std::vector<T>(s.begin(), s.end());
-}
-
 Image image_of(const In2<double>& depth, const In2<bool>& valid, double span) {
     require(depth.shape(0) == valid.shape(0) && depth.shape(1) == valid.shape(1),
             "depth and valid: one shape");
@@ -77,6 +71,9 @@ void bind_refine(nb::module_& m) {
            bool own0, bool own1, bool own2, In2<double> depth, In2<bool> valid, double base, double unit,
            double stop) {
             const Image image = image_of(depth, valid, unit);
+            for (const auto& [r, c] : {std::pair{ar, ac}, std::pair{br, bc}, std::pair{cr, cc}})
+                check_input(0 <= r && r < image.rows() && 0 <= c && c < image.cols(),
+                            "triangle_error: the corners must be pixels of the image");
             return run_released([&] {
                 return refine::triangle_error(image, {ar, ac, az}, {br, bc, bz}, {cr, cc, cz}, EdgeOwnership{own0, own1, own2},
                                               base, stop);
@@ -199,9 +196,9 @@ void bind_refine(nb::module_& m) {
             double total = 0.0;
             run_released([&] {
                 Insertion ins = insert_all(image, first, max_vertices, max_sum, sr, sc);
-                vr = copy(ins.vertex_rows());
-                vc = copy(ins.vertex_cols());
-                tv = copy(ins.triangles());
+                vr = copy_polled(ins.vertex_rows());
+                vc = copy_polled(ins.vertex_cols());
+                tv = copy_polled(ins.triangles());
                 n_valid = ins.valid_vertices();
                 total = ins.total();
             }, work(depth));
@@ -229,10 +226,10 @@ void bind_refine(nb::module_& m) {
             std::vector<double> tsum;
             run_released([&] {
                 Insertion ins = insert_all(image, first, max_vertices, max_sum, sr, sc);
-                vr = copy(ins.vertex_rows());
-                vc = copy(ins.vertex_cols());
-                tv = copy(ins.triangles());
-                he = copy(ins.halfedges());
+                vr = copy_polled(ins.vertex_rows());
+                vc = copy_polled(ins.vertex_cols());
+                tv = copy_polled(ins.triangles());
+                he = copy_polled(ins.halfedges());
                 tsum = ins.sums();
             }, work(depth));
             return nb::make_tuple(to_numpy(std::move(vr)), to_numpy(std::move(vc)), to_numpy(std::move(tv)),

@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <numeric>
 #include <utility>
 
 #include "../interrupt.hpp"
@@ -45,6 +44,7 @@ Seed sweep_seed(const PointSet& pts, const std::vector<double>& fr, const std::v
     if (n < 3) return s;
     double lo_r = fr[0], hi_r = fr[0], lo_c = fc[0], hi_c = fc[0];
     for (index_t i = 1; i < n; ++i) {
+        poll_every(i);
         lo_r = std::min(lo_r, fr[i]);
         hi_r = std::max(hi_r, fr[i]);
         lo_c = std::min(lo_c, fc[i]);
@@ -54,6 +54,7 @@ Seed sweep_seed(const PointSet& pts, const std::vector<double>& fr, const std::v
     s.i0 = 0;
     double best = INFINITY;
     for (index_t i = 0; i < n; ++i) {
+        poll_every(i);
         const double d = sq(fr[i] - mr) + sq(fc[i] - mc);
         if (d < best) {
             best = d;
@@ -62,6 +63,7 @@ Seed sweep_seed(const PointSet& pts, const std::vector<double>& fr, const std::v
     }
     best = INFINITY;
     for (index_t i = 0; i < n; ++i) {
+        poll_every(i);
         if (i == s.i0) continue;
         const double d = sq(fr[i] - fr[s.i0]) + sq(fc[i] - fc[s.i0]);
         if (d < best) {
@@ -71,6 +73,7 @@ Seed sweep_seed(const PointSet& pts, const std::vector<double>& fr, const std::v
     }
     best = INFINITY;
     for (index_t i = 0; i < n; ++i) {
+        poll_every(i);
         if (i == s.i0 || i == s.i1 || pts.orient(s.i0, s.i1, i) == 0) continue;
         const double rr = Circle(fr, fc, s.i0, s.i1, i).radius2();
         if (rr < best) {
@@ -93,15 +96,17 @@ class Sweep {
     Sweep(const PointSet& pts, const std::vector<double>& fr, const std::vector<double>& fc, const Seed& seed)
         : pts_(pts), fr_(fr), fc_(fc), cr_(seed.cr), cc_(seed.cc) {
         const index_t n = pts.size();
+        const FreeLater late(on_throw, mesh_.triangles, mesh_.halfedges, stack_, hash_, next_, prev_, tri_);
         const index_t max_t = std::max<index_t>(2 * n - 5, 1);
-        mesh_.triangles.assign(3 * max_t, -1);
-        mesh_.halfedges.assign(3 * max_t, -1);
-        stack_.assign(3 * max_t + 16, 0);
+        // gigabytes for millions of points: filled with polls between strides
+        fill_polled(mesh_.triangles, 3 * max_t, index_t{-1});
+        fill_polled(mesh_.halfedges, 3 * max_t, index_t{-1});
+        fill_polled(stack_, 3 * max_t + 16, index_t{0});
         hash_size_ = std::max<index_t>(static_cast<index_t>(std::ceil(std::sqrt(static_cast<double>(n)))), 1);
-        hash_.assign(hash_size_, -1);
-        next_.assign(n, -1);
-        prev_.assign(n, -1);
-        tri_.assign(n, -1);
+        fill_polled(hash_, hash_size_, index_t{-1});
+        fill_polled(next_, n, index_t{-1});
+        fill_polled(prev_, n, index_t{-1});
+        fill_polled(tri_, n, index_t{-1});
         const index_t i0 = seed.i0, i1 = seed.i1, i2 = seed.i2;
         next_[i0] = i1;
         next_[i1] = i2;
@@ -117,6 +122,10 @@ class Sweep {
         hash_[hash_key(i1)] = i1;
         hash_[hash_key(i2)] = i2;
     }
+
+    ~Sweep() { free_later(mesh_.triangles, mesh_.halfedges, stack_, hash_, next_, prev_, tri_); }
+    Sweep(const Sweep&) = delete;
+    Sweep& operator=(const Sweep&) = delete;
 
     // Add point p (outside the hull): triangles to every hull edge it sees, then legalised.
     void insert(index_t p) {
@@ -249,23 +258,36 @@ class Sweep {
 
 // The ids 0..n-1 sorted by `key`, ties in id order: std::stable_sort's order, made as sorted
 // runs merged pairwise (each merge stable) so that Ctrl-C is polled between steps of a sort of
-// millions of points, which takes seconds.
+// millions of points, which takes seconds; the merges poll every POLL_STRIDE ids too (the last
+// one merges all of them).
 std::vector<index_t> stable_order(const std::vector<double>& key) {
     const index_t n = static_cast<index_t>(key.size());
     constexpr index_t RUN = index_t{1} << 16;
     const auto less = [&](index_t a, index_t b) { return key[a] < key[b]; };
-    std::vector<index_t> order(n), merged(n);
-    std::iota(order.begin(), order.end(), index_t{0});
+    std::vector<index_t> order, merged;
+    const FreeLater late(merged);
+    order.reserve(n);
+    for (index_t i = 0; i < n; ++i) {
+        poll_every(i);
+        order.push_back(i);
+    }
     for (index_t lo = 0; lo < n; lo += RUN) {
         poll_interrupt();
         std::stable_sort(order.begin() + lo, order.begin() + std::min(lo + RUN, n), less);
     }
+    if (n > RUN) fill_polled(merged, n, index_t{0});
     for (index_t width = RUN; width < n; width *= 2) {
         for (index_t lo = 0; lo < n; lo += 2 * width) {
-            poll_interrupt();
+            // std::merge's order: the first run's id first unless the second's key is smaller
+            index_t i = lo, k = lo;
             const index_t mid = std::min(lo + width, n), hi = std::min(lo + 2 * width, n);
-            std::merge(order.begin() + lo, order.begin() + mid, order.begin() + mid, order.begin() + hi,
-                       merged.begin() + lo, less);
+            index_t j = mid;
+            while (i < mid && j < hi) {
+                poll_every(k);
+                merged[k++] = less(order[j], order[i]) ? order[j++] : order[i++];
+            }
+            for (; i < mid; ++i) merged[k++] = order[i];
+            for (; j < hi; ++j) merged[k++] = order[j];
         }
         order.swap(merged);
     }
@@ -278,17 +300,25 @@ Triangulation delaunay_sweep(const PointSet& pts) {
     require(pts.r.size == pts.c.size, "delaunay_sweep: r and c differ in length");
     pts.check_span();
     const index_t n = pts.size();
-    std::vector<double> fr(n), fc(n);
+    std::vector<double> fr, fc, dist;
+    const FreeLater late(fr, fc, dist);
+    fr.reserve(n);
+    fc.reserve(n);
     for (index_t i = 0; i < n; ++i) {
-        fr[i] = static_cast<double>(pts.r[i]);
-        fc[i] = static_cast<double>(pts.c[i]);
+        poll_every(i);
+        fr.push_back(static_cast<double>(pts.r[i]));
+        fc.push_back(static_cast<double>(pts.c[i]));
     }
     const Seed seed = sweep_seed(pts, fr, fc);
     if (seed.i2 == -1) return {};
     // by distance from the seed's circumcentre; ties keep id order
-    std::vector<double> dist(n);
-    for (index_t i = 0; i < n; ++i) dist[i] = sq(fr[i] - seed.cr) + sq(fc[i] - seed.cc);
-    const std::vector<index_t> order = stable_order(dist);
+    dist.reserve(n);
+    for (index_t i = 0; i < n; ++i) {
+        poll_every(i);
+        dist.push_back(sq(fr[i] - seed.cr) + sq(fc[i] - seed.cc));
+    }
+    std::vector<index_t> order = stable_order(dist);
+    const FreeLater late_order(order);
     Sweep sweep(pts, fr, fc, seed);
     for (const index_t p : order) {
         if (p == seed.i0 || p == seed.i1 || p == seed.i2) continue;
@@ -302,21 +332,74 @@ index_t legalize_all(Span<index_t> triangles, Span<index_t> halfedges, const Poi
     require(triangles.size == halfedges.size && triangles.size % 3 == 0, "legalize_all: bad half-edge arrays");
     pts.check_span();
     std::vector<index_t> stack;
+    const FreeLater late(stack);
     stack.reserve(triangles.size + 16);
-    for (index_t e = 0; e < triangles.size; ++e)
+    for (index_t e = 0; e < triangles.size; ++e) {
+        poll_every(e);
+        check_input(0 <= triangles[e] && triangles[e] < pts.size() && -1 <= halfedges[e] && halfedges[e] < halfedges.size,
+                    "legalize_all: a vertex id or twin half-edge out of range");
         if (halfedges[e] > e) stack.push_back(e);
+    }
     index_t flips = 0;
-    while (!stack.empty()) {
+    for (index_t popped = 1; !stack.empty(); ++popped) {
+        poll_every(popped);  // tens of millions of edges to test even when none flips
         const index_t e = stack.back();
         stack.pop_back();
         const index_t t = halfedges[e];
         if (t == -1 || !pts.illegal(triangles[e], triangles[nxt(e)], triangles[prv(e)], triangles[prv(t)]))
             continue;
         flip_quad(triangles, halfedges, e);
-        if (++flips % 1024 == 0) poll_interrupt();
+        ++flips;
         for (const index_t s : {nxt(e), prv(e), nxt(t), prv(t)}) stack.push_back(s);
     }
     return flips;
+}
+
+std::vector<index_t> canonical_faces(Span<const index_t> triangles, index_t n_vertices) {
+    const index_t n_t = triangles.size / 3;
+    // each face's first corner: its smallest (the first of equal ones, as argmin)
+    std::vector<unsigned char> first;
+    std::vector<index_t> order, sorted, count, out;
+    const FreeLater late(first, order, sorted, count);
+    const FreeLater late_out(on_throw, out);
+    first.reserve(n_t);
+    for (index_t t = 0; t < n_t; ++t) {
+        poll_every(t);
+        const index_t* f = triangles.data + 3 * t;
+        check_input(std::min({f[0], f[1], f[2]}) >= 0 && std::max({f[0], f[1], f[2]}) < n_vertices,
+                    "canonical_faces: a corner id is out of range");
+        first.push_back(static_cast<unsigned char>(f[1] < f[0] ? (f[2] < f[1] ? 2 : 1) : (f[2] < f[0] ? 2 : 0)));
+    }
+    const auto corner = [&](index_t t, int k) { return triangles[3 * t + (first[t] + k) % 3]; };
+    // a stable counting sort by the third corner, then the second, then the first: lexsort's order
+    order.reserve(n_t);
+    for (index_t t = 0; t < n_t; ++t) {
+        poll_every(t);
+        order.push_back(t);
+    }
+    fill_polled(sorted, n_t, index_t{0});
+    for (int k = 2; k >= 0; --k) {
+        fill_polled(count, n_vertices + 1, index_t{0});
+        for (index_t i = 0; i < n_t; ++i) {
+            poll_every(i);
+            count[corner(order[i], k) + 1] += 1;
+        }
+        for (index_t v = 0; v < n_vertices; ++v) {
+            poll_every(v);
+            count[v + 1] += count[v];
+        }
+        for (index_t i = 0; i < n_t; ++i) {
+            poll_every(i);
+            sorted[count[corner(order[i], k)]++] = order[i];
+        }
+        order.swap(sorted);
+    }
+    out.reserve(3 * n_t);
+    for (index_t i = 0; i < n_t; ++i) {
+        poll_every(i);
+        for (int k = 0; k < 3; ++k) out.push_back(corner(order[i], k));
+    }
+    return out;
 }
 
 }  // namespace rangemesh

@@ -29,4 +29,10 @@ Triangulation delaunay_sweep(const PointSet& points);
 // surface falls with each flip, so the loop ends, at the unique canonical triangulation.
 index_t legalize_all(Span<index_t> triangles, Span<index_t> halfedges, const PointSet& points);
 
+// The faces (3F vertex ids in, F x 3 out) in the canonical order: each starts at its smallest
+// corner, keeping its turn, and the faces are sorted by their first, second and third corner,
+// ties in their order (NumPy's argmin, take_along_axis and lexsort). Corners lie in
+// [0, n_vertices).
+std::vector<index_t> canonical_faces(Span<const index_t> triangles, index_t n_vertices);
+
 }  // namespace rangemesh

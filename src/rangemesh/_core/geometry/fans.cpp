@@ -1,7 +1,6 @@
 #include "fans.hpp"
 
 #include <algorithm>
-#include <numeric>
 #include <vector>
 
 #include "../interrupt.hpp"
@@ -15,9 +14,25 @@ namespace {
 struct Corners {
     std::vector<index_t> parent;
 
-    explicit Corners(index_t n) : parent(n) { reset(); }
+    explicit Corners(index_t n) {
+        const FreeLater late(on_throw, parent);
+        parent.reserve(n);
+        for (index_t i = 0; i < n; ++i) {
+            poll_every(i);
+            parent.push_back(i);
+        }
+    }
 
-    void reset() { std::iota(parent.begin(), parent.end(), index_t{0}); }
+    ~Corners() { free_later(parent); }
+    Corners(const Corners&) = delete;
+    Corners& operator=(const Corners&) = delete;
+
+    void reset() {
+        for (index_t i = 0; i < static_cast<index_t>(parent.size()); ++i) {
+            poll_every(i);
+            parent[i] = i;
+        }
+    }
 
     index_t find(index_t i) {
         index_t root = i;
@@ -43,6 +58,7 @@ struct Corners {
 index_t drop_lonely(LiveTriangles mesh) {
     index_t dropped = 0;
     for (index_t t = 0; t < mesh.simplices.rows; ++t) {
+        poll_every(t);
         if (!mesh.alive[t]) continue;
         bool lonely = true;
         for (int k = 0; k < 3; ++k) {
@@ -61,6 +77,7 @@ index_t drop_lonely(LiveTriangles mesh) {
 void join_fans(LiveTriangles mesh, Corners& fans) {
     fans.reset();
     for (index_t t = 0; t < mesh.simplices.rows; ++t) {
+        poll_every(t);
         if (!mesh.alive[t]) continue;
         for (int k = 0; k < 3; ++k) {
             const index_t nb = mesh.neighbors(t, k);
@@ -81,7 +98,15 @@ struct BestFans {
     std::vector<index_t> size;  // triangles in the fan of each root corner
     std::vector<index_t> best_root, best_size;
 
-    BestFans(index_t n_t, index_t n_vertices) : size(3 * n_t), best_root(n_vertices), best_size(n_vertices) {}
+    BestFans(index_t n_t, index_t n_vertices) {
+        const FreeLater late(on_throw, size, best_root, best_size);
+        fill_polled(size, 3 * n_t, index_t{0});
+        fill_polled(best_root, n_vertices, index_t{0});
+        fill_polled(best_size, n_vertices, index_t{0});
+    }
+    ~BestFans() { free_later(size, best_root, best_size); }
+    BestFans(const BestFans&) = delete;
+    BestFans& operator=(const BestFans&) = delete;
 };
 
 // Drop every live triangle with a corner outside its vertex's largest fan; returns how many.
@@ -90,13 +115,16 @@ index_t drop_small_fans(LiveTriangles mesh, Corners& fans, BestFans& scratch) {
     std::vector<index_t>& size = scratch.size;
     std::vector<index_t>& best_root = scratch.best_root;
     std::vector<index_t>& best_size = scratch.best_size;
-    std::fill(size.begin(), size.end(), 0);
-    std::fill(best_root.begin(), best_root.end(), -1);
-    std::fill(best_size.begin(), best_size.end(), 0);
-    for (index_t t = 0; t < n_t; ++t)
+    fill_polled(size, size.size(), index_t{0});
+    fill_polled(best_root, best_root.size(), index_t{-1});
+    fill_polled(best_size, best_size.size(), index_t{0});
+    for (index_t t = 0; t < n_t; ++t) {
+        poll_every(t);
         if (mesh.alive[t])
             for (int k = 0; k < 3; ++k) size[fans.find(3 * t + k)] += 1;
+    }
     for (index_t t = 0; t < n_t; ++t) {
+        poll_every(t);
         if (!mesh.alive[t]) continue;
         for (int k = 0; k < 3; ++k) {
             const index_t i = 3 * t + k;
@@ -110,6 +138,7 @@ index_t drop_small_fans(LiveTriangles mesh, Corners& fans, BestFans& scratch) {
     }
     index_t dropped = 0;
     for (index_t t = 0; t < n_t; ++t) {
+        poll_every(t);
         if (!mesh.alive[t]) continue;
         for (int k = 0; k < 3; ++k) {
             if (fans.find(3 * t + k) != best_root[mesh.simplices(t, k)]) {
@@ -127,11 +156,13 @@ index_t drop_small_fans(LiveTriangles mesh, Corners& fans, BestFans& scratch) {
 index_t prune_dangling(LiveTriangles mesh, index_t n_vertices, bool drop_lone) {
     const index_t n_t = mesh.simplices.rows;
     require(mesh.neighbors.rows == n_t && mesh.alive.size == n_t, "prune_dangling: arrays differ in length");
-    for (index_t t = 0; t < n_t; ++t)
+    for (index_t t = 0; t < n_t; ++t) {
+        poll_every(t);
         for (int k = 0; k < 3; ++k)
             require(mesh.simplices(t, k) >= 0 && mesh.simplices(t, k) < n_vertices &&
                         mesh.neighbors(t, k) < n_t,
                     "prune_dangling: a vertex or neighbour id out of range");
+    }
     Corners fans(3 * n_t);
     BestFans scratch(n_t, n_vertices);
     index_t removed = 0;

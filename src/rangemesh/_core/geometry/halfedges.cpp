@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cstdint>
 
+#include "../interrupt.hpp"
+
 namespace rangemesh {
 
 void flip_quad(Span<index_t> triangles, Span<index_t> halfedges, index_t e0) {
@@ -24,19 +26,39 @@ void flip_quad(Span<index_t> triangles, Span<index_t> halfedges, index_t e0) {
     link(halfedges, q.c1, tb0);
 }
 
-void build_halfedges(Grid<const index_t> faces, index_t n_vertices, std::vector<index_t>& triangles,
+template <class T>
+void build_halfedges(Grid<const T> faces, index_t n_vertices, std::vector<index_t>& triangles,
                      std::vector<index_t>& halfedges) {
     const index_t n_he = 3 * faces.rows;
-    triangles.assign(faces.data, faces.data + n_he);
-    halfedges.assign(n_he, -1);
-    // a CSR table of the half-edges by start vertex: O(F * degree), no sort
-    std::vector<index_t> start(n_vertices + 1, 0);
-    for (index_t e = 0; e < n_he; ++e) start[triangles[e] + 1] += 1;
-    for (index_t v = 0; v < n_vertices; ++v) start[v + 1] += start[v];
-    std::vector<index_t> fill(start.begin(), start.end() - 1);
-    std::vector<index_t> leaving(n_he);
-    for (index_t e = 0; e < n_he; ++e) leaving[fill[triangles[e]]++] = e;
+    const FreeLater late_out(on_throw, triangles, halfedges);
+    std::vector<index_t> start, fill, leaving;
+    const FreeLater late(start, fill, leaving);
+    triangles.clear();
+    triangles.reserve(n_he);
     for (index_t e = 0; e < n_he; ++e) {
+        poll_every(e);
+        check_input(0 <= faces.data[e] && faces.data[e] < n_vertices, "build_halfedges: a vertex id is out of range");
+        triangles.push_back(faces.data[e]);
+    }
+    fill_polled(halfedges, n_he, index_t{-1});
+    // a CSR table of the half-edges by start vertex: O(F * degree), no sort
+    fill_polled(start, n_vertices + 1, index_t{0});
+    for (index_t e = 0; e < n_he; ++e) {
+        poll_every(e);
+        start[triangles[e] + 1] += 1;
+    }
+    for (index_t v = 0; v < n_vertices; ++v) {
+        poll_every(v);
+        start[v + 1] += start[v];
+    }
+    fill = copy_polled(Span<const index_t>{start.data(), n_vertices});
+    fill_polled(leaving, n_he, index_t{0});
+    for (index_t e = 0; e < n_he; ++e) {
+        poll_every(e);
+        leaving[fill[triangles[e]]++] = e;
+    }
+    for (index_t e = 0; e < n_he; ++e) {
+        poll_every(e);
         const index_t a = triangles[e], b = triangles[nxt(e)];
         for (index_t j = start[b]; j < start[b + 1]; ++j) {
             const index_t f = leaving[j];
@@ -48,25 +70,39 @@ void build_halfedges(Grid<const index_t> faces, index_t n_vertices, std::vector<
     }
 }
 
-template <class Id>
-index_t count_edges(Grid<const Id> faces, index_t n_vertices) {
+template void build_halfedges(Grid<const std::int32_t>, index_t, std::vector<index_t>&, std::vector<index_t>&);
+template void build_halfedges(Grid<const index_t>, index_t, std::vector<index_t>&, std::vector<index_t>&);
+
+template <class T>
+index_t count_edges(Grid<const T> faces, index_t n_vertices) {
     // each edge counted at its smaller endpoint, with a mark per vertex of who saw it last
     const index_t n_t = faces.rows;
-    std::vector<index_t> start(n_vertices + 1, 0);
-    for (index_t t = 0; t < n_t; ++t)
-        for (int k = 0; k < 3; ++k) start[std::min<index_t>(faces(t, k), faces(t, (k + 1) % 3)) + 1] += 1;
-    for (index_t v = 0; v < n_vertices; ++v) start[v + 1] += start[v];
-    std::vector<index_t> fill(start.begin(), start.end() - 1);
-    std::vector<index_t> other(3 * n_t);
+    std::vector<index_t> start, fill, other, mark;
+    const FreeLater late(start, fill, other, mark);
+    fill_polled(start, n_vertices + 1, index_t{0});
     for (index_t t = 0; t < n_t; ++t) {
+        poll_every(t);
+        for (int k = 0; k < 3; ++k)
+            check_input(0 <= faces(t, k) && faces(t, k) < n_vertices, "count_edges: a vertex id is out of range");
+        for (int k = 0; k < 3; ++k) start[std::min(faces(t, k), faces(t, (k + 1) % 3)) + 1] += 1;
+    }
+    for (index_t v = 0; v < n_vertices; ++v) {
+        poll_every(v);
+        start[v + 1] += start[v];
+    }
+    fill = copy_polled(Span<const index_t>{start.data(), n_vertices});
+    fill_polled(other, 3 * n_t, index_t{0});
+    for (index_t t = 0; t < n_t; ++t) {
+        poll_every(t);
         for (int k = 0; k < 3; ++k) {
             const index_t a = faces(t, k), b = faces(t, (k + 1) % 3);
             other[fill[std::min(a, b)]++] = std::max(a, b);
         }
     }
-    std::vector<index_t> mark(n_vertices, -1);
+    fill_polled(mark, n_vertices, index_t{-1});
     index_t count = 0;
     for (index_t v = 0; v < n_vertices; ++v) {
+        poll_every(v);
         for (index_t j = start[v]; j < start[v + 1]; ++j) {
             const index_t u = other[j];
             if (mark[u] != v) {
@@ -78,12 +114,13 @@ index_t count_edges(Grid<const Id> faces, index_t n_vertices) {
     return count;
 }
 
-template index_t count_edges(Grid<const index_t>, index_t);
 template index_t count_edges(Grid<const std::int32_t>, index_t);
+template index_t count_edges(Grid<const index_t>, index_t);
 
 void neighbors_from_halfedges(Span<const index_t> halfedges, Grid<index_t> out) {
     const index_t n_t = halfedges.size / 3;
     for (index_t t = 0; t < n_t; ++t) {
+        poll_every(t);
         for (int k = 0; k < 3; ++k) {
             const index_t tw = halfedges[3 * t + (k + 1) % 3];  // the edge from corner k+1 to k+2
             out(t, k) = tw == -1 ? -1 : tw / 3;

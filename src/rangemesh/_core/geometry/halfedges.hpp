@@ -36,15 +36,17 @@ struct Quad {
 // triangle is DCA and its twin's CDB; the diagonal keeps the slots e0 and its twin.
 void flip_quad(Span<index_t> triangles, Span<index_t> halfedges, index_t e0);
 
-// Twin half-edges of an oriented, edge-manifold face list (F x 3): the triangles and
-// halfedges arrays. The twin of a -> b is found among the half-edges leaving b.
-void build_halfedges(Grid<const index_t> faces, index_t n_vertices, std::vector<index_t>& triangles,
+// Twin half-edges of an oriented, edge-manifold face list (F x 3 of int32 or int64 ids in
+// [0, n_vertices)): the triangles and halfedges arrays. The twin of a -> b is found among the
+// half-edges leaving b.
+template <class T>
+void build_halfedges(Grid<const T> faces, index_t n_vertices, std::vector<index_t>& triangles,
                      std::vector<index_t>& halfedges);
 
-// Distinct undirected edges of a face list (any orientation, manifold or not), its vertex ids
-// int64 or int32 (the meshes' own faces: no widened copy).
-template <class Id>
-index_t count_edges(Grid<const Id> faces, index_t n_vertices);
+// Distinct undirected edges of a face list (F x 3 of int32 or int64 ids in [0, n_vertices); any
+// orientation, manifold or not).
+template <class T>
+index_t count_edges(Grid<const T> faces, index_t n_vertices);
 
 // SciPy-style neighbours (F x 3): entry (t, k) is the triangle across the edge opposite corner k.
 void neighbors_from_halfedges(Span<const index_t> halfedges, Grid<index_t> out);

@@ -4,6 +4,7 @@
 #include <cstdlib>
 #include <utility>
 
+#include "../interrupt.hpp"
 #include "../views.hpp"
 #include "predicates.hpp"
 #include "vectors.hpp"
@@ -62,8 +63,10 @@ struct MeshPoints {
     // Whether there is a pixel for each vertex and every pixel lies in `image`.
     bool fit(const RangeImage& image) const {
         if (pixels.rows != vertices.rows || pixels.cols != 2 || vertices.cols != 3) return false;
-        for (index_t v = 0; v < pixels.rows; ++v)
+        for (index_t v = 0; v < pixels.rows; ++v) {
+            poll_every(v);
             if (!image.contains(pixels(v, 0), pixels(v, 1))) return false;
+        }
         return true;
     }
 };

@@ -44,14 +44,19 @@ ValidFaces valid_faces(Span<const index_t> vr, Span<const index_t> vc, Span<cons
                        Grid<const bool> valid) {
     const index_t n_t = tv.size / 3, n_v = vr.size;
     require(vc.size == n_v, "valid_faces: vr and vc differ in length");
-    std::vector<unsigned char> on_valid(n_v), keep(n_t, 0), used(n_v, 0);
+    std::vector<unsigned char> on_valid, keep, used;
+    fill_polled(on_valid, n_v, static_cast<unsigned char>(0));
+    fill_polled(keep, n_t, static_cast<unsigned char>(0));
+    fill_polled(used, n_v, static_cast<unsigned char>(0));
     for (index_t v = 0; v < n_v; ++v) {
+        poll_every(v);
         require(vr[v] >= 0 && vr[v] < valid.rows && vc[v] >= 0 && vc[v] < valid.cols,
                 "valid_faces: a vertex outside the image");
         on_valid[v] = valid(vr[v], vc[v]);
     }
     index_t n_keep = 0;
     for (index_t t = 0; t < n_t; ++t) {
+        poll_every(t);
         const index_t a = tv[3 * t], b = tv[3 * t + 1], c = tv[3 * t + 2];
         require(a >= 0 && a < n_v && b >= 0 && b < n_v && c >= 0 && c < n_v, "valid_faces: a vertex id out of range");
         if (on_valid[a] && on_valid[b] && on_valid[c]) {
@@ -61,18 +66,23 @@ ValidFaces valid_faces(Span<const index_t> vr, Span<const index_t> vc, Span<cons
         }
     }
     // the used vertices keep their order
-    std::vector<index_t> new_id(n_v, -1);
+    std::vector<index_t> new_id;
+    fill_polled(new_id, n_v, index_t{-1});
     index_t n_used = 0;
-    for (index_t v = 0; v < n_v; ++v)
+    for (index_t v = 0; v < n_v; ++v) {
+        poll_every(v);
         if (used[v]) new_id[v] = n_used++;
+    }
     ValidFaces out;
-    out.faces.resize(3 * n_keep);
-    out.pixels.resize(2 * n_used);
+    fill_polled(out.faces, 3 * n_keep, std::int32_t{0});
+    fill_polled(out.pixels, 2 * n_used, std::int32_t{0});
     for (index_t t = 0, k = 0; t < n_t; ++t) {
+        poll_every(t);
         if (!keep[t]) continue;
         for (int j = 0; j < 3; ++j) out.faces[k++] = static_cast<std::int32_t>(new_id[tv[3 * t + j]]);
     }
     for (index_t v = 0; v < n_v; ++v) {
+        poll_every(v);
         if (new_id[v] < 0) continue;
         out.pixels[2 * new_id[v]] = static_cast<std::int32_t>(vr[v]);
         out.pixels[2 * new_id[v] + 1] = static_cast<std::int32_t>(vc[v]);

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <memory>
 
+#include "../interrupt.hpp"
 #include "median.hpp"
 #include "pass.hpp"
 #include "solve.hpp"
@@ -37,7 +38,7 @@ FitResult fit_heights(const FitMesh& mesh, const FitImage& image, Span<const ind
         result.outcome = FitOutcome::copied;
         return result;
     }
-    result.blocks.resize(order.size);
+    grow_polled(result.blocks, static_cast<std::size_t>(order.size));  // hundreds of MB for millions of faces
     const Span<FaceBlock> blocks{result.blocks.data(), order.size};
     result.used = fit_blocks(mesh, image, order, result.threshold, settings.threads, blocks);
     result.values.resize(mesh.values.size);

@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "../geometry/predicates.hpp"
+#include "../interrupt.hpp"
 
 namespace rangemesh::heights {
 
@@ -13,9 +14,11 @@ void face_order(Grid<const index_t> faces, Span<const index_t> rows, Span<const 
     require(order.size == faces.rows && tile > 0, "face_order: one order entry a face");
     const index_t across = floor_div(w + tile - 1, tile);
     const index_t cells = floor_div(h + tile - 1, tile) * across;
-    std::vector<index_t> start(cells + 1, 0);
-    std::vector<index_t> cell(faces.rows);
+    std::vector<index_t> start, cell;
+    fill_polled(start, cells + 1, index_t{0});
+    fill_polled(cell, faces.rows, index_t{0});
     for (index_t t = 0; t < faces.rows; ++t) {
+        poll_every(t);
         const index_t a = faces(t, 0), b = faces(t, 1), c = faces(t, 2);
         require(std::min({a, b, c}) >= 0 && std::max({a, b, c}) < rows.size,
                 "face_order: a face's vertex id is out of range");
@@ -26,8 +29,14 @@ void face_order(Grid<const index_t> faces, Span<const index_t> rows, Span<const 
         cell[t] = (r / tile) * across + col / tile;  // both >= 0: C++ division is Python's
         start[cell[t] + 1] += 1;
     }
-    for (index_t k = 0; k < cells; ++k) start[k + 1] += start[k];
-    for (index_t t = 0; t < faces.rows; ++t) order[start[cell[t]]++] = t;  // stable within a cell
+    for (index_t k = 0; k < cells; ++k) {
+        poll_every(k);
+        start[k + 1] += start[k];
+    }
+    for (index_t t = 0; t < faces.rows; ++t) {  // stable within a cell
+        poll_every(t);
+        order[start[cell[t]]++] = t;
+    }
 }
 
 }  // namespace rangemesh::heights

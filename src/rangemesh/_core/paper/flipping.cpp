@@ -74,6 +74,9 @@ double disparity(const Vec3& span, const Vec3& normal, double delta) {
 class PairSet {
   public:
     explicit PairSet(index_t n_vertices) : n_vertices_(n_vertices) {}
+    ~PairSet() { free_later(keys_); }
+    PairSet(const PairSet&) = delete;
+    PairSet& operator=(const PairSet&) = delete;
 
     bool contains(index_t a, index_t b) const {
         const index_t key = pair_key(a, b);
@@ -119,6 +122,9 @@ class PairSet {
 class FlipStage {
   public:
     FlipStage(const FlipMesh& mesh, const RangeImage& image, const FlipSettings& settings);
+    ~FlipStage() { free_later(he_edge_, edge_he_, normals_, err_, gain_, keys_, heap_, slot_); }
+    FlipStage(const FlipStage&) = delete;
+    FlipStage& operator=(const FlipStage&) = delete;
 
     // Pop, decide, flip or drop, until no head edge is worth a decision.
     index_t run(const FlipRecord& record);
@@ -153,10 +159,14 @@ class FlipStage {
 
 FlipStage::FlipStage(const FlipMesh& mesh, const RangeImage& image, const FlipSettings& settings)
     : mesh_(mesh), image_(image), settings_(settings), former_(mesh.points.vertices.rows) {
+    // stopped half way, no destructor runs: the arrays made so far are freed later all the same
+    const FreeLater late(on_throw, he_edge_, edge_he_, normals_, err_, gain_, keys_, heap_, slot_);
     const Span<const index_t> halfedges = read_only(mesh_.halfedges);
     const index_t n_he = mesh_.triangles.size;
-    he_edge_.assign(n_he, -1);
+    fill_polled(he_edge_, n_he, index_t{-1});
+    edge_he_.reserve(n_he);  // untouched beyond the edges: border edges count once
     for (index_t e = 0; e < n_he; ++e) {
+        poll_every(e);
         const index_t twin = halfedges[e];
         if (twin == -1 || e < twin) {
             const index_t x = static_cast<index_t>(edge_he_.size());
@@ -165,28 +175,37 @@ FlipStage::FlipStage(const FlipMesh& mesh, const RangeImage& image, const FlipSe
             edge_he_.push_back(e);
         }
     }
-    normals_.assign(3 * n_triangles(), 0.0);
+    fill_polled(normals_, 3 * n_triangles(), 0.0);
     const Span<index_t> tri = mesh_.triangles;
-    for (index_t t = 0; t < n_triangles(); ++t)
+    for (index_t t = 0; t < n_triangles(); ++t) {
+        poll_every(t);
         set_normal(t, unit_normal(mesh_.points.vertices, tri[3 * t], tri[3 * t + 1], tri[3 * t + 2]));
+    }
     const index_t n_e = n_edges();
-    err_.assign(n_e, 0.0);
+    fill_polled(err_, n_e, 0.0);
     for (index_t x = 0; x < n_e; ++x) {
         if (x % 1024 == 0) poll_interrupt();
         const index_t e = edge_he_[x];
         err_[x] = edge_error_of(tri[e], tri[nxt(e)]);
     }
-    gain_.assign(n_e, 0.0);
+    fill_polled(gain_, n_e, 0.0);
     for (index_t x = 0; x < n_e; ++x) {
         if (x % 1024 == 0) poll_interrupt();
         gain_[x] = gain_of(x);
     }
-    keys_ = gain_;
-    heap_.resize(n_e);
-    slot_.resize(n_e);
-    for (index_t i = 0; i < n_e; ++i) heap_[i] = slot_[i] = i;
+    keys_ = copy_polled(Span<const double>{gain_.data(), n_e});
+    heap_.reserve(n_e);
+    slot_.reserve(n_e);
+    for (index_t i = 0; i < n_e; ++i) {
+        poll_every(i);
+        heap_.push_back(i);
+        slot_.push_back(i);
+    }
     const HeapView h = heap();
-    for (index_t i = 0; i < n_e; ++i) h.sift_up(i);
+    for (index_t i = 0; i < n_e; ++i) {
+        poll_every(i);
+        h.sift_up(i);
+    }
 }
 
 // G = E(A, B) - E(C, D) of an inner edge whose quad is strictly convex, else -inf; rounded to a
@@ -325,6 +344,7 @@ index_t flip_loop(const FlipMesh& mesh, const RangeImage& image, const FlipSetti
             "flip_loop: triangles and halfedges must be 3F long each");
     require(image.consistent() && mesh.points.fit(image), "flip_loop: the vertices' pixels must lie in the image");
     for (index_t e = 0; e < mesh.triangles.size; ++e) {
+        poll_every(e);
         require(0 <= mesh.triangles[e] && mesh.triangles[e] < mesh.points.size(), "flip_loop: a vertex id out of range");
         const index_t twin = mesh.halfedges[e];
         require(twin == -1 || (0 <= twin && twin < mesh.halfedges.size && mesh.halfedges[twin] == e),

@@ -103,9 +103,10 @@ void add_curvature(Grid<const double> depth, Grid<const bool> valid, double jump
             add_second_diffs(depth, valid, jump, step, curvature);
             continue;
         }
-        coarse.assign(hs * ws, 0.0);
+        fill_polled(coarse, hs * ws, 0.0);
         add_second_diffs(depth, valid, jump, step, Grid<double>{coarse.data(), hs, ws});
         for (index_t r = 0; r < h; ++r) {
+            poll_interrupt();
             const double* kr = coarse.data() + (r >> level) * ws;
             for (index_t c = 0; c < w; ++c) curvature(r, c) += kr[c >> level];
         }

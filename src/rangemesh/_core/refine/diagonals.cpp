@@ -31,20 +31,33 @@ class Flipper {
         require(mesh.vc.size == mesh.vr.size && mesh.halfedges.size == mesh.triangles.size &&
                     mesh.triangles.size == 3 * mesh.sums.size,
                 "flips: one column a vertex, one twin a half-edge, one sum a triangle");
+        const FreeLater late(on_throw, vz_, queued_, stack_);  // (no destructor when stopped here)
         const index_t n_v = mesh.vr.size;
-        for (index_t k = 0; k < mesh.triangles.size; ++k)
+        for (index_t k = 0; k < mesh.triangles.size; ++k) {
+            poll_every(k);
             require(0 <= mesh.triangles[k] && mesh.triangles[k] < n_v && mesh.halfedges[k] < mesh.triangles.size,
                     "flips: corners and twins in range");
+        }
         // the vertex depths; triangles with a background vertex get sum -1 (never flipped)
-        vz_.assign(n_v, 0.0);
-        for (index_t v = 0; v < n_v; ++v)
+        fill_polled(vz_, n_v, 0.0);
+        for (index_t v = 0; v < n_v; ++v) {
+            poll_every(v);
+            check_input(0 <= mesh.vr[v] && mesh.vr[v] < image.rows() && 0 <= mesh.vc[v] && mesh.vc[v] < image.cols(),
+                        "flips: the vertices must be pixels of the image");
             if (valid(v)) vz_[v] = image.depth(mesh.vr[v], mesh.vc[v]);
+        }
         const index_t n_t = mesh.sums.size;
-        for (index_t t = 0; t < n_t; ++t)
+        for (index_t t = 0; t < n_t; ++t) {
+            poll_every(t);
             if (!all_valid(t)) mesh.sums[t] = -1.0;
-        queued_.assign(mesh.triangles.size, 0);
+        }
+        fill_polled(queued_, mesh.triangles.size, static_cast<unsigned char>(0));
         stack_.reserve(mesh.triangles.size);
     }
+
+    ~Flipper() { free_later(vz_, queued_, stack_); }
+    Flipper(const Flipper&) = delete;
+    Flipper& operator=(const Flipper&) = delete;
 
     bool valid(index_t v) const { return image_.valid(m_.vr[v], m_.vc[v]); }
     bool all_valid(index_t t) const {
@@ -76,6 +89,7 @@ class Flipper {
     // Every interior edge between two triangles that may flip, popped in order of e.
     void push_all() {
         for (index_t e = m_.triangles.size - 1; e >= 0; --e) {
+            poll_every(e);
             const index_t g = m_.halfedges[e];
             if (g > e && m_.sums[e / 3] >= 0.0 && m_.sums[g / 3] >= 0.0) {
                 stack_.push_back(e);
@@ -87,6 +101,7 @@ class Flipper {
     // The half-edges `first`, popped in the order given, their triangles' sums afresh.
     void push_first(Span<const index_t> first) {
         for (const index_t e : first) {
+            poll_interrupt();
             require(0 <= e && e < m_.triangles.size, "flips: first half-edges in range");
             for (const index_t g : {e, m_.halfedges[e]})
                 if (g >= 0 && m_.sums[g / 3] >= 0.0) m_.sums[g / 3] = face_error(g / 3);
@@ -155,7 +170,10 @@ FlipCount flip_from_edges(const Image& image, const FlipMesh& mesh, Span<const i
 
 void face_errors(const Image& image, const FlipMesh& mesh) {
     Flipper f(image, mesh);  // sums -1 where a corner is background
-    for (index_t t = 0; t < mesh.sums.size; ++t) mesh.sums[t] = f.all_valid(t) ? f.face_error(t) : 0.0;
+    for (index_t t = 0; t < mesh.sums.size; ++t) {
+        poll_interrupt();  // a scan a triangle: a poll is nothing beside it
+        mesh.sums[t] = f.all_valid(t) ? f.face_error(t) : 0.0;
+    }
 }
 
 }  // namespace rangemesh::refine

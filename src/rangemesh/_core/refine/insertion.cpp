@@ -23,6 +23,8 @@ bool Plane::holds(index_t pr, index_t pc, double pz, double span) const {
 
 Insertion::Insertion(const Image& image, const FirstMesh& first, index_t reserve, index_t sr, index_t sc)
     : image_(image), sr_(sr), sc_(sc) {
+    // stopped half way, no destructor runs: the arrays made so far are freed later all the same
+    const FreeLater late(on_throw, vr_, vc_, vz_, vbg_, tv_, he_, keyed_, stamp_, keys_, heap_, slot_);
     require(sr >= 1 && sc >= 1 && exact_span(0, (image.rows() - 1) * sr) && exact_span(0, (image.cols() - 1) * sc),
             "insertion: the image, times its Delaunay scales, within EXACT_SPAN a side");
     const index_t n_v = first.vr.size;
@@ -33,7 +35,8 @@ Insertion::Insertion(const Image& image, const FirstMesh& first, index_t reserve
         require(0 <= first.vr[i] && first.vr[i] < image.rows() && 0 <= first.vc[i] && first.vc[i] < image.cols(),
                 "first mesh: vertices on the image's pixels");
     for (index_t k = 0; k < first.triangles.size; ++k)
-        require(0 <= first.triangles[k] && first.triangles[k] < n_v && first.halfedges[k] < first.triangles.size,
+        require(0 <= first.triangles[k] && first.triangles[k] < n_v && -1 <= first.halfedges[k] &&
+                    first.halfedges[k] < first.triangles.size,
                 "first mesh: corners and twins in range");
     n_t_ = first.triangles.size / 3;
     // a small floor: the triangle arrays are zeroed, and on a small image that costs more than the work
@@ -69,6 +72,9 @@ Insertion::Insertion(const Image& image, const FirstMesh& first, index_t reserve
     }
 }
 
+// Under an error bound the arrays reach gigabytes: freed on a thread of their own.
+Insertion::~Insertion() { free_later(vr_, vc_, vz_, vbg_, tv_, he_, keyed_, stamp_, keys_, heap_, slot_); }
+
 TriangleKey Insertion::scan(index_t t) const {
     const index_t e = 3 * t;
     const Corner a = corner(tv_[e]), b = corner(tv_[e + 1]), c = corner(tv_[e + 2]);
@@ -94,22 +100,30 @@ bool Insertion::fit_child(index_t t, TriangleKey& out) const {
     return true;
 }
 
-// Room for up to two more triangles: the per-triangle arrays double when full.
+// Room for one more vertex and up to two more triangles: the arrays double when full.
 void Insertion::make_room() {
+    if (vr_.size() == vr_.capacity()) {
+        const std::size_t cap_v = 2 * vr_.capacity();
+        reserve_polled(vr_, cap_v);
+        reserve_polled(vc_, cap_v);
+        reserve_polled(vz_, cap_v);
+        reserve_polled(vbg_, cap_v);
+    }
     const index_t cap_t = static_cast<index_t>(keyed_.size());
     if (n_t_ + 2 <= cap_t) return;
     resize_triangles(2 * cap_t);
 }
 
-// Every per-triangle array sized for `cap_t` triangles; new slots hold no triangle.
+// Every per-triangle array sized for `cap_t` triangles; new slots hold no triangle. Hundreds of
+// megabytes for millions of vertices: grown with polls, so Ctrl-C is not kept waiting.
 void Insertion::resize_triangles(index_t cap_t) {
-    tv_.resize(3 * cap_t, 0);
-    he_.resize(3 * cap_t, -1);
-    keyed_.resize(cap_t);
-    stamp_.resize(cap_t, 0);
-    keys_.resize(cap_t, 0.0);
-    heap_.resize(cap_t, 0);
-    slot_.resize(cap_t, 0);
+    grow_polled(tv_, 3 * cap_t, index_t{0});
+    grow_polled(he_, 3 * cap_t, index_t{-1});
+    grow_polled(keyed_, cap_t);
+    grow_polled(stamp_, cap_t, index_t{0});
+    grow_polled(keys_, cap_t, 0.0);
+    grow_polled(heap_, cap_t, index_t{0});
+    grow_polled(slot_, cap_t, index_t{0});
 }
 
 void Insertion::new_triangle(index_t t, index_t a, index_t b, index_t c) {
@@ -309,8 +323,12 @@ void Insertion::advance(const Stop& stop) {
 }
 
 std::vector<double> Insertion::sums() const {
-    std::vector<double> out(n_t_);
-    for (index_t t = 0; t < n_t_; ++t) out[t] = keyed_[t].sum;
+    std::vector<double> out;
+    out.reserve(n_t_);
+    for (index_t t = 0; t < n_t_; ++t) {
+        poll_every(t);
+        out.push_back(keyed_[t].sum);
+    }
     return out;
 }
 

@@ -47,6 +47,11 @@ class alignas(64) Insertion {
     // Every triangle of `first` scanned and in the heap; room reserved for `reserve` more
     // vertices (the arrays grow beyond it).
     Insertion(const Image& image, const FirstMesh& first, index_t reserve, index_t sr, index_t sc);
+    ~Insertion();
+    Insertion(const Insertion&) = delete;
+    Insertion& operator=(const Insertion&) = delete;
+    Insertion(Insertion&&) = default;
+    Insertion& operator=(Insertion&&) = default;
 
     // Insert worst pixels until `stop` says so, or no pixel is left to insert.
     void advance(const Stop& stop);

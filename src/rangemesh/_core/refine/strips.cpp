@@ -309,11 +309,10 @@ StripMesh finish(Insertion& s, const Image& image, bool flip) {
                                                   {out.sums.data(), static_cast<index_t>(out.sums.size())}})
                         .flips;
     }
-    const auto copy = [](Span<index_t> x) { return std::vector<index_t>(x.begin(), x.end()); };
-    out.vr = copy(s.vertex_rows());
-    out.vc = copy(s.vertex_cols());
-    out.triangles = copy(s.triangles());
-    out.halfedges = copy(s.halfedges());
+    out.vr = copy_polled(s.vertex_rows());
+    out.vc = copy_polled(s.vertex_cols());
+    out.triangles = copy_polled(s.triangles());
+    out.halfedges = copy_polled(s.halfedges());
     out.valid_vertices = s.valid_vertices();
     out.total = s.total();
     return out;

@@ -134,6 +134,8 @@ def delaunay_mesh(grid: np.ndarray, depth: np.ndarray, valid: np.ndarray, camera
     """
     camera = as_camera(camera)
     h, w = depth.shape
+    if np.shape(valid) != (h, w):
+        raise ValueError(f"valid must have depth's shape {(h, w)}, got {np.shape(valid)}")
     grid_shape = tuple(int(x) for x in np.shape(grid)[:2])
     g = np.asarray(grid)
     if g.dtype != np.int32 and g.dtype != np.int64:  # (stage one's grids are int32)

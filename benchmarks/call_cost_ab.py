@@ -13,18 +13,22 @@ import statistics
 import subprocess
 import sys
 
-# `base` imports the tree given instead of the installed (editable) rangemesh
-CODE = r'''
+# The child's first lines: `sys.argv[1]` is "installed", or the src folder of a tree to import
+# instead of the installed (editable) rangemesh (`benchmarks/fit_speed.py` starts the same way).
+TREE_PREAMBLE = r'''
 import sys
 if sys.argv[1] != "installed":
     sys.meta_path = [f for f in sys.meta_path if "editable" not in repr(f).lower()
                      and "skbc" not in repr(f)]
     sys.path.insert(0, sys.argv[1])
-import statistics, time
-import numpy as np
 import rangemesh
 if sys.argv[1] != "installed":
     assert rangemesh.__file__.startswith(sys.argv[1]), rangemesh.__file__
+'''
+
+CODE = TREE_PREAMBLE + r'''
+import statistics, time
+import numpy as np
 r, c = np.mgrid[0:16, 0:16]
 d = 100.0 + r + 0.5 * c + ((r - 8) ** 2 + (c - 8) ** 2) * 0.1
 for _ in range(300):

@@ -21,21 +21,15 @@ from pathlib import Path
 
 DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
 
-# `sys.argv[1]`: "installed", or the src folder of the tree to import instead
-CODE = r'''
-import sys
-if sys.argv[1] != "installed":
-    sys.meta_path = [f for f in sys.meta_path if "editable" not in repr(f).lower()
-                     and "skbc" not in repr(f)]
-    sys.path.insert(0, sys.argv[1])
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from call_cost_ab import TREE_PREAMBLE  # noqa: E402  (the sibling script: which tree to import)
+
+CODE = TREE_PREAMBLE + r'''
 import json, statistics, time
 import numpy as np
-import rangemesh
 from rangemesh import _core
 from rangemesh.camera import Orthographic
 from rangemesh.refine.heights import fit_heights
-if sys.argv[1] != "installed":
-    assert rangemesh.__file__.startswith(sys.argv[1]), rangemesh.__file__
 
 
 def median_us(fn, n):

@@ -110,11 +110,9 @@ _KERNEL_LOOP = textwrap.dedent("""
 """)
 
 
-def test_ctrl_c_stops_the_flips_and_the_sample_threads(tmp_path):
-    """SIGINT at various moments, mostly inside the kernels: KeyboardInterrupt, never a crash."""
-    script = tmp_path / "loop.py"
-    script.write_text(_KERNEL_LOOP)
-    for delay in (0.1, 0.4, 0.9, 1.6):
+def _interrupt_at(script, delays):
+    """Run `script` (it prints "ready", then loops) once a delay; SIGINT it after that delay."""
+    for delay in delays:
         proc = subprocess.Popen([sys.executable, str(script)], stdout=subprocess.PIPE,
                                 stderr=subprocess.PIPE, text=True)
         assert proc.stdout.readline().strip() == "ready"
@@ -122,6 +120,13 @@ def test_ctrl_c_stops_the_flips_and_the_sample_threads(tmp_path):
         err = interrupt(proc)
         assert proc.returncode == -signal.SIGINT, err  # an uncaught KeyboardInterrupt
         assert err.rstrip().endswith("KeyboardInterrupt"), err
+
+
+def test_ctrl_c_stops_the_flips_and_the_sample_threads(tmp_path):
+    """SIGINT at various moments, mostly inside the kernels: KeyboardInterrupt, never a crash."""
+    script = tmp_path / "loop.py"
+    script.write_text(_KERNEL_LOOP)
+    _interrupt_at(script, (0.1, 0.4, 0.9, 1.6))
 
 
 _STAGE_TWO_LOOP = textwrap.dedent("""
@@ -156,14 +161,7 @@ def test_ctrl_c_stops_stage_two_and_its_arrays_are_freed(tmp_path):
     on threads of their own): KeyboardInterrupt, never a crash."""
     script = tmp_path / "loop.py"
     script.write_text(_STAGE_TWO_LOOP)
-    for delay in (0.1, 0.5, 1.1, 1.9, 2.8):
-        proc = subprocess.Popen([sys.executable, str(script)], stdout=subprocess.PIPE,
-                                stderr=subprocess.PIPE, text=True)
-        assert proc.stdout.readline().strip() == "ready"
-        time.sleep(delay)
-        err = interrupt(proc)
-        assert proc.returncode == -signal.SIGINT, err  # an uncaught KeyboardInterrupt
-        assert err.rstrip().endswith("KeyboardInterrupt"), err
+    _interrupt_at(script, (0.1, 0.5, 1.1, 1.9, 2.8))
 
 
 # --- stage two's whole-mesh steps (`rangemesh.paper.triangulation`) against NumPy -------------

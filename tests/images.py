@@ -109,8 +109,8 @@ def lidar_scan(folder, name="scan", rows=64, cols=2048, seed=0):
     Writes ``name.bin`` (KITTI float32 x y z intensity, staggered, index = step * rows + beam, no
     return = (0, 0, 0)), ``name.range.npy`` and ``name.intensity.npy`` (destaggered, 0 = no
     return) and ``name.beams.json``. The scene: the sensor 1.8 m above flat ground, a building
-    front 25 m ahead, six posts and trunks; no return from the sky beyond 120 m and from 3 % of
-    the rays at random. Returns {"bin", "range", "intensity", "beams"}: the paths.
+    front 25 m ahead, six posts and trunks; no return from the sky beyond 120 m and from a fifth
+    of the rays that meet the ground beyond 40 m, at random. Returns {"bin", "range", "intensity", "beams"}: the paths.
     """
     import json
 
@@ -146,7 +146,8 @@ def lidar_scan(folder, name="scan", rows=64, cols=2048, seed=0):
             ok = (t > 0) & (t * ray[..., 2] < top - 1.8)
             dist = np.where(ok, np.minimum(dist, t), dist)
     dist = dist + rng.normal(0.0, 0.01, dist.shape)
-    hit = np.isfinite(dist) & (dist < 120.0) & (rng.random(dist.shape) > 0.03)
+    # grazing returns from far ground are weak: 20 % of those beyond 40 m are lost
+    hit = np.isfinite(dist) & (dist < 120.0) & ((dist < 40.0) | (rng.random(dist.shape) > 0.2))
     pts = np.where(hit[..., None], dist[..., None] * ray, 0.0).astype("<f4")
     inten = np.where(hit, rng.uniform(1.0, 200.0, hit.shape), 0.0).astype("<f4")
     # stagger: destaggered column c of beam b is the sensor's step (c - shift[b]) mod cols

@@ -110,7 +110,8 @@ def lidar_scan(folder, name="scan", rows=64, cols=2048, seed=0):
     return = (0, 0, 0)), ``name.range.npy`` and ``name.intensity.npy`` (destaggered, 0 = no
     return) and ``name.beams.json``. The scene: the sensor 1.8 m above flat ground, a building
     front 25 m ahead, six posts and trunks; no return from the sky beyond 120 m and from a fifth
-    of the rays that meet the ground beyond 40 m, at random. Returns {"bin", "range", "intensity", "beams"}: the paths.
+    of the rays that meet the ground beyond 40 m, at random.
+    Returns {"bin", "range", "intensity", "beams"}: the paths.
     """
     import json
 

@@ -8,7 +8,7 @@ from rangemesh import evaluate, scenes, triangulate
 from rangemesh.paper.targets import auto_tiles
 
 from .helpers import assert_valid_mesh
-from .images import REAL_IMAGES, load
+from .images import REAL_IMAGES, load_or_crop
 
 
 def _edges(mesh):
@@ -17,8 +17,8 @@ def _edges(mesh):
 
 
 @pytest.mark.parametrize("rel, background", REAL_IMAGES, ids=[r for r, _ in REAL_IMAGES])
-def test_vertex_count_within_2_percent(shared_data, rel, background):
-    img = load(shared_data, rel)
+def test_vertex_count_within_2_percent(data_or_crops, rel, background):
+    img = load_or_crop(data_or_crops, rel)
     n_valid = rangemesh.fill_gaps(*rangemesh.to_depth_and_mask(img, background))[1].sum()
     for n in (1000, 5000, 20000):
         m = triangulate(img, background=background, vertices=n, method="paper")
@@ -52,8 +52,8 @@ def test_auto_tiles_by_hand():
 
 @pytest.mark.parametrize("rel, background", REAL_IMAGES[:8], ids=[r for r, _ in REAL_IMAGES[:8]])
 @pytest.mark.parametrize("bound", [1.0, 0.5])
-def test_error_bound_holds(shared_data, rel, background, bound):
-    img = load(shared_data, rel)
+def test_error_bound_holds(data_or_crops, rel, background, bound):
+    img = load_or_crop(data_or_crops, rel)
     m = triangulate(img, background=background, max_error=bound, method="paper")
     e = evaluate(m, img, background=background)  # the same code as evaluate, measured again
     assert e.relative_error <= bound
@@ -78,8 +78,8 @@ def test_error_bound_on_a_scene_is_near_minimal():
 @pytest.mark.parametrize("rel, background", [REAL_IMAGES[0], REAL_IMAGES[2], REAL_IMAGES[6]],
                          ids=["chair", "cones", "tum"])
 @pytest.mark.parametrize("L", [6, 15, 40])
-def test_max_edge_holds_on_every_edge(shared_data, rel, background, L):
-    img = load(shared_data, rel)
+def test_max_edge_holds_on_every_edge(data_or_crops, rel, background, L):
+    img = load_or_crop(data_or_crops, rel)
     m = triangulate(img, background=background, max_edge=L, method="paper")
     assert_valid_mesh(m, check_overlap=False)
     assert _edges(m).max() <= L

@@ -8,7 +8,7 @@ from rangemesh import evaluate, scenes, triangulate
 from rangemesh.paper.targets import auto_tiles
 
 from .helpers import assert_valid_mesh
-from .images import REAL_IMAGES, load_or_crop
+from .images import REAL_IMAGES, crop_of, load_or_crop
 
 
 def _edges(mesh):
@@ -108,10 +108,13 @@ def test_target_errors(kwargs, match):
         triangulate(np.add.outer(np.arange(30.0), np.arange(40.0)), **kwargs)
 
 
-def test_cli_targets(shared_data, tmp_path, capsys):
+def test_cli_targets(tmp_path, capsys):
+    import imageio.v3 as iio
+
     from rangemesh.cli import main
 
-    src = str(shared_data / "middlebury/teddy_disp2.png")
+    src = str(tmp_path / "cones.png")  # the committed crop of middlebury/cones_disp2.png
+    iio.imwrite(src, crop_of("middlebury/cones_disp2.png"))
     assert main(["mesh", src, "-o", str(tmp_path / "t.ply"), "--vertices", "3000", "--json"]) == 0
     import json
 

@@ -110,8 +110,11 @@ def test_other_formats_read_back(tmp_path, capsys, suffix):
     np.testing.assert_allclose(back.points[tri], want.vertices[want.faces], rtol=1e-6)
 
 
-def test_ascii_ply_with_pixels_and_eval(shared_data, tmp_path, capsys):
-    src = shared_data / "rgbd/pcl_grabber_frame_20121214T142255.814212_depth.tiff"
+def test_ascii_ply_with_pixels_and_eval(tmp_path, capsys):
+    import tifffile
+
+    src = tmp_path / "boxes.tiff"  # the committed crop of the PCL grabber frame, a 16-bit TIFF
+    tifffile.imwrite(src, crops()["boxes"][0])
     out = tmp_path / "boxes.ply"
     rc, _, _ = run(["mesh", src, "-o", out, "--ascii", "--pixels", "--quiet"], capsys)
     assert rc == 0

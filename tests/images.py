@@ -4,6 +4,9 @@ And what tests use without that folder: the committed crops of the real images, 
 stand-ins (an RGB-D frame, a spinning-LiDAR scan) for tests that need some real-looking input.
 """
 
+import json
+from pathlib import Path
+
 import numpy as np
 
 # (relative path, background marker); the marker comes from shared/data/README.md.
@@ -42,22 +45,11 @@ def load(root, rel):
 # For tests that need some real-looking input but no particular file: they run without the
 # data folder. Each is deterministic (seeded) and built from rangemesh.scenes where one fits.
 
-HERE = __import__("pathlib").Path(__file__).resolve().parent
-
-
-def crops():
-    """The committed crops of the real images (tests/data/crops.*): name -> (array, marker)."""
-    import json
-
-    meta = json.loads((HERE / "data" / "crops.json").read_text())
-    with np.load(HERE / "data" / "crops.npz") as z:
-        return {k: (z[k], meta[k]["background"]) for k in meta}
+HERE = Path(__file__).resolve().parent
 
 
 def crop_of(rel):
     """The committed crop of the real image `rel`, or None when there is none."""
-    import json
-
     meta = json.loads((HERE / "data" / "crops.json").read_text())
     for name, m in meta.items():
         if m["source"] == rel:
@@ -113,9 +105,7 @@ def lidar_scan(folder, name="scan", rows=64, cols=2048, seed=0):
     of the rays that meet the ground beyond 40 m, at random.
     Returns {"bin", "range", "intensity", "beams"}: the paths.
     """
-    import json
-
-    folder = __import__("pathlib").Path(folder)
+    folder = Path(folder)
     rng = np.random.default_rng(seed)
     el = np.linspace(17.0, -16.4, rows) + rng.uniform(-0.05, 0.05, rows)
     residual = rng.uniform(-0.08, 0.08, rows)

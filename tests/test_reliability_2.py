@@ -18,7 +18,8 @@ from rangemesh import Rays, Spherical
 from rangemesh.cli import main
 from rangemesh.io import read_lidar_bin, read_mesh, write_mesh
 
-from .images import crops, lidar_scan
+from .golden import crops
+from .images import lidar_scan
 
 SCAN = "lidar/rellis3d_os1-64_000000"
 

@@ -16,7 +16,8 @@ import rangemesh
 from rangemesh.cli import main
 from rangemesh.io import read_range_image
 
-from .images import REAL_IMAGES, crops, load, rgbd_frame
+from .golden import crops
+from .images import REAL_IMAGES, load, rgbd_frame
 
 
 def run(argv, capsys):

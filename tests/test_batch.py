@@ -12,7 +12,7 @@ from rangemesh import scenes
 from rangemesh.batch import expand_inputs, mesh_many, mesh_stream
 from rangemesh.cli import main
 
-from .images import crops
+from .golden import crops
 
 
 def test_stream_equals_triangulate_frame_by_frame():

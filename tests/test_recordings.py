@@ -1,8 +1,8 @@
 """ROS recordings in, meshes back in the recording (rangemesh.recordings, `rangemesh batch`).
 
-The recordings are written by `rosbags`' writers from the shared RGB-D frames (or are the real
-RealSense bag), and the markers we write are read back by `rosbags`: expected values come from
-the arrays the fixtures wrote and from `rangemesh.triangulate` on them.
+The recordings are written by `rosbags`' writers from a synthetic RGB-D frame (tests/images.py),
+or are the real RealSense bag, and the markers we write are read back by `rosbags`: expected values
+come from the arrays the fixtures wrote and from `rangemesh.triangulate` on them.
 """
 
 import json
@@ -17,6 +17,7 @@ from rangemesh.cli import main
 from rangemesh.recordings import Recording, mesh_bag, mesh_recording
 from rangemesh.recordings.decode import depth_image
 
+from .images import rgbd_frame
 from .rosbag_writer import (
     COLOR_TOPIC,
     DEPTH_TOPIC,
@@ -38,17 +39,10 @@ N = 300  # vertices per frame: small meshes, quick tests
 REALSENSE = "rosbag/librealsense_d435_single_depth_color_640x480.bag"
 
 
-def _read(path):
-    import imageio.v3 as iio
-
-    return np.asarray(iio.imread(path))
-
-
 @pytest.fixture(scope="module")
-def frames(shared_data):
-    """Three TUM depth frames in 1/5000 m (the slambook2 ch7 frame, twice with noise) and colour."""
-    depth = _read(shared_data / "rgbd" / "slambook2_ch7_1_depth.png").astype(np.uint16)
-    color = _read(shared_data / "rgbd" / "slambook2_ch7_1_color.png")[..., :3]
+def frames():
+    """Three TUM depth frames in 1/5000 m (a Kinect-like frame, twice with noise) and colour."""
+    depth, color = rgbd_frame((480, 640))
     rng = np.random.default_rng(7)
     out = [depth]
     for _ in range(2):

@@ -20,7 +20,7 @@ from rangemesh import evaluate, scenes, triangulate
 from rangemesh.render import render_depth
 
 from .helpers import assert_valid_mesh
-from .images import REAL_IMAGES, load
+from .images import REAL_IMAGES, load_or_crop
 
 CROPS = Path(__file__).parent / "data" / "crops.npz"
 CROP_BACKGROUND = {"chair": 0, "venus": None, "cones": 0, "tum": 0, "boxes": 0, "nyu": 2047,
@@ -220,8 +220,8 @@ def test_scenes_with_holes(seed, name, holes, n):
 
 
 @pytest.mark.parametrize("rel, background", REAL_IMAGES, ids=[r[0].split("/")[-1] for r in REAL_IMAGES])
-def test_real_images(shared_data, rel, background):
-    image = load(shared_data, rel)
+def test_real_images(data_or_crops, rel, background):
+    image = load_or_crop(data_or_crops, rel)
     m = triangulate(image, background=background, vertices=3000, method="refine")
     valid = _valid(image, background)
     assert len(m.vertices) == min(3000, int(valid.sum()))

@@ -8,7 +8,7 @@ from rangemesh import evaluate, scenes, triangulate
 from rangemesh.paper.targets import auto_tiles
 
 from .helpers import assert_valid_mesh
-from .images import REAL_IMAGES, load
+from .images import REAL_IMAGES, crop_of, load_or_crop
 
 
 def _edges(mesh):
@@ -17,8 +17,8 @@ def _edges(mesh):
 
 
 @pytest.mark.parametrize("rel, background", REAL_IMAGES, ids=[r for r, _ in REAL_IMAGES])
-def test_vertex_count_within_2_percent(shared_data, rel, background):
-    img = load(shared_data, rel)
+def test_vertex_count_within_2_percent(data_or_crops, rel, background):
+    img = load_or_crop(data_or_crops, rel)
     n_valid = rangemesh.fill_gaps(*rangemesh.to_depth_and_mask(img, background))[1].sum()
     for n in (1000, 5000, 20000):
         m = triangulate(img, background=background, vertices=n, method="paper")
@@ -52,8 +52,8 @@ def test_auto_tiles_by_hand():
 
 @pytest.mark.parametrize("rel, background", REAL_IMAGES[:8], ids=[r for r, _ in REAL_IMAGES[:8]])
 @pytest.mark.parametrize("bound", [1.0, 0.5])
-def test_error_bound_holds(shared_data, rel, background, bound):
-    img = load(shared_data, rel)
+def test_error_bound_holds(data_or_crops, rel, background, bound):
+    img = load_or_crop(data_or_crops, rel)
     m = triangulate(img, background=background, max_error=bound, method="paper")
     e = evaluate(m, img, background=background)  # the same code as evaluate, measured again
     assert e.relative_error <= bound
@@ -78,8 +78,8 @@ def test_error_bound_on_a_scene_is_near_minimal():
 @pytest.mark.parametrize("rel, background", [REAL_IMAGES[0], REAL_IMAGES[2], REAL_IMAGES[6]],
                          ids=["chair", "cones", "tum"])
 @pytest.mark.parametrize("L", [6, 15, 40])
-def test_max_edge_holds_on_every_edge(shared_data, rel, background, L):
-    img = load(shared_data, rel)
+def test_max_edge_holds_on_every_edge(data_or_crops, rel, background, L):
+    img = load_or_crop(data_or_crops, rel)
     m = triangulate(img, background=background, max_edge=L, method="paper")
     assert_valid_mesh(m, check_overlap=False)
     assert _edges(m).max() <= L
@@ -108,10 +108,13 @@ def test_target_errors(kwargs, match):
         triangulate(np.add.outer(np.arange(30.0), np.arange(40.0)), **kwargs)
 
 
-def test_cli_targets(shared_data, tmp_path, capsys):
+def test_cli_targets(tmp_path, capsys):
+    import imageio.v3 as iio
+
     from rangemesh.cli import main
 
-    src = str(shared_data / "middlebury/teddy_disp2.png")
+    src = str(tmp_path / "cones.png")  # the committed crop of middlebury/cones_disp2.png
+    iio.imwrite(src, crop_of("middlebury/cones_disp2.png"))
     assert main(["mesh", src, "-o", str(tmp_path / "t.ply"), "--vertices", "3000", "--json"]) == 0
     import json
 

@@ -484,6 +484,10 @@ def run(image, params: MeshParams, *, background="auto", camera=None, vertices=N
     t0 = time.perf_counter()
     image, background = check_image(image, background)  # resolves 'auto' by the dtype
     check_side(image.shape)
+    if method == "paper" and min(image.shape) < 2:  # no tile fits, with or without a target
+        raise ValueError(f"the paper's method needs an image of at least 2x2 pixels (its "
+                         f"tiles are at least 2 pixels thick), got {image.shape[0]}x"
+                         f"{image.shape[1]}")
     default_target = method == "refine" and vertices is None and max_error is None
     # refine's need grows with its vertices: those asked, or the default target's cap at most
     budget = default_vertex_cap(image.size) if default_target else vertices

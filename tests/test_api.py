@@ -5,6 +5,7 @@ import inspect
 import subprocess
 import sys
 import textwrap
+from fractions import Fraction
 
 import numpy as np
 import pytest
@@ -201,6 +202,16 @@ def test_auto_takes_zero_as_missing_in_integer_images_only():
     assert mesh.vertices[:, 2].min() >= 1000  # no vertex at z = 0
     as_float = img.astype(np.float64)  # a float 0 is a depth
     assert triangulate(as_float, vertices=40).vertices[:, 2].min() == 0.0
+
+
+@pytest.mark.parametrize("background", [10**400, -10**400, Fraction(10**401, 3)]
+                         + ([np.longdouble("1e400")]
+                            if np.finfo(np.longdouble).max > np.finfo(np.float64).max else []),
+                         ids=lambda b: type(b).__name__ + ("-" if b < 0 else ""))
+def test_a_background_beyond_the_float_range_is_refused_naming_it(background):
+    # F12: 10**400 raised "OverflowError: int too large to convert to float"
+    with pytest.raises(ValueError, match=r"^background=\S+ lies beyond the float range"):
+        triangulate(np.ones((10, 10), np.uint16), background=background)
 
 
 def test_four_entry_points_give_the_same_mesh(tmp_path, capsys):

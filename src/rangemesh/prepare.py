@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 import numbers
+from decimal import Decimal
 
 import numpy as np
 
@@ -45,7 +46,8 @@ def to_depth_and_mask(image, background=None) -> tuple[np.ndarray, np.ndarray]:
     TypeError
         If the image is not numeric or `background` is not a number.
     ValueError
-        If the image is not 2-D or is empty.
+        If the image is not 2-D or is empty, `background` lies beyond the
+        float range, or a ``longdouble`` image holds finite values beyond it.
 
     Examples
     --------
@@ -104,7 +106,10 @@ def check_image(image, background=None):
             raise TypeError(f"background must be a number, NaN, None or 'auto', "
                             f"got {background!r}")
         background = guess_background(arr)  # by the dtype as given, before any conversion
+    wide = arr
     arr = kernel_array(arr)
+    if arr.dtype.itemsize < wide.dtype.itemsize and arr.dtype.kind == "f":
+        _check_narrowed(wide, arr, mask)
     if mask is not None and mask.any():
         # NaN is missing depth whatever the background is; the kernels compare
         # integers as float64, so the float64 copy changes no value they see
@@ -113,9 +118,39 @@ def check_image(image, background=None):
     if background is not None:
         if isinstance(background, (bool, np.bool_)) or not isinstance(background, numbers.Real):
             raise TypeError(f"background must be a number, NaN or None, got {background!r}")
-        if math.isnan(float(background)):
+        try:
+            value = float(background)
+        except OverflowError:  # a Python int or Fraction beyond float64
+            value = math.inf
+        infinite = isinstance(background, (float, np.floating)) and np.isinf(background)
+        if math.isinf(value) and not infinite:
+            raise ValueError(f"background={_short(background)} lies beyond the float range "
+                             f"(float64, up to 1.8e+308): no pixel can hold it")
+        if math.isnan(value):
             background = None
     return arr, background
+
+
+def _short(x) -> str:
+    """A number in a few digits, whatever its type (a 400-digit int, a long double)."""
+    try:
+        return format(Decimal(str(x)).normalize(), ".6g")
+    except ArithmeticError:  # a Fraction's "p/q"
+        return f"{str(x)[:20]}..."
+
+
+def _check_narrowed(wide: np.ndarray, arr: np.ndarray, mask) -> None:
+    """Refuse finite values that became infinite in the narrower float (else: missing, silently)."""
+    lost = np.isfinite(wide) & ~np.isfinite(arr)
+    if mask is not None:
+        lost &= ~mask
+    if lost.any():
+        finite = wide[np.isfinite(wide) & (True if mask is None else ~mask)]
+        raise ValueError(f"depths {_short(finite.min())} .. {_short(finite.max())}: their range "
+                         f"exceeds the float range (float64, up to 1.8e+308); scale the image "
+                         f"(and its camera) down")
+
+
 def mask_into(arr: np.ndarray, background, depth: np.ndarray, valid: np.ndarray) -> None:
     """Write float depth (0.0 on background) and validity of a checked image into buffers."""
     bg = 0.0 if background is None else float(background)

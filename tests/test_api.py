@@ -267,6 +267,22 @@ def test_mesh_without_output_writes_beside_the_input(tmp_path, capsys):
     assert read_mesh(out).faces.shape[1] == 3
 
 
+def test_mesh_without_output_replaces_no_file_unless_overwrite(tmp_path, capsys):
+    # F14: an unrelated keep.ply beside keep.npy was replaced, exit 0
+    img = tmp_path / "keep.npy"
+    np.save(img, crease())
+    out = tmp_path / "keep.ply"
+    out.write_text("the user's own file")
+    assert main(["mesh", str(img), "--quiet"]) == 2
+    assert capsys.readouterr().err == (f"rangemesh: error: {out}: already there (the default "
+                                       f"output name); give -o FILE to write elsewhere, or "
+                                       f"--overwrite to replace it\n")
+    assert out.read_text() == "the user's own file"
+    assert main(["mesh", str(img), "--quiet", "--overwrite"]) == 0
+    assert read_mesh(out).faces.shape[1] == 3
+    assert main(["mesh", str(img), "--quiet", "-o", str(out)]) == 0  # a file named is replaced
+
+
 def test_summary_says_what_each_method_did(tmp_path, capsys):
     img = tmp_path / "c.npy"
     np.save(img, crease())

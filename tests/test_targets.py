@@ -139,8 +139,10 @@ def test_cli_targets(shared_data, tmp_path, capsys):
 
     doc = json.loads(capsys.readouterr().out)
     assert abs(doc["stats"]["vertices"] - 3000) <= 60
-    assert main(["mesh", src, "--max-error", "0.8", "--json"]) == 0
+    # (-o: a default output name would write into the shared data, beside the input)
+    assert main(["mesh", src, "--max-error", "0.8", "--json", "-o", str(tmp_path / "e.ply")]) == 0
     doc = json.loads(capsys.readouterr().out)
     assert doc["evaluation"]["relative_error"] <= 0.8
-    assert main(["mesh", src, "--method", "paper", "--max-edge", "10", "--samples", "4x4"]) == 2
+    assert main(["mesh", src, "--method", "paper", "--max-edge", "10", "--samples", "4x4",
+                 "-o", str(tmp_path / "p.ply")]) == 2
     assert "exclude" in capsys.readouterr().err

@@ -227,6 +227,12 @@ def _add_ply_options(p):
                    help="PLY only: keep each vertex's (row, col) as properties row, col")
 
 
+def _add_overwrite_option(p):
+    p.add_argument("--overwrite", action="store_true",
+                   help="replace an existing file of a default output name (a file named with "
+                        "-o or --preview is always replaced)")
+
+
 def _add_output_options(p):
     p.add_argument("--quiet", action="store_true", help="print nothing on success")
     p.add_argument("--json", action="store_true", help="print the figures as JSON on stdout")
@@ -498,8 +504,16 @@ def _default_output(args) -> None:
     out = image.with_suffix(".ply")
     if _same_file(out, image):
         raise UserError(f"{image}: is a .ply file; give -o FILE to choose where the mesh goes")
+    _refuse_unnamed(args, out, "-o FILE")
     args.output = str(out)
     args.output_defaulted = True
+
+
+def _refuse_unnamed(args, path: Path, option: str) -> None:
+    """An output the command named itself replaces no file unless --overwrite (the user never named it)."""
+    if path.exists() and not args.overwrite:
+        raise UserError(f"{path}: already there (the default output name); give {option} to "
+                        f"write elsewhere, or --overwrite to replace it")
 
 
 def _cmd_mesh(args):
@@ -513,6 +527,11 @@ def _cmd_mesh(args):
 
 
 def _cmd_demo(args):
+    for opt, name, option in (("output", "demo.ply", "-o FILE"),
+                              ("preview", "demo-preview.png", "--preview FILE")):
+        if getattr(args, opt) is None:
+            _refuse_unnamed(args, Path(name), option)
+            setattr(args, opt, name)
     _check_outputs(args)
     # A box standing on a plane in front of a four-sided pyramid: jump and crease edges.
     shape = (160, 200)
@@ -741,6 +760,7 @@ def build_parser() -> argparse.ArgumentParser:
                      help="a vertex takes the mean over the pixels it stands for, not its "
                           "own pixel's value")
     _add_ply_options(m)
+    _add_overwrite_option(m)
     _add_image_options(m)
     _add_mesh_options(m)
     _add_output_options(m)
@@ -748,10 +768,10 @@ def build_parser() -> argparse.ArgumentParser:
     d = sub.add_parser("demo", help="mesh a built-in synthetic scene (no input needed)",
                        description="Mesh a built-in scene (a box and a pyramid) and write the "
                                    "mesh and a preview picture.")
-    d.add_argument("-o", "--output", default="demo.ply", help="mesh file (default demo.ply)")
-    d.add_argument("--preview", default="demo-preview.png",
-                   help="PNG picture (default demo-preview.png)")
+    d.add_argument("-o", "--output", default=None, help="mesh file (default demo.ply)")
+    d.add_argument("--preview", default=None, help="PNG picture (default demo-preview.png)")
     _add_ply_options(d)
+    _add_overwrite_option(d)
     _add_mesh_options(d)
     _add_output_options(d)
 

@@ -659,8 +659,8 @@ def _recording_input(args):
     if len(args.inputs) > 1:
         raise UserError(f"{hits[0]}: a recording is meshed alone, not with other inputs")
     if args.background != "auto":
-        raise UserError("--background does not apply to a recording: 0 (and NaN in 32FC1 "
-                        "images) is missing depth there")
+        raise UserError("--background does not apply to a recording: 0 and below (and NaN in "
+                        "32FC1 images) are missing depth there")
     return hits[0]
 
 

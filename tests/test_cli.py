@@ -173,6 +173,21 @@ def test_demo_writes_mesh_and_preview(tmp_path, capsys):
     assert doc["evaluation"]["relative_error"] <= 0.5
 
 
+def test_demo_replaces_no_file_of_a_default_name_unless_overwrite(tmp_path, capsys, monkeypatch):
+    # F14: `rangemesh demo` replaced an existing demo.ply
+    monkeypatch.chdir(tmp_path)
+    for name, named in (("demo.ply", ["--preview", "p.png"]), ("demo-preview.png", ["-o", "m.ply"])):
+        (tmp_path / name).write_text("the user's own file")
+        rc, _, err = run(["demo", "--quiet", *named], capsys)
+        assert rc == 2 and err.count("\n") == 1
+        assert err.startswith(f"rangemesh: error: {name}: already there (the default output name)")
+        assert (tmp_path / name).read_text() == "the user's own file"
+    rc, _, err = run(["demo", "--quiet", "--overwrite"], capsys)
+    assert rc == 0 and err == ""
+    assert rangemesh.read_mesh(tmp_path / "demo.ply").faces.shape[1] == 3
+    assert (tmp_path / "demo-preview.png").read_bytes()[:4] == b"\x89PNG"
+
+
 @pytest.mark.slow
 def test_console_script_and_module_entry_points(tmp_path):
     from pathlib import Path

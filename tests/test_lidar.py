@@ -270,6 +270,30 @@ def test_orthographic_wrap_on_request():
 # --- the command line ----------------------------------------------------------------------
 
 
+def test_no_return_is_no_vertex_in_the_api_and_the_cli_alike(tmp_path, shared_data, scan, capsys):
+    # F16, issue 41: through the API (background='auto') a float scan's no-return 0 put 3250 of
+    # 20000 vertices at the sensor origin; the CLI with --beams put none there
+    from rangemesh.cli import main
+
+    rng, _, _, cam = scan
+    assert rng.dtype == np.float32 and (rng == 0).mean() > 0.3  # README: 0 = no return, 40 %
+    mesh = triangulate(rng, camera=cam, vertices=5000)
+    assert len(mesh.vertices) == 5000
+    assert np.linalg.norm(mesh.vertices, axis=1).min() >= 0.8  # README: ranges 0.82 .. 107.8 m
+    out = tmp_path / "scan.ply"
+    assert main(["mesh", str(shared_data / f"{SCAN}.range.npy"), "--beams",
+                 str(shared_data / f"{SCAN}.beams.json"), "--vertices", "5000", "-o", str(out),
+                 "--quiet"]) == 0
+    back = read_mesh(out)
+    np.testing.assert_array_equal(back.faces, mesh.faces)
+    np.testing.assert_allclose(back.vertices, mesh.vertices, rtol=1e-6)  # PLY keeps float32
+    ev = rangemesh.evaluate(mesh, rng)
+    assert ev.valid_pixels == int((rng > 0).sum())
+    assert main(["info", str(shared_data / f"{SCAN}.range.npy"), "--beams",
+                 str(shared_data / f"{SCAN}.beams.json"), "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["valid_pixels"] == int((rng > 0).sum())
+
+
 def test_cli_meshes_the_scan_from_npy_and_bin(tmp_path, os1, capsys):
     from rangemesh.cli import main
 

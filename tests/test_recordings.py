@@ -165,6 +165,21 @@ def test_mesh_bag_takes_triangulate_s_options(bags, frames):
         mesh_bag(bags["mcap"]["32FC1"], vertices=N, tiles=3)
 
 
+def test_depth_of_zero_and_below_is_no_return_in_a_recording(tmp_path, frames):
+    # F16: a 32FC1 frame's negative depths were meshed behind the camera (z < 0), exit 0
+    depth = metres(frames[0][0])
+    depth[100:160, 200:300] = -1.0  # behind the camera: no depth camera measures it
+    depth[300:320, 50:90] = 0.0
+    flipped = -np.nan_to_num(metres(frames[0][0]), nan=1.0)  # every depth negative
+    path = write_bag(tmp_path / "neg", [image_topic([depth, flipped], "32FC1"), info_topic()],
+                     "mcap")
+    (_, _, m), (_, _, empty) = mesh_bag(path, vertices=N)
+    assert m.vertices[:, 2].min() > 0
+    same_mesh(m, rangemesh.triangulate(np.where(depth > 0, depth, np.nan), camera=pinhole(1.0),
+                                       background=None, vertices=N))
+    assert empty.is_empty and "no valid pixel" in empty.stats.reason
+
+
 def test_a_bare_mcap_file_reads_as_its_folder(bags, frames):
     folder = bags["mcap"]["32FC1"]
     a = [(s, f, m.faces) for s, f, m in mesh_bag(folder, vertices=N)]

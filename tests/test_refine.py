@@ -290,6 +290,20 @@ def test_exact_count_when_the_mesh_already_fits_exactly():
     assert evaluate(m, depth).relative_error < 1e-9
 
 
+@pytest.mark.parametrize("shape, n", [((40, 40), 20), ((400, 400), 500)])
+def test_exact_count_with_one_huge_outlier(shape, n):
+    """A flat image with one pixel at 1e14: the count asked, as without the outlier.
+
+    (E10: the insertion's running sum of the outlier's huge errors rounded below 0 and was
+    taken for the error-bound stop: 8 of 20 vertices, 45 of 500.)
+    """
+    z = np.ones(shape)
+    z[shape[0] * 17 // 40, shape[1] * 23 // 40] = 1e14
+    m = triangulate(z, vertices=n)
+    assert len(m.vertices) == n and m.stats.target.met
+    assert_valid_mesh(m)
+
+
 @pytest.mark.parametrize("target", [["--vertices", "300"], ["--max-error", "1.5"]])
 def test_command_line_greedy(tmp_path, capsys, target):
     from rangemesh.cli import main

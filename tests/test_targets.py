@@ -108,6 +108,28 @@ def test_target_errors(kwargs, match):
         triangulate(np.add.outer(np.arange(30.0), np.arange(40.0)), **kwargs)
 
 
+@pytest.mark.parametrize("shape", [(1, 100), (100, 1), (1, 5), (1, 2000)])
+def test_a_one_pixel_thick_image_is_refused_alike_with_and_without_a_target(shape, tmp_path,
+                                                                            capsys):
+    # F7: with vertices= no grid was found and the search failed with "TypeError: 'NoneType'
+    # object is not subscriptable", in the API and the command line
+    from rangemesh.cli import main
+
+    z = 10 + np.random.default_rng(0).random(shape)
+    said = set()
+    for target in ({}, {"vertices": 50}, {"vertices": 3}, {"max_error": 1.0}, {"max_edge": 3.0}):
+        with pytest.raises(ValueError, match=rf"at least 2x2 pixels.* got {shape[0]}x{shape[1]}$") \
+                as refused:
+            triangulate(z, method="paper", **target)
+        said.add(str(refused.value))
+    assert len(said) == 1  # one message, whatever the target
+    src = tmp_path / "thin.npy"
+    np.save(src, z)
+    assert main(["mesh", str(src), "--method", "paper", "--vertices", "50", "-o",
+                 str(tmp_path / "o.ply")]) == 2
+    assert capsys.readouterr().err == f"rangemesh: error: {src}: {said.pop()}\n"
+
+
 def test_cli_targets(tmp_path, capsys):
     import imageio.v3 as iio
 
@@ -120,8 +142,10 @@ def test_cli_targets(tmp_path, capsys):
 
     doc = json.loads(capsys.readouterr().out)
     assert abs(doc["stats"]["vertices"] - 3000) <= 60
-    assert main(["mesh", src, "--max-error", "0.8", "--json"]) == 0
+    # (-o: a default output name would write into the shared data, beside the input)
+    assert main(["mesh", src, "--max-error", "0.8", "--json", "-o", str(tmp_path / "e.ply")]) == 0
     doc = json.loads(capsys.readouterr().out)
     assert doc["evaluation"]["relative_error"] <= 0.8
-    assert main(["mesh", src, "--method", "paper", "--max-edge", "10", "--samples", "4x4"]) == 2
+    assert main(["mesh", src, "--method", "paper", "--max-edge", "10", "--samples", "4x4",
+                 "-o", str(tmp_path / "p.ply")]) == 2
     assert "exclude" in capsys.readouterr().err

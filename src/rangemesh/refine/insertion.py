@@ -111,8 +111,7 @@ def _assemble(vr, vc, tv, depth, valid, camera, walls, jump):
     return faces, pixels, n_walls
 
 
-def _count_note(got: int, asked: int, n_valid: int, n_pixels: int, no_walls_dropped: bool,
-                lo: float, hi: float) -> str:
+def _count_note(got: int, asked: int, n_valid: int, n_pixels: int, no_walls_dropped: bool) -> str:
     """Why a mesh has `got` vertices, not the `asked` ones: the cause that applies, named."""
     if n_valid < asked:
         return f"the image has only {n_valid} valid pixels"
@@ -122,8 +121,7 @@ def _count_note(got: int, asked: int, n_valid: int, n_pixels: int, no_walls_drop
         dropped = "background triangles" if n_valid < n_pixels else ""
         walls = "" if no_walls_dropped else "walls"
         return f"{got} vertices kept after dropping {' and '.join(x for x in (dropped, walls) if x)}"
-    return (f"{got} vertices: every other pixel fits its triangle to within 2^-32 of the depth "
-            f"range {lo:g} .. {hi:g}, which an outlier may stretch")
+    return f"{got} vertices: the insertion found no other pixel to insert"
 
 
 def _one_fan_each(faces, pixels, valid):
@@ -447,8 +445,7 @@ def _greedy(depth, valid, camera, ref, extent, exponent, *, vertices, max_error,
     mesh = Mesh(verts, faces, pixels, camera, (h, w), stats)
     if vertices is not None:
         ok = got == int(vertices)
-        note = "" if ok else _count_note(got, int(vertices), n_valid, h * w, walls and n_walls == 0,
-                                         math.ldexp(lo, exponent), math.ldexp(hi, exponent))
+        note = "" if ok else _count_note(got, int(vertices), n_valid, h * w, walls and n_walls == 0)
         target = {"target": "vertices", "requested": int(vertices), "achieved": got, "met": ok,
                   "meshings": runs}
     else:

@@ -28,6 +28,7 @@ from .io import (
     SCAN_SUFFIX,
     bin_layout,
     read_color_image,
+    read_image_size,
     read_mesh,
     read_range_image,
     read_scan,
@@ -36,7 +37,7 @@ from .io import (
 from .metrics import evaluate
 from .paper.sampling import sampling_weights
 from .params import MeshParams, misplaced_option
-from .pipeline import OPTIONS, call_options, prepare, resolve_call, run
+from .pipeline import OPTIONS, call_options, check_memory, prepare, resolve_call, run
 from .prepare import guess_background, to_depth_and_mask
 
 __all__ = ["main", "build_parser"]
@@ -308,6 +309,12 @@ def _make_camera(args, image_shape=None):
 
 
 def _read_image(path) -> np.ndarray:
+    shape = read_image_size(path)  # from the header: a huge image is refused before decoding
+    if shape is not None:
+        try:
+            check_memory(shape)  # the paper's rule: the least any command here needs a pixel
+        except MemoryError as exc:
+            raise MemoryError(f"{path}: {_one_line(exc)}") from None
     try:
         return read_range_image(path)
     except (FileNotFoundError, ValueError) as exc:

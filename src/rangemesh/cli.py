@@ -689,7 +689,7 @@ def _info_recording(args):
         topics = rec.image_topics()
         cams = {}
         for t in topics:
-            if t.depth:
+            if t.depth and not t.problem:
                 try:
                     cams[t.topic] = rec.camera_info(t.topic, "", 0, (t.height, t.width))
                 except ValueError as exc:
@@ -700,7 +700,8 @@ def _info_recording(args):
     def camera(t):
         c = cams.get(t.topic)
         if c is None or isinstance(c, str):
-            return {"camera_info": None, "note": c or "no CameraInfo: give --intrinsics"}
+            note = t.problem or c or "no CameraInfo: give --intrinsics"
+            return {"camera_info": None, "note": note}
         return {"camera_info": c.topic, "fx": c.k[0], "fy": c.k[4], "cx": c.k[2], "cy": c.k[5],
                 "distortion_model": c.distortion_model, "distorted": any(v != 0 for v in c.d)}
 
@@ -711,6 +712,9 @@ def _info_recording(args):
         return 0
     print(f"{args.image}: {len(depth)} depth topic(s)")
     for t in depth:
+        if t.problem:  # no message of it is an image: no size to print
+            print(f"  {t.topic}: {t.encoding}, {t.count} messages; {t.problem}")
+            continue
         c = camera(t)
         cam = (f"camera {c['camera_info']} (fx {c['fx']:g}, fy {c['fy']:g}, cx {c['cx']:g}, "
                f"cy {c['cy']:g})" if c["camera_info"] else c["note"])

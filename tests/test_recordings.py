@@ -480,6 +480,33 @@ def test_batch_writes_markers_read_back_by_rosbags(bags, frames, tmp_path, kind)
         mesh_recording(bags[kind]["16UC1"], out, workers=1, vertices=N)
 
 
+def test_an_mcap_output_removes_what_killed_runs_left_beside_it(tmp_path):
+    # F10: a killed batch's hidden partial bag (and report) of a process that is gone is removed
+    from rangemesh.io import part_owner
+
+    path = write_bag(tmp_path / "s.bag", [image_topic([smooth()], "16UC1"),
+                                          info_topic(size=(48, 64))], "ros1")
+    gone = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"],
+                          capture_output=True, text=True, check=True).stdout.strip()
+    host = part_owner().rsplit(".", 1)[0]
+    dead = tmp_path / f".o.mcap.{host}.{gone}.k1ll3d00.part"
+    (dead / "bag").mkdir(parents=True)
+    (dead / "bag" / "bag.mcap").write_bytes(b"half a bag")
+    dead_report = tmp_path / f".o.rangemesh-batch.csv.{host}.{gone}.k1ll3d01.part.csv"
+    dead_report.write_text("half a report")
+    kept = [tmp_path / f".o.mcap.{part_owner()}.runn1ng0.part",  # a run still going (this one)
+            tmp_path / f".p.mcap.{host}.{gone}.k1ll3d02.part",  # another output's
+            tmp_path / ".o.mcap.mine.part"]  # not tagged by a writer: not surely a leftover
+    for k in kept:
+        k.mkdir()
+    res = mesh_recording(path, tmp_path / "o.mcap", workers=1, vertices=N)
+    assert [r.status for r in res] == ["meshed"]
+    assert not dead.exists() and not dead_report.exists()
+    assert all(k.is_dir() for k in kept)
+    assert sorted(p.name for p in tmp_path.iterdir() if not p.name.startswith(".")) == \
+        ["o.mcap", "o.rangemesh-batch.csv", "o.rangemesh-batch.json", "s.bag"]
+
+
 def test_the_cli_writes_markers_without_colour(bags, frames, tmp_path, capsys):
     out = tmp_path / "m.mcap"
     code, _, err = _cli(["batch", bags["db3"]["32FC1"], "-o", out, "--vertices", N, "--workers",

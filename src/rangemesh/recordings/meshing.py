@@ -256,6 +256,8 @@ def mesh_recording(path: str | os.PathLike, output: str | os.PathLike, topic: st
         if to_bag:
             report_dir = output.parent if str(output.parent) else Path(".")
             names = (f"{output.stem}.rangemesh-batch.csv", f"{output.stem}.rangemesh-batch.json")
+            for name in (output.name, *names):  # what killed runs left: the partial bag, reports
+                _clean_stale_parts(report_dir, name)
             sink = _BagSink(output, marker_topic or dt.topic.rstrip("/") + "/mesh")
         else:
             output.mkdir(parents=True, exist_ok=True)

@@ -202,6 +202,8 @@ def _image_header(path: Path) -> tuple | None:
 
     `reason` says why the file cannot hold the image its header describes ("" when it can).
     """
+    if not path.is_file():  # a pipe would block the open; `read_range_image` says what it is
+        return None
     try:
         with open(path, "rb") as fh:
             head = fh.read(1024)

@@ -36,6 +36,16 @@ class Topic:
     size: tuple = (480, 640)
 
 
+@dataclass
+class RawImage:
+    """An Image message's fields as given, whatever they describe (a broken size, too little data)."""
+
+    height: int
+    width: int
+    step: int
+    data: bytes
+
+
 def image_topic(frames, encoding, name=DEPTH_TOPIC, frame_id=FRAME_ID, stamps=None):
     stamps = stamps or [T0 + i * PERIOD for i in range(len(frames))]
     return Topic(name, "image", encoding, list(frames), list(stamps), frame_id)
@@ -85,6 +95,11 @@ def _message(ts, topic, i, ros1):
         data = topic.frames[i]
         return t["sensor_msgs/msg/CompressedImage"](header=header, format=topic.encoding,
                                                     data=np.frombuffer(data, np.uint8))
+    if isinstance(topic.frames[i], RawImage):
+        f = topic.frames[i]
+        return t["sensor_msgs/msg/Image"](
+            header=header, height=f.height, width=f.width, encoding=topic.encoding, is_bigendian=0,
+            step=f.step, data=np.frombuffer(f.data, np.uint8))
     arr = np.ascontiguousarray(topic.frames[i])
     h, w = arr.shape[:2]
     return t["sensor_msgs/msg/Image"](

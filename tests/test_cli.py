@@ -18,6 +18,7 @@ from rangemesh.io import read_range_image
 
 from .golden import crops
 from .images import REAL_IMAGES, load, rgbd_frame
+from .pngs import png_header
 
 
 def run(argv, capsys):
@@ -318,3 +319,81 @@ def test_16bit_binary_and_ascii_pgm(tmp_path):
     for f in (b, t):
         assert np.array_equal(read_range_image(f), a)
     assert struct.calcsize(">H") == 2
+
+
+# F17: the size in a Netpbm or PNG header is read first; one the file cannot hold is said in numbers
+@pytest.mark.parametrize("name, data, says", [
+    ("huge.pfm", b"Pf\n100000 100000\n-1.0\n" + bytes(1000),
+     "the header says 100000 x 100000 pixels (width x height), 40,000,000,000 bytes; the file "
+     "holds 1,000 bytes after its header (truncated or damaged)"),
+    ("huge.pgm", b"P5\n100000 100000\n65535\n" + bytes(1000),
+     "the header says 100000 x 100000 pixels (width x height), 20,000,000,000 bytes; the file "
+     "holds 1,000 bytes after its header (truncated or damaged)"),
+    ("neg.pfm", b"Pf\n-5 10\n-1.0\n" + bytes(1000),
+     "the header says -5 x 10 pixels (width x height): not an image"),
+    ("zero.pgm", b"P5\n0 10\n255\n" + bytes(100),
+     "the header says 0 x 10 pixels (width x height): not an image"),
+    ("short.ppm", b"P6\n# a comment\n10 10\n255\n" + bytes(299),
+     "the header says 10 x 10 pixels (width x height), 300 bytes; the file holds 299 bytes "
+     "after its header (truncated or damaged)"),
+    ("ascii.pgm", b"P2\n100 100\n255\n0 0 0\n",  # a digit and a separator a pixel, less one
+     "the header says 100 x 100 pixels (width x height), at least 19,999 bytes; the file holds "
+     "6 bytes after its header (truncated or damaged)"),
+    ("huge.png", png_header(100000, 100000, bit_depth=8) + bytes(1000),  # deflate: 1032:1 at best
+     "the header says 100000 x 100000 pixels (width x height), 10,000,000,000 bytes, and 1,033 "
+     "bytes cannot hold them even compressed (truncated or damaged)"),
+], ids=["huge.pfm", "huge.pgm", "neg.pfm", "zero.pgm", "short.ppm", "ascii.pgm", "huge.png"])
+def test_a_header_size_the_file_cannot_hold_is_said_in_numbers(tmp_path, capsys, name, data, says):
+    f = tmp_path / name
+    f.write_bytes(data)
+    with pytest.raises(ValueError) as e:
+        read_range_image(f)
+    assert str(e.value) == f"{f}: {says}"
+    rc, _, err = run(["mesh", f, "-o", tmp_path / "x.ply"], capsys)
+    assert rc == 2 and err == f"rangemesh: error: {f}: {says}\n"
+
+
+def _pillow_open_spy(monkeypatch):
+    import PIL.Image
+
+    calls, real = [], PIL.Image.open
+    monkeypatch.setattr(PIL.Image, "open", lambda *a, **k: calls.append(a) or real(*a, **k))
+    return calls
+
+
+def test_a_png_past_pillow_s_bomb_limit_reads_without_its_warning(tmp_path, capsys, monkeypatch):
+    # F13: Pillow's DecompressionBombWarning never leaks; the memory rule decides, from the header
+    import warnings
+
+    import imageio.v3 as iio
+    import PIL.Image
+
+    import rangemesh.pipeline
+
+    png = tmp_path / "big.png"
+    iio.imwrite(png, (1000 + 10 * np.add.outer(np.arange(40), np.arange(50))).astype(np.uint16),
+                extension=".png", plugin="pillow")
+    monkeypatch.setattr(PIL.Image, "MAX_IMAGE_PIXELS", 1500)  # 2000 pixels: past its warning
+    with warnings.catch_warnings(record=True) as said:
+        warnings.simplefilter("always")
+        rc, out, err = run(["info", png], capsys)
+        assert rc == 0 and f"{png}: 40 rows x 50 cols, uint16" in out, err
+        rc, _, err = run(["mesh", png, "-o", tmp_path / "big.ply", "--vertices", 100], capsys)
+        assert rc == 0, err
+    assert [str(w.message) for w in said] == []
+    # past twice the limit Pillow refuses: said in one line, before decoding
+    monkeypatch.setattr(PIL.Image, "MAX_IMAGE_PIXELS", 900)
+    rc, _, err = run(["info", png], capsys)
+    assert rc == 2 and err == (f"rangemesh: error: {png}: a 40x50 image (2,000 pixels) is more "
+                               f"than Pillow decodes (1,800: twice PIL.Image.MAX_IMAGE_PIXELS); "
+                               f"raise that limit to read it\n")
+    # the memory rule (20 bytes a pixel: 40,000 bytes) from the header, before decoding
+    monkeypatch.setattr(PIL.Image, "MAX_IMAGE_PIXELS", 1500)
+    monkeypatch.setattr(rangemesh.pipeline, "available_memory", lambda: 30_000)
+    opened = _pillow_open_spy(monkeypatch)
+    for cmd in (["info", png], ["mesh", png, "-o", tmp_path / "m.ply"]):
+        rc, _, err = run(cmd, capsys)
+        assert rc == 2 and err.count("\n") == 1, err
+        assert err.startswith(f"rangemesh: error: not enough memory ({png}: a 40x50 image needs "
+                              f"about "), err
+    assert opened == []

@@ -6,6 +6,8 @@ come from the arrays the fixtures wrote and from `rangemesh.triangulate` on them
 """
 
 import json
+import struct
+import subprocess
 import sys
 from pathlib import Path
 
@@ -18,6 +20,7 @@ from rangemesh.recordings import Recording, mesh_bag, mesh_recording
 from rangemesh.recordings.decode import depth_image
 
 from .images import rgbd_frame
+from .pngs import PNG_SIGNATURE, chunk, png_header, zeros_png
 from .rosbag_writer import (
     COLOR_TOPIC,
     DEPTH_TOPIC,
@@ -27,6 +30,8 @@ from .rosbag_writer import (
     LAG,
     PERIOD,
     T0,
+    RawImage,
+    Topic,
     compressed_depth,
     image_topic,
     info_topic,
@@ -94,6 +99,39 @@ def expected(arrays, scale, **kw):
 def same_mesh(a, b):
     np.testing.assert_array_equal(a.faces, b.faces)
     np.testing.assert_array_equal(a.vertices, b.vertices)
+
+
+def smooth(h=48, w=64):
+    """A small smooth 16UC1 depth image (0.7 to 1.3 m in millimetres), no file needed."""
+    return (1000 + 300 * np.add.outer(np.sin(np.arange(h) / 5),
+                                      np.cos(np.arange(w) / 7))).astype(np.uint16)
+
+
+def stamp_of(i):
+    """The stamp text of frame `i` of a written topic (``seconds.nanoseconds``)."""
+    return f"{(T0 + i * PERIOD) // 10**9}.{(T0 + i * PERIOD) % 10**9:09d}"
+
+
+def compressed_bag(path, payloads, fmt="16UC1; compressedDepth png", size=(48, 64)):
+    """A ROS 1 bag of compressedDepth messages given as bytes, with a CameraInfo of `size`."""
+    topic = Topic(DEPTH_TOPIC, "compressed", fmt, list(payloads),
+                  [T0 + i * PERIOD for i in range(len(payloads))])
+    return write_bag(path, [topic, info_topic(size=size)], "ros1")
+
+
+class Opened:
+    """Counts the images Pillow opens (each decode starts with ``PIL.Image.open``)."""
+
+    def __init__(self, monkeypatch):
+        import PIL.Image
+
+        self.calls, real = 0, PIL.Image.open
+
+        def spy(*args, **kwargs):
+            self.calls += 1
+            return real(*args, **kwargs)
+
+        monkeypatch.setattr(PIL.Image, "open", spy)
 
 
 # ---------------------------------------------------------------- reading and decoding
@@ -295,6 +333,33 @@ def _cli(argv, capsys):
     return code, out, err
 
 
+# F11: a broken size (height 0, width 0, a height the data cannot hold) is no image, said as such
+@pytest.mark.parametrize("height, width, step", [(0, 64, 128), (48, 0, 0), (2**31 - 1, 64, 128)])
+def test_a_broken_image_size_is_said_before_the_camera_is_looked_for(tmp_path, capsys, height,
+                                                                       width, step):
+    raw = RawImage(height, width, step, bytes(6144))
+    path = write_bag(tmp_path / "s.bag", [image_topic([raw, raw], "16UC1"),
+                                          info_topic(size=(48, 64))], "ros1")
+    code, _, err = _cli(["batch", path, "-o", tmp_path / "o.mcap", "--workers", 1], capsys)
+    assert code == 2 and err.count("\n") == 1, err
+    assert "not an image" in err and "CameraInfo" not in err
+    code, out, _ = _cli(["info", path], capsys)
+    assert f"{width}x{height}" not in out
+    assert "none of its 2 messages is a depth image this reads" in out and "not an image" in out
+
+
+def test_a_frame_that_is_not_an_image_fails_alone(tmp_path):
+    # F11: the topic's size comes from a message that is an image; the broken one fails alone
+    d = smooth()
+    path = write_bag(tmp_path / "s.bag", [image_topic([RawImage(0, 64, 128, bytes(6144)), d, d],
+                                                      "16UC1"), info_topic(size=(48, 64))],
+                     "ros1")
+    res = mesh_recording(path, tmp_path / "o.mcap", workers=1, vertices=N)
+    assert [r.status for r in res] == ["failed", "meshed", "meshed"]
+    assert res[0].error == ("ValueError: a 16UC1 image of 0x64 pixels with a row step of 128 "
+                            "bytes is not an image")
+
+
 @pytest.fixture
 def odd_bags(tmp_path, frames):
     d = mm(frames[0][0])
@@ -424,6 +489,33 @@ def test_batch_writes_markers_read_back_by_rosbags(bags, frames, tmp_path, kind)
         mesh_recording(bags[kind]["16UC1"], out, workers=1, vertices=N)
 
 
+def test_an_mcap_output_removes_what_killed_runs_left_beside_it(tmp_path):
+    # F10: a killed batch's hidden partial bag (and report) of a process that is gone is removed
+    from rangemesh.io import part_owner
+
+    path = write_bag(tmp_path / "s.bag", [image_topic([smooth()], "16UC1"),
+                                          info_topic(size=(48, 64))], "ros1")
+    gone = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"],
+                          capture_output=True, text=True, check=True).stdout.strip()
+    host = part_owner().rsplit(".", 1)[0]
+    dead = tmp_path / f".o.mcap.{host}.{gone}.k1ll3d00.part"
+    (dead / "bag").mkdir(parents=True)
+    (dead / "bag" / "bag.mcap").write_bytes(b"half a bag")
+    dead_report = tmp_path / f".o.rangemesh-batch.csv.{host}.{gone}.k1ll3d01.part.csv"
+    dead_report.write_text("half a report")
+    kept = [tmp_path / f".o.mcap.{part_owner()}.runn1ng0.part",  # a run still going (this one)
+            tmp_path / f".p.mcap.{host}.{gone}.k1ll3d02.part",  # another output's
+            tmp_path / ".o.mcap.mine.part"]  # not tagged by a writer: not surely a leftover
+    for k in kept:
+        k.mkdir()
+    res = mesh_recording(path, tmp_path / "o.mcap", workers=1, vertices=N)
+    assert [r.status for r in res] == ["meshed"]
+    assert not dead.exists() and not dead_report.exists()
+    assert all(k.is_dir() for k in kept)
+    assert sorted(p.name for p in tmp_path.iterdir() if not p.name.startswith(".")) == \
+        ["o.mcap", "o.rangemesh-batch.csv", "o.rangemesh-batch.json", "s.bag"]
+
+
 def test_the_cli_writes_markers_without_colour(bags, frames, tmp_path, capsys):
     out = tmp_path / "m.mcap"
     code, _, err = _cli(["batch", bags["db3"]["32FC1"], "-o", out, "--vertices", N, "--workers",
@@ -443,6 +535,92 @@ def test_a_bad_frame_is_reported_and_the_rest_go_on(tmp_path, frames):
     markers = read_markers(out)
     assert [m[2].header.stamp.nanosec for m in markers] == \
         [(T0 + i * PERIOD) % 10**9 for i in (0, 2)]
+
+
+_HEAD = struct.pack("<iff", -1, 0.0, 0.0)  # a 16UC1 compressedDepth message's 12-byte header
+
+
+# F3: a damaged compressedDepth frame, the first one too, fails alone; the topic is depth by its format
+@pytest.mark.parametrize("damage, says", [
+    ("cut", "the PNG inside the message cannot be decoded (the PNG header is cut short"),
+    ("junk", "the PNG inside the message cannot be decoded"),
+    ("idat", "the PNG inside the message cannot be decoded"),
+    ("8-bit", "the PNG of compressedDepth must be 16-bit grey, got 8-bit grey"),
+    ("rgb", "the PNG of compressedDepth must be 16-bit grey, got 16-bit RGB"),
+    ("empty", "a compressedDepth message is a 12-byte header and a PNG; this one (0 bytes) is not"),
+])
+def test_a_damaged_compressed_frame_fails_alone_and_the_others_mesh(tmp_path, damage, says):
+    d = smooth()
+    _, good = compressed_depth(d, "16UC1")
+    bad = {"cut": good[:40],
+           "junk": _HEAD + PNG_SIGNATURE + bytes(range(60)),
+           "idat": _HEAD + png_header(48, 64) + chunk(b"IDAT", b"not deflate data")
+           + chunk(b"IEND", b""),
+           "8-bit": _HEAD + zeros_png(48, 64, bit_depth=8),
+           "rgb": _HEAD + zeros_png(48, 64, color_type=2),
+           "empty": b""}[damage]
+    path = compressed_bag(tmp_path / "b.bag", [bad, good, good])
+    out = tmp_path / "b.mcap"
+    res = mesh_recording(path, out, workers=1, vertices=N)
+    assert [r.status for r in res] == ["failed", "meshed", "meshed"]
+    assert res[0].input == f"{DEPTH_TOPIC}@{stamp_of(0)}"
+    assert res[0].error.startswith(f"ValueError: {says}") and "\n" not in res[0].error
+    (want,) = expected([d], 0.001)
+    markers = read_markers(out)
+    assert [(m[2].header.stamp.sec, m[2].header.stamp.nanosec) for m in markers] == \
+        [divmod(T0 + i * PERIOD, 10**9) for i in (1, 2)]
+    for m in markers:
+        pts = np.array([[p.x, p.y, p.z] for p in m[2].points])
+        np.testing.assert_array_equal(pts, want.vertices[want.faces].reshape(-1, 3))
+
+
+def test_the_cli_names_the_damaged_compressed_frame_and_meshes_the_rest(tmp_path, capsys):
+    # F3: through the command, with and without --topic, and what info says of the topic
+    _, good = compressed_depth(smooth(), "16UC1")
+    path = compressed_bag(tmp_path / "b.bag", [good[:40], good, good])
+    for i, extra in enumerate(([], ["--topic", DEPTH_TOPIC])):
+        code, _, err = _cli(["batch", path, "-o", tmp_path / f"o{i}.mcap", "--workers", 1,
+                             "--vertices", N, *extra], capsys)
+        assert code == 1, err
+        assert f"failed: {DEPTH_TOPIC}@{stamp_of(0)}: ValueError: the PNG inside the message " \
+            f"cannot be decoded" in err
+        assert "meshed 2, skipped 0 (already there), failed 1 of 3" in err
+    code, out, _ = _cli(["info", path], capsys)
+    assert code == 0
+    assert f"{DEPTH_TOPIC}: 64x48 16UC1; compressedDepth png, 3 messages; camera {INFO_TOPIC}" in out
+
+
+def test_rvl_compressed_depth_is_refused_with_its_own_reason(tmp_path, capsys):
+    # F3: RVL is depth by its format, and not read: its own message, never "not depth"
+    path = compressed_bag(tmp_path / "r.bag", [_HEAD + bytes(100)] * 2,
+                          fmt="16UC1; compressedDepth rvl")
+    for extra in ([], ["--topic", DEPTH_TOPIC]):
+        code, _, err = _cli(["batch", path, "-o", tmp_path / "o.mcap", "--workers", 1, *extra],
+                            capsys)
+        assert code == 2 and err.count("\n") == 1, err
+        assert "(RVL) is not supported; record the topic as PNG compressedDepth or raw" in err
+        assert "not depth" not in err and "no depth topic" not in err
+
+
+def test_a_frame_is_checked_by_its_png_header_before_it_is_decoded(tmp_path, monkeypatch):
+    # F4: the size from the PNG header, against the memory check and the CameraInfo's size
+    import rangemesh.pipeline
+
+    _, good = compressed_depth(smooth(), "16UC1")
+    _, other = compressed_depth(smooth(60, 80), "16UC1")
+    path = compressed_bag(tmp_path / "m.bag", [good, other])
+    opened = Opened(monkeypatch)
+    res = mesh_recording(path, tmp_path / "m.mcap", workers=1, vertices=N)
+    # 80x60 has no CameraInfo (48x64 only): refused undecoded, as a raw Image of that size is
+    assert [r.status for r in res] == ["meshed", "failed"]
+    assert res[1].error == "ValueError: no CameraInfo of its size and frame id"
+    assert opened.calls == 1
+    # refine with N vertices needs 48 * 64 * 32 + 300 * 700 = 308,304 bytes: 100,000 are too few
+    monkeypatch.setattr(rangemesh.pipeline, "available_memory", lambda: 100_000)
+    res = mesh_recording(path, tmp_path / "n.mcap", workers=1, vertices=N)
+    assert res[0].status == "failed"
+    assert res[0].error.startswith("MemoryError: a 48x64 image needs about 0.3 MiB of memory")
+    assert opened.calls == 1  # nothing more decoded
 
 
 def test_folder_output_one_file_per_frame_named_by_stamp(bags, frames, tmp_path, capsys, open3d):
@@ -479,6 +657,17 @@ def test_info_lists_the_depth_topics(odd_bags, bags, capsys):
         (DEPTH_TOPIC, 640, 480, "16UC1", 3)
     assert (d["fx"], d["fy"], d["cx"], d["cy"]) == K_TUM
     assert [t["topic"] for t in doc["other_image_topics"]] == [COLOR_TOPIC]
+
+
+def test_info_reads_a_compressed_topic_s_size_from_the_png_header(tmp_path, capsys, monkeypatch):
+    # F4: info decodes nothing; a 3000 x 4000 frame of 24 MB of rows is 25 KB of PNG
+    path = compressed_bag(tmp_path / "big.bag", [_HEAD + zeros_png(3000, 4000)], size=(3000, 4000))
+    opened = Opened(monkeypatch)
+    code, out, _ = _cli(["info", path], capsys)
+    assert code == 0
+    assert f"{DEPTH_TOPIC}: 4000x3000 16UC1; compressedDepth png, 1 messages; camera " \
+        f"{INFO_TOPIC}" in out
+    assert opened.calls == 0
 
 
 @pytest.mark.slow

@@ -22,6 +22,7 @@ import glob
 import json
 import os
 import re
+import shutil
 import statistics
 import time
 from collections.abc import Iterable, Iterator
@@ -282,20 +283,35 @@ def _alive(pid: int) -> bool:
 _PART = re.compile(r"^\.(?P<name>.+)\.(?P<host>[A-Za-z0-9-]+)\.(?P<pid>\d+)\.[^.]+\.part(\.[^.]*)?$")
 
 
-def _clean_stale_parts(out_dir: Path):
+def _clean_stale_parts(out_dir: Path, name: str | None = None):
     """Remove temporary files that interrupted runs left behind (never a finished mesh).
 
     A temporary file names its writer (`rangemesh.io.part_owner`): it is
     removed when that process is gone, or, for another host's, when it is a
     day old. The files of batches still running into the same folder are
-    left alone; untagged ones (an older rangemesh's) are removed.
+    left alone; untagged ones (an older rangemesh's) are removed. A tagged
+    temporary folder (`rangemesh.recordings.writing.MarkerBag`'s partial
+    bag) is removed whole by the same rule; an untagged folder never.
+
+    Parameters
+    ----------
+    out_dir : Path
+    name : str, optional
+        Only the temporaries of the output file `name` (``.NAME.*.part``):
+        for an output in a folder that holds other things.
     """
     host = part_owner().rsplit(".", 1)[0]
     now = time.time()
-    for f in out_dir.glob(".*.part*"):
-        if not f.is_file():
+    pattern = f".{glob.escape(name)}.*.part*" if name is not None else ".*.part*"
+    for f in out_dir.glob(pattern):
+        folder = f.is_dir() and not f.is_symlink()
+        if not (f.is_file() or folder):
             continue
         tag = _PART.match(f.name)
+        if tag is None and (folder or name is not None):
+            continue  # an untagged folder, or a file among other things: not surely a leftover
+        if name is not None and tag["name"] != name:
+            continue  # another output's (``.NAME.x.*`` of an output named NAME.x)
         try:
             if tag is None:
                 stale = True
@@ -305,7 +321,9 @@ def _clean_stale_parts(out_dir: Path):
                 stale = now - f.stat().st_mtime > STALE_PART_SECONDS
         except (ValueError, OSError):
             stale = False
-        if stale:
+        if stale and folder:
+            shutil.rmtree(f, ignore_errors=True)
+        elif stale:
             f.unlink(missing_ok=True)
 
 

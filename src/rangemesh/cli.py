@@ -28,6 +28,7 @@ from .io import (
     SCAN_SUFFIX,
     bin_layout,
     read_color_image,
+    read_image_size,
     read_mesh,
     read_range_image,
     read_scan,
@@ -36,7 +37,7 @@ from .io import (
 from .metrics import evaluate
 from .paper.sampling import sampling_weights
 from .params import MeshParams, misplaced_option
-from .pipeline import OPTIONS, call_options, prepare, resolve_call, run
+from .pipeline import OPTIONS, call_options, check_memory, prepare, resolve_call, run
 from .prepare import NONPOSITIVE, guess_background, to_depth_and_mask
 
 __all__ = ["main", "build_parser"]
@@ -316,6 +317,12 @@ def _make_camera(args, image_shape=None):
 
 
 def _read_image(path) -> np.ndarray:
+    shape = read_image_size(path)  # from the header: a huge image is refused before decoding
+    if shape is not None:
+        try:
+            check_memory(shape)  # the paper's rule: the least any command here needs a pixel
+        except MemoryError as exc:
+            raise MemoryError(f"{path}: {_one_line(exc)}") from None
     try:
         return read_range_image(path)
     except (FileNotFoundError, ValueError) as exc:
@@ -705,7 +712,7 @@ def _info_recording(args):
         topics = rec.image_topics()
         cams = {}
         for t in topics:
-            if t.depth:
+            if t.depth and not t.problem:
                 try:
                     cams[t.topic] = rec.camera_info(t.topic, "", 0, (t.height, t.width))
                 except ValueError as exc:
@@ -716,7 +723,8 @@ def _info_recording(args):
     def camera(t):
         c = cams.get(t.topic)
         if c is None or isinstance(c, str):
-            return {"camera_info": None, "note": c or "no CameraInfo: give --intrinsics"}
+            note = t.problem or c or "no CameraInfo: give --intrinsics"
+            return {"camera_info": None, "note": note}
         return {"camera_info": c.topic, "fx": c.k[0], "fy": c.k[4], "cx": c.k[2], "cy": c.k[5],
                 "distortion_model": c.distortion_model, "distorted": any(v != 0 for v in c.d)}
 
@@ -727,6 +735,9 @@ def _info_recording(args):
         return 0
     print(f"{args.image}: {len(depth)} depth topic(s)")
     for t in depth:
+        if t.problem:  # no message of it is an image: no size to print
+            print(f"  {t.topic}: {t.encoding}, {t.count} messages; {t.problem}")
+            continue
         c = camera(t)
         cam = (f"camera {c['camera_info']} (fx {c['fx']:g}, fy {c['fy']:g}, cx {c['cx']:g}, "
                f"cy {c['cy']:g})" if c["camera_info"] else c["note"])

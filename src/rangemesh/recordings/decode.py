@@ -20,8 +20,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..io import PNG_SIGNATURE, PngHeader, check_pillow_size, pillow_quiet, png_header
+
 __all__ = ["Payload", "DEPTH_SCALES", "COLOR_ENCODINGS", "payload_of", "is_depth",
-           "depth_image", "color_image"]
+           "depth_shape", "depth_image", "color_image"]
 
 # encoding -> metres per stored value
 DEPTH_SCALES = {"16UC1": 0.001, "mono16": 0.001, "32FC1": 1.0}
@@ -29,7 +31,6 @@ COLOR_ENCODINGS = ("rgb8", "bgr8", "rgba8", "bgra8", "mono8")
 _DTYPES = {"16UC1": "u2", "mono16": "u2", "32FC1": "f4", "rgb8": "u1", "bgr8": "u1",
            "rgba8": "u1", "bgra8": "u1", "mono8": "u1"}
 _CHANNELS = {"rgb8": 3, "bgr8": 3, "rgba8": 4, "bgra8": 4}
-_PNG = b"\x89PNG\r\n\x1a\n"
 COMPRESSED_DEPTH_HEADER = 12
 
 
@@ -83,8 +84,14 @@ def is_depth(payload: Payload) -> bool:
     return payload.encoding in DEPTH_SCALES
 
 
-def _raw(payload: Payload, what: str) -> np.ndarray:
-    """The pixels of an Image message as an (H, W[, C]) array, rows cut to `step`."""
+def _raw_layout(payload: Payload, what: str) -> tuple[np.dtype, int, int]:
+    """``(dtype, channels, row bytes)`` of an Image message whose size its step and data hold.
+
+    Raises
+    ------
+    ValueError
+        A height or width below 1, a step shorter than a row, or too little data: not an image.
+    """
     enc = payload.encoding
     dt = np.dtype(_DTYPES[enc]).newbyteorder(">" if payload.bigendian else "<")
     ch = _CHANNELS.get(enc, 1)
@@ -95,7 +102,14 @@ def _raw(payload: Payload, what: str) -> np.ndarray:
                          f"bytes is not an image")
     if len(payload.data) < h * step - (step - row):
         raise ValueError(f"{what}: a {h}x{w} {enc} image needs {h * step} bytes, the message "
-                         f"holds {len(payload.data)} (truncated)")
+                         f"holds {len(payload.data)} (truncated): not an image")
+    return dt, ch, row
+
+
+def _raw(payload: Payload, what: str) -> np.ndarray:
+    """The pixels of an Image message as an (H, W[, C]) array, rows cut to `step`."""
+    dt, ch, row = _raw_layout(payload, what)
+    h, w, step = payload.height, payload.width, payload.step
     buf = np.frombuffer(payload.data, np.uint8, count=min(len(payload.data), h * step))
     if len(buf) < h * step:  # the last row may end without its padding
         buf = np.concatenate([buf, np.zeros(h * step - len(buf), np.uint8)])
@@ -104,31 +118,48 @@ def _raw(payload: Payload, what: str) -> np.ndarray:
     return arr.astype(dt.newbyteorder("="), copy=False)
 
 
-def _png(data: bytes, what: str) -> np.ndarray:
+def _png(data: bytes, what: str, header: PngHeader) -> np.ndarray:
     import imageio.v3 as iio
 
+    check_pillow_size(what, header.height, header.width)
     try:
-        return np.asarray(iio.imread(io.BytesIO(data), extension=".png", plugin="pillow"))
+        with pillow_quiet():  # its size was read from its header and checked first
+            return np.asarray(iio.imread(io.BytesIO(data), extension=".png", plugin="pillow"))
     except Exception as exc:  # Pillow raises many kinds of errors on damaged data
         raise ValueError(f"{what}: the PNG inside the message cannot be decoded "
                          f"({type(exc).__name__}: {exc})") from None
 
 
-def _compressed_depth(payload: Payload, what: str) -> np.ndarray:
+def _compressed_header(payload: Payload, what: str) -> PngHeader:
+    """The IHDR of a compressedDepth message's PNG: 16-bit grey, else a one-line ValueError."""
     fmt = payload.encoding
-    enc = payload.depth_encoding
     if "rvl" in fmt.lower():
         raise ValueError(f"{what}: compressedDepth format {fmt!r} (RVL) is not supported; "
                          f"record the topic as PNG compressedDepth or raw")
     data = payload.data
-    if data[COMPRESSED_DEPTH_HEADER:COMPRESSED_DEPTH_HEADER + 8] != _PNG:
+    png = data[COMPRESSED_DEPTH_HEADER:]
+    if png[:8] != PNG_SIGNATURE:
         raise ValueError(f"{what}: a compressedDepth message is a 12-byte header and a PNG; "
                          f"this one ({len(data)} bytes) is not")
-    _, quant_a, quant_b = struct.unpack("<iff", data[:COMPRESSED_DEPTH_HEADER])
-    img = _png(data[COMPRESSED_DEPTH_HEADER:], what)
-    if img.ndim != 2 or img.dtype != np.uint16:
+    try:
+        header = png_header(png[:33], len(png))
+    except ValueError as exc:
+        raise ValueError(f"{what}: the PNG inside the message cannot be decoded ({exc})") from None
+    if (header.bit_depth, header.color_type) != (16, 0):
         raise ValueError(f"{what}: the PNG of compressedDepth must be 16-bit grey, got "
-                         f"{img.dtype} of shape {img.shape}")
+                         f"{header.kind}")
+    return header
+
+
+def _compressed_depth(payload: Payload, what: str) -> np.ndarray:
+    enc = payload.depth_encoding
+    header = _compressed_header(payload, what)  # the header first: nothing decoded for a bad one
+    data = payload.data
+    _, quant_a, quant_b = struct.unpack("<iff", data[:COMPRESSED_DEPTH_HEADER])
+    img = _png(data[COMPRESSED_DEPTH_HEADER:], what, header)
+    if img.ndim != 2 or img.dtype != np.uint16 or img.shape != (header.height, header.width):
+        raise ValueError(f"{what}: the PNG of compressedDepth must be 16-bit grey of its "
+                         f"header's size, got {img.dtype} of shape {img.shape}")
     if enc == "16UC1":
         return img
     # 32FC1: quantised inverse depth; the same float32 arithmetic as the plugin's decoder
@@ -137,6 +168,33 @@ def _compressed_depth(payload: Payload, what: str) -> np.ndarray:
         depth = np.float32(quant_a) / (q - np.float32(quant_b))
     depth[img == 0] = np.nan
     return depth
+
+
+def _not_depth(payload: Payload, what: str) -> ValueError:
+    kind = "CompressedImage format" if payload.compressed else "encoding"
+    return ValueError(f"{what}: {kind} {payload.encoding!r} is not depth this reads "
+                      f"(16UC1, mono16 or 32FC1 Images; 16UC1 or 32FC1 compressedDepth)")
+
+
+def depth_shape(payload: Payload, what: str = "depth") -> tuple[int, int]:
+    """The ``(height, width)`` of a depth message from its header alone: no pixel decoded.
+
+    An Image's height and width, checked against its row step and data; a
+    compressedDepth message's PNG header (IHDR), which must say 16-bit grey.
+
+    Raises
+    ------
+    ValueError
+        Not depth, not an image (a size of 0, too little data), RVL, or a PNG
+        header that cannot be read: the reason in one line, naming `what`.
+    """
+    if not is_depth(payload):
+        raise _not_depth(payload, what)
+    if payload.compressed:
+        header = _compressed_header(payload, what)
+        return header.height, header.width
+    _raw_layout(payload, what)
+    return payload.height, payload.width
 
 
 def depth_image(payload: Payload, what: str = "depth") -> tuple[np.ndarray, float]:
@@ -161,9 +219,7 @@ def depth_image(payload: Payload, what: str = "depth") -> tuple[np.ndarray, floa
         Another encoding (named), or damaged data.
     """
     if not is_depth(payload):
-        kind = "CompressedImage format" if payload.compressed else "encoding"
-        raise ValueError(f"{what}: {kind} {payload.encoding!r} is not depth this reads "
-                         f"(16UC1, mono16 or 32FC1 Images; 16UC1 or 32FC1 compressedDepth)")
+        raise _not_depth(payload, what)
     enc = payload.depth_encoding
     arr = _compressed_depth(payload, what) if payload.compressed else _raw(payload, what)
     return arr, DEPTH_SCALES[enc]
@@ -184,7 +240,8 @@ def color_image(payload: Payload, what: str = "colour") -> np.ndarray:
         import imageio.v3 as iio
 
         try:
-            img = np.asarray(iio.imread(io.BytesIO(payload.data), plugin="pillow"))
+            with pillow_quiet():  # Pillow's own limit still refuses the largest
+                img = np.asarray(iio.imread(io.BytesIO(payload.data), plugin="pillow"))
         except Exception as exc:  # Pillow raises many kinds of errors on damaged data
             raise ValueError(f"{what}: the compressed image ({payload.encoding!r}) cannot be "
                              f"decoded ({type(exc).__name__}: {exc})") from None

@@ -20,9 +20,9 @@ from ..batch import BatchResult, _clean_stale_parts, dask_client, progress_bar, 
 from ..io import MESH_SUFFIXES, write_mesh
 from ..mesh import Mesh
 from ..metrics import evaluate
-from ..pipeline import OPTIONS, call_options, resolve_call, triangulate
+from ..pipeline import OPTIONS, call_options, check_memory, resolve_call, triangulate
 from ..prepare import NONPOSITIVE
-from .decode import color_image, depth_image
+from .decode import color_image, depth_image, depth_shape
 from .reading import Frame, Recording, stamp_text
 from .writing import MarkerBag, marker_bytes
 
@@ -68,9 +68,16 @@ def mesh_frame(frame: Frame, call: dict, how: str = "pixel") -> tuple[Mesh, obje
     ------
     ValueError
         The frame cannot be meshed: the reason in one line, naming the frame.
+    MemoryError
+        Its size, read from its header, needs more memory than is available
+        (`rangemesh.pipeline.check_memory`): nothing was decoded.
     """
     if frame.error:
         raise ValueError(f"{frame.name}: {frame.error}")
+    try:  # a compressed frame's size from its PNG header: a bomb is refused before decoding
+        check_memory(depth_shape(frame.depth, frame.name), call["method"], call["vertices"])
+    except MemoryError as exc:
+        raise MemoryError(f"{frame.name}: {exc}") from None
     depth, _ = depth_image(frame.depth, frame.name)
     try:
         mesh = triangulate(depth, background=BACKGROUND, camera=frame.camera, **call)
@@ -250,6 +257,8 @@ def mesh_recording(path: str | os.PathLike, output: str | os.PathLike, topic: st
         if to_bag:
             report_dir = output.parent if str(output.parent) else Path(".")
             names = (f"{output.stem}.rangemesh-batch.csv", f"{output.stem}.rangemesh-batch.json")
+            for name in (output.name, *names):  # what killed runs left: the partial bag, reports
+                _clean_stale_parts(report_dir, name)
             sink = _BagSink(output, marker_topic or dt.topic.rstrip("/") + "/mesh")
         else:
             output.mkdir(parents=True, exist_ok=True)

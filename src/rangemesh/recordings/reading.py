@@ -19,7 +19,7 @@ import numpy as np
 
 from .._optional import require
 from ..camera import Pinhole
-from .decode import DEPTH_SCALES, Payload, depth_image, is_depth, payload_of
+from .decode import DEPTH_SCALES, Payload, depth_shape, is_depth, payload_of
 
 __all__ = ["Recording", "Frame", "ImageTopic", "CameraInfo", "is_recording",
            "RECORDING_SUFFIXES", "stamp_text"]
@@ -28,6 +28,8 @@ RECORDING_SUFFIXES = (".bag", ".mcap", ".db3")
 IMAGE_TYPES = ("sensor_msgs/msg/Image", "sensor_msgs/msg/CompressedImage")
 INFO_TYPE = "sensor_msgs/msg/CameraInfo"
 FEATURE = "reading ROS recordings"
+# Messages of a depth topic read for its size when the first ones are not images (headers only)
+SIZE_PROBES = 16
 
 
 def is_recording(path: str | os.PathLike) -> bool:
@@ -50,7 +52,13 @@ def _stamp(header) -> int:
 
 @dataclass(frozen=True)
 class ImageTopic:
-    """An image topic of a recording, described by its first message."""
+    """An image topic of a recording, described by its first message.
+
+    A depth topic is one by its encoding or format alone; its size is that
+    of the first of its first `SIZE_PROBES` messages whose header describes
+    an image (a compressedDepth message's PNG header: nothing is decoded).
+    When none does, the size is 0 x 0 and `problem` says why.
+    """
 
     topic: str
     msgtype: str
@@ -59,6 +67,7 @@ class ImageTopic:
     height: int
     width: int
     depth: bool
+    problem: str = ""
 
     @property
     def depth_scale(self) -> float:
@@ -69,7 +78,7 @@ class ImageTopic:
         """The fields as a dictionary (``rangemesh info --json``)."""
         return {"topic": self.topic, "type": self.msgtype, "count": self.count,
                 "encoding": self.encoding, "height": self.height, "width": self.width,
-                "depth": self.depth}
+                "depth": self.depth, "problem": self.problem}
 
 
 @dataclass(frozen=True)
@@ -223,25 +232,39 @@ class Recording:
     # -- what it holds ----------------------------------------------------------------------
 
     def image_topics(self) -> list[ImageTopic]:
-        """Every image topic, with its first message's encoding and size, by topic name."""
+        """Every image topic, with its encoding and size (`ImageTopic`), by topic name."""
         out = []
         topics = sorted({c.topic for c in self._reader.connections if c.msgtype in IMAGE_TYPES})
         for topic in topics:
             conns = self._connections(topic)
             count = sum(c.msgcount for c in conns)
-            first = next((m for _, _, m in self._messages(conns)), None)
+            first, size, problem, read = None, (0, 0), "", 0
+            for _, _, msg in self._messages(conns):
+                pay = payload_of(msg)
+                first = first or pay
+                read += 1
+                if not is_depth(pay):
+                    size = (pay.height, pay.width)
+                    break
+                stamp = stamp_text(_stamp(msg.header))
+                try:  # by the header: a compressed frame's PNG is not decoded
+                    size = depth_shape(pay, stamp)
+                    break
+                except ValueError as exc:
+                    problem = problem or _one_line(exc).replace(f"{stamp}: ", f"({stamp}): ", 1)
+                if read >= SIZE_PROBES:
+                    break
             if first is None:
                 continue
-            pay = payload_of(first)
-            h, w = pay.height, pay.width
-            depth = is_depth(pay)
-            if pay.compressed and depth:  # the size is inside the PNG
-                try:
-                    h, w = depth_image(pay, topic)[0].shape
-                except ValueError:
-                    depth = False
+            if size != (0, 0):
+                problem = ""
+            elif problem and count == 1:
+                problem = f"its one message is not a depth image this reads; that message {problem}"
+            elif problem:
+                some = f"first {read}" if count > read else str(read)
+                problem = f"none of its {some} messages is a depth image this reads; the first {problem}"
             out.append(ImageTopic(topic, conns[0].msgtype.replace("/msg/", "/"), count,
-                                  pay.encoding, h, w, depth))
+                                  first.encoding, *size, is_depth(first), problem))
         return out
 
     def depth_topic(self, topic: str | None = None) -> ImageTopic:
@@ -342,6 +365,8 @@ class Recording:
             no `camera`, colour and depth of different sizes.
         """
         dt = self.depth_topic(topic)
+        if dt.problem:  # said before its camera is looked for: no size to look for it by
+            raise ValueError(f"{self.path}: {dt.topic}: {dt.problem}")
         ct = self._color_topic(color_topic, dt) if color_topic is not None else None
         if camera is None:
             shape = (dt.height, dt.width)
@@ -425,11 +450,13 @@ class Recording:
                color, want_color) -> Frame:
         error = ""
         cam = camera
-        if cam is None:
+        name = f"{topic}@{stamp_text(stamp)}"
+        try:  # not depth, or not an image: said before its camera is looked for (headers only)
+            shape = depth_shape(payload, name)
+        except ValueError as exc:
+            error = _one_line(exc).removeprefix(name + ": ")
+        if cam is None and not error:
             try:
-                if not is_depth(payload):
-                    raise ValueError(f"encoding {payload.encoding!r} is not depth")
-                shape = (payload.height, payload.width) if not payload.compressed else None
                 info = self.camera_info(topic, frame_id, stamp, shape, info_topic)
                 if info is None:
                     raise ValueError("no CameraInfo of its size and frame id")

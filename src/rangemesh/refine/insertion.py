@@ -7,6 +7,7 @@ import time
 
 import numpy as np
 
+from .. import _core
 from .._core import (
     EXACT_SPAN,
     build_halfedges,
@@ -22,7 +23,7 @@ from .._core import (
 from ..camera import Orthographic, backproject, pixel_aspect
 from ..mesh import Mesh, Stats, empty_mesh, with_fields
 from ..render import relative_error
-from .heights import fit_heights
+from .heights import fit_heights, height_rule
 from .start import corner_depths, first_mesh, hull_mesh, valid_hull
 from .strips import strip_insert, use_strips
 from .walls import drop_walls
@@ -279,9 +280,15 @@ def greedy_mesh(depth: np.ndarray, valid: np.ndarray, camera, *, vertices: int |
         depth = np.ldexp(depth, -exponent)
         ref = (np.ldexp(ref[0], -exponent), ref[1])
         extent = (math.ldexp(extent[0], -exponent), math.ldexp(extent[1], -exponent), extent[2])
-    mesh, target = _greedy(depth, valid, camera, ref, extent, exponent, vertices=vertices,
-                           max_error=max_error, fit=fit, diagonals=diagonals, walls=walls,
-                           jump=jump, max_vertices=max_vertices, first=None)
+    mesh = None
+    if vertices is not None and walls and not use_strips((h, w), min(int(vertices), extent[2]),
+                                                         max_error, extent[2]):
+        mesh, target = _native(depth, valid, camera, extent, exponent, int(vertices), fit=fit,
+                               diagonals=diagonals)
+    if mesh is None:  # the cases the native call does not take, or declined
+        mesh, target = _greedy(depth, valid, camera, ref, extent, exponent, vertices=vertices,
+                               max_error=max_error, fit=fit, diagonals=diagonals, walls=walls,
+                               jump=jump, max_vertices=max_vertices, first=None)
     if exponent and len(mesh.faces):
         mesh = with_fields(mesh, vertices=_in_units(mesh.vertices, camera, exponent))
     return mesh, target
@@ -321,6 +328,58 @@ def _in_units(points, camera, exponent):
     return out
 
 
+def _plan(shape, camera, n_valid, vertices, max_error, max_vertices):
+    """``want, scales, n_grid, strips``: the vertices sought, the Delaunay scales, the first
+    mesh's grid points and whether the image is meshed as two strips."""
+    want = n_valid if vertices is None else min(int(vertices), n_valid)
+    if vertices is None and max_vertices is not None:
+        want = min(int(max_vertices), n_valid)
+    n_grid = grid_size(want, n_valid, vertices is None)
+    if vertices is None and max_vertices is not None:  # the first mesh stays under the cap
+        n_grid = min(n_grid, grid_size(want, n_valid, False))
+    return want, delaunay_scales(camera, shape), n_grid, use_strips(shape, want, max_error, n_valid)
+
+
+def _count_record(got, asked, runs, n_valid, n_pixels, no_walls_dropped, lo, hi) -> dict:
+    """The target record of ``vertices=asked`` met with `got` vertices in `runs` meshings."""
+    target = {"target": "vertices", "requested": asked, "achieved": got, "met": got == asked,
+              "meshings": runs}
+    if got != asked:
+        target["note"] = _count_note(got, asked, n_valid, n_pixels, no_walls_dropped, lo, hi)
+    return target
+
+
+def _native(depth, valid, camera, extent, exponent, vertices, *, fit, diagonals):
+    """`_greedy` for ``vertices=`` on one strip with walls kept, as one native call.
+
+    Returns ``(mesh, target)``, or ``(None, None)`` when the call declines
+    (no triangle of valid corners, so the hull is the next start; a fit that
+    must raise or solve directly): `_greedy` then meshes the image.
+    """
+    h, w = depth.shape
+    lo, hi, n_valid = extent
+    want, scales, n_grid, _ = _plan((h, w), camera, n_valid, vertices, None, None)
+    req = _core.RefineRequest()
+    req.vertices, req.n_valid, req.lo, req.hi, req.n_grid = want, n_valid, lo, hi, n_grid
+    req.sr, req.sc = scales
+    req.flip, req.fit = diagonals == "error", fit
+    req.max_runs, req.max_bisect_runs = MAX_RUNS, MAX_BISECT_RUNS
+    req.heights = height_rule(n_valid)
+    res = _core.refine_mesh(depth, valid, camera.as_array(), req)
+    if not res.done:
+        return None, None
+    got = len(res.pixels)
+    seconds = {"insertion": res.seconds - res.fit_seconds}
+    if fit:
+        seconds["fit"] = res.fit_seconds
+    stats = Stats(vertices=got, triangles=len(res.faces), edges=res.edges, sampled_points=got,
+                  seconds=seconds, method="refine", grid_shape=None, flipped_edges=res.flips,
+                  insertions=res.insertions, strips=1, heights="fit" if fit else "pixel")
+    mesh = Mesh(res.vertices, res.faces, res.pixels, camera, (h, w), stats)
+    return mesh, _count_record(got, vertices, res.meshings, n_valid, h * w, True,
+                               math.ldexp(lo, exponent), math.ldexp(hi, exponent))
+
+
 def _greedy(depth, valid, camera, ref, extent, exponent, *, vertices, max_error, fit, diagonals,
             walls, jump, max_vertices, first):
     """`greedy_mesh` on depths divided by ``2**exponent`` (`ref` and `extent` too).
@@ -332,14 +391,9 @@ def _greedy(depth, valid, camera, ref, extent, exponent, *, vertices, max_error,
     t0 = time.perf_counter()
     lo, hi, n_valid = extent
     span = hi - lo
-    want = n_valid if vertices is None else min(int(vertices), n_valid)
-    if vertices is None and max_vertices is not None:
-        want = min(int(max_vertices), n_valid)
-    scales = delaunay_scales(camera, (h, w))
-    n_grid = grid_size(want, n_valid, vertices is None)
-    if vertices is None and max_vertices is not None:  # the first mesh stays under the cap
-        n_grid = min(n_grid, grid_size(want, n_valid, False))
-    strips = first is None and use_strips((h, w), want, max_error, n_valid)
+    want, scales, n_grid, strips = _plan(depth.shape, camera, n_valid, vertices, max_error,
+                                         max_vertices)
+    strips = strips and first is None
     start = first if first is not None or strips else first_mesh(depth, valid, n_grid, scales)
     max_sum = -1.0 if max_error is None else float(max_error) / 100.0 * span * n_valid
     runs = 0
@@ -446,11 +500,9 @@ def _greedy(depth, valid, camera, ref, extent, exponent, *, vertices, max_error,
         return empty_mesh(camera, (h, w), stats), {}
     mesh = Mesh(verts, faces, pixels, camera, (h, w), stats)
     if vertices is not None:
-        ok = got == int(vertices)
-        note = "" if ok else _count_note(got, int(vertices), n_valid, h * w, walls and n_walls == 0,
-                                         math.ldexp(lo, exponent), math.ldexp(hi, exponent))
-        target = {"target": "vertices", "requested": int(vertices), "achieved": got, "met": ok,
-                  "meshings": runs}
+        target = _count_record(got, int(vertices), runs, n_valid, h * w, walls and n_walls == 0,
+                               math.ldexp(lo, exponent), math.ldexp(hi, exponent))
+        note = target.pop("note", "")
     else:
         ok = achieved <= max_error
         capped = not ok and max_vertices is not None and asked >= want

@@ -1,0 +1,105 @@
+// Python binding of the whole refine call (refine/mesh.hpp): its request and result as classes
+// with named fields, one function between them.
+#include <cstdint>
+#include <vector>
+
+#include "../refine/mesh.hpp"
+#include "bindings.hpp"
+#include "numpy.hpp"
+#include "release.hpp"
+
+namespace rangemesh::bind {
+
+namespace {
+
+using refine::HeightRule;
+using refine::MeshRequest;
+using refine::MeshResult;
+
+// A NumPy view of rows x cols values of a result the Python object keeps alive.
+template <class T>
+nb::ndarray<nb::numpy, T> rows_of(std::vector<T>& v, std::size_t cols) {
+    const std::size_t shape[2] = {v.size() / cols, cols};
+    return nb::ndarray<nb::numpy, T>(v.data(), 2, shape, nb::handle());
+}
+
+void bind_request(nb::module_& m) {
+    nb::class_<HeightRule>(m, "HeightRule",
+                           "The least-squares heights' rules (refine/heights.py holds their values and reasons).")
+        .def(nb::init<>())
+        .def_rw("outlier_mads", &HeightRule::outlier_mads)
+        .def_rw("outlier_floor", &HeightRule::outlier_floor)
+        .def_rw("ridge", &HeightRule::ridge)
+        .def_rw("rtol", &HeightRule::rtol)
+        .def_rw("residual_stride", &HeightRule::residual_stride)
+        .def_rw("residual_min", &HeightRule::residual_min)
+        .def_rw("residual_sample", &HeightRule::residual_sample)
+        .def_rw("order_tile", &HeightRule::order_tile)
+        .def_rw("order_min_pixels", &HeightRule::order_min_pixels)
+        .def_rw("threads", &HeightRule::threads);
+    nb::class_<MeshRequest>(m, "RefineRequest",
+                            "What one ``refine_mesh`` call asks for (rangemesh/refine/insertion.py fills it).")
+        .def(nb::init<>())
+        .def_rw("vertices", &MeshRequest::vertices, "Valid vertices wanted (at most n_valid).")
+        .def_rw("n_valid", &MeshRequest::n_valid, "The image's valid pixels.")
+        .def_rw("lo", &MeshRequest::lo, "Their smallest depth.")
+        .def_rw("hi", &MeshRequest::hi, "Their largest depth.")
+        .def_rw("n_grid", &MeshRequest::n_grid, "Grid points of the first mesh.")
+        .def_rw("sr", &MeshRequest::sr, "Weight of rows in the Delaunay test.")
+        .def_rw("sc", &MeshRequest::sc, "Weight of columns in the Delaunay test.")
+        .def_rw("flip", &MeshRequest::flip, "Each quad's diagonal by the error.")
+        .def_rw("fit", &MeshRequest::fit, "Heights by least squares, else copied.")
+        .def_rw("max_runs", &MeshRequest::max_runs, "Meshings at most.")
+        .def_rw("max_bisect_runs", &MeshRequest::max_bisect_runs, "... once a request gave more than the count.")
+        .def_rw("heights", &MeshRequest::heights, "The fit's rules (a HeightRule).");
+}
+
+void bind_result(nb::module_& m) {
+    nb::class_<MeshResult>(m, "RefineResult", "What ``refine_mesh`` made; arrays are views this object keeps alive.")
+        .def_prop_ro("done", [](const MeshResult& r) { return r.outcome == refine::MeshOutcome::done; },
+                     "False when the call declined the case (no triangle left, a fit that must raise or "
+                     "solve directly): the Python path then meshes it.")
+        .def_prop_ro("faces", [](MeshResult& r) { return rows_of(r.faces, 3); }, nb::rv_policy::reference_internal,
+                     "(F, 3) int32, counter-clockwise.")
+        .def_prop_ro("pixels", [](MeshResult& r) { return rows_of(r.pixels, 2); }, nb::rv_policy::reference_internal,
+                     "(V, 2) int32: each vertex's (row, col).")
+        .def_prop_ro("vertices", [](MeshResult& r) { return rows_of(r.vertices, 3); },
+                     nb::rv_policy::reference_internal, "(V, 3) float64, lifted by the camera.")
+        .def_ro("edges", &MeshResult::edges, "Distinct edges of the faces.")
+        .def_ro("insertions", &MeshResult::insertions, "Vertices of the last insertion, background corners included.")
+        .def_ro("flips", &MeshResult::flips, "Edges the last insertion's diagonals flipped.")
+        .def_ro("meshings", &MeshResult::meshings, "Meshings the search ran.")
+        .def_ro("fit_seconds", &MeshResult::fit_seconds, "Time fitting the heights.")
+        .def_ro("seconds", &MeshResult::seconds, "Time of the whole call.");
+}
+
+}  // namespace
+
+void bind_refine_mesh(nb::module_& m) {
+    bind_request(m);
+    bind_result(m);
+    m.def(
+        "refine_mesh",
+        [](In2<double> depth, In2<bool> valid, In1<double> camera, const MeshRequest& req) {
+            check_input(same_shape(depth, valid), "refine_mesh: depth and valid must have one shape");
+            check_input(depth.shape(0) >= 2 && depth.shape(1) >= 2, "refine_mesh: an image of at least 2x2 pixels");
+            check_input(0 < req.vertices && req.vertices <= req.n_valid &&
+                            req.n_valid <= static_cast<index_t>(depth.size()),
+                        "refine_mesh: 0 < vertices <= n_valid <= the image's pixels");
+            check_input(req.sr >= 1 && req.sc >= 1 && req.max_runs >= 1 && req.max_bisect_runs >= 1,
+                        "refine_mesh: sr, sc, max_runs and max_bisect_runs at least 1");
+            check_input(camera.shape(0) >= 6 && (camera(0) == 0.0 || camera(0) == 1.0 ||
+                                                  (camera(0) == 2.0 && camera(1) == depth.shape(0) &&
+                                                   camera(2) == depth.shape(1) &&
+                                                   camera.shape(0) == 6 + 3 * depth.size())),
+                        "refine_mesh: camera is a Camera.as_array() for the image's shape");
+            const refine::Image image{grid(depth), grid(valid), req.hi - req.lo};
+            return run_released([&] { return refine::refine_mesh(image, span(camera), req); }, work(depth));
+        },
+        nb::arg("depth"), nb::arg("valid"), nb::arg("camera"), nb::arg("request"),
+        "The whole refine call on one strip for ``request.vertices`` vertices: first mesh, insertion, "
+        "diagonals, valid faces with one fan each, heights and the lift by ``camera`` "
+        "(``Camera.as_array()``), searched until the count is met. Returns a RefineResult.");
+}
+
+}  // namespace rangemesh::bind

@@ -281,10 +281,9 @@ def greedy_mesh(depth: np.ndarray, valid: np.ndarray, camera, *, vertices: int |
         ref = (np.ldexp(ref[0], -exponent), ref[1])
         extent = (math.ldexp(extent[0], -exponent), math.ldexp(extent[1], -exponent), extent[2])
     mesh = None
-    if vertices is not None and walls and not use_strips((h, w), min(int(vertices), extent[2]),
-                                                         max_error, extent[2]):
-        mesh, target = _native(depth, valid, camera, extent, exponent, int(vertices), fit=fit,
-                               diagonals=diagonals)
+    if walls:
+        mesh, target = _native(depth, valid, camera, ref, extent, exponent, vertices, max_error,
+                               max_vertices, fit=fit, diagonals=diagonals)
     if mesh is None:  # the cases the native call does not take, or declined
         mesh, target = _greedy(depth, valid, camera, ref, extent, exponent, vertices=vertices,
                                max_error=max_error, fit=fit, diagonals=diagonals, walls=walls,
@@ -349,23 +348,30 @@ def _count_record(got, asked, runs, n_valid, n_pixels, no_walls_dropped, lo, hi)
     return target
 
 
-def _native(depth, valid, camera, extent, exponent, vertices, *, fit, diagonals):
-    """`_greedy` for ``vertices=`` on one strip with walls kept, as one native call.
+def _native(depth, valid, camera, ref, extent, exponent, vertices, max_error, max_vertices, *,
+            fit, diagonals):
+    """`_greedy` with walls kept on one strip, as one native call (`rangemesh._core.refine_mesh`).
 
-    Returns ``(mesh, target)``, or ``(None, None)`` when the call declines
-    (no triangle of valid corners, so the hull is the next start; a fit that
-    must raise or solve directly): `_greedy` then meshes the image.
+    Returns ``(mesh, target)``, or ``(None, None)`` for the cases it does not
+    take (two strips) or declines (no triangle of valid corners, so the
+    valid pixels' hull is the next start; a fit that must raise or solve
+    directly): `_greedy` then meshes the image.
     """
     h, w = depth.shape
     lo, hi, n_valid = extent
-    want, scales, n_grid, _ = _plan((h, w), camera, n_valid, vertices, None, None)
+    want, scales, n_grid, strips = _plan((h, w), camera, n_valid, vertices, max_error,
+                                         max_vertices)
+    if strips:
+        return None, None
     req = _core.RefineRequest()
     req.vertices, req.n_valid, req.lo, req.hi, req.n_grid = want, n_valid, lo, hi, n_grid
     req.sr, req.sc = scales
     req.flip, req.fit = diagonals == "error", fit
     req.max_runs, req.max_bisect_runs = MAX_RUNS, MAX_BISECT_RUNS
     req.heights = height_rule(n_valid)
-    res = _core.refine_mesh(depth, valid, camera.as_array(), req)
+    if max_error is not None:
+        req.max_error = float(max_error)
+    res = _core.refine_mesh(depth, valid, camera.as_array(), req, *(() if ref is None else ref))
     if not res.done:
         return None, None
     got = len(res.pixels)
@@ -376,8 +382,27 @@ def _native(depth, valid, camera, extent, exponent, vertices, *, fit, diagonals)
                   seconds=seconds, method="refine", grid_shape=None, flipped_edges=res.flips,
                   insertions=res.insertions, strips=1, heights="fit" if fit else "pixel")
     mesh = Mesh(res.vertices, res.faces, res.pixels, camera, (h, w), stats)
-    return mesh, _count_record(got, vertices, res.meshings, n_valid, h * w, True,
-                               math.ldexp(lo, exponent), math.ldexp(hi, exponent))
+    if vertices is not None:
+        return mesh, _count_record(got, int(vertices), res.meshings, n_valid, h * w, True,
+                                   math.ldexp(lo, exponent), math.ldexp(hi, exponent))
+    return mesh, _error_record(res.achieved, float(max_error), res.meshings, got, res.asked, want,
+                               max_vertices)
+
+
+def _error_record(achieved, asked, runs, got, last, want, max_vertices) -> dict:
+    """The target record of ``max_error=asked`` (and `max_vertices`), `achieved` in `runs` meshings.
+
+    `last` is the last meshing's request, `want` the vertex cap.
+    """
+    ok = achieved <= asked
+    capped = not ok and max_vertices is not None and last >= want
+    target = {"target": "max_error", "requested": asked, "achieved": achieved, "met": ok,
+              "meshings": runs, "vertices": got}
+    if max_vertices is not None:
+        target["max_vertices"] = want
+    if not ok:
+        target["note"] = f"stopped at max_vertices={want}" if capped else "the bound was not reached"
+    return target
 
 
 def _greedy(depth, valid, camera, ref, extent, exponent, *, vertices, max_error, fit, diagonals,
@@ -504,14 +529,8 @@ def _greedy(depth, valid, camera, ref, extent, exponent, *, vertices, max_error,
                                math.ldexp(lo, exponent), math.ldexp(hi, exponent))
         note = target.pop("note", "")
     else:
-        ok = achieved <= max_error
-        capped = not ok and max_vertices is not None and asked >= want
-        note = "" if ok else (f"stopped at max_vertices={want}" if capped
-                              else "the bound was not reached")
-        target = {"target": "max_error", "requested": float(max_error), "achieved": achieved,
-                  "met": ok, "meshings": runs, "vertices": got}
-        if max_vertices is not None:
-            target["max_vertices"] = want
+        target = _error_record(achieved, float(max_error), runs, got, asked, want, max_vertices)
+        note = target.pop("note", "")
     if not walls:
         target["walls_dropped"] = n_walls
     if note:

@@ -1,6 +1,10 @@
 // Python binding of the whole refine call (refine/mesh.hpp): its request and result as classes
 // with named fields, one function between them.
+#include <nanobind/stl/optional.h>
+
+#include <cmath>
 #include <cstdint>
+#include <optional>
 #include <vector>
 
 #include "../refine/mesh.hpp"
@@ -40,7 +44,9 @@ void bind_request(nb::module_& m) {
     nb::class_<MeshRequest>(m, "RefineRequest",
                             "What one ``refine_mesh`` call asks for (rangemesh/refine/insertion.py fills it).")
         .def(nb::init<>())
-        .def_rw("vertices", &MeshRequest::vertices, "Valid vertices wanted (at most n_valid).")
+        .def_rw("vertices", &MeshRequest::vertices, "Valid vertices wanted (at most n_valid); with max_error, the cap.")
+        .def_rw("max_error", &MeshRequest::max_error,
+                "The relative error bound, percent of the reference's valid range (negative: none).")
         .def_rw("n_valid", &MeshRequest::n_valid, "The image's valid pixels.")
         .def_rw("lo", &MeshRequest::lo, "Their smallest depth.")
         .def_rw("hi", &MeshRequest::hi, "Their largest depth.")
@@ -69,6 +75,9 @@ void bind_result(nb::module_& m) {
         .def_ro("insertions", &MeshResult::insertions, "Vertices of the last insertion, background corners included.")
         .def_ro("flips", &MeshResult::flips, "Edges the last insertion's diagonals flipped.")
         .def_ro("meshings", &MeshResult::meshings, "Meshings the search ran.")
+        .def_ro("asked", &MeshResult::asked, "The last meshing's vertex request.")
+        .def_ro("achieved", &MeshResult::achieved, "With max_error: the relative error reached (NaN: no valid "
+                "pixel covered).")
         .def_ro("fit_seconds", &MeshResult::fit_seconds, "Time fitting the heights.")
         .def_ro("seconds", &MeshResult::seconds, "Time of the whole call.");
 }
@@ -80,12 +89,18 @@ void bind_refine_mesh(nb::module_& m) {
     bind_result(m);
     m.def(
         "refine_mesh",
-        [](In2<double> depth, In2<bool> valid, In1<double> camera, const MeshRequest& req) {
+        [](In2<double> depth, In2<bool> valid, In1<double> camera, const MeshRequest& req,
+           std::optional<In2<double>> ref_depth, std::optional<In2<bool>> ref_valid) {
             check_input(same_shape(depth, valid), "refine_mesh: depth and valid must have one shape");
+            check_input(ref_depth.has_value() == ref_valid.has_value() &&
+                            (!ref_depth || (same_shape(*ref_depth, depth) && same_shape(*ref_valid, depth))),
+                        "refine_mesh: ref_depth and ref_valid both or neither, of the image's shape");
             check_input(depth.shape(0) >= 2 && depth.shape(1) >= 2, "refine_mesh: an image of at least 2x2 pixels");
             check_input(0 < req.vertices && req.vertices <= req.n_valid &&
                             req.n_valid <= static_cast<index_t>(depth.size()),
                         "refine_mesh: 0 < vertices <= n_valid <= the image's pixels");
+            check_input(req.max_error < 0.0 || (req.max_error > 0.0 && std::isfinite(req.max_error)),
+                        "refine_mesh: max_error negative (none) or a finite positive percentage");
             check_input(req.sr >= 1 && req.sc >= 1 && req.max_runs >= 1 && req.max_bisect_runs >= 1,
                         "refine_mesh: sr, sc, max_runs and max_bisect_runs at least 1");
             check_input(camera.shape(0) >= 6 && (camera(0) == 0.0 || camera(0) == 1.0 ||
@@ -94,12 +109,16 @@ void bind_refine_mesh(nb::module_& m) {
                                                    camera.shape(0) == 6 + 3 * depth.size())),
                         "refine_mesh: camera is a Camera.as_array() for the image's shape");
             const refine::Image image{grid(depth), grid(valid), req.hi - req.lo};
-            return run_released([&] { return refine::refine_mesh(image, span(camera), req); }, work(depth));
+            const refine::Reference ref = ref_depth ? refine::Reference{grid(*ref_depth), grid(*ref_valid)}
+                                                    : refine::Reference{image.depth, image.valid};
+            return run_released([&] { return refine::refine_mesh(image, span(camera), ref, req); }, work(depth));
         },
-        nb::arg("depth"), nb::arg("valid"), nb::arg("camera"), nb::arg("request"),
-        "The whole refine call on one strip for ``request.vertices`` vertices: first mesh, insertion, "
-        "diagonals, valid faces with one fan each, heights and the lift by ``camera`` "
-        "(``Camera.as_array()``), searched until the count is met. Returns a RefineResult.");
+        nb::arg("depth"), nb::arg("valid"), nb::arg("camera"), nb::arg("request"), nb::arg("ref_depth").none() = nb::none(),
+        nb::arg("ref_valid").none() = nb::none(),
+        "The whole refine call on one strip: first mesh, insertion, diagonals, valid faces with one fan "
+        "each, heights and the lift by ``camera`` (``Camera.as_array()``), searched until "
+        "``request.vertices`` vertices or, with ``request.max_error``, the relative error against "
+        "``ref_depth``, ``ref_valid`` (default: depth, valid) is met. Returns a RefineResult.");
 }
 
 }  // namespace rangemesh::bind

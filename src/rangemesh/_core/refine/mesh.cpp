@@ -1,6 +1,8 @@
 #include "mesh.hpp"
 
+#include <algorithm>
 #include <chrono>
+#include <limits>
 #include <cmath>
 #include <memory>
 #include <numeric>
@@ -10,6 +12,7 @@
 #include "../geometry/fans.hpp"
 #include "../geometry/halfedges.hpp"
 #include "../geometry/pixels.hpp"
+#include "../geometry/rasterize.hpp"
 #include "../geometry/vectors.hpp"
 #include "../heights/order.hpp"
 #include "../heights/pass.hpp"
@@ -130,17 +133,22 @@ ValidFaces one_fan_each(const Image& image, ValidFaces f) {
 struct Meshing {
     ValidFaces mesh;
     index_t insertions = 0, flips = 0;
+    bool error_left = false;  // the insertion's summed error (before any flip) is above 0
 
     index_t n_vertices() const { return static_cast<index_t>(mesh.pixels.size() / 2); }
 };
 
-Meshing mesh_once(const Image& image, const FirstMesh& first, index_t asked, const MeshRequest& req) {
-    Insertion ins(image, first, asked, req.sr, req.sc);
-    ins.advance(Stop{asked, -1.0});
+// Insertion until `asked` valid vertices or, when `max_sum` is not negative, a summed error of
+// at most `max_sum` (insertion.py's `_refine` and `_assemble`, walls kept).
+Meshing mesh_once(const Image& image, const FirstMesh& first, index_t asked, double max_sum, const MeshRequest& req) {
+    Insertion ins(image, first, max_sum < 0.0 ? asked : 0, req.sr, req.sc);
+    ins.advance(Stop{asked, max_sum});
     Meshing out;
     out.insertions = ins.n_vertices();
+    out.error_left = ins.total() > 0.0;
     if (req.flip) {
         std::vector<double> sums = ins.sums();
+        out.error_left = std::any_of(sums.begin(), sums.end(), [](double x) { return x > 0.0; });
         const FlipMesh mesh{view(ins.vertex_rows()), view(ins.vertex_cols()), ins.triangles(), ins.halfedges(),
                             {sums.data(), static_cast<index_t>(sums.size())}};
         out.flips = flip_by_error(image, mesh).flips;
@@ -278,40 +286,240 @@ std::vector<double> lifted(Span<const double> camera, const ValidFaces& f, const
     return out;
 }
 
+// The relative error of a mesh against the reference (render.py's `relative_error`): percent of
+// the reference's valid depth range, mean over its valid pixels the mesh covers; NaN when none.
+class ErrorMeasure {
+  public:
+    ErrorMeasure(Span<const double> camera, const Reference& ref)
+        : camera_(camera), ref_(ref), n_(ref.depth.rows * ref.depth.cols) {}
+
+    double operator()(const ValidFaces& f, const std::vector<double>& vertices) {
+        const bool inverse = camera_[0] == PINHOLE;
+        bool stored = false;  // a pinhole's inverse depths beyond the float range: stored units
+        const std::vector<double> val = corner_values(vertices, stored);
+        const index_t n_f = static_cast<index_t>(f.faces.size() / 3), w = ref_.depth.cols;
+        std::vector<double> fr, fc, fv;
+        for (index_t t = 0; t < n_f; ++t) {
+            double r[3], c[3];
+            for (int k = 0; k < 3; ++k) {
+                const index_t v = f.faces[3 * t + k];
+                r[k] = static_cast<double>(f.pixels[2 * v]);
+                c[k] = static_cast<double>(f.pixels[2 * v + 1]);
+            }
+            // a wrap-around seam face (clockwise, as wide as the image) covers no pixel centre
+            const double area = (r[1] - r[0]) * (c[2] - c[0]) - (c[1] - c[0]) * (r[2] - r[0]);
+            if (area < 0 && std::max({c[0], c[1], c[2]}) - std::min({c[0], c[1], c[2]}) > 0.5 * w) continue;
+            for (int k = 0; k < 3; ++k) {
+                fr.push_back(r[k]);
+                fc.push_back(c[k]);
+                fv.push_back(val[f.faces[3 * t + k]]);
+            }
+        }
+        pred_.assign(n_, std::numeric_limits<double>::quiet_NaN());
+        face_.assign(n_, -1);
+        const index_t n_kept = static_cast<index_t>(fr.size() / 3);
+        rasterize({{fr.data(), n_kept, 3}, {fc.data(), n_kept, 3}, {fv.data(), n_kept, 3}},
+                  {{pred_.data(), ref_.depth.rows, w}, {face_.data(), ref_.depth.rows, w}});
+        if (inverse)
+            for (double& p : pred_) p = stored ? 1.0 / p : 1.0 / p / camera_[5];
+        const CoveredError e = covered_error({pred_.data(), ref_.depth.rows, w}, ref_.depth, ref_.valid);
+        if (e.count == 0) return std::numeric_limits<double>::quiet_NaN();
+        if (!has_range_) {  // (only an error bound measures: a count's call makes no pass for it)
+            range_ = valid_range(ref_.depth, ref_.valid);
+            has_range_ = true;
+        }
+        return per_span(e.total / static_cast<double>(e.count), range_.hi - range_.lo);
+    }
+
+  private:
+    // The value each vertex interpolates: depth (orthographic), inverse depth (pinhole), range.
+    std::vector<double> corner_values(const std::vector<double>& vertices, bool& stored) const {
+        const index_t n_v = static_cast<index_t>(vertices.size() / 3);
+        std::vector<double> val(n_v);
+        for (index_t i = 0; i < n_v; ++i) {
+            const double x = vertices[3 * i], y = vertices[3 * i + 1], z = vertices[3 * i + 2];
+            if (camera_[0] == ORTHOGRAPHIC) {
+                val[i] = z / camera_[3];
+            } else if (camera_[0] == PINHOLE) {
+                val[i] = 1.0 / z;
+                stored = stored || (z != 0.0 && !std::isfinite(val[i]));
+            } else {
+                val[i] = std::sqrt((x * x + y * y) + z * z) / camera_[3];  // np.linalg.norm's order
+            }
+        }
+        if (stored)
+            for (index_t i = 0; i < n_v; ++i) val[i] = camera_[5] / vertices[3 * i + 2];
+        return val;
+    }
+
+    // x * 100 / span (render.py's `per_span`): 0 for no span, x / span * 100 when 100 / span overflows.
+    static double per_span(double x, double span) {
+        if (!(span > 0)) return x * 0.0;
+        const double factor = 100.0 / span;
+        return std::isfinite(factor) ? x * factor : x / span * 100.0;
+    }
+
+    Span<const double> camera_;
+    Reference ref_;
+    DepthRange range_;
+    bool has_range_ = false;
+    index_t n_;
+    std::vector<double> pred_;
+    std::vector<index_t> face_;
+};
+
+// A meshing with its vertices lifted and, under an error bound, the error they reach.
+struct Candidate {
+    Meshing meshing;
+    std::vector<double> vertices;
+    double achieved = 0.0;
+};
+
+// The call's searches over meshings of one first mesh.
+class Refiner {
+  public:
+    Refiner(const Image& image, Span<const double> camera, const Reference& ref, const MeshRequest& req)
+        : image_(image), camera_(camera), req_(req), measure_(camera, ref),
+          first_(first_mesh(image, req.n_grid, req.sr, req.sc)) {}
+
+    MeshResult by_count();
+    MeshResult by_error();
+
+  private:
+    Meshing mesh(index_t asked, double max_sum);
+    bool lift(const ValidFaces& f, bool fit, std::vector<double>& vertices);
+    bool bounded(Candidate& c);
+    MeshResult finish(Candidate&& c);
+
+    const Image& image_;
+    Span<const double> camera_;
+    const MeshRequest& req_;
+    ErrorMeasure measure_;
+    FirstArrays first_;
+    MeshResult out_;
+    index_t insertions_ = 0, flips_ = 0;  // of the last meshing
+};
+
+Meshing Refiner::mesh(index_t asked, double max_sum) {
+    ++out_.meshings;
+    out_.asked = asked;
+    Meshing m = mesh_once(image_, first_.view(), asked, max_sum, req_);
+    insertions_ = m.insertions;
+    flips_ = m.flips;
+    return m;
+}
+
+// The vertices of `f` lifted from fitted or copied depths; false when the fit declines.
+bool Refiner::lift(const ValidFaces& f, bool fit, std::vector<double>& vertices) {
+    const index_t n_v = static_cast<index_t>(f.pixels.size() / 2);
+    std::vector<double> z(n_v);
+    for (index_t i = 0; i < n_v; ++i) z[i] = image_.depth(f.pixels[2 * i], f.pixels[2 * i + 1]);
+    if (fit && !fitted_depths(image_, camera_[0] == PINHOLE, f, req_, z)) return false;
+    vertices = lifted(camera_, f, z);
+    return true;
+}
+
+// insertion.py's `_bounded`: fitted depths first (they meet the bound far more often, so one
+// render usually decides), copied ones kept only when they meet it and the fitted do not.
+bool Refiner::bounded(Candidate& c) {
+    const auto t = std::chrono::steady_clock::now();
+    const ValidFaces& f = c.meshing.mesh;
+    if (!lift(f, req_.fit, c.vertices)) return false;
+    c.achieved = measure_(f, c.vertices);
+    if (req_.fit && c.achieved > req_.max_error) {
+        std::vector<double> copied;
+        lift(f, false, copied);
+        const double copied_error = measure_(f, copied);
+        if (copied_error <= req_.max_error) {
+            c.vertices = std::move(copied);
+            c.achieved = copied_error;
+        }
+    }
+    if (req_.fit) out_.fit_seconds += seconds_since(t);
+    return true;
+}
+
+MeshResult Refiner::finish(Candidate&& c) {
+    ValidFaces& mesh = c.meshing.mesh;
+    const index_t n_f = static_cast<index_t>(mesh.faces.size() / 3);
+    out_.edges = count_edges(Grid<const std::int32_t>{mesh.faces.data(), n_f, 3}, c.meshing.n_vertices());
+    out_.faces = std::move(mesh.faces);
+    out_.pixels = std::move(mesh.pixels);
+    out_.vertices = std::move(c.vertices);
+    out_.achieved = c.achieved;
+    out_.insertions = insertions_;
+    out_.flips = flips_;
+    out_.outcome = MeshOutcome::done;
+    return std::move(out_);
+}
+
+MeshResult Refiner::by_count() {
+    CountSearch search(req_);
+    index_t asked = req_.vertices;
+    for (bool more = true; more;) {
+        Meshing m = mesh(asked, -1.0);
+        more = search.next(std::move(m), out_.meshings, asked);
+    }
+    Candidate c{std::move(search.best()), {}, 0.0};
+    if (c.meshing.mesh.faces.empty()) return MeshResult{};  // declined: the hull's start is Python's
+    const auto t = std::chrono::steady_clock::now();
+    if (!lift(c.meshing.mesh, req_.fit, c.vertices)) return MeshResult{};
+    if (req_.fit) out_.fit_seconds = seconds_since(t);
+    return finish(std::move(c));
+}
+
+// insertion.py's `_greedy` under an error bound: the insertion's own summed error stops it, the
+// rendered error decides. A miss tightens the sum by a tenth while the insertion saw error
+// left; else (every pixel fits its plane in the kernel's arithmetic while the render rounds
+// otherwise) the count is bisected between the last miss and `vertices`.
+MeshResult Refiner::by_error() {
+    const index_t want = req_.vertices;
+    double max_sum = req_.max_error / 100.0 * (req_.hi - req_.lo) * static_cast<double>(req_.n_valid);
+    index_t asked = want, few = 0, most = 0;
+    bool counted = false;
+    Candidate met;  // searching by count: the smallest count that met the bound
+    bool has_met = false;
+    for (;;) {
+        Candidate c{mesh(asked, max_sum), {}, 0.0};
+        if (c.meshing.mesh.faces.empty()) return MeshResult{};  // declined: the hull's start is Python's
+        if (!bounded(c)) return MeshResult{};
+        const index_t runs = out_.meshings, got = c.meshing.n_vertices();
+        if (counted) {
+            if (c.achieved <= req_.max_error) {
+                most = asked;
+                met = std::move(c);
+                has_met = true;
+            } else {
+                few = asked;
+            }
+            // the last meshing asks for the largest count if no count met the bound yet
+            const index_t nxt = runs == req_.max_runs - 1 && !has_met ? want : (few + most) / 2;
+            if (runs < req_.max_runs && few < nxt && nxt <= most && nxt != asked && (!has_met || nxt < most)) {
+                asked = nxt;
+                continue;
+            }
+            return finish(has_met ? std::move(met) : std::move(c));
+        }
+        if (!(c.achieved > req_.max_error && asked > got && runs < req_.max_runs)) return finish(std::move(c));
+        if (c.meshing.error_left) {
+            max_sum *= 0.9;  // the running sum is an estimate: tighten and go on
+            continue;
+        }
+        counted = true;
+        few = got;
+        most = want;
+        max_sum = -1.0;
+        asked = runs == req_.max_runs - 1 ? want : (got + want) / 2;
+    }
+}
+
 }  // namespace
 
-MeshResult refine_mesh(const Image& image, Span<const double> camera, const MeshRequest& req) {
+MeshResult refine_mesh(const Image& image, Span<const double> camera, const Reference& reference,
+                       const MeshRequest& req) {
     const auto t0 = std::chrono::steady_clock::now();
-    MeshResult out;
-    const FirstArrays first = first_mesh(image, req.n_grid, req.sr, req.sc);
-    CountSearch search(req);
-    index_t asked = req.vertices, insertions = 0, flips = 0;
-    bool more = true;
-    while (more) {
-        ++out.meshings;
-        Meshing m = mesh_once(image, first.view(), asked, req);
-        insertions = m.insertions;
-        flips = m.flips;
-        more = search.next(std::move(m), out.meshings, asked);
-    }
-    ValidFaces& mesh = search.best().mesh;
-    const index_t n_v = static_cast<index_t>(mesh.pixels.size() / 2);
-    if (mesh.faces.empty()) return out;  // declined: the hull's start is Python's
-    std::vector<double> z(n_v);
-    for (index_t i = 0; i < n_v; ++i) z[i] = image.depth(mesh.pixels[2 * i], mesh.pixels[2 * i + 1]);
-    if (req.fit) {
-        const auto t1 = std::chrono::steady_clock::now();
-        if (!fitted_depths(image, camera[0] == PINHOLE, mesh, req, z)) return out;
-        out.fit_seconds = seconds_since(t1);
-    }
-    out.vertices = lifted(camera, mesh, z);
-    out.edges = count_edges(Grid<const std::int32_t>{mesh.faces.data(), static_cast<index_t>(mesh.faces.size() / 3), 3},
-                            n_v);
-    out.faces = std::move(mesh.faces);
-    out.pixels = std::move(mesh.pixels);
-    out.insertions = insertions;
-    out.flips = flips;
-    out.outcome = MeshOutcome::done;
+    Refiner refiner(image, camera, reference, req);
+    MeshResult out = req.max_error < 0.0 ? refiner.by_count() : refiner.by_error();
     out.seconds = seconds_since(t0);
     return out;
 }

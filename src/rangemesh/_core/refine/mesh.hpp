@@ -1,5 +1,6 @@
 // The whole refine call on one strip: first mesh, insertion, diagonals, assembly, heights and
-// the lift to 3-D, repeated by one small search until the target is met (`vertices=`).
+// the lift to 3-D, repeated by one small search until the target is met: a vertex count
+// (`vertices=`) or an error bound (`max_error=`, with a vertex cap: the default target).
 //
 // The rules and their reasons are those of rangemesh/refine/insertion.py, which checks the
 // arguments, chooses this path or the strips' and wraps the result; every step is a kernel of
@@ -25,7 +26,8 @@ struct HeightRule {
 
 // What one call asks for; the caller resolves the library's defaults into it.
 struct MeshRequest {
-    index_t vertices = 0;  // valid vertices wanted (at most n_valid)
+    index_t vertices = 0;  // valid vertices wanted (at most n_valid); with max_error, the cap
+    double max_error = -1.0;  // percent of the reference's valid range, mean; < 0: none
     index_t n_valid = 0;   // the image's valid pixels
     double lo = 0.0, hi = 0.0;  // their smallest and largest depth
     index_t n_grid = 0;    // grid points of the first mesh
@@ -34,6 +36,12 @@ struct MeshRequest {
     bool fit = true;       // heights by least squares, else copied from the pixels
     index_t max_runs = 8, max_bisect_runs = 5;  // meshings at most, and once past the count
     HeightRule heights;
+};
+
+// The image an error bound is measured against (the one before gap filling).
+struct Reference {
+    Grid<const double> depth;
+    Grid<const bool> valid;
 };
 
 // How the call ended. `declined`: a case the Python path handles (no triangle left, so the
@@ -50,10 +58,14 @@ struct MeshResult {
     index_t insertions = 0;            // vertices of the last insertion, background corners included
     index_t flips = 0;                 // edges the last insertion's diagonals flipped
     index_t meshings = 0;
+    index_t asked = 0;                 // the last meshing's request (max_error: its vertex count)
+    double achieved = 0.0;             // max_error: the relative error reached (NaN: none covered)
     double fit_seconds = 0.0, seconds = 0.0;
 };
 
-// The mesh of `image` for `req`, lifted by `camera` (`Camera.as_array()`; vectors.hpp).
-MeshResult refine_mesh(const Image& image, Span<const double> camera, const MeshRequest& req);
+// The mesh of `image` for `req`, lifted by `camera` (`Camera.as_array()`; vectors.hpp); an
+// error bound is measured against `reference`.
+MeshResult refine_mesh(const Image& image, Span<const double> camera, const Reference& reference,
+                       const MeshRequest& req);
 
 }  // namespace rangemesh::refine

@@ -348,6 +348,12 @@ def _count_record(got, asked, runs, n_valid, n_pixels, no_walls_dropped, lo, hi)
     return target
 
 
+# What `_native`'s stats and meshes start from (`with_fields`).
+_NATIVE_STATS = Stats(method="refine", grid_shape=None, strips=1)
+_NATIVE_MESH = Mesh(np.zeros((0, 3)), np.zeros((0, 3), np.int32), np.zeros((0, 2), np.int32),
+                    Orthographic(), (0, 0), _NATIVE_STATS)
+
+
 def _native(depth, valid, camera, ref, extent, exponent, vertices, max_error, max_vertices, *,
             fit, diagonals):
     """`_greedy` with walls kept on one strip, as one native call (`rangemesh._core.refine_mesh`).
@@ -374,14 +380,17 @@ def _native(depth, valid, camera, ref, extent, exponent, vertices, max_error, ma
     res = _core.refine_mesh(depth, valid, camera.as_array(), req, *(() if ref is None else ref))
     if not res.done:
         return None, None
-    got = len(res.pixels)
+    got = res.vertex_count
     seconds = {"insertion": res.seconds - res.fit_seconds}
     if fit:
         seconds["fit"] = res.fit_seconds
-    stats = Stats(vertices=got, triangles=len(res.faces), edges=res.edges, sampled_points=got,
-                  seconds=seconds, method="refine", grid_shape=None, flipped_edges=res.flips,
-                  insertions=res.insertions, strips=1, heights="fit" if fit else "pixel")
-    mesh = Mesh(res.vertices, res.faces, res.pixels, camera, (h, w), stats)
+    faces, pixels = res.faces, res.pixels
+    # (from templates: the frozen classes' own __init__ weighs on a call on a small image)
+    stats = with_fields(_NATIVE_STATS, vertices=got, triangles=len(faces), edges=res.edges,
+                        sampled_points=got, seconds=seconds, flip_tests={}, flipped_edges=res.flips,
+                        insertions=res.insertions, heights="fit" if fit else "pixel")
+    mesh = with_fields(_NATIVE_MESH, vertices=res.vertices, faces=faces, pixels=pixels,
+                       camera=camera, image_shape=(h, w), stats=stats, attributes={})
     if vertices is not None:
         return mesh, _count_record(got, int(vertices), res.meshings, n_valid, h * w, True,
                                    math.ldexp(lo, exponent), math.ldexp(hi, exponent))

@@ -71,6 +71,7 @@ void bind_result(nb::module_& m) {
                      "(V, 2) int32: each vertex's (row, col).")
         .def_prop_ro("vertices", [](MeshResult& r) { return rows_of(r.vertices, 3); },
                      nb::rv_policy::reference_internal, "(V, 3) float64, lifted by the camera.")
+        .def_prop_ro("vertex_count", [](const MeshResult& r) { return r.pixels.size() / 2; }, "Vertices of the mesh.")
         .def_ro("edges", &MeshResult::edges, "Distinct edges of the faces.")
         .def_ro("insertions", &MeshResult::insertions, "Vertices of the last insertion, background corners included.")
         .def_ro("flips", &MeshResult::flips, "Edges the last insertion's diagonals flipped.")

@@ -123,8 +123,10 @@ ValidFaces one_fan_each(const Image& image, ValidFaces f) {
         rows[i] = f.pixels[2 * i];
         cols[i] = f.pixels[2 * i + 1];
     }
-    for (index_t t = 0; t < n_f; ++t)
+    for (index_t t = 0; t < n_f; ++t) {
+        poll_every(t);
         if (kept[t]) tv.insert(tv.end(), wide.begin() + 3 * t, wide.begin() + 3 * t + 3);
+    }
     return valid_faces(view(rows), view(cols), view(tv), image.valid);
 }
 
@@ -211,8 +213,11 @@ FitValues fit_values(const Image& image, bool pinhole, const MeshRequest& req) {
     FitValues v{{}, image.depth, req.lo, req.hi};
     if (!pinhole) return v;
     const index_t n = image.rows() * image.cols();
-    v.inverse.resize(n);
-    for (index_t i = 0; i < n; ++i) v.inverse[i] = 1.0 / image.depth.data[i];
+    grow_polled(v.inverse, static_cast<std::size_t>(n));
+    for (index_t i = 0; i < n; ++i) {
+        poll_every(i);
+        v.inverse[i] = 1.0 / image.depth.data[i];
+    }
     v.values = {v.inverse.data(), image.rows(), image.cols()};
     if (req.lo > 0.0) {  // (the inverse of the largest depth is the smallest inverse exactly)
         v.lo = 1.0 / req.hi;
@@ -220,6 +225,7 @@ FitValues fit_values(const Image& image, bool pinhole, const MeshRequest& req) {
     } else if (req.n_valid > 0) {  // depths <= 0 before a pinhole: the inverses' own range
         bool first = true;
         for (index_t i = 0; i < n; ++i) {
+            poll_every(i);
             if (!image.valid.data[i]) continue;
             const double x = v.inverse[i];
             v.lo = first || x < v.lo ? x : v.lo;
@@ -250,6 +256,7 @@ bool fitted_depths(const Image& image, bool pinhole, const ValidFaces& f, const 
     std::vector<index_t> rows(n_v), cols(n_v);
     std::vector<double> copied(n_v);
     for (index_t i = 0; i < n_v; ++i) {
+        poll_every(i);
         rows[i] = f.pixels[2 * i];
         cols[i] = f.pixels[2 * i + 1];
         copied[i] = v.values(rows[i], cols[i]);
@@ -278,6 +285,7 @@ std::vector<double> lifted(Span<const double> camera, const ValidFaces& f, const
     const index_t n_v = static_cast<index_t>(z.size());
     std::vector<double> out(3 * n_v);
     for (index_t i = 0; i < n_v; ++i) {
+        poll_every(i);
         const Vec3 p = lift(camera, f.pixels[2 * i], f.pixels[2 * i + 1], z[i]);
         out[3 * i] = p.x;
         out[3 * i + 1] = p.y;
@@ -300,6 +308,7 @@ class ErrorMeasure {
         const index_t n_f = static_cast<index_t>(f.faces.size() / 3), w = ref_.depth.cols;
         std::vector<double> fr, fc, fv;
         for (index_t t = 0; t < n_f; ++t) {
+            poll_every(t);
             double r[3], c[3];
             for (int k = 0; k < 3; ++k) {
                 const index_t v = f.faces[3 * t + k];
@@ -315,13 +324,16 @@ class ErrorMeasure {
                 fv.push_back(val[f.faces[3 * t + k]]);
             }
         }
-        pred_.assign(n_, std::numeric_limits<double>::quiet_NaN());
-        face_.assign(n_, -1);
+        fill_polled(pred_, static_cast<std::size_t>(n_), std::numeric_limits<double>::quiet_NaN());
+        fill_polled(face_, static_cast<std::size_t>(n_), index_t{-1});
         const index_t n_kept = static_cast<index_t>(fr.size() / 3);
         rasterize({{fr.data(), n_kept, 3}, {fc.data(), n_kept, 3}, {fv.data(), n_kept, 3}},
                   {{pred_.data(), ref_.depth.rows, w}, {face_.data(), ref_.depth.rows, w}});
         if (inverse)
-            for (double& p : pred_) p = stored ? 1.0 / p : 1.0 / p / camera_[5];
+            for (index_t i = 0; i < n_; ++i) {
+                poll_every(i);
+                pred_[i] = stored ? 1.0 / pred_[i] : 1.0 / pred_[i] / camera_[5];
+            }
         const CoveredError e = covered_error({pred_.data(), ref_.depth.rows, w}, ref_.depth, ref_.valid);
         if (e.count == 0) return std::numeric_limits<double>::quiet_NaN();
         if (!has_range_) {  // (only an error bound measures: a count's call makes no pass for it)
@@ -337,6 +349,7 @@ class ErrorMeasure {
         const index_t n_v = static_cast<index_t>(vertices.size() / 3);
         std::vector<double> val(n_v);
         for (index_t i = 0; i < n_v; ++i) {
+            poll_every(i);
             const double x = vertices[3 * i], y = vertices[3 * i + 1], z = vertices[3 * i + 2];
             if (camera_[0] == ORTHOGRAPHIC) {
                 val[i] = z / camera_[3];

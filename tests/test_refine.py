@@ -669,3 +669,17 @@ def test_the_native_call_leaves_a_mesh_without_valid_corners_to_the_hull_start()
     assert sorted(map(tuple, mesh.pixels.tolist())) == pixels  # every valid pixel, nothing else
     assert_valid_mesh(mesh)
     assert mesh.stats.target.note == "the image has only 4 valid pixels"
+
+
+def test_the_native_call_reads_the_fit_rules_at_each_call(monkeypatch):
+    # benchmarks/heights.py sets OUTLIER_FLOOR between calls: the native call must see it. A
+    # floor beyond any error keeps the copied depths (the fit's "copied" outcome).
+    from rangemesh.refine import heights
+
+    depth = scenes.make("stairs", (40, 50), noise=0.3).depth
+    own = lambda m: depth[m.pixels[:, 0], m.pixels[:, 1]]  # noqa: E731
+    fitted = triangulate(depth, vertices=60)
+    assert not np.array_equal(fitted.vertices[:, 2], own(fitted))
+    monkeypatch.setattr(heights, "OUTLIER_FLOOR", 1e9)
+    copied = triangulate(depth, vertices=60)
+    np.testing.assert_array_equal(copied.vertices[:, 2], own(copied))

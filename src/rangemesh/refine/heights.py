@@ -18,8 +18,6 @@ image, so the fitted mesh is rendered exactly as it was fitted.
 
 from __future__ import annotations
 
-import functools
-
 import numpy as np
 
 from .. import _core
@@ -75,25 +73,20 @@ def sample_strides(n_faces: int) -> tuple[int, int]:
     return 1, max(RESIDUAL_STRIDE, n_faces // RESIDUAL_SAMPLE)
 
 
-@functools.lru_cache(maxsize=1)
-def _rule() -> _core.HeightRule:
+def height_rule(n_valid: int) -> _core.HeightRule:
+    """These rules for the native refine call (`rangemesh._core.refine_mesh`).
+
+    Read at each call, as `fit_heights` reads them (benchmarks set them).
+    Its threads are `_default_threads` when a mesh of the image can reach
+    FIT_SPLIT_MIN_FACES faces (at most two a vertex, a vertex a valid pixel),
+    else 1, as `fit_heights` chooses them.
+    """
     rule = _core.HeightRule()
     rule.outlier_mads, rule.outlier_floor, rule.ridge, rule.rtol = (OUTLIER_MADS, OUTLIER_FLOOR,
                                                                     RIDGE, CG_RTOL)
     rule.residual_stride, rule.residual_min = RESIDUAL_STRIDE, RESIDUAL_MIN
     rule.residual_sample, rule.order_tile = RESIDUAL_SAMPLE, ORDER_TILE
     rule.order_min_pixels = ORDER_MIN_PIXELS
-    return rule
-
-
-def height_rule(n_valid: int) -> _core.HeightRule:
-    """These rules for the native refine call (`rangemesh._core.refine_mesh`).
-
-    Its threads are `_default_threads` when a mesh of the image can reach
-    FIT_SPLIT_MIN_FACES faces (at most two a vertex, a vertex a valid pixel),
-    else 1, as `fit_heights` chooses them.
-    """
-    rule = _rule()
     rule.threads = 1 if 2 * n_valid < _core.FIT_SPLIT_MIN_FACES else _default_threads()
     return rule
 

@@ -273,3 +273,28 @@ def test_the_native_refine_call_meshes_a_count_and_names_its_parts():
     assert res.done and res.meshings == 1 and len(res.pixels) == 5
     assert res.faces.shape == (4, 3) and res.edges == 8  # a fan of 4 around the inner vertex
     np.testing.assert_array_equal(res.vertices[:, 2], depth[res.pixels[:, 0], res.pixels[:, 1]])
+
+
+@pytest.mark.parametrize("args, match", [
+    ((np.zeros((1, 2), np.int64), np.zeros((3, 2), np.int64), np.ones(3), 0.05), "faces"),
+    ((np.array([[0, 1, 3]]), np.zeros((3, 2), np.int64), np.ones(3), 0.05), "out of range"),
+    ((np.array([[0, 1, -1]]), np.zeros((3, 2), np.int64), np.ones(3), 0.05), "out of range"),
+    ((np.array([[0, 1, 2]]), np.zeros((3, 2), np.int64), np.ones(2), 0.05), "one depth a vertex"),
+    ((np.array([[0, 1, 2]]), np.zeros((3, 2), np.int64), np.ones(3), 0.05, np.ones((2, 3))), "lengths"),
+])
+def test_the_wall_rule_refuses_malformed_meshes(args, match):
+    with pytest.raises(ValueError, match=match):
+        _core.wall_faces(*args)
+
+
+def test_the_wall_rule_by_hand():
+    # one edge 0 -> 1 two pixels long from depth 10 to 11: a step of 1 against
+    # 0.05 * 10 * 2 = 1.0 is no wall; to 11.5 it is (0.05 is the default jump)
+    faces = np.array([[0, 1, 2]])
+    pixels = np.array([[0, 0], [0, 2], [5, 0]])
+    assert not _core.wall_faces(faces, pixels, np.array([10.0, 11.0, 10.0]), 0.05)[0]
+    assert _core.wall_faces(faces, pixels, np.array([10.0, 11.5, 10.0]), 0.05)[0]
+    # given lengths replace the image plane's: 4 pixels (and 5 on the edges to corner 2) leave
+    # the larger step no wall
+    lengths = np.array([[4.0, 5.0, 5.0]])
+    assert not _core.wall_faces(faces, pixels, np.array([10.0, 11.5, 10.0]), 0.05, lengths)[0]

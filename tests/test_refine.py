@@ -589,23 +589,23 @@ def test_corner_depths_are_those_of_the_nearest_valid_pixel(seed, h, w, share):
         assert got[i] == depth[rr[j], cc[j]]
 
 
-def _python_steps(depth, valid, camera, ref, **target):
+def _python_steps(depth, valid, camera, ref, walls=True, **target):
     """`greedy_mesh`'s Python steps (`_greedy`), which the native call stands for."""
     from rangemesh._core import valid_range
     from rangemesh.refine.insertion import _greedy
 
     target = {"vertices": None, "max_error": None, "max_vertices": None, **target}
-    return _greedy(depth, valid, camera, ref, valid_range(depth, valid), 0, walls=True, jump=0.05,
+    return _greedy(depth, valid, camera, ref, valid_range(depth, valid), 0, walls=walls, jump=0.05,
                    first=None, **target)
 
 
 def _native_call(depth, valid, camera, ref, fit, diagonals, vertices=None, max_error=None,
-                 max_vertices=None):
+                 max_vertices=None, walls=True):
     from rangemesh._core import valid_range
     from rangemesh.refine.insertion import _native
 
     return _native(depth, valid, camera, ref, valid_range(depth, valid), 0, vertices, max_error,
-                   max_vertices, fit=fit, diagonals=diagonals)
+                   max_vertices, fit=fit, diagonals=diagonals, walls=walls)
 
 
 def _camera(kind, h, w):
@@ -621,14 +621,16 @@ def _camera(kind, h, w):
 @settings(max_examples=80, deadline=None)
 @given(st.integers(0, 2**31), st.integers(2, 48), st.integers(2, 48),
        st.sampled_from(["unit", "wide rows", "pinhole", "spherical"]), st.booleans(),
-       st.sampled_from(["error", "delaunay"]), st.sampled_from(["vertices", "max_error", "default"]))
+       st.sampled_from(["error", "delaunay"]), st.sampled_from(["vertices", "max_error", "default"]),
+       st.booleans())
 def test_the_native_call_gives_the_meshes_of_the_python_steps(seed, h, w, kind, fit, diagonals,
-                                                              target):
-    # Walls kept, one strip: _core.refine_mesh stands for _greedy, bit for bit (vertices, faces,
-    # pixels, stats but the timings, the target record), for every camera, heights and diagonals.
+                                                              target, walls):
+    # One strip: _core.refine_mesh stands for _greedy, bit for bit (vertices, faces, pixels,
+    # stats but the timings, the target record), for every camera, heights and diagonals, walls
+    # kept or dropped (dropped: not with a ray camera, whose lengths are Python's).
     rng = np.random.default_rng(seed)
     noise = rng.choice([10.0, 0.01])
-    depth = 100 + rng.random((h, w)) * noise + (np.arange(w) > w // 2) * 20 * rng.integers(2)
+    depth = 100 + rng.random((h, w)) * noise + (np.arange(w) > w // 2) * 40 * rng.integers(2)
     if rng.integers(2):
         depth = np.round(depth)  # exact planes and ties: the count search's and the fit's edge cases
     valid = rng.random((h, w)) >= rng.choice([0.0, 0.3, 0.7])
@@ -641,8 +643,9 @@ def test_the_native_call_gives_the_meshes_of_the_python_steps(seed, h, w, kind, 
     asked = {"vertices": {"vertices": n},
              "max_error": {"max_error": float(rng.choice([1e-6, 0.05, 0.5, 3.0]))},
              "default": {"max_error": 0.5, "max_vertices": n}}[target]
-    a, ta = _native_call(depth, valid, camera, ref, fit, diagonals, **asked)
-    b, tb = _python_steps(depth, valid, camera, ref, fit=fit, diagonals=diagonals, **asked)
+    walls = walls or kind == "spherical"
+    a, ta = _native_call(depth, valid, camera, ref, fit, diagonals, walls=walls, **asked)
+    b, tb = _python_steps(depth, valid, camera, ref, walls, fit=fit, diagonals=diagonals, **asked)
     if a is None:  # declined: no triangle of valid corners (the next test); the Python steps mesh it
         return
     for field in ("vertices", "faces", "pixels"):

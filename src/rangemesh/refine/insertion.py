@@ -281,9 +281,9 @@ def greedy_mesh(depth: np.ndarray, valid: np.ndarray, camera, *, vertices: int |
         ref = (np.ldexp(ref[0], -exponent), ref[1])
         extent = (math.ldexp(extent[0], -exponent), math.ldexp(extent[1], -exponent), extent[2])
     mesh = None
-    if walls:
+    if walls or getattr(camera, "directions", None) is None:  # (ray angles: Python's lengths)
         mesh, target = _native(depth, valid, camera, ref, extent, exponent, vertices, max_error,
-                               max_vertices, fit=fit, diagonals=diagonals)
+                               max_vertices, fit=fit, diagonals=diagonals, walls=walls, jump=jump)
     if mesh is None:  # the cases the native call does not take, or declined
         mesh, target = _greedy(depth, valid, camera, ref, extent, exponent, vertices=vertices,
                                max_error=max_error, fit=fit, diagonals=diagonals, walls=walls,
@@ -339,10 +339,16 @@ def _plan(shape, camera, n_valid, vertices, max_error, max_vertices):
     return want, delaunay_scales(camera, shape), n_grid, use_strips(shape, want, max_error, n_valid)
 
 
-def _count_record(got, asked, runs, n_valid, n_pixels, no_walls_dropped, lo, hi) -> dict:
-    """The target record of ``vertices=asked`` met with `got` vertices in `runs` meshings."""
+def _count_record(got, asked, runs, n_valid, n_pixels, no_walls_dropped, lo, hi,
+                  walls_dropped=None) -> dict:
+    """The target record of ``vertices=asked`` met with `got` vertices in `runs` meshings.
+
+    `walls_dropped`: the walls dropped, with ``walls=False`` (None: walls kept).
+    """
     target = {"target": "vertices", "requested": asked, "achieved": got, "met": got == asked,
               "meshings": runs}
+    if walls_dropped is not None:
+        target["walls_dropped"] = walls_dropped
     if got != asked:
         target["note"] = _count_note(got, asked, n_valid, n_pixels, no_walls_dropped, lo, hi)
     return target
@@ -355,8 +361,8 @@ _NATIVE_MESH = Mesh(np.zeros((0, 3)), np.zeros((0, 3), np.int32), np.zeros((0, 2
 
 
 def _native(depth, valid, camera, ref, extent, exponent, vertices, max_error, max_vertices, *,
-            fit, diagonals):
-    """`_greedy` with walls kept on one strip, as one native call (`rangemesh._core.refine_mesh`).
+            fit, diagonals, walls=True, jump=0.05):
+    """`_greedy` on one strip, as one native call (`rangemesh._core.refine_mesh`).
 
     Returns ``(mesh, target)``, or ``(None, None)`` for the cases it does not
     take (two strips) or declines (no triangle of valid corners, so the
@@ -372,7 +378,7 @@ def _native(depth, valid, camera, ref, extent, exponent, vertices, max_error, ma
     req = _core.RefineRequest()
     req.vertices, req.n_valid, req.lo, req.hi, req.n_grid = want, n_valid, lo, hi, n_grid
     req.sr, req.sc = scales
-    req.flip, req.fit = diagonals == "error", fit
+    req.flip, req.fit, req.walls, req.jump = diagonals == "error", fit, walls, float(jump)
     req.max_runs, req.max_bisect_runs = MAX_RUNS, MAX_BISECT_RUNS
     req.heights = height_rule(n_valid)
     if max_error is not None:
@@ -391,17 +397,19 @@ def _native(depth, valid, camera, ref, extent, exponent, vertices, max_error, ma
                         insertions=res.insertions, heights="fit" if fit else "pixel")
     mesh = with_fields(_NATIVE_MESH, vertices=res.vertices, faces=faces, pixels=pixels,
                        camera=camera, image_shape=(h, w), stats=stats, attributes={})
+    dropped = None if walls else res.walls_dropped
     if vertices is not None:
-        return mesh, _count_record(got, int(vertices), res.meshings, n_valid, h * w, True,
-                                   math.ldexp(lo, exponent), math.ldexp(hi, exponent))
+        return mesh, _count_record(got, int(vertices), res.meshings, n_valid, h * w, walls,
+                                   math.ldexp(lo, exponent), math.ldexp(hi, exponent), dropped)
     return mesh, _error_record(res.achieved, float(max_error), res.meshings, got, res.asked, want,
-                               max_vertices)
+                               max_vertices, dropped)
 
 
-def _error_record(achieved, asked, runs, got, last, want, max_vertices) -> dict:
+def _error_record(achieved, asked, runs, got, last, want, max_vertices, walls_dropped=None) -> dict:
     """The target record of ``max_error=asked`` (and `max_vertices`), `achieved` in `runs` meshings.
 
-    `last` is the last meshing's request, `want` the vertex cap.
+    `last` is the last meshing's request, `want` the vertex cap, `walls_dropped`
+    as `_count_record` takes it.
     """
     ok = achieved <= asked
     capped = not ok and max_vertices is not None and last >= want
@@ -409,6 +417,8 @@ def _error_record(achieved, asked, runs, got, last, want, max_vertices) -> dict:
               "meshings": runs, "vertices": got}
     if max_vertices is not None:
         target["max_vertices"] = want
+    if walls_dropped is not None:
+        target["walls_dropped"] = walls_dropped
     if not ok:
         target["note"] = f"stopped at max_vertices={want}" if capped else "the bound was not reached"
     return target
@@ -533,15 +543,9 @@ def _greedy(depth, valid, camera, ref, extent, exponent, *, vertices, max_error,
         stats = Stats(seconds=seconds, method="refine", grid_shape=None, reason=reason)
         return empty_mesh(camera, (h, w), stats), {}
     mesh = Mesh(verts, faces, pixels, camera, (h, w), stats)
+    dropped = None if walls else n_walls
     if vertices is not None:
-        target = _count_record(got, int(vertices), runs, n_valid, h * w, walls and n_walls == 0,
-                               math.ldexp(lo, exponent), math.ldexp(hi, exponent))
-        note = target.pop("note", "")
-    else:
-        target = _error_record(achieved, float(max_error), runs, got, asked, want, max_vertices)
-        note = target.pop("note", "")
-    if not walls:
-        target["walls_dropped"] = n_walls
-    if note:
-        target["note"] = note
-    return mesh, target
+        return mesh, _count_record(got, int(vertices), runs, n_valid, h * w, walls and n_walls == 0,
+                                   math.ldexp(lo, exponent), math.ldexp(hi, exponent), dropped)
+    return mesh, _error_record(achieved, float(max_error), runs, got, asked, want, max_vertices,
+                               dropped)

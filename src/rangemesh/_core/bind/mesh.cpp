@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "../refine/mesh.hpp"
+#include "../refine/walls.hpp"
 #include "bindings.hpp"
 #include "numpy.hpp"
 #include "release.hpp"
@@ -55,6 +56,8 @@ void bind_request(nb::module_& m) {
         .def_rw("sc", &MeshRequest::sc, "Weight of columns in the Delaunay test.")
         .def_rw("flip", &MeshRequest::flip, "Each quad's diagonal by the error.")
         .def_rw("fit", &MeshRequest::fit, "Heights by least squares, else copied.")
+        .def_rw("walls", &MeshRequest::walls, "Keep the walls of jumps (false: drop them; not with a ray camera).")
+        .def_rw("jump", &MeshRequest::jump, "The jump rule's share of the local depth per pixel.")
         .def_rw("max_runs", &MeshRequest::max_runs, "Meshings at most.")
         .def_rw("max_bisect_runs", &MeshRequest::max_bisect_runs, "... once a request gave more than the count.")
         .def_rw("heights", &MeshRequest::heights, "The fit's rules (a HeightRule).");
@@ -76,6 +79,7 @@ void bind_result(nb::module_& m) {
         .def_ro("insertions", &MeshResult::insertions, "Vertices of the last insertion, background corners included.")
         .def_ro("flips", &MeshResult::flips, "Edges the last insertion's diagonals flipped.")
         .def_ro("meshings", &MeshResult::meshings, "Meshings the search ran.")
+        .def_ro("walls_dropped", &MeshResult::walls_dropped, "Walls dropped from the mesh (walls false).")
         .def_ro("asked", &MeshResult::asked, "The last meshing's vertex request.")
         .def_ro("achieved", &MeshResult::achieved, "With max_error: the relative error reached (NaN: no valid "
                 "pixel covered).")
@@ -88,6 +92,29 @@ void bind_result(nb::module_& m) {
 void bind_refine_mesh(nb::module_& m) {
     bind_request(m);
     bind_result(m);
+    m.def(
+        "wall_faces",
+        [](In2<index_t> faces, In2<index_t> pixels, In1<double> z, double jump, std::optional<In2<double>> lengths) {
+            check_input(faces.shape(1) == 3 && pixels.shape(1) == 2 && z.shape(0) == pixels.shape(0),
+                        "wall_faces: faces (F, 3), pixels (V, 2), one depth a vertex");
+            check_input(!lengths || (lengths->shape(0) == faces.shape(0) && lengths->shape(1) == 3),
+                        "wall_faces: lengths (F, 3), one an edge");
+            const index_t n_v = static_cast<index_t>(pixels.shape(0));
+            for (index_t i = 0; i < static_cast<index_t>(faces.size()); ++i)
+                check_input(0 <= faces.data()[i] && faces.data()[i] < n_v, "wall_faces: a vertex id is out of range");
+            const index_t n_f = static_cast<index_t>(faces.shape(0));
+            auto* out = new bool[n_f];
+            nb::capsule owner(out, [](void* p) noexcept { delete[] static_cast<bool*>(p); });
+            run_released([&] {
+                refine::wall_faces(grid(faces), grid(pixels), span(z), jump,
+                                   lengths ? grid(*lengths) : Grid<const double>{}, {out, n_f});
+            }, work(faces));
+            const std::size_t shape[1] = {static_cast<std::size_t>(n_f)};
+            return nb::ndarray<nb::numpy, bool>(out, 1, shape, owner);
+        },
+        nb::arg("faces"), nb::arg("pixels"), nb::arg("z"), nb::arg("jump"), nb::arg("lengths").none() = nb::none(),
+        "Which faces are walls: an edge a -> b (corner k to k + 1) with |za - zb| > jump * min(|za|, |zb|) * "
+        "max(L, 1), L ``lengths[t, k]`` (ray angles in pixels) or the distance of its corners' ``pixels``.");
     m.def(
         "refine_mesh",
         [](In2<double> depth, In2<bool> valid, In1<double> camera, const MeshRequest& req,
@@ -102,6 +129,8 @@ void bind_refine_mesh(nb::module_& m) {
                         "refine_mesh: 0 < vertices <= n_valid <= the image's pixels");
             check_input(req.max_error < 0.0 || (req.max_error > 0.0 && std::isfinite(req.max_error)),
                         "refine_mesh: max_error negative (none) or a finite positive percentage");
+            check_input(req.walls || camera(0) != 2.0, "refine_mesh: walls dropped with a ray camera (ray-angle "
+                                                         "lengths) are not native");
             check_input(req.sr >= 1 && req.sc >= 1 && req.max_runs >= 1 && req.max_bisect_runs >= 1,
                         "refine_mesh: sr, sc, max_runs and max_bisect_runs at least 1");
             check_input(camera.shape(0) >= 6 && (camera(0) == 0.0 || camera(0) == 1.0 ||

@@ -19,6 +19,7 @@
 #include "../interrupt.hpp"
 #include "diagonals.hpp"
 #include "insertion.hpp"
+#include "walls.hpp"
 
 namespace rangemesh::refine {
 
@@ -130,11 +131,44 @@ ValidFaces one_fan_each(const Image& image, ValidFaces f) {
     return valid_faces(view(rows), view(cols), view(tv), image.valid);
 }
 
+// The walls dropped, then what leaves a vertex with two fans and lone triangles, the faces
+// renumbered over the vertices left (insertion.py's `_assemble`, walls.py's `drop_walls`).
+ValidFaces drop_walls(const Image& image, ValidFaces f, double jump, index_t& n_walls) {
+    const index_t n_f = static_cast<index_t>(f.faces.size() / 3), n_v = static_cast<index_t>(f.pixels.size() / 2);
+    const std::vector<index_t> wide(f.faces.begin(), f.faces.end()), pixels(f.pixels.begin(), f.pixels.end());
+    std::vector<double> z(n_v);
+    for (index_t i = 0; i < n_v; ++i) z[i] = image.depth(pixels[2 * i], pixels[2 * i + 1]);
+    const std::unique_ptr<bool[]> kept(new bool[n_f]);
+    wall_faces({wide.data(), n_f, 3}, {pixels.data(), n_v, 2}, view(z), jump, {}, {kept.get(), n_f});
+    n_walls = 0;
+    for (index_t t = 0; t < n_f; ++t) {
+        n_walls += kept[t];
+        kept[t] = !kept[t];
+    }
+    if (n_walls == 0) return f;
+    if (n_walls < n_f) {
+        std::vector<index_t> triangles, halfedges, neighbors(3 * n_f);
+        build_halfedges(Grid<const index_t>{wide.data(), n_f, 3}, n_v, triangles, halfedges);
+        neighbors_from_halfedges(view(halfedges), Grid<index_t>{neighbors.data(), n_f, 3});
+        prune_dangling(LiveTriangles{{wide.data(), n_f, 3}, {neighbors.data(), n_f, 3}, {kept.get(), n_f}}, n_v);
+    }
+    std::vector<index_t> rows(n_v), cols(n_v), tv;
+    for (index_t i = 0; i < n_v; ++i) {
+        rows[i] = pixels[2 * i];
+        cols[i] = pixels[2 * i + 1];
+    }
+    for (index_t t = 0; t < n_f; ++t) {
+        poll_every(t);
+        if (kept[t]) tv.insert(tv.end(), wide.begin() + 3 * t, wide.begin() + 3 * t + 3);
+    }
+    return valid_faces(view(rows), view(cols), view(tv), image.valid);
+}
+
 // One meshing: the insertion's mesh (its diagonals flipped by the error when asked), kept to the
 // valid faces with one fan each.
 struct Meshing {
     ValidFaces mesh;
-    index_t insertions = 0, flips = 0;
+    index_t insertions = 0, flips = 0, n_walls = 0;
     bool error_left = false;  // the insertion's summed error (before any flip) is above 0
 
     index_t n_vertices() const { return static_cast<index_t>(mesh.pixels.size() / 2); }
@@ -159,6 +193,7 @@ Meshing mesh_once(const Image& image, const FirstMesh& first, index_t asked, dou
     out.mesh = valid_faces(view(ins.vertex_rows()), view(ins.vertex_cols()), tv, image.valid);
     const index_t n_f = static_cast<index_t>(out.mesh.faces.size() / 3);
     if (0 < n_f && n_f < tv.size / 3) out.mesh = one_fan_each(image, std::move(out.mesh));
+    if (!req.walls && !out.mesh.faces.empty()) out.mesh = drop_walls(image, std::move(out.mesh), req.jump, out.n_walls);
     return out;
 }
 
@@ -462,6 +497,7 @@ MeshResult Refiner::finish(Candidate&& c) {
     out_.achieved = c.achieved;
     out_.insertions = insertions_;
     out_.flips = flips_;
+    out_.walls_dropped = c.meshing.n_walls;
     out_.outcome = MeshOutcome::done;
     return std::move(out_);
 }

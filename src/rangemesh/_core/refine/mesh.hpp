@@ -1,4 +1,5 @@
-// The whole refine call on one strip: first mesh, insertion, diagonals, assembly, heights and
+// The whole refine call on one strip: first mesh, insertion, diagonals, assembly (walls kept
+// or dropped), heights and
 // the lift to 3-D, repeated by one small search until the target is met: a vertex count
 // (`vertices=`) or an error bound (`max_error=`, with a vertex cap: the default target).
 //
@@ -34,6 +35,8 @@ struct MeshRequest {
     index_t sr = 1, sc = 1;  // weights of rows and columns in the Delaunay test
     bool flip = true;      // each quad's diagonal by the error (`flip_by_error`)
     bool fit = true;       // heights by least squares, else copied from the pixels
+    bool walls = true;     // keep the walls of jumps; false drops them (not with a ray camera)
+    double jump = 0.05;    // the jump rule's share of the local depth per pixel (walls.hpp)
     index_t max_runs = 8, max_bisect_runs = 5;  // meshings at most, and once past the count
     HeightRule heights;
 };
@@ -58,6 +61,7 @@ struct MeshResult {
     index_t insertions = 0;            // vertices of the last insertion, background corners included
     index_t flips = 0;                 // edges the last insertion's diagonals flipped
     index_t meshings = 0;
+    index_t walls_dropped = 0;         // walls dropped from the mesh (walls false)
     index_t asked = 0;                 // the last meshing's request (max_error: its vertex count)
     double achieved = 0.0;             // max_error: the relative error reached (NaN: none covered)
     double fit_seconds = 0.0, seconds = 0.0;

@@ -49,6 +49,15 @@ def shared_data():
 
 
 @pytest.fixture(scope="session")
+def data_or_crops():
+    """The data folder, or None: then tests take the committed crops (tests/images.load_or_crop)."""
+    d = data_dir()
+    if d is None and os.environ.get("RANGEMESH_REQUIRE_DATA"):
+        pytest.fail("../shared/data not found and RANGEMESH_REQUIRE_DATA is set")
+    return d
+
+
+@pytest.fixture(scope="session")
 def open3d():
     """The real Open3D; CI (RANGEMESH_REQUIRE_OPEN3D) fails rather than skips without it."""
     try:

@@ -2,9 +2,11 @@
 
 import dataclasses
 import inspect
+import json
 import subprocess
 import sys
 import textwrap
+from fractions import Fraction
 
 import numpy as np
 import pytest
@@ -203,6 +205,79 @@ def test_auto_takes_zero_as_missing_in_integer_images_only():
     assert triangulate(as_float, vertices=40).vertices[:, 2].min() == 0.0
 
 
+def ranges_with_no_returns():
+    """A float range image with 0 (no return) and negative values (behind the sensor) in it."""
+    r, c = np.mgrid[0:40, 0:50]
+    img = 3.0 + 0.02 * r + 0.01 * c
+    img[5:12, 8:20] = 0.0
+    img[30, 40] = 0.0  # a one-pixel hole: filled from its neighbours, as any hole
+    img[20:24, 30:33] = -1.5
+    img[0, 0] = -0.0
+    return img
+
+
+def ray_cameras(shape):
+    h, w = shape
+    el, az = np.linspace(15, -15, h), np.linspace(60, -60, w)
+    spherical = rangemesh.Spherical(el, az)
+    return {"pinhole": rangemesh.Pinhole(60.0, 60.0, w / 2, h / 2),
+            "spherical": spherical, "rays": rangemesh.Rays(spherical.directions)}
+
+
+@pytest.mark.parametrize("kind", ["pinhole", "spherical", "rays"])
+def test_auto_takes_zero_and_below_as_no_return_before_a_sensor(kind):
+    # F16, issue 41: a float image's 0 put vertices at the sensor (Spherical, Rays) or was
+    # refused (Pinhole), and negative depths were meshed behind the camera
+    img = ranges_with_no_returns()
+    camera = ray_cameras(img.shape)[kind]
+    mesh = triangulate(img, camera=camera, vertices=200)
+    assert len(mesh.vertices) == 200
+    if kind == "pinhole":
+        assert mesh.vertices[:, 2].min() > 0
+    else:
+        assert np.linalg.norm(mesh.vertices, axis=1).min() > 2.9  # the nearest return is 3.0
+    # NaN is no return in every dtype and under any background: the same mesh
+    same_mesh(mesh, triangulate(np.where(img > 0, img, np.nan), camera=camera, vertices=200))
+    same_mesh(mesh, triangulate(img, camera=camera, vertices=200, background="nonpositive"))
+    ev = rangemesh.evaluate(mesh, img)  # 'auto' by the mesh's camera, as triangulate took it
+    assert ev.valid_pixels == int((img > 0).sum())
+    # heights and disparities (Orthographic): 0 and below are data
+    assert triangulate(img, vertices=200).vertices[:, 2].min() < 0
+
+
+def test_the_command_line_takes_no_returns_as_the_api_does(tmp_path, capsys):
+    img = ranges_with_no_returns()
+    src = tmp_path / "scan.npy"
+    np.save(src, img.astype(np.float32))
+    camera = rangemesh.Pinhole(60.0, 60.0, 25.0, 20.0)
+    one = triangulate(img.astype(np.float32), camera=camera, vertices=200)
+    assert main(["mesh", str(src), "--intrinsics", "60,60,25,20", "--vertices", "200", "-o",
+                 str(tmp_path / "cli.ply"), "--quiet"]) == 0
+    m = read_mesh(tmp_path / "cli.ply")
+    assert np.array_equal(m.faces, one.faces)
+    np.testing.assert_allclose(m.vertices, one.vertices, rtol=1e-6)  # PLY keeps float32
+    assert main(["eval", str(src), str(tmp_path / "cli.ply"), "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["relative_error"] == pytest.approx(rangemesh.evaluate(one, img).relative_error,
+                                                  rel=1e-4)
+    assert main(["info", str(src), "--intrinsics", "60,60,25,20", "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["background"] == "0 or below" and doc["valid_pixels"] == int((img > 0).sum())
+    assert main(["info", str(src), "--json"]) == 0  # no camera: a float image's 0 is data
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["valid_pixels"] == img.size and doc["zero_pixels_valid"] == 7 * 12 + 2  # -0.0 too
+
+
+@pytest.mark.parametrize("background", [10**400, -10**400, Fraction(10**401, 3)]
+                         + ([np.longdouble("1e400")]
+                            if np.finfo(np.longdouble).max > np.finfo(np.float64).max else []),
+                         ids=lambda b: type(b).__name__ + ("-" if b < 0 else ""))
+def test_a_background_beyond_the_float_range_is_refused_naming_it(background):
+    # F12: 10**400 raised "OverflowError: int too large to convert to float"
+    with pytest.raises(ValueError, match=r"^background=\S+ lies beyond the float range"):
+        triangulate(np.ones((10, 10), np.uint16), background=background)
+
+
 def test_four_entry_points_give_the_same_mesh(tmp_path, capsys):
     pytest.importorskip("distributed")
     img = holed_uint16()
@@ -254,6 +329,22 @@ def test_mesh_without_output_writes_beside_the_input(tmp_path, capsys):
     out = tmp_path / "scan.ply"
     assert out.exists() and f"wrote {out} (no -o given: beside the input)" in err
     assert read_mesh(out).faces.shape[1] == 3
+
+
+def test_mesh_without_output_replaces_no_file_unless_overwrite(tmp_path, capsys):
+    # F14: an unrelated keep.ply beside keep.npy was replaced, exit 0
+    img = tmp_path / "keep.npy"
+    np.save(img, crease())
+    out = tmp_path / "keep.ply"
+    out.write_text("the user's own file")
+    assert main(["mesh", str(img), "--quiet"]) == 2
+    assert capsys.readouterr().err == (f"rangemesh: error: {out}: already there (the default "
+                                       f"output name); give -o FILE to write elsewhere, or "
+                                       f"--overwrite to replace it\n")
+    assert out.read_text() == "the user's own file"
+    assert main(["mesh", str(img), "--quiet", "--overwrite"]) == 0
+    assert read_mesh(out).faces.shape[1] == 3
+    assert main(["mesh", str(img), "--quiet", "-o", str(out)]) == 0  # a file named is replaced
 
 
 def test_summary_says_what_each_method_did(tmp_path, capsys):

@@ -2,7 +2,7 @@
 
 import json
 import os
-import shutil
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -12,7 +12,7 @@ from rangemesh import scenes
 from rangemesh.batch import expand_inputs, mesh_many, mesh_stream
 from rangemesh.cli import main
 
-from .images import REAL_IMAGES
+from .golden import crops
 
 
 def test_stream_equals_triangulate_frame_by_frame():
@@ -41,24 +41,31 @@ def test_stream_reports_bad_frames_clearly():
     assert empty[0].is_empty and empty[0].stats.reason
 
 
-def _inputs(shared_data, tmp_path):
+def _inputs(tmp_path):
+    """The committed crops of the real images as PNG (TIFF for the TIFF one), named as their sources."""
+    import json
+
+    import imageio.v3 as iio
+
     src = tmp_path / "in"
     src.mkdir()
-    for rel, _ in REAL_IMAGES:
-        if rel.endswith((".png", ".tiff")):
-            shutil.copy(shared_data / rel, src / os.path.basename(rel))
+    meta = json.loads((Path(__file__).parent / "data" / "crops.json").read_text())
+    for name, (arr, _) in crops().items():
+        if arr.dtype.kind == "u":  # (PNG and TIFF hold no float32)
+            stem, suffix = os.path.splitext(os.path.basename(meta[name]["source"]))
+            iio.imwrite(src / (stem + (".tiff" if suffix == ".tiff" else ".png")), arr)
     (src / "corrupt.png").write_bytes(b"\x89PNG\r\n\x1a\n this is no image")
     os.symlink(tmp_path / "nowhere.png", src / "unreadable.png")
     return src
 
 
 @pytest.fixture(scope="module")
-def batch_run(shared_data, tmp_path_factory):
+def batch_run(tmp_path_factory):
     tmp = tmp_path_factory.mktemp("batch")
-    src = _inputs(shared_data, tmp)
+    src = _inputs(tmp)
     out = tmp / "out"
     out.mkdir()
-    (out / ".teddy_disp2.ply.abc.part.ply").write_bytes(b"half a mesh")  # left by a killed run
+    (out / ".venus_disp2.ply.abc.part.ply").write_bytes(b"half a mesh")  # left by a killed run
     results = mesh_many([src], out, workers=2, background="auto", method="paper")
     return src, out, results
 
@@ -82,7 +89,7 @@ def test_batch_meshes_good_files_and_reports_bad_ones(batch_run):
 
 
 @pytest.mark.slow
-def test_batch_output_equals_single_meshing(batch_run, shared_data):
+def test_batch_output_equals_single_meshing(batch_run):
     src, out, results = batch_run
     import meshio
 
@@ -95,7 +102,7 @@ def test_batch_output_equals_single_meshing(batch_run, shared_data):
 @pytest.mark.slow
 def test_rerun_skips_and_overwrite_redoes(batch_run, capsys):
     src, out, results = batch_run
-    rc = main(["batch", str(src / "cones_disp2.png"), str(src / "teddy_disp2.png"), "-o", str(out),
+    rc = main(["batch", str(src / "cones_disp2.png"), str(src / "venus_disp2.png"), "-o", str(out),
                "--method", "paper", "--workers", "1", "--json"])
     doc = json.loads(capsys.readouterr().out)
     assert rc == 0 and doc["summary"]["skipped"] == 2 and doc["summary"]["meshed"] == 0
@@ -113,7 +120,7 @@ def test_cli_batch_exit_code_and_summary(batch_run, tmp_path, capsys):
     err = capsys.readouterr().err
     assert rc == 1  # something failed
     assert "failed: " in err and "corrupt.png" in err and "images/s" in err
-    assert (tmp_path / "o" / "teddy_disp2.obj").exists()
+    assert (tmp_path / "o" / "venus_disp2.obj").exists()
     rc = main(["batch", str(tmp_path / "nothing-*.png"), "-o", str(tmp_path / "p")])
     assert rc == 2 and "no file matches" in capsys.readouterr().err
 

@@ -16,7 +16,8 @@ import rangemesh
 from rangemesh.cli import main
 from rangemesh.io import read_range_image
 
-from .images import REAL_IMAGES, load
+from .golden import crops
+from .images import REAL_IMAGES, load, rgbd_frame
 
 
 def run(argv, capsys):
@@ -96,11 +97,13 @@ def test_mesh_ascii_pgm_to_obj_with_error_flips(shared_data, tmp_path, capsys):
 
 
 @pytest.mark.parametrize("suffix", [".off", ".stl"])
-def test_other_formats_read_back(shared_data, tmp_path, capsys, suffix):
+def test_other_formats_read_back(tmp_path, capsys, suffix):
+    src = tmp_path / "chair.npy"  # the committed crop of odetics/chair-range
+    np.save(src, crops()["chair"][0])
     out = tmp_path / f"chair{suffix}"
-    rc, _, _ = run(["mesh", shared_data / "odetics/chair-range.ppm", "-o", out, "--quiet"], capsys)
+    rc, _, _ = run(["mesh", src, "-o", out, "--quiet"], capsys)
     assert rc == 0
-    want = rangemesh.triangulate(np.load(shared_data / "odetics/chair-range.npy"), background=0)
+    want = rangemesh.triangulate(crops()["chair"][0], background=0)
     back = meshio.read(out)
     tri = back.cells_dict["triangle"]
     assert len(tri) == len(want.faces)
@@ -108,8 +111,11 @@ def test_other_formats_read_back(shared_data, tmp_path, capsys, suffix):
     np.testing.assert_allclose(back.points[tri], want.vertices[want.faces], rtol=1e-6)
 
 
-def test_ascii_ply_with_pixels_and_eval(shared_data, tmp_path, capsys):
-    src = shared_data / "rgbd/pcl_grabber_frame_20121214T142255.814212_depth.tiff"
+def test_ascii_ply_with_pixels_and_eval(tmp_path, capsys):
+    import tifffile
+
+    src = tmp_path / "boxes.tiff"  # the committed crop of the PCL grabber frame, a 16-bit TIFF
+    tifffile.imwrite(src, crops()["boxes"][0])
     out = tmp_path / "boxes.ply"
     rc, _, _ = run(["mesh", src, "-o", out, "--ascii", "--pixels", "--quiet"], capsys)
     assert rc == 0
@@ -125,8 +131,11 @@ def test_ascii_ply_with_pixels_and_eval(shared_data, tmp_path, capsys):
     assert got["covered_pixels"] == ev.covered_pixels
 
 
-def test_eval_projects_meshes_without_pixels(shared_data, tmp_path, capsys):
-    src = shared_data / "rgbd/open3d_TUM_depth.png"
+def test_eval_projects_meshes_without_pixels(tmp_path, capsys):
+    import imageio.v3 as iio
+
+    src = tmp_path / "frame.png"  # a Kinect-like frame in 1/5000 m, 0 = no depth
+    iio.imwrite(src, rgbd_frame((480, 640))[0])
     cam = ["--depth-scale", "0.0002", "--intrinsics", "525,525,319.5,239.5"]
     out = tmp_path / "f.glb"
     assert run(["mesh", src, "-o", out, "--quiet", *cam], capsys)[0] == 0
@@ -162,6 +171,21 @@ def test_demo_writes_mesh_and_preview(tmp_path, capsys):
     # the default target: a box on a plane before a pyramid is planar pieces, met well under the cap
     assert doc["stats"]["method"] == "refine" and doc["stats"]["target"]["met"]
     assert doc["evaluation"]["relative_error"] <= 0.5
+
+
+def test_demo_replaces_no_file_of_a_default_name_unless_overwrite(tmp_path, capsys, monkeypatch):
+    # F14: `rangemesh demo` replaced an existing demo.ply
+    monkeypatch.chdir(tmp_path)
+    for name, named in (("demo.ply", ["--preview", "p.png"]), ("demo-preview.png", ["-o", "m.ply"])):
+        (tmp_path / name).write_text("the user's own file")
+        rc, _, err = run(["demo", "--quiet", *named], capsys)
+        assert rc == 2 and err.count("\n") == 1
+        assert err.startswith(f"rangemesh: error: {name}: already there (the default output name)")
+        assert (tmp_path / name).read_text() == "the user's own file"
+    rc, _, err = run(["demo", "--quiet", "--overwrite"], capsys)
+    assert rc == 0 and err == ""
+    assert rangemesh.read_mesh(tmp_path / "demo.ply").faces.shape[1] == 3
+    assert (tmp_path / "demo-preview.png").read_bytes()[:4] == b"\x89PNG"
 
 
 @pytest.mark.slow
@@ -207,10 +231,13 @@ def _one_line_error(rc, out, err):
     assert "Traceback" not in err
 
 
-def test_bad_inputs(shared_data, tmp_path, capsys):
-    good = shared_data / "middlebury/cones_disp2.png"
+def test_bad_inputs(tmp_path, capsys):
+    import imageio.v3 as iio
+
+    good = tmp_path / "cones.png"  # the committed crop of middlebury/cones_disp2.png
+    iio.imwrite(good, crops()["cones"][0])
     truncated = tmp_path / "cut.png"
-    truncated.write_bytes(good.read_bytes()[:5000])
+    truncated.write_bytes(good.read_bytes()[: good.stat().st_size // 2])
     rgb = tmp_path / "rgb.npy"
     np.save(rgb, np.zeros((10, 10, 3)))
     empty = tmp_path / "empty.npy"
@@ -244,18 +271,23 @@ def test_bad_inputs(shared_data, tmp_path, capsys):
     assert list(tmp_path.glob("*.ply")) == [] and list(tmp_path.glob(".*")) == []
 
 
-def test_failed_write_leaves_nothing(shared_data, tmp_path, monkeypatch, capsys):
+def test_failed_write_leaves_nothing(tmp_path, monkeypatch, capsys):
     import rangemesh.io as rio
 
     def boom(*a, **k):
         raise OSError(errno.ENOSPC, "No space left on device")
 
+    src = tmp_path / "in" / "chair.npy"  # the committed crop of odetics/chair-range
+    src.parent.mkdir()
+    np.save(src, crops()["chair"][0])
+    out = tmp_path / "out"
+    out.mkdir()
     monkeypatch.setattr(rio, "_write_ply", boom)
-    code = main(["mesh", str(shared_data / "odetics/chair-range.npy"), "-o", str(tmp_path / "c.ply")])
+    code = main(["mesh", str(src), "-o", str(out / "c.ply")])
     err = capsys.readouterr().err
     assert code == 2
-    assert err == f"rangemesh: error: {tmp_path / 'c.ply'}: No space left on device\n"
-    assert list(tmp_path.iterdir()) == []
+    assert err == f"rangemesh: error: {out / 'c.ply'}: No space left on device\n"
+    assert list(out.iterdir()) == []
 
 
 def test_pfm_and_float_tiff(tmp_path, capsys):

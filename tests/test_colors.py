@@ -11,16 +11,16 @@ from rangemesh import Orthographic, Pinhole, triangulate
 from rangemesh.attributes import as_rgb8
 from rangemesh.io import read_mesh, write_mesh
 
-DEPTH = "rgbd/slambook2_ch7_1_depth.png"
-COLOR = "rgbd/slambook2_ch7_1_color.png"
+from .images import lidar_scan, rgbd_frame
+
 # TUM freiburg1 intrinsics (slambook2's camera): the frame in metres
 CAMERA = Pinhole(517.3, 516.5, 318.6, 255.3, depth_scale=0.001)
 
 
 @pytest.fixture(scope="module")
-def frame(shared_data):
-    depth = iio.imread(shared_data / DEPTH)
-    rgb = iio.imread(shared_data / COLOR)
+def frame():
+    """A registered 480 x 640 RGB-D pair (tests/images.py) and its mesh with colours."""
+    depth, rgb = rgbd_frame((480, 640))
     mesh = triangulate(depth, camera=CAMERA, background=0, vertices=1500, color=rgb)
     return depth, rgb, mesh
 
@@ -107,15 +107,16 @@ def test_normals_of_a_slanted_plane_by_hand():
     np.testing.assert_allclose(mesh.vertex_normals(), np.tile(expected, (12, 1)), atol=1e-12)
 
 
-def test_normals_face_the_sensor_on_real_data(frame, shared_data):
+def test_normals_face_the_sensor_on_real_data(frame, tmp_path):
     _, _, mesh = frame
     n = mesh.vertex_normals()
     assert np.allclose(np.linalg.norm(n, axis=1), 1.0)
     assert (np.sum(n * -mesh.vertices, axis=1) > 0).mean() > 0.99
     from rangemesh import Spherical
 
-    rng = np.load(shared_data / "lidar/rellis3d_os1-64_000000.range.npy")
-    cam = Spherical.from_beams(shared_data / "lidar/rellis3d_os1-64_000000.beams.json")
+    os1 = lidar_scan(tmp_path)
+    rng = np.load(os1["range"])
+    cam = Spherical.from_beams(os1["beams"])
     scan = triangulate(rng, camera=cam, background=0, vertices=3000)
     n = scan.vertex_normals()
     assert (np.sum(n * -scan.vertices, axis=1) > 0).mean() > 0.99
@@ -231,10 +232,12 @@ def test_to_open3d_missing_says_how_to_install(monkeypatch, frame):
         frame[2].to_open3d()
 
 
-def test_cli_color_writes_textured_obj_and_coloured_ply(tmp_path, shared_data, capsys):
+def test_cli_color_writes_textured_obj_and_coloured_ply(tmp_path, capsys):
     from rangemesh.cli import main
 
-    depth, color = shared_data / DEPTH, shared_data / COLOR
+    depth, color = tmp_path / "depth.png", tmp_path / "color.png"
+    for path, image in zip((depth, color), rgbd_frame((480, 640)), strict=True):
+        iio.imwrite(path, image)
     obj, ply = tmp_path / "f.obj", tmp_path / "f.ply"
     common = ["--intrinsics", "517.3,516.5,318.6,255.3", "--depth-scale", "0.001",
               "--vertices", "1000", "--color", str(color), "--quiet"]
@@ -252,8 +255,10 @@ def test_cli_color_writes_textured_obj_and_coloured_ply(tmp_path, shared_data, c
                  "517.3,516.5,318.6,255.3", "--vertices", "100", "--color",
                  str(shutil_copy)]) == 2
     assert "never replaces an input" in capsys.readouterr().err
+    other = tmp_path / "other.png"  # a colour image of another size than the depth
+    iio.imwrite(other, np.zeros((383, 434), np.uint8))
     assert main(["mesh", str(depth), "-o", str(ply), "--vertices", "100",
-                 "--color", str(shared_data / "middlebury/venus_disp2.pgm")]) == 2
+                 "--color", str(other)]) == 2
     assert "registered" in capsys.readouterr().err
 
 

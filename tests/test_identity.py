@@ -13,7 +13,7 @@ from rangemesh.paper.triangulation import delaunay_mesh, triangulate_points
 from rangemesh.pipeline import call_options
 
 from . import reference as ref
-from .images import REAL_IMAGES, load
+from .images import REAL_IMAGES, load_or_crop
 
 
 def _random_image(seed, h=None, w=None):
@@ -40,8 +40,8 @@ def test_fill_gaps_kernel_equals_numpy(seed):
 
 
 @pytest.mark.parametrize("rel, background", REAL_IMAGES, ids=[r for r, _ in REAL_IMAGES])
-def test_stage_one_on_real_images_equals_numpy(shared_data, rel, background):
-    d, v = rangemesh.to_depth_and_mask(load(shared_data, rel), background)
+def test_stage_one_on_real_images_equals_numpy(data_or_crops, rel, background):
+    d, v = rangemesh.to_depth_and_mask(load_or_crop(data_or_crops, rel), background)
     a, av = fill_gaps(d, v)
     b, bv = ref.fill_gaps_numpy(d, v)
     assert np.array_equal(a, b) and np.array_equal(av, bv)
@@ -87,8 +87,8 @@ def test_sweep_equals_qhull(seed):
 
 
 @pytest.mark.parametrize("rel, background", REAL_IMAGES[:6], ids=[r for r, _ in REAL_IMAGES[:6]])
-def test_sweep_mesh_equals_qhull_mesh(shared_data, rel, background):
-    depth, valid = rangemesh.pipeline.prepare(load(shared_data, rel), rangemesh.MeshParams(),
+def test_sweep_mesh_equals_qhull_mesh(data_or_crops, rel, background):
+    depth, valid = rangemesh.pipeline.prepare(load_or_crop(data_or_crops, rel), rangemesh.MeshParams(),
                                               background)
     grid = rangemesh.sample_grid(depth, valid, rangemesh.MeshParams(tiles=6, samples=9))
     a = delaunay_mesh(grid, depth, valid, engine="sweep")

@@ -13,6 +13,7 @@ from rangemesh.io import read_lidar_bin, read_mesh, write_mesh
 from rangemesh.refine.walls import wall_faces
 
 from .helpers import assert_valid_mesh
+from .images import lidar_scan
 
 SCAN = "lidar/rellis3d_os1-64_000000"
 
@@ -24,6 +25,19 @@ def scan(shared_data):
     raw = np.fromfile(shared_data / f"{SCAN}.bin", dtype="<f4").reshape(-1, 4)
     cam = Spherical.from_beams(shared_data / f"{SCAN}.beams.json")
     return rng, beams, raw, cam
+
+
+@pytest.fixture(scope="module")
+def os1(tmp_path_factory):
+    """A scan laid out as the shared OS1-64 scan (64 x 2048, the same files): tests/images.py."""
+    return lidar_scan(tmp_path_factory.mktemp("os1"))
+
+
+@pytest.fixture(scope="module")
+def synthetic_scan(os1):
+    """`scan`'s four items for the synthetic scan: for tests that need no particular scan."""
+    return (np.load(os1["range"]), json.loads(os1["beams"].read_text()),
+            np.fromfile(os1["bin"], dtype="<f4").reshape(-1, 4), Spherical.from_beams(os1["beams"]))
 
 
 def _raw_point(raw, beams, r, c):
@@ -93,13 +107,13 @@ def test_read_lidar_bin_matches_the_range_image(shared_data, scan):
 
 
 @pytest.mark.parametrize("method", ["refine", "paper"])
-def test_vertices_are_the_raw_points(scan, method):
+def test_vertices_are_the_raw_points(synthetic_scan, method):
     """Every vertex within 1 mm of the .bin's point for its pixel (depths copied from pixels).
 
     Single-pixel holes are left as they are (``fill_gaps=False``): a filled
     pixel has no point in the .bin.
     """
-    rng, beams, raw, cam = scan
+    rng, beams, raw, cam = synthetic_scan
     kw = {"vertices": 3000, "heights": "pixel"} if method == "refine" else {"tiles": (2, 16)}
     mesh = triangulate(rng, camera=cam, background=0, method=method, fill_gaps=False, **kw)
     assert (rng[mesh.pixels[:, 0], mesh.pixels[:, 1]] > 0).all()
@@ -108,8 +122,8 @@ def test_vertices_are_the_raw_points(scan, method):
     assert err.max() < 1e-3, err.max()
 
 
-def test_fitted_vertices_stay_on_their_rays(scan):
-    rng, beams, raw, cam = scan
+def test_fitted_vertices_stay_on_their_rays(synthetic_scan):
+    rng, beams, raw, cam = synthetic_scan
     mesh = triangulate(rng, camera=cam, background=0, vertices=3000, fill_gaps=False)
     p = _raw_point(raw, beams, mesh.pixels[:, 0], mesh.pixels[:, 1])
     cos = np.sum(mesh.vertices * p, axis=1) / (np.linalg.norm(mesh.vertices, axis=1)
@@ -134,8 +148,8 @@ def _seam_gaps(mesh, valid):
 
 
 @pytest.mark.parametrize("method", ["refine", "paper"])
-def test_seam_is_closed(scan, method):
-    rng, _, _, cam = scan
+def test_seam_is_closed(synthetic_scan, method):
+    rng, _, _, cam = synthetic_scan
     valid = rng > 0
     if method == "refine":  # it fills single-pixel gaps by default: vertices may stand on them
         valid = rangemesh.fill_gaps(*rangemesh.to_depth_and_mask(rng, 0))[1]
@@ -233,8 +247,8 @@ def test_walls_dropped_on_the_scan_keep_the_ground(scan):
     assert by_angle < 0.25 * in_plane, (by_angle, in_plane)
 
 
-def test_spherical_camera_round_trips_through_ply(tmp_path, scan):
-    rng, _, _, cam = scan
+def test_spherical_camera_round_trips_through_ply(tmp_path, synthetic_scan):
+    rng, _, _, cam = synthetic_scan
     mesh = triangulate(rng, camera=cam, background=0, vertices=500)
     write_mesh(mesh, tmp_path / "s.ply")
     back = read_mesh(tmp_path / "s.ply")
@@ -256,69 +270,94 @@ def test_orthographic_wrap_on_request():
 # --- the command line ----------------------------------------------------------------------
 
 
-def test_cli_meshes_the_scan_from_npy_and_bin(tmp_path, shared_data, capsys):
+def test_no_return_is_no_vertex_in_the_api_and_the_cli_alike(tmp_path, shared_data, scan, capsys):
+    # F16, issue 41: through the API (background='auto') a float scan's no-return 0 put 3250 of
+    # 20000 vertices at the sensor origin; the CLI with --beams put none there
     from rangemesh.cli import main
 
-    beams = shared_data / f"{SCAN}.beams.json"
+    rng, _, _, cam = scan
+    assert rng.dtype == np.float32 and (rng == 0).mean() > 0.3  # README: 0 = no return, 40 %
+    mesh = triangulate(rng, camera=cam, vertices=5000)
+    assert len(mesh.vertices) == 5000
+    assert np.linalg.norm(mesh.vertices, axis=1).min() >= 0.8  # README: ranges 0.82 .. 107.8 m
+    out = tmp_path / "scan.ply"
+    assert main(["mesh", str(shared_data / f"{SCAN}.range.npy"), "--beams",
+                 str(shared_data / f"{SCAN}.beams.json"), "--vertices", "5000", "-o", str(out),
+                 "--quiet"]) == 0
+    back = read_mesh(out)
+    np.testing.assert_array_equal(back.faces, mesh.faces)
+    np.testing.assert_allclose(back.vertices, mesh.vertices, rtol=1e-6)  # PLY keeps float32
+    ev = rangemesh.evaluate(mesh, rng)
+    assert ev.valid_pixels == int((rng > 0).sum())
+    assert main(["info", str(shared_data / f"{SCAN}.range.npy"), "--beams",
+                 str(shared_data / f"{SCAN}.beams.json"), "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["valid_pixels"] == int((rng > 0).sum())
+
+
+def test_cli_meshes_the_scan_from_npy_and_bin(tmp_path, os1, capsys):
+    from rangemesh.cli import main
+
+    beams = os1["beams"]
     a, b = tmp_path / "a.ply", tmp_path / "b.ply"
-    assert main(["mesh", str(shared_data / f"{SCAN}.range.npy"), "--beams", str(beams),
+    assert main(["mesh", str(os1["range"]), "--beams", str(beams),
                  "--vertices", "2000", "-o", str(a), "--quiet"]) == 0
-    assert main(["mesh", str(shared_data / f"{SCAN}.bin"), "--beams", str(beams), "--vertices",
+    assert main(["mesh", str(os1["bin"]), "--beams", str(beams), "--vertices",
                  "2000", "-o", str(b), "--quiet",
-                 "--intensity", str(shared_data / f"{SCAN}.intensity.npy")]) == 0
+                 "--intensity", str(os1["intensity"])]) == 0
     ma, mb = read_mesh(a), read_mesh(b)
     assert ma.camera == Spherical.from_beams(beams)
     np.testing.assert_array_equal(ma.vertices, mb.vertices)  # the same scan, the same mesh
-    assert is_seam(*_pixels_faces(tmp_path, shared_data, beams)).any()  # wrap is on by default
+    assert is_seam(*_pixels_faces(tmp_path, os1, beams)).any()  # wrap is on by default
     from plyfile import PlyData
 
     v = PlyData.read(str(b))["vertex"].data
     assert {"red", "green", "blue", "intensity", "nx", "ny", "nz"} <= set(v.dtype.names)
     capsys.readouterr()
-    assert main(["mesh", str(shared_data / f"{SCAN}.bin"), "-o", str(b)]) == 2
+    assert main(["mesh", str(os1["bin"]), "-o", str(b)]) == 2
     assert "needs --beams" in capsys.readouterr().err
-    assert main(["mesh", str(shared_data / f"{SCAN}.range.npy"), "--beams", str(beams),
+    assert main(["mesh", str(os1["range"]), "--beams", str(beams),
                  "--intrinsics", "1,1,1,1", "-o", str(b)]) == 2
     assert "exclude each other" in capsys.readouterr().err
     # the OBJ's texture of an --intensity run never replaces that input
     taken = tmp_path / "o.texture.png"
-    taken.write_bytes((shared_data / f"{SCAN}.intensity.npy").read_bytes())
-    assert main(["mesh", str(shared_data / f"{SCAN}.range.npy"), "--beams", str(beams),
+    taken.write_bytes(os1["intensity"].read_bytes())
+    assert main(["mesh", str(os1["range"]), "--beams", str(beams),
                  "--vertices", "300", "--intensity", str(taken), "-o", str(tmp_path / "o.obj")]) == 2
     assert "never replaces an input" in capsys.readouterr().err
-    assert main(["mesh", str(shared_data / f"{SCAN}.bin"), "--beams",
-                 str(shared_data / "README.md"), "-o", str(b)]) == 2
+    notes = tmp_path / "README.md"  # a text file that is no beams file
+    notes.write_text("# Real range / depth images\n\n| file | kind |\n")
+    assert main(["mesh", str(os1["bin"]), "--beams", str(notes), "-o", str(b)]) == 2
     assert "cannot read it as a beams file" in capsys.readouterr().err
 
 
-def _pixels_faces(tmp_path, shared_data, beams):
+def _pixels_faces(tmp_path, os1, beams):
     from rangemesh.cli import main
 
     out = tmp_path / "p.ply"
-    main(["mesh", str(shared_data / f"{SCAN}.range.npy"), "--beams", str(beams), "--vertices",
+    main(["mesh", str(os1["range"]), "--beams", str(beams), "--vertices",
           "1000", "-o", str(out), "--pixels", "--quiet"])
     m = read_mesh(out)
     return m.pixels, m.faces
 
 
-def test_cli_no_wrap_leaves_the_seam_open(tmp_path, shared_data):
+def test_cli_no_wrap_leaves_the_seam_open(tmp_path, os1):
     from rangemesh.cli import main
 
-    beams = shared_data / f"{SCAN}.beams.json"
+    beams = os1["beams"]
     out = tmp_path / "p.ply"
-    assert main(["mesh", str(shared_data / f"{SCAN}.range.npy"), "--beams", str(beams),
+    assert main(["mesh", str(os1["range"]), "--beams", str(beams),
                  "--vertices", "1000", "-o", str(out), "--pixels", "--quiet", "--no-wrap"]) == 0
     m = read_mesh(out)
     assert not is_seam(m.pixels, m.faces).any()
 
 
-def test_preview_of_the_scan_is_legible(tmp_path, scan):
+def test_preview_of_the_scan_is_legible(tmp_path, synthetic_scan):
     """64 x 2048: panels stacked at the picture's full width, rows stretched, seam not drawn."""
     import imageio.v3 as iio
 
     from rangemesh.preview import save_preview
 
-    rng, _, _, cam = scan
+    rng, _, _, cam = synthetic_scan
     mesh = triangulate(rng, camera=cam, background=0, vertices=2000)
     save_preview(mesh, rng, rng > 0, tmp_path / "p.png")
     img = iio.imread(tmp_path / "p.png")

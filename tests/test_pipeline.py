@@ -20,7 +20,7 @@ from rangemesh.pipeline import call_options
 from rangemesh.prepare import to_depth_and_mask
 
 from .helpers import assert_valid_mesh, canonical_faces
-from .images import REAL_IMAGES, load
+from .images import REAL_IMAGES, load_or_crop
 
 FLIPS = ["disparity", "error", None]
 
@@ -215,8 +215,8 @@ def test_stage_functions_compose_to_triangulate():
 
 
 @pytest.mark.parametrize("rel, background", REAL_IMAGES, ids=[r for r, _ in REAL_IMAGES])
-def test_real_images(shared_data, rel, background):
-    img = load(shared_data, rel)
+def test_real_images(data_or_crops, rel, background):
+    img = load_or_crop(data_or_crops, rel)
     _, valid0 = to_depth_and_mask(img, background)
     for flips in ("disparity", "error"):
         m = triangulate(img, background=background, tiles=4, samples=10, flips=flips, method="paper")

@@ -1,8 +1,8 @@
 """ROS recordings in, meshes back in the recording (rangemesh.recordings, `rangemesh batch`).
 
-The recordings are written by `rosbags`' writers from the shared RGB-D frames (or are the real
-RealSense bag), and the markers we write are read back by `rosbags`: expected values come from
-the arrays the fixtures wrote and from `rangemesh.triangulate` on them.
+The recordings are written by `rosbags`' writers from a synthetic RGB-D frame (tests/images.py),
+or are the real RealSense bag, and the markers we write are read back by `rosbags`: expected values
+come from the arrays the fixtures wrote and from `rangemesh.triangulate` on them.
 """
 
 import json
@@ -17,6 +17,7 @@ from rangemesh.cli import main
 from rangemesh.recordings import Recording, mesh_bag, mesh_recording
 from rangemesh.recordings.decode import depth_image
 
+from .images import rgbd_frame
 from .rosbag_writer import (
     COLOR_TOPIC,
     DEPTH_TOPIC,
@@ -38,17 +39,10 @@ N = 300  # vertices per frame: small meshes, quick tests
 REALSENSE = "rosbag/librealsense_d435_single_depth_color_640x480.bag"
 
 
-def _read(path):
-    import imageio.v3 as iio
-
-    return np.asarray(iio.imread(path))
-
-
 @pytest.fixture(scope="module")
-def frames(shared_data):
-    """Three TUM depth frames in 1/5000 m (the slambook2 ch7 frame, twice with noise) and colour."""
-    depth = _read(shared_data / "rgbd" / "slambook2_ch7_1_depth.png").astype(np.uint16)
-    color = _read(shared_data / "rgbd" / "slambook2_ch7_1_color.png")[..., :3]
+def frames():
+    """Three TUM depth frames in 1/5000 m (a Kinect-like frame, twice with noise) and colour."""
+    depth, color = rgbd_frame((480, 640))
     rng = np.random.default_rng(7)
     out = [depth]
     for _ in range(2):
@@ -169,6 +163,21 @@ def test_mesh_bag_takes_triangulate_s_options(bags, frames):
         same_mesh(m, w)
     with pytest.raises(ValueError, match="tiles"):  # an option of the other method: at the call
         mesh_bag(bags["mcap"]["32FC1"], vertices=N, tiles=3)
+
+
+def test_depth_of_zero_and_below_is_no_return_in_a_recording(tmp_path, frames):
+    # F16: a 32FC1 frame's negative depths were meshed behind the camera (z < 0), exit 0
+    depth = metres(frames[0][0])
+    depth[100:160, 200:300] = -1.0  # behind the camera: no depth camera measures it
+    depth[300:320, 50:90] = 0.0
+    flipped = -np.nan_to_num(metres(frames[0][0]), nan=1.0)  # every depth negative
+    path = write_bag(tmp_path / "neg", [image_topic([depth, flipped], "32FC1"), info_topic()],
+                     "mcap")
+    (_, _, m), (_, _, empty) = mesh_bag(path, vertices=N)
+    assert m.vertices[:, 2].min() > 0
+    same_mesh(m, rangemesh.triangulate(np.where(depth > 0, depth, np.nan), camera=pinhole(1.0),
+                                       background=None, vertices=N))
+    assert empty.is_empty and "no valid pixel" in empty.stats.reason
 
 
 def test_a_bare_mcap_file_reads_as_its_folder(bags, frames):

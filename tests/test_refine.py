@@ -20,7 +20,7 @@ from rangemesh import evaluate, scenes, triangulate
 from rangemesh.render import render_depth
 
 from .helpers import assert_valid_mesh
-from .images import REAL_IMAGES, load
+from .images import REAL_IMAGES, load_or_crop
 
 CROPS = Path(__file__).parent / "data" / "crops.npz"
 CROP_BACKGROUND = {"chair": 0, "venus": None, "cones": 0, "tum": 0, "boxes": 0, "nyu": 2047,
@@ -220,8 +220,8 @@ def test_scenes_with_holes(seed, name, holes, n):
 
 
 @pytest.mark.parametrize("rel, background", REAL_IMAGES, ids=[r[0].split("/")[-1] for r in REAL_IMAGES])
-def test_real_images(shared_data, rel, background):
-    image = load(shared_data, rel)
+def test_real_images(data_or_crops, rel, background):
+    image = load_or_crop(data_or_crops, rel)
     m = triangulate(image, background=background, vertices=3000, method="refine")
     valid = _valid(image, background)
     assert len(m.vertices) == min(3000, int(valid.sum()))
@@ -288,6 +288,20 @@ def test_exact_count_when_the_mesh_already_fits_exactly():
     m = triangulate(depth, vertices=900, method="refine")
     assert len(m.vertices) == 900 and m.stats.target.met
     assert evaluate(m, depth).relative_error < 1e-9
+
+
+@pytest.mark.parametrize("shape, n", [((40, 40), 20), ((400, 400), 500)])
+def test_exact_count_with_one_huge_outlier(shape, n):
+    """A flat image with one pixel at 1e14: the count asked, as without the outlier.
+
+    (E10: the insertion's running sum of the outlier's huge errors rounded below 0 and was
+    taken for the error-bound stop: 8 of 20 vertices, 45 of 500.)
+    """
+    z = np.ones(shape)
+    z[shape[0] * 17 // 40, shape[1] * 23 // 40] = 1e14
+    m = triangulate(z, vertices=n)
+    assert len(m.vertices) == n and m.stats.target.met
+    assert_valid_mesh(m)
 
 
 @pytest.mark.parametrize("target", [["--vertices", "300"], ["--max-error", "1.5"]])

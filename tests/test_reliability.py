@@ -90,14 +90,25 @@ def test_d1_mesh_stream_and_cli_take_big_endian(chair, tmp_path, capsys):
     assert main(["info", str(tmp_path / "be.npy")]) == 0
 
 
-def test_d1_longdouble_beyond_float64_is_missing_depth():
-    d = np.full((20, 20), 5.0, np.longdouble)
+def test_longdouble_depths_beyond_float64_are_refused_with_their_range():
+    # F15: they became infinite in float64, i.e. missing depth, and an image of them meshed
+    # to nothing ("no valid pixel") without a word
     if np.finfo(np.longdouble).max <= np.finfo(np.float64).max:
         pytest.skip("longdouble is float64 on this platform")
+    with pytest.raises(ValueError, match=r"^depths 1e\+400 \.\. 1e\+400: their range exceeds the "
+                                         r"float range"):
+        rangemesh.triangulate(np.full((20, 20), np.longdouble("1e400")), vertices=50)
+    d = np.full((20, 20), 5.0, np.longdouble)
     d[3, 4] = np.longdouble(np.finfo(np.float64).max) * 4
-    m = rangemesh.triangulate(d, fill_gaps=False, tiles=1, samples=20, method="paper")
-    assert (3, 4) not in set(map(tuple, m.pixels.tolist()))
-    assert np.isfinite(m.vertices).all()
+    for method in ("refine", "paper"):
+        with pytest.raises(ValueError, match=r"^depths 5 \.\. 7\.19077e\+308: their range"):
+            rangemesh.triangulate(d, method=method)
+    d[3, 4] = np.inf  # infinite is missing depth in any dtype
+    masked = np.ma.masked_array(np.full((20, 20), np.longdouble("1e400")), mask=True)
+    masked[5:15, 5:15] = 5.0  # a masked pixel is missing, whatever its value
+    for image in (d, masked):
+        m = rangemesh.triangulate(image, vertices=30)
+        assert len(m.vertices) == 30 and np.isfinite(m.vertices).all()
 
 
 # ---------------------------------------------------------------- D2 masked arrays

@@ -20,7 +20,7 @@ from rangemesh.pipeline import prepare
 from rangemesh.refine import insertion, strips
 
 from .helpers import assert_valid_mesh
-from .images import load
+from .images import load, rgbd_frame
 
 CROPS = np.load(__import__("pathlib").Path(__file__).parent / "data" / "crops.npz")
 
@@ -89,9 +89,9 @@ def test_strips_only_for_large_vertex_counts():
     assert not strips.use_strips((480, 63), 2000, None, 100_000)
 
 
-def test_every_valid_pixel_when_asked_for_more(shared_data):
+def test_every_valid_pixel_when_asked_for_more():
     """Strips cannot give the seam's other pixels: a request beyond the image goes to one strip."""
-    image = load(shared_data, "odetics/chair-range.npy")
+    image = CROPS["chair"]
     n_valid = int(rangemesh.fill_gaps(*rangemesh.to_depth_and_mask(image, 0))[1].sum())
     mesh = triangulate(image, background=0, vertices=20000, method="refine")
     assert len(mesh.vertices) == n_valid
@@ -196,9 +196,10 @@ def test_strip_mesh_of_a_shared_image_is_valid(shared_data):
     _check_seam(delaunay, valid)
 
 
-def test_error_bound_on_strips(shared_data):
+def test_error_bound_on_strips():
     """max_error on an image of 60,000 valid pixels or more: strips, the bound held, any threads."""
-    image = load(shared_data, "rgbd/open3d_NYU_depth.raw.npy")
+    image, _ = rgbd_frame((480, 640))
+    image[image == 0] = 2047  # the NYU frame's marker of no depth
     depth, valid = rangemesh.fill_gaps(*rangemesh.to_depth_and_mask(image, 2047))
     assert strips.use_strips(image.shape, None, 0.3, int(valid.sum()))
     mesh = triangulate(image, background=2047, max_error=0.3, method="refine")
@@ -220,11 +221,11 @@ def test_error_bound_on_strips(shared_data):
     assert two[4] > strips._seam_error(d[:, m], v[:, m], rows) > 0.0
 
 
-def test_fit_on_two_threads_is_the_fit_on_one(shared_data):
+def test_fit_on_two_threads_is_the_fit_on_one():
     """The fit's full pass split between two threads gives the same depths bit for bit."""
     from rangemesh.refine import heights
 
-    image = load(shared_data, "middlebury/teddy_disp2.png")
+    image, _ = rgbd_frame((375, 450))  # teddy_disp2's size
     d, v = prepare(image, MeshParams(), 0)
     mesh = triangulate(image, background=0, vertices=3000, heights="pixel", method="refine")
     assert len(mesh.faces) >= 4000  # where the pass is split

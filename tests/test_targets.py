@@ -8,7 +8,7 @@ from rangemesh import evaluate, scenes, triangulate
 from rangemesh.paper.targets import auto_tiles
 
 from .helpers import assert_valid_mesh
-from .images import REAL_IMAGES, load
+from .images import REAL_IMAGES, crop_of, load_or_crop
 
 
 def _edges(mesh):
@@ -17,8 +17,8 @@ def _edges(mesh):
 
 
 @pytest.mark.parametrize("rel, background", REAL_IMAGES, ids=[r for r, _ in REAL_IMAGES])
-def test_vertex_count_within_2_percent(shared_data, rel, background):
-    img = load(shared_data, rel)
+def test_vertex_count_within_2_percent(data_or_crops, rel, background):
+    img = load_or_crop(data_or_crops, rel)
     n_valid = rangemesh.fill_gaps(*rangemesh.to_depth_and_mask(img, background))[1].sum()
     for n in (1000, 5000, 20000):
         m = triangulate(img, background=background, vertices=n, method="paper")
@@ -52,8 +52,8 @@ def test_auto_tiles_by_hand():
 
 @pytest.mark.parametrize("rel, background", REAL_IMAGES[:8], ids=[r for r, _ in REAL_IMAGES[:8]])
 @pytest.mark.parametrize("bound", [1.0, 0.5])
-def test_error_bound_holds(shared_data, rel, background, bound):
-    img = load(shared_data, rel)
+def test_error_bound_holds(data_or_crops, rel, background, bound):
+    img = load_or_crop(data_or_crops, rel)
     m = triangulate(img, background=background, max_error=bound, method="paper")
     e = evaluate(m, img, background=background)  # the same code as evaluate, measured again
     assert e.relative_error <= bound
@@ -78,8 +78,8 @@ def test_error_bound_on_a_scene_is_near_minimal():
 @pytest.mark.parametrize("rel, background", [REAL_IMAGES[0], REAL_IMAGES[2], REAL_IMAGES[6]],
                          ids=["chair", "cones", "tum"])
 @pytest.mark.parametrize("L", [6, 15, 40])
-def test_max_edge_holds_on_every_edge(shared_data, rel, background, L):
-    img = load(shared_data, rel)
+def test_max_edge_holds_on_every_edge(data_or_crops, rel, background, L):
+    img = load_or_crop(data_or_crops, rel)
     m = triangulate(img, background=background, max_edge=L, method="paper")
     assert_valid_mesh(m, check_overlap=False)
     assert _edges(m).max() <= L
@@ -108,17 +108,44 @@ def test_target_errors(kwargs, match):
         triangulate(np.add.outer(np.arange(30.0), np.arange(40.0)), **kwargs)
 
 
-def test_cli_targets(shared_data, tmp_path, capsys):
+@pytest.mark.parametrize("shape", [(1, 100), (100, 1), (1, 5), (1, 2000)])
+def test_a_one_pixel_thick_image_is_refused_alike_with_and_without_a_target(shape, tmp_path,
+                                                                            capsys):
+    # F7: with vertices= no grid was found and the search failed with "TypeError: 'NoneType'
+    # object is not subscriptable", in the API and the command line
     from rangemesh.cli import main
 
-    src = str(shared_data / "middlebury/teddy_disp2.png")
+    z = 10 + np.random.default_rng(0).random(shape)
+    said = set()
+    for target in ({}, {"vertices": 50}, {"vertices": 3}, {"max_error": 1.0}, {"max_edge": 3.0}):
+        with pytest.raises(ValueError, match=rf"at least 2x2 pixels.* got {shape[0]}x{shape[1]}$") \
+                as refused:
+            triangulate(z, method="paper", **target)
+        said.add(str(refused.value))
+    assert len(said) == 1  # one message, whatever the target
+    src = tmp_path / "thin.npy"
+    np.save(src, z)
+    assert main(["mesh", str(src), "--method", "paper", "--vertices", "50", "-o",
+                 str(tmp_path / "o.ply")]) == 2
+    assert capsys.readouterr().err == f"rangemesh: error: {src}: {said.pop()}\n"
+
+
+def test_cli_targets(tmp_path, capsys):
+    import imageio.v3 as iio
+
+    from rangemesh.cli import main
+
+    src = str(tmp_path / "cones.png")  # the committed crop of middlebury/cones_disp2.png
+    iio.imwrite(src, crop_of("middlebury/cones_disp2.png"))
     assert main(["mesh", src, "-o", str(tmp_path / "t.ply"), "--vertices", "3000", "--json"]) == 0
     import json
 
     doc = json.loads(capsys.readouterr().out)
     assert abs(doc["stats"]["vertices"] - 3000) <= 60
-    assert main(["mesh", src, "--max-error", "0.8", "--json"]) == 0
+    # (-o: a default output name would write into the shared data, beside the input)
+    assert main(["mesh", src, "--max-error", "0.8", "--json", "-o", str(tmp_path / "e.ply")]) == 0
     doc = json.loads(capsys.readouterr().out)
     assert doc["evaluation"]["relative_error"] <= 0.8
-    assert main(["mesh", src, "--method", "paper", "--max-edge", "10", "--samples", "4x4"]) == 2
+    assert main(["mesh", src, "--method", "paper", "--max-edge", "10", "--samples", "4x4",
+                 "-o", str(tmp_path / "p.ply")]) == 2
     assert "exclude" in capsys.readouterr().err

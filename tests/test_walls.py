@@ -148,13 +148,13 @@ def test_vertices_beyond_an_exact_mesh_keep_it_exact(name):
 
 
 @pytest.mark.parametrize("n", [1000, 3000])
-def test_depth_frame_without_walls(shared_data, n):
+def test_depth_frame_without_walls(data_or_crops, n):
     # A Kinect frame in metres: no wall left, every vertex valid, one fan each; the count is N,
     # or a few short of it with a note when some vertices had only walls (flying pixels
-    # between surfaces), never above
-    from .images import load
+    # between surfaces), never above (without the data folder: the frame's committed crop)
+    from .images import load_or_crop
 
-    z = load(shared_data, "rgbd/open3d_TUM_depth.png")
+    z = load_or_crop(data_or_crops, "rgbd/open3d_TUM_depth.png")
     cam = rangemesh.Pinhole(525.0, 525.0, 319.5, 239.5, depth_scale=0.0002)
     m = triangulate(z, background=0, vertices=n, walls=False, camera=cam)
     valid = rangemesh.pipeline.prepare(z, rangemesh.MeshParams(), 0)[1]  # holes of 1 px filled

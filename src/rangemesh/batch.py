@@ -44,7 +44,7 @@ from .mesh import Mesh
 from .metrics import evaluate
 from .params import MeshParams
 from .pipeline import Workspace, call_options, keyword_options, resolve_call, run
-from .prepare import check_image
+from .prepare import NONPOSITIVE, check_image
 
 __all__ = ["mesh_stream", "mesh_many", "expand_inputs", "BatchResult", "summarize"]
 
@@ -96,7 +96,7 @@ def mesh_stream(frames: Iterable, params: MeshParams | None = None, *,
 def _stream(frames, params, method, tiles_given, vertices, max_error, background, camera):
     ws = None
     for frame in frames:
-        arr, bg = check_image(frame, background)  # every frame: clear errors, no copy
+        arr, bg = check_image(frame, background, camera=camera)  # every frame: clear errors, no copy
         if ws is None or ws.shape != arr.shape:
             ws = Workspace(arr.shape)
         yield run(arr, params, background=bg, camera=camera, vertices=vertices,
@@ -450,8 +450,9 @@ def mesh_many(paths, out_dir, params: MeshParams | None = None, *,
     """
     if fmt not in MESH_SUFFIXES:
         raise ValueError(f"fmt must be one of {MESH_SUFFIXES}, got {fmt!r}")
-    if isinstance(background, str) and background != "auto":
-        raise ValueError(f"background must be a number, None or 'auto', got {background!r}")
+    if isinstance(background, str) and background not in ("auto", NONPOSITIVE):
+        raise ValueError(f"background must be a number, None, 'auto' or '{NONPOSITIVE}', "
+                         f"got {background!r}")
     options = keyword_options(locals())
     params, method, _ = resolve_call(params, method, vertices, max_error, options, overrides)
     camera = as_camera(camera)

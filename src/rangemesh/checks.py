@@ -147,9 +147,9 @@ def kernel_array(arr: np.ndarray) -> np.ndarray:
 
     Native-endian integers, float32 and float64 pass unchanged (no copy).
     float16 becomes float32 and wider floats (``longdouble``) become float64;
-    values beyond float64's range become infinite, which marks them missing.
-    Other byte orders are swapped to the native one. Values are never
-    changed otherwise.
+    values beyond float64's range become infinite (`rangemesh.prepare.check_image`
+    refuses finite ones that do). Other byte orders are swapped to the native
+    one. Values are never changed otherwise.
 
     Parameters
     ----------
@@ -164,7 +164,7 @@ def kernel_array(arr: np.ndarray) -> np.ndarray:
         raise TypeError(f"expected an array of integers or floats, got dtype {dt}")
     if dt.kind == "f" and dt.newbyteorder("=") not in _NATIVE_FLOATS:
         target = np.float32 if dt.itemsize < 4 else np.float64
-        with np.errstate(over="ignore"):  # longdouble beyond float64: inf, i.e. missing
+        with np.errstate(over="ignore"):  # longdouble beyond float64: inf (check_image refuses)
             return arr.astype(target)
     if not dt.isnative:
         return arr.astype(dt.newbyteorder("="))

@@ -37,7 +37,7 @@ from .metrics import evaluate
 from .paper.sampling import sampling_weights
 from .params import MeshParams, misplaced_option
 from .pipeline import OPTIONS, call_options, prepare, resolve_call, run
-from .prepare import guess_background, to_depth_and_mask
+from .prepare import NONPOSITIVE, guess_background, to_depth_and_mask
 
 __all__ = ["main", "build_parser"]
 
@@ -82,13 +82,13 @@ def _floats(n):
 
 def _background(text: str):
     t = text.lower()
-    if t in ("auto", "none", "nan"):
+    if t in ("auto", "none", "nan", NONPOSITIVE):
         return t
     try:
         return float(text)
     except ValueError:
         raise argparse.ArgumentTypeError(
-            f"expected a number, 'auto', 'none' or 'nan', got {text!r}"
+            f"expected a number, 'auto', '{NONPOSITIVE}', 'none' or 'nan', got {text!r}"
         ) from None
 
 
@@ -101,9 +101,10 @@ def _flips(text):
     return t
 
 
-def _resolve_background(spec, image):
+def _resolve_background(spec, image, camera=None):
+    """What marks missing depth: `--background` as given, 'auto' by the camera (one rule with Python)."""
     if spec == "auto":
-        return guess_background(image)
+        return guess_background(image, camera)
     if spec in ("none", "nan"):
         return None
     return spec
@@ -111,9 +112,10 @@ def _resolve_background(spec, image):
 
 def _add_image_options(p):
     p.add_argument("--background", type=_background, default="auto",
-                   help="value that marks missing depth: a number, 'none', or 'auto' "
-                        "(default: 0 for integer images and --beams scans, none for float; "
-                        "NaN/inf always)")
+                   help=f"value that marks missing depth: a number, '{NONPOSITIVE}' (0 and "
+                        f"below), 'none', or 'auto' (default: 0 and below with --intrinsics "
+                        f"or --beams, else 0 for integer images and none for float; NaN/inf "
+                        f"always)")
 
 
 def _add_camera_options(p):
@@ -225,6 +227,12 @@ def _add_ply_options(p):
     p.add_argument("--ascii", action="store_true", help="PLY only: text instead of binary")
     p.add_argument("--pixels", action="store_true",
                    help="PLY only: keep each vertex's (row, col) as properties row, col")
+
+
+def _add_overwrite_option(p):
+    p.add_argument("--overwrite", action="store_true",
+                   help="replace an existing file of a default output name (a file named with "
+                        "-o or --preview is always replaced)")
 
 
 def _add_output_options(p):
@@ -377,6 +385,7 @@ def _mesh_lines(mesh, ev, outputs):
 def _run_mesh(args, image, name, bg, outputs_for):
     params, method, tiles_given = _resolve(args)
     camera = _camera(args, image.shape)
+    bg = _resolve_background(bg, image, camera)
     with _progress(args, 4, f"meshing {name}") as bar:
         try:
             mesh = run(image, params, background=bg, camera=camera, vertices=args.vertices,
@@ -498,21 +507,31 @@ def _default_output(args) -> None:
     out = image.with_suffix(".ply")
     if _same_file(out, image):
         raise UserError(f"{image}: is a .ply file; give -o FILE to choose where the mesh goes")
+    _refuse_unnamed(args, out, "-o FILE")
     args.output = str(out)
     args.output_defaulted = True
+
+
+def _refuse_unnamed(args, path: Path, option: str) -> None:
+    """An output the command named itself replaces no file unless --overwrite (the user never named it)."""
+    if path.exists() and not args.overwrite:
+        raise UserError(f"{path}: already there (the default output name); give {option} to "
+                        f"write elsewhere, or --overwrite to replace it")
 
 
 def _cmd_mesh(args):
     _default_output(args)
     _check_outputs(args, [a for a in (args.image, args.color, args.intensity) if a])
     image = _read_scan(args)
-    # a LiDAR marks no return with range 0, in float images too
-    bg = 0.0 if args.background == "auto" and args.beams else _resolve_background(args.background,
-                                                                                     image)
-    return _run_mesh(args, image, args.image, bg, (args.output, args.preview))
+    return _run_mesh(args, image, args.image, args.background, (args.output, args.preview))
 
 
 def _cmd_demo(args):
+    for opt, name, option in (("output", "demo.ply", "-o FILE"),
+                              ("preview", "demo-preview.png", "--preview FILE")):
+        if getattr(args, opt) is None:
+            _refuse_unnamed(args, Path(name), option)
+            setattr(args, opt, name)
     _check_outputs(args)
     # A box standing on a plane in front of a four-sided pyramid: jump and crease edges.
     shape = (160, 200)
@@ -528,13 +547,15 @@ def _cmd_info(args):
     if is_recording(args.image):
         return _info_recording(args)
     image = _read_image(args.image)
-    bg = _resolve_background(args.background, image)
+    given = any(x is not None for x in (args.scale, args.intrinsics, args.depth_scale, args.beams))
+    bg = _resolve_background(args.background, image, _camera(args, image.shape) if given else None)
     depth, valid = to_depth_and_mask(image, bg)
     info = {
         "file": args.image,
         "shape": list(image.shape),
         "dtype": str(image.dtype),
-        "background": bg if bg is not None else "NaN/inf only",
+        "background": "0 or below" if bg == NONPOSITIVE else bg if bg is not None
+        else "NaN/inf only",
         "background_guessed": args.background == "auto",
         "valid_pixels": int(valid.sum()),
         "valid_share_percent": 100.0 * float(valid.mean()),
@@ -542,6 +563,8 @@ def _cmd_info(args):
         "depth_min": float(depth[valid].min()) if valid.any() else None,
         "depth_max": float(depth[valid].max()) if valid.any() else None,
         "distinct_values": int(np.unique(depth[valid]).size) if valid.any() else 0,
+        # exact zeros kept as data: a no-return marker meshed at depth 0 if they are one
+        "zero_pixels_valid": int(np.count_nonzero(valid & (depth == 0.0))),
     }
     if args.json:
         print(json.dumps(_clean(info)))
@@ -550,6 +573,9 @@ def _cmd_info(args):
     print(f"{args.image}: {image.shape[0]} rows x {image.shape[1]} cols, {image.dtype}")
     print(f"background ({how}): {info['background']}; valid pixels {info['valid_pixels']} "
           f"({info['valid_share_percent']:.1f} %)")
+    if info["zero_pixels_valid"]:
+        print(f"{info['zero_pixels_valid']} valid pixels are exactly 0: if 0 marks no return, "
+              f"give the camera (--intrinsics, --beams) or --background 0")
     if valid.any():
         print(f"depth range {info['depth_min']:g} .. {info['depth_max']:g} "
               f"({info['distinct_values']} distinct values)")
@@ -558,14 +584,13 @@ def _cmd_info(args):
 
 def _cmd_eval(args):
     image = _read_scan(args)  # an image file, or a LiDAR .bin with --beams, as `mesh` reads
-    # a LiDAR marks no return with range 0, in float images too (as `mesh --beams` takes it)
-    bg = 0.0 if args.background == "auto" and args.beams else _resolve_background(args.background,
-                                                                                     image)
     given = any(x is not None for x in (args.scale, args.intrinsics, args.depth_scale, args.beams))
     camera = _camera(args, image.shape) if given else None  # None: the camera the file records
     try:
         mesh = read_mesh(args.mesh, camera=camera, image_shape=image.shape)
-        ev = evaluate(mesh, image, background=bg)
+        # 'auto' by the mesh's camera, as `mesh` took it
+        ev = evaluate(mesh, image, background=_resolve_background(args.background, image,
+                                                                   mesh.camera))
     except (FileNotFoundError, ValueError) as exc:
         raise UserError(str(exc)) from None
     if args.json:
@@ -586,9 +611,7 @@ def _cmd_batch(args):
     params, method, _ = _resolve(args)
     camera = _camera(args)
     bg = args.background
-    bg = None if bg in ("none", "nan") else bg  # 'auto' is resolved image by image
-    if bg == "auto" and args.beams:  # a LiDAR marks no return with range 0, in float images too
-        bg = 0.0
+    bg = None if bg in ("none", "nan") else bg  # 'auto' is resolved image by image, by the camera
     t0 = time.perf_counter()
     report = Path(args.output_dir) / "rangemesh-batch.csv"
     recording = _recording_input(args)
@@ -636,8 +659,8 @@ def _recording_input(args):
     if len(args.inputs) > 1:
         raise UserError(f"{hits[0]}: a recording is meshed alone, not with other inputs")
     if args.background != "auto":
-        raise UserError("--background does not apply to a recording: 0 (and NaN in 32FC1 "
-                        "images) is missing depth there")
+        raise UserError("--background does not apply to a recording: 0 and below (and NaN in "
+                        "32FC1 images) are missing depth there")
     return hits[0]
 
 
@@ -741,6 +764,7 @@ def build_parser() -> argparse.ArgumentParser:
                      help="a vertex takes the mean over the pixels it stands for, not its "
                           "own pixel's value")
     _add_ply_options(m)
+    _add_overwrite_option(m)
     _add_image_options(m)
     _add_mesh_options(m)
     _add_output_options(m)
@@ -748,10 +772,10 @@ def build_parser() -> argparse.ArgumentParser:
     d = sub.add_parser("demo", help="mesh a built-in synthetic scene (no input needed)",
                        description="Mesh a built-in scene (a box and a pyramid) and write the "
                                    "mesh and a preview picture.")
-    d.add_argument("-o", "--output", default="demo.ply", help="mesh file (default demo.ply)")
-    d.add_argument("--preview", default="demo-preview.png",
-                   help="PNG picture (default demo-preview.png)")
+    d.add_argument("-o", "--output", default=None, help="mesh file (default demo.ply)")
+    d.add_argument("--preview", default=None, help="PNG picture (default demo-preview.png)")
     _add_ply_options(d)
+    _add_overwrite_option(d)
     _add_mesh_options(d)
     _add_output_options(d)
 
@@ -792,6 +816,7 @@ def build_parser() -> argparse.ArgumentParser:
                                    "size, encoding, count and camera.")
     i.add_argument("image")
     _add_image_options(i)
+    _add_camera_options(i)  # the camera says what 'auto' marks as missing depth
     i.add_argument("--json", action="store_true", help="print as JSON on stdout")
 
     e = sub.add_parser("eval", help="the paper's relative error of any mesh file",

@@ -119,9 +119,10 @@ def evaluate(mesh: Mesh, depth, *, background="auto", discontinuities: np.ndarra
     mesh : Mesh
     depth : (H, W) array_like
         The original range image (not gap-filled).
-    background : float, 'auto' or None, default 'auto'
-        What marks missing depth, as given to `triangulate` (``'auto'``: 0 in
-        integer images). NaN and infinite pixels are always background.
+    background : float, 'auto', 'nonpositive' or None, default 'auto'
+        What marks missing depth, as given to `triangulate` (``'auto'``: 0
+        and below with the mesh's `Pinhole`, `Spherical` or `Rays` camera, else
+        0 in integer images). NaN and infinite pixels are always background.
     discontinuities : (H, W) ndarray of bool, optional
         Known jump and crease pixels (synthetic scenes). Default:
         `discontinuity_mask` of the image.
@@ -146,7 +147,7 @@ def evaluate(mesh: Mesh, depth, *, background="auto", discontinuities: np.ndarra
     pixels; here uncovered pixels (holes the mesh does not span) are left out
     of the mean and reported separately as `uncovered`.
     """
-    d, valid = to_depth_and_mask(depth, background)
+    d, valid = to_depth_and_mask(depth, background, camera=mesh.camera)
     check_arrays(mesh.vertices, mesh.faces, mesh.pixels, mesh.image_shape)
     if mesh.image_shape != d.shape:
         raise ValueError(f"depth has shape {d.shape} but the mesh was made from {mesh.image_shape}")

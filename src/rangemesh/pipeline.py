@@ -193,7 +193,7 @@ def _size(n: int) -> str:
 
 
 def prepare(image, params: MeshParams, background=None, *,
-            workspace: Workspace | None = None) -> tuple[np.ndarray, np.ndarray]:
+            workspace: Workspace | None = None, camera=None) -> tuple[np.ndarray, np.ndarray]:
     """Depth and validity mask as stage one sees them: checked, masked, gap-filled.
 
     Parameters
@@ -201,16 +201,19 @@ def prepare(image, params: MeshParams, background=None, *,
     image : (H, W) array_like
     params : MeshParams
         Only ``fill_gaps`` is read.
-    background : float, 'auto' or None, optional
+    background : float, 'auto', 'nonpositive' or None, optional
     workspace : Workspace, optional
         Write into its buffers (same shape as the image) instead of new arrays.
+    camera : optional
+        The camera the image is meshed with: what ``background='auto'`` means
+        (`rangemesh.prepare.guess_background`).
 
     Returns
     -------
     depth : (H, W) ndarray of float64
     valid : (H, W) ndarray of bool
     """
-    arr, background = check_image(image, background)
+    arr, background = check_image(image, background, camera=camera)
     return _prepare_checked(arr, params, background, workspace)
 
 
@@ -484,8 +487,12 @@ def run(image, params: MeshParams, *, background="auto", camera=None, vertices=N
     """
     camera = as_camera(camera)
     t0 = time.perf_counter()
-    image, background = check_image(image, background)  # resolves 'auto' by the dtype
+    image, background = check_image(image, background, camera=camera)  # resolves 'auto'
     check_side(image.shape)
+    if method == "paper" and min(image.shape) < 2:  # no tile fits, with or without a target
+        raise ValueError(f"the paper's method needs an image of at least 2x2 pixels (its "
+                         f"tiles are at least 2 pixels thick), got {image.shape[0]}x"
+                         f"{image.shape[1]}")
     default_target = method == "refine" and vertices is None and max_error is None
     # refine's need grows with its vertices: those asked, or the default target's cap at most
     budget = default_vertex_cap(image.size) if default_target else vertices
@@ -617,11 +624,13 @@ def triangulate(image, params: MeshParams | None = None, *,
         ``'refine'`` takes the default target `rangemesh.params.DEFAULT_TARGET`:
         ``max_error=0.5`` with at most 2 % of the valid pixels as vertices
         (at least 50); ``'paper'`` meshes its grid of `tiles` x `samples`.
-    background : float, 'auto' or None, default 'auto'
-        What marks missing depth. ``'auto'``: 0 in integer images, nothing
-        in float images (`rangemesh.prepare.guess_background`); a number
-        (``0``, ``65535``, ...); None: only NaN/inf. NaN and infinite pixels
-        are always missing depth.
+    background : float, 'auto', 'nonpositive' or None, default 'auto'
+        What marks missing depth. ``'auto'``: with a `Pinhole`, `Spherical`
+        or `Rays` camera every value of 0 or below (a depth or range is a
+        distance in front of the sensor), else 0 in integer images and
+        nothing in float images (`rangemesh.prepare.guess_background`); a
+        number (``0``, ``65535``, ...); ``'nonpositive'``: 0 and below;
+        None: only NaN/inf. NaN and infinite pixels are always missing depth.
     camera : Orthographic, Pinhole, Spherical, Rays or (kx, ky, kz), optional
         How pixels become 3-D points; default ``Orthographic(1, 1, 1)``, the
         paper's eq. (4) with unit scales. `Spherical` (a spinning LiDAR,

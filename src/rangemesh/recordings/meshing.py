@@ -21,13 +21,14 @@ from ..io import MESH_SUFFIXES, write_mesh
 from ..mesh import Mesh
 from ..metrics import evaluate
 from ..pipeline import OPTIONS, call_options, resolve_call, triangulate
+from ..prepare import NONPOSITIVE
 from .decode import color_image, depth_image
 from .reading import Frame, Recording, stamp_text
 from .writing import MarkerBag, marker_bytes
 
 __all__ = ["MeshFrame", "mesh_bag", "mesh_frame", "mesh_recording", "resolve"]
 
-BACKGROUND = 0  # missing depth in ROS depth images: 0, and NaN in float ones (always missing)
+BACKGROUND = NONPOSITIVE  # ROS depth (REP 118): 0 is no return, below 0 is behind the camera
 
 
 class MeshFrame(NamedTuple):

@@ -112,8 +112,7 @@ def _assemble(vr, vc, tv, depth, valid, camera, walls, jump):
     return faces, pixels, n_walls
 
 
-def _count_note(got: int, asked: int, n_valid: int, n_pixels: int, no_walls_dropped: bool,
-                lo: float, hi: float) -> str:
+def _count_note(got: int, asked: int, n_valid: int, n_pixels: int, no_walls_dropped: bool) -> str:
     """Why a mesh has `got` vertices, not the `asked` ones: the cause that applies, named."""
     if n_valid < asked:
         return f"the image has only {n_valid} valid pixels"
@@ -123,8 +122,7 @@ def _count_note(got: int, asked: int, n_valid: int, n_pixels: int, no_walls_drop
         dropped = "background triangles" if n_valid < n_pixels else ""
         walls = "" if no_walls_dropped else "walls"
         return f"{got} vertices kept after dropping {' and '.join(x for x in (dropped, walls) if x)}"
-    return (f"{got} vertices: every other pixel fits its triangle to within 2^-32 of the depth "
-            f"range {lo:g} .. {hi:g}, which an outlier may stretch")
+    return f"{got} vertices: the insertion found no other pixel to insert"
 
 
 def _one_fan_each(faces, pixels, valid):
@@ -328,8 +326,11 @@ def _in_units(points, camera, exponent):
 
 
 def _plan(shape, camera, n_valid, vertices, max_error, max_vertices):
-    """``want, scales, n_grid, strips``: the vertices sought, the Delaunay scales, the first
-    mesh's grid points and whether the image is meshed as two strips."""
+    """``want, scales, n_grid, strips`` of a `greedy_mesh` call.
+
+    The vertices sought, the Delaunay scales, the first mesh's grid points
+    and whether the image is meshed as two strips.
+    """
     want = n_valid if vertices is None else min(int(vertices), n_valid)
     if vertices is None and max_vertices is not None:
         want = min(int(max_vertices), n_valid)
@@ -339,7 +340,7 @@ def _plan(shape, camera, n_valid, vertices, max_error, max_vertices):
     return want, delaunay_scales(camera, shape), n_grid, use_strips(shape, want, max_error, n_valid)
 
 
-def _count_record(got, asked, runs, n_valid, n_pixels, no_walls_dropped, lo, hi,
+def _count_record(got, asked, runs, n_valid, n_pixels, no_walls_dropped,
                   walls_dropped=None) -> dict:
     """The target record of ``vertices=asked`` met with `got` vertices in `runs` meshings.
 
@@ -350,7 +351,7 @@ def _count_record(got, asked, runs, n_valid, n_pixels, no_walls_dropped, lo, hi,
     if walls_dropped is not None:
         target["walls_dropped"] = walls_dropped
     if got != asked:
-        target["note"] = _count_note(got, asked, n_valid, n_pixels, no_walls_dropped, lo, hi)
+        target["note"] = _count_note(got, asked, n_valid, n_pixels, no_walls_dropped)
     return target
 
 
@@ -400,7 +401,7 @@ def _native(depth, valid, camera, ref, extent, exponent, vertices, max_error, ma
     dropped = None if walls else res.walls_dropped
     if vertices is not None:
         return mesh, _count_record(got, int(vertices), res.meshings, n_valid, h * w, walls,
-                                   math.ldexp(lo, exponent), math.ldexp(hi, exponent), dropped)
+                                   dropped)
     return mesh, _error_record(res.achieved, float(max_error), res.meshings, got, res.asked, want,
                                max_vertices, dropped)
 
@@ -546,6 +547,6 @@ def _greedy(depth, valid, camera, ref, extent, exponent, *, vertices, max_error,
     dropped = None if walls else n_walls
     if vertices is not None:
         return mesh, _count_record(got, int(vertices), runs, n_valid, h * w, walls and n_walls == 0,
-                                   math.ldexp(lo, exponent), math.ldexp(hi, exponent), dropped)
+                                   dropped)
     return mesh, _error_record(achieved, float(max_error), runs, got, asked, want, max_vertices,
                                dropped)

@@ -272,7 +272,9 @@ void Insertion::advance(const Stop& stop) {
         poll_interrupt();
         const index_t t = heap_[0];
         const double key = keyed_[t].key;
-        if (key < 0.0 || key < stop.min_key || (key <= COVER_KEY && total_ <= stop.max_sum)) break;
+        // (a negative max_sum is no stop: the running sum of huge errors may round below 0)
+        if (key < 0.0 || key < stop.min_key || (key <= COVER_KEY && stop.max_sum >= 0.0 && total_ <= stop.max_sum))
+            break;
         const index_t pr = keyed_[t].r, pc = keyed_[t].c;
         make_room();
         const index_t p = n_vertices();

@@ -24,7 +24,8 @@ struct FirstMesh {
 };
 
 // When `advance` stops: at `max_vertices` vertices on valid pixels, once the first key is
-// below `min_key`, or (no pixel left to cover) once the summed error is at most `max_sum`.
+// below `min_key`, or (no pixel left to cover) once the summed error is at most `max_sum`
+// (a negative `max_sum`: never by the sum).
 struct Stop {
     index_t max_vertices;
     double max_sum = -1.0;

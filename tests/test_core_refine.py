@@ -233,3 +233,68 @@ def test_threads_setting(monkeypatch):
     monkeypatch.setattr(threads.os, "sched_getaffinity", lambda _: {0}, raising=False)
     monkeypatch.setenv("RANGEMESH_THREADS", "2")
     assert threads.threads() == 1  # one core: one thread
+
+
+def _refine_request(**fields):
+    req = _core.RefineRequest()
+    req.vertices, req.n_valid, req.lo, req.hi = 5, 16, 0.0, 1.0
+    for name, value in fields.items():
+        setattr(req, name, value)
+    return req
+
+
+@pytest.mark.parametrize("call, match", [
+    (lambda d, v, cam: _core.refine_mesh(d, v[:3], cam, _refine_request()), "one shape"),
+    (lambda d, v, cam: _core.refine_mesh(d, v, cam, _refine_request(vertices=17)), "vertices"),
+    (lambda d, v, cam: _core.refine_mesh(d, v, cam, _refine_request(n_valid=17, vertices=17)),
+     "vertices"),
+    (lambda d, v, cam: _core.refine_mesh(d, v, cam, _refine_request(sr=0)), "sr"),
+    (lambda d, v, cam: _core.refine_mesh(d, v, cam, _refine_request(max_error=float("nan"))),
+     "max_error"),
+    (lambda d, v, cam: _core.refine_mesh(d, v, cam[:5], _refine_request()), "camera"),
+    (lambda d, v, cam: _core.refine_mesh(d, v, np.array([2.0, 4, 4, 1, 0, 0]), _refine_request()),
+     "camera"),
+    (lambda d, v, cam: _core.refine_mesh(d, v, cam, _refine_request(), d[:2], v), "ref_depth"),
+    (lambda d, v, cam: _core.refine_mesh(d[:1], v[:1], cam, _refine_request()), "2x2"),
+])
+def test_the_native_refine_call_refuses_malformed_requests(call, match):
+    depth = np.arange(16.0).reshape(4, 4) / 15.0
+    valid = np.ones((4, 4), bool)
+    with pytest.raises(ValueError, match=match):
+        call(depth, valid, np.array([0.0, 1, 1, 1, 0, 0]))
+
+
+def test_the_native_refine_call_meshes_a_count_and_names_its_parts():
+    # a 4 x 4 image of one plane: 5 vertices are the corners and one pixel; its result's named
+    # parts agree with each other
+    depth = np.add.outer(np.arange(4.0), 2 * np.arange(4.0))
+    res = _core.refine_mesh(depth, np.ones((4, 4), bool), np.array([0.0, 1, 1, 1, 0, 0]),
+                            _refine_request(lo=0.0, hi=9.0))
+    assert res.done and res.meshings == 1 and len(res.pixels) == 5
+    assert res.faces.shape == (4, 3) and res.edges == 8  # a fan of 4 around the inner vertex
+    np.testing.assert_array_equal(res.vertices[:, 2], depth[res.pixels[:, 0], res.pixels[:, 1]])
+
+
+@pytest.mark.parametrize("args, match", [
+    ((np.zeros((1, 2), np.int64), np.zeros((3, 2), np.int64), np.ones(3), 0.05), "faces"),
+    ((np.array([[0, 1, 3]]), np.zeros((3, 2), np.int64), np.ones(3), 0.05), "out of range"),
+    ((np.array([[0, 1, -1]]), np.zeros((3, 2), np.int64), np.ones(3), 0.05), "out of range"),
+    ((np.array([[0, 1, 2]]), np.zeros((3, 2), np.int64), np.ones(2), 0.05), "one depth a vertex"),
+    ((np.array([[0, 1, 2]]), np.zeros((3, 2), np.int64), np.ones(3), 0.05, np.ones((2, 3))), "lengths"),
+])
+def test_the_wall_rule_refuses_malformed_meshes(args, match):
+    with pytest.raises(ValueError, match=match):
+        _core.wall_faces(*args)
+
+
+def test_the_wall_rule_by_hand():
+    # one edge 0 -> 1 two pixels long from depth 10 to 11: a step of 1 against
+    # 0.05 * 10 * 2 = 1.0 is no wall; to 11.5 it is (0.05 is the default jump)
+    faces = np.array([[0, 1, 2]])
+    pixels = np.array([[0, 0], [0, 2], [5, 0]])
+    assert not _core.wall_faces(faces, pixels, np.array([10.0, 11.0, 10.0]), 0.05)[0]
+    assert _core.wall_faces(faces, pixels, np.array([10.0, 11.5, 10.0]), 0.05)[0]
+    # given lengths replace the image plane's: 4 pixels (and 5 on the edges to corner 2) leave
+    # the larger step no wall
+    lengths = np.array([[4.0, 5.0, 5.0]])
+    assert not _core.wall_faces(faces, pixels, np.array([10.0, 11.5, 10.0]), 0.05, lengths)[0]

@@ -227,3 +227,24 @@ def test_real_images(data_or_crops, rel, background):
         assert 0 <= e.relative_error < 15, e  # sane: a coarse mesh, not garbage
         assert e.uncovered < 50
         assert m.stats.vertices > 100
+
+
+@pytest.mark.parametrize("value, error", [(True, TypeError), (2, ValueError), (2.5, ValueError),
+                                          ("10", TypeError), (np.int64(2), ValueError)])
+def test_a_bad_vertex_count_is_refused_naming_it(value, error):
+    # (the plain-int fast path of _targets_given must leave bools and small counts to the checks)
+    with pytest.raises(error, match="vertices"):
+        triangulate(np.ones((8, 8)), vertices=value)
+
+
+@pytest.mark.parametrize("value, error", [(0.0, ValueError), (-1.0, ValueError),
+                                          (float("nan"), ValueError), (float("inf"), ValueError),
+                                          (True, TypeError), ("1", TypeError)])
+def test_a_bad_error_bound_is_refused_naming_it(value, error):
+    with pytest.raises(error, match="max_error"):
+        triangulate(np.ones((8, 8)), max_error=value)
+
+
+@pytest.mark.parametrize("value", [10, np.int64(10), 10.0])
+def test_a_vertex_count_of_any_integer_kind_is_taken(value):
+    assert triangulate(np.add.outer(np.arange(8.0), np.arange(8.0) ** 2), vertices=value).stats.vertices == 10

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from hypothesis import given
+from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import rangemesh
@@ -601,3 +601,102 @@ def test_corner_depths_are_those_of_the_nearest_valid_pixel(seed, h, w, share):
         d = (rr - r) ** 2 + (cc - c) ** 2
         j = min(range(len(d)), key=lambda k: (d[k], rr[k], cc[k]))
         assert got[i] == depth[rr[j], cc[j]]
+
+
+def _python_steps(depth, valid, camera, ref, walls=True, **target):
+    """`greedy_mesh`'s Python steps (`_greedy`), which the native call stands for."""
+    from rangemesh._core import valid_range
+    from rangemesh.refine.insertion import _greedy
+
+    target = {"vertices": None, "max_error": None, "max_vertices": None, **target}
+    return _greedy(depth, valid, camera, ref, valid_range(depth, valid), 0, walls=walls, jump=0.05,
+                   first=None, **target)
+
+
+def _native_call(depth, valid, camera, ref, fit, diagonals, vertices=None, max_error=None,
+                 max_vertices=None, walls=True):
+    from rangemesh._core import valid_range
+    from rangemesh.refine.insertion import _native
+
+    return _native(depth, valid, camera, ref, valid_range(depth, valid), 0, vertices, max_error,
+                   max_vertices, fit=fit, diagonals=diagonals, walls=walls)
+
+
+def _camera(kind, h, w):
+    if kind == "pinhole":
+        return rangemesh.Pinhole(50.0, 50.0, w / 2, h / 2, 0.001)
+    if kind == "spherical":
+        return rangemesh.Spherical.from_beams({"elevation_deg": list(np.linspace(-10, 10, h)),
+                                               "azimuth0_deg": 0.0, "azimuth_step_deg": 0.5,
+                                               "cols": w}, range_scale=0.5)
+    return rangemesh.Orthographic(3.1, 1.0, 2.0) if kind == "wide rows" else rangemesh.Orthographic()
+
+
+@settings(max_examples=80, deadline=None)
+@given(st.integers(0, 2**31), st.integers(2, 48), st.integers(2, 48),
+       st.sampled_from(["unit", "wide rows", "pinhole", "spherical"]), st.booleans(),
+       st.sampled_from(["error", "delaunay"]), st.sampled_from(["vertices", "max_error", "default"]),
+       st.booleans())
+def test_the_native_call_gives_the_meshes_of_the_python_steps(seed, h, w, kind, fit, diagonals,
+                                                              target, walls):
+    # One strip: _core.refine_mesh stands for _greedy, bit for bit (vertices, faces, pixels,
+    # stats but the timings, the target record), for every camera, heights and diagonals, walls
+    # kept or dropped (dropped: not with a ray camera, whose lengths are Python's).
+    rng = np.random.default_rng(seed)
+    noise = rng.choice([10.0, 0.01])
+    depth = 100 + rng.random((h, w)) * noise + (np.arange(w) > w // 2) * 40 * rng.integers(2)
+    if rng.integers(2):
+        depth = np.round(depth)  # exact planes and ties: the count search's and the fit's edge cases
+    valid = rng.random((h, w)) >= rng.choice([0.0, 0.3, 0.7])
+    if valid.sum() < 3:
+        return
+    depth = np.where(valid, depth, 0.0)
+    ref = (depth + (rng.random((h, w)) - 0.5) * 0.1, valid & (rng.random((h, w)) > 0.1))
+    camera = _camera(kind, h, w)
+    n = int(rng.integers(3, valid.sum() + 6))
+    asked = {"vertices": {"vertices": n},
+             "max_error": {"max_error": float(rng.choice([1e-6, 0.05, 0.5, 3.0]))},
+             "default": {"max_error": 0.5, "max_vertices": n}}[target]
+    walls = walls or kind == "spherical"
+    a, ta = _native_call(depth, valid, camera, ref, fit, diagonals, walls=walls, **asked)
+    b, tb = _python_steps(depth, valid, camera, ref, walls, fit=fit, diagonals=diagonals, **asked)
+    if a is None:  # declined: no triangle of valid corners (the next test); the Python steps mesh it
+        return
+    for field in ("vertices", "faces", "pixels"):
+        x, y = getattr(a, field), getattr(b, field)
+        assert x.dtype == y.dtype and x.shape == y.shape and np.array_equal(x, y, equal_nan=True)
+    untimed = [{k: v for k, v in vars(m.stats).items() if k != "seconds"} for m in (a, b)]
+    assert untimed[0] == untimed[1]
+    assert a.stats.seconds.keys() == b.stats.seconds.keys()
+    assert str(ta) == str(tb)  # (str: a NaN error compares equal to itself)
+
+
+def test_the_native_call_leaves_a_mesh_without_valid_corners_to_the_hull_start():
+    # Four valid pixels far apart in a 17 x 14 background: every triangle of the image corners'
+    # mesh keeps a background corner, so the call declines and insertion starts from their hull.
+    depth = np.zeros((17, 14))
+    valid = np.zeros((17, 14), bool)
+    pixels = [(0, 11), (1, 9), (4, 0), (5, 2)]
+    for r, c in pixels:
+        valid[r, c] = True
+        depth[r, c] = 10.0 + r
+    camera = rangemesh.Orthographic()
+    assert _native_call(depth, valid, camera, (depth, valid), True, "error", vertices=5) == (None, None)
+    mesh = triangulate(np.where(valid, depth, np.nan), vertices=5)
+    assert sorted(map(tuple, mesh.pixels.tolist())) == pixels  # every valid pixel, nothing else
+    assert_valid_mesh(mesh)
+    assert mesh.stats.target.note == "the image has only 4 valid pixels"
+
+
+def test_the_native_call_reads_the_fit_rules_at_each_call(monkeypatch):
+    # benchmarks/heights.py sets OUTLIER_FLOOR between calls: the native call must see it. A
+    # floor beyond any error keeps the copied depths (the fit's "copied" outcome).
+    from rangemesh.refine import heights
+
+    depth = scenes.make("stairs", (40, 50), noise=0.3).depth
+    own = lambda m: depth[m.pixels[:, 0], m.pixels[:, 1]]  # noqa: E731
+    fitted = triangulate(depth, vertices=60)
+    assert not np.array_equal(fitted.vertices[:, 2], own(fitted))
+    monkeypatch.setattr(heights, "OUTLIER_FLOOR", 1e9)
+    copied = triangulate(depth, vertices=60)
+    np.testing.assert_array_equal(copied.vertices[:, 2], own(copied))

@@ -263,9 +263,11 @@ def _targets_given(params: MeshParams, vertices, max_error, overrides) -> list[s
             f"{' and '.join(given)} choose the samples per tile themselves; "
             f"do not give samples={overrides['samples']!r} as well"
         )
-    if vertices is not None:
+    # (a plain int or float in range passes without the general checks' ABC lookups: every
+    # call makes them)
+    if vertices is not None and not (type(vertices) is int and vertices >= 3):
         whole_number("vertices", vertices, minimum=3)
-    if max_error is not None:
+    if max_error is not None and not (type(max_error) is float and 0.0 < max_error < math.inf):
         if real_number("max_error", max_error, finite=False) <= 0 or not np.isfinite(max_error):
             raise ValueError(f"max_error must be a positive number of percent, got {max_error!r}")
     return given

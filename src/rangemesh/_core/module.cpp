@@ -31,4 +31,5 @@ NB_MODULE(_ext, m) {
     rangemesh::bind::bind_paper(m);
     rangemesh::bind::bind_heights(m);
     rangemesh::bind::bind_refine(m);
+    rangemesh::bind::bind_refine_mesh(m);
 }

@@ -24,7 +24,7 @@ from .. import _core
 from ..camera import Pinhole
 from .threads import threads
 
-__all__ = ["fit_heights"]
+__all__ = ["fit_heights", "height_rule"]
 
 # A pixel whose error under the copied depths exceeds OUTLIER_MADS robust
 # standard deviations (1.4826 x the median error) of all errors is left out: it
@@ -71,6 +71,24 @@ def sample_strides(n_faces: int) -> tuple[int, int]:
     if n_faces < RESIDUAL_STRIDE * RESIDUAL_MIN:
         return RESIDUAL_STRIDE, 1
     return 1, max(RESIDUAL_STRIDE, n_faces // RESIDUAL_SAMPLE)
+
+
+def height_rule(n_valid: int) -> _core.HeightRule:
+    """These rules for the native refine call (`rangemesh._core.refine_mesh`).
+
+    Read at each call, as `fit_heights` reads them (benchmarks set them).
+    Its threads are `_default_threads` when a mesh of the image can reach
+    FIT_SPLIT_MIN_FACES faces (at most two a vertex, a vertex a valid pixel),
+    else 1, as `fit_heights` chooses them.
+    """
+    rule = _core.HeightRule()
+    rule.outlier_mads, rule.outlier_floor, rule.ridge, rule.rtol = (OUTLIER_MADS, OUTLIER_FLOOR,
+                                                                    RIDGE, CG_RTOL)
+    rule.residual_stride, rule.residual_min = RESIDUAL_STRIDE, RESIDUAL_MIN
+    rule.residual_sample, rule.order_tile = RESIDUAL_SAMPLE, ORDER_TILE
+    rule.order_min_pixels = ORDER_MIN_PIXELS
+    rule.threads = 1 if 2 * n_valid < _core.FIT_SPLIT_MIN_FACES else _default_threads()
+    return rule
 
 
 def _default_threads() -> int:

@@ -7,6 +7,7 @@ import time
 
 import numpy as np
 
+from .. import _core
 from .._core import (
     EXACT_SPAN,
     build_halfedges,
@@ -22,7 +23,7 @@ from .._core import (
 from ..camera import Orthographic, backproject, pixel_aspect
 from ..mesh import Mesh, Stats, empty_mesh, with_fields
 from ..render import relative_error
-from .heights import fit_heights
+from .heights import fit_heights, height_rule
 from .start import corner_depths, first_mesh, hull_mesh, valid_hull
 from .strips import strip_insert, use_strips
 from .walls import drop_walls
@@ -277,9 +278,14 @@ def greedy_mesh(depth: np.ndarray, valid: np.ndarray, camera, *, vertices: int |
         depth = np.ldexp(depth, -exponent)
         ref = (np.ldexp(ref[0], -exponent), ref[1])
         extent = (math.ldexp(extent[0], -exponent), math.ldexp(extent[1], -exponent), extent[2])
-    mesh, target = _greedy(depth, valid, camera, ref, extent, exponent, vertices=vertices,
-                           max_error=max_error, fit=fit, diagonals=diagonals, walls=walls,
-                           jump=jump, max_vertices=max_vertices, first=None)
+    mesh = None
+    if walls or getattr(camera, "directions", None) is None:  # (ray angles: Python's lengths)
+        mesh, target = _native(depth, valid, camera, ref, extent, exponent, vertices, max_error,
+                               max_vertices, fit=fit, diagonals=diagonals, walls=walls, jump=jump)
+    if mesh is None:  # the cases the native call does not take, or declined
+        mesh, target = _greedy(depth, valid, camera, ref, extent, exponent, vertices=vertices,
+                               max_error=max_error, fit=fit, diagonals=diagonals, walls=walls,
+                               jump=jump, max_vertices=max_vertices, first=None)
     if exponent and len(mesh.faces):
         mesh = with_fields(mesh, vertices=_in_units(mesh.vertices, camera, exponent))
     return mesh, target
@@ -319,6 +325,106 @@ def _in_units(points, camera, exponent):
     return out
 
 
+def _plan(shape, camera, n_valid, vertices, max_error, max_vertices):
+    """``want, scales, n_grid, strips`` of a `greedy_mesh` call.
+
+    The vertices sought, the Delaunay scales, the first mesh's grid points
+    and whether the image is meshed as two strips.
+    """
+    want = n_valid if vertices is None else min(int(vertices), n_valid)
+    if vertices is None and max_vertices is not None:
+        want = min(int(max_vertices), n_valid)
+    n_grid = grid_size(want, n_valid, vertices is None)
+    if vertices is None and max_vertices is not None:  # the first mesh stays under the cap
+        n_grid = min(n_grid, grid_size(want, n_valid, False))
+    return want, delaunay_scales(camera, shape), n_grid, use_strips(shape, want, max_error, n_valid)
+
+
+def _count_record(got, asked, runs, n_valid, n_pixels, no_walls_dropped,
+                  walls_dropped=None) -> dict:
+    """The target record of ``vertices=asked`` met with `got` vertices in `runs` meshings.
+
+    `walls_dropped`: the walls dropped, with ``walls=False`` (None: walls kept).
+    """
+    target = {"target": "vertices", "requested": asked, "achieved": got, "met": got == asked,
+              "meshings": runs}
+    if walls_dropped is not None:
+        target["walls_dropped"] = walls_dropped
+    if got != asked:
+        target["note"] = _count_note(got, asked, n_valid, n_pixels, no_walls_dropped)
+    return target
+
+
+# What `_native`'s stats and meshes start from (`with_fields`).
+_NATIVE_STATS = Stats(method="refine", grid_shape=None, strips=1)
+_NATIVE_MESH = Mesh(np.zeros((0, 3)), np.zeros((0, 3), np.int32), np.zeros((0, 2), np.int32),
+                    Orthographic(), (0, 0), _NATIVE_STATS)
+
+
+def _native(depth, valid, camera, ref, extent, exponent, vertices, max_error, max_vertices, *,
+            fit, diagonals, walls=True, jump=0.05):
+    """`_greedy` on one strip, as one native call (`rangemesh._core.refine_mesh`).
+
+    Returns ``(mesh, target)``, or ``(None, None)`` for the cases it does not
+    take (two strips) or declines (no triangle of valid corners, so the
+    valid pixels' hull is the next start; a fit that must raise or solve
+    directly): `_greedy` then meshes the image.
+    """
+    h, w = depth.shape
+    lo, hi, n_valid = extent
+    want, scales, n_grid, strips = _plan((h, w), camera, n_valid, vertices, max_error,
+                                         max_vertices)
+    if strips:
+        return None, None
+    req = _core.RefineRequest()
+    req.vertices, req.n_valid, req.lo, req.hi, req.n_grid = want, n_valid, lo, hi, n_grid
+    req.sr, req.sc = scales
+    req.flip, req.fit, req.walls, req.jump = diagonals == "error", fit, walls, float(jump)
+    req.max_runs, req.max_bisect_runs = MAX_RUNS, MAX_BISECT_RUNS
+    req.heights = height_rule(n_valid)
+    if max_error is not None:
+        req.max_error = float(max_error)
+    res = _core.refine_mesh(depth, valid, camera.as_array(), req, *(() if ref is None else ref))
+    if not res.done:
+        return None, None
+    got = res.vertex_count
+    seconds = {"insertion": res.seconds - res.fit_seconds}
+    if fit:
+        seconds["fit"] = res.fit_seconds
+    faces, pixels = res.faces, res.pixels
+    # (from templates: the frozen classes' own __init__ weighs on a call on a small image)
+    stats = with_fields(_NATIVE_STATS, vertices=got, triangles=len(faces), edges=res.edges,
+                        sampled_points=got, seconds=seconds, flip_tests={}, flipped_edges=res.flips,
+                        insertions=res.insertions, heights="fit" if fit else "pixel")
+    mesh = with_fields(_NATIVE_MESH, vertices=res.vertices, faces=faces, pixels=pixels,
+                       camera=camera, image_shape=(h, w), stats=stats, attributes={})
+    dropped = None if walls else res.walls_dropped
+    if vertices is not None:
+        return mesh, _count_record(got, int(vertices), res.meshings, n_valid, h * w, walls,
+                                   dropped)
+    return mesh, _error_record(res.achieved, float(max_error), res.meshings, got, res.asked, want,
+                               max_vertices, dropped)
+
+
+def _error_record(achieved, asked, runs, got, last, want, max_vertices, walls_dropped=None) -> dict:
+    """The target record of ``max_error=asked`` (and `max_vertices`), `achieved` in `runs` meshings.
+
+    `last` is the last meshing's request, `want` the vertex cap, `walls_dropped`
+    as `_count_record` takes it.
+    """
+    ok = achieved <= asked
+    capped = not ok and max_vertices is not None and last >= want
+    target = {"target": "max_error", "requested": asked, "achieved": achieved, "met": ok,
+              "meshings": runs, "vertices": got}
+    if max_vertices is not None:
+        target["max_vertices"] = want
+    if walls_dropped is not None:
+        target["walls_dropped"] = walls_dropped
+    if not ok:
+        target["note"] = f"stopped at max_vertices={want}" if capped else "the bound was not reached"
+    return target
+
+
 def _greedy(depth, valid, camera, ref, extent, exponent, *, vertices, max_error, fit, diagonals,
             walls, jump, max_vertices, first):
     """`greedy_mesh` on depths divided by ``2**exponent`` (`ref` and `extent` too).
@@ -330,14 +436,9 @@ def _greedy(depth, valid, camera, ref, extent, exponent, *, vertices, max_error,
     t0 = time.perf_counter()
     lo, hi, n_valid = extent
     span = hi - lo
-    want = n_valid if vertices is None else min(int(vertices), n_valid)
-    if vertices is None and max_vertices is not None:
-        want = min(int(max_vertices), n_valid)
-    scales = delaunay_scales(camera, (h, w))
-    n_grid = grid_size(want, n_valid, vertices is None)
-    if vertices is None and max_vertices is not None:  # the first mesh stays under the cap
-        n_grid = min(n_grid, grid_size(want, n_valid, False))
-    strips = first is None and use_strips((h, w), want, max_error, n_valid)
+    want, scales, n_grid, strips = _plan(depth.shape, camera, n_valid, vertices, max_error,
+                                         max_vertices)
+    strips = strips and first is None
     start = first if first is not None or strips else first_mesh(depth, valid, n_grid, scales)
     max_sum = -1.0 if max_error is None else float(max_error) / 100.0 * span * n_valid
     runs = 0
@@ -443,22 +544,9 @@ def _greedy(depth, valid, camera, ref, extent, exponent, *, vertices, max_error,
         stats = Stats(seconds=seconds, method="refine", grid_shape=None, reason=reason)
         return empty_mesh(camera, (h, w), stats), {}
     mesh = Mesh(verts, faces, pixels, camera, (h, w), stats)
+    dropped = None if walls else n_walls
     if vertices is not None:
-        ok = got == int(vertices)
-        note = "" if ok else _count_note(got, int(vertices), n_valid, h * w, walls and n_walls == 0)
-        target = {"target": "vertices", "requested": int(vertices), "achieved": got, "met": ok,
-                  "meshings": runs}
-    else:
-        ok = achieved <= max_error
-        capped = not ok and max_vertices is not None and asked >= want
-        note = "" if ok else (f"stopped at max_vertices={want}" if capped
-                              else "the bound was not reached")
-        target = {"target": "max_error", "requested": float(max_error), "achieved": achieved,
-                  "met": ok, "meshings": runs, "vertices": got}
-        if max_vertices is not None:
-            target["max_vertices"] = want
-    if not walls:
-        target["walls_dropped"] = n_walls
-    if note:
-        target["note"] = note
-    return mesh, target
+        return mesh, _count_record(got, int(vertices), runs, n_valid, h * w, walls and n_walls == 0,
+                                   dropped)
+    return mesh, _error_record(achieved, float(max_error), runs, got, asked, want, max_vertices,
+                               dropped)

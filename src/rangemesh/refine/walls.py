@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .. import _core
 from .._core import build_halfedges, neighbors_from_halfedges, prune_dangling
 
 __all__ = ["wall_faces", "drop_walls", "pixel_lengths"]
@@ -88,15 +89,14 @@ def wall_faces(faces: np.ndarray, pixels: np.ndarray, z: np.ndarray, jump: float
     -------
     (F,) ndarray of bool
     """
-    f = np.asarray(faces, dtype=np.int64)
-    za = np.abs(np.asarray(z, dtype=np.float64))
-    wall = np.zeros(len(f), bool)
-    for k in range(3):
-        a, b = f[:, k], f[:, (k + 1) % 3]
-        length = np.maximum(pixel_lengths(camera, pixels, a, b), 1.0)
-        with np.errstate(over="ignore"):  # a threshold beyond the float range is inf: no wall
-            wall |= np.abs(za[a] - za[b]) > jump * np.minimum(za[a], za[b]) * length
-    return wall
+    f = np.ascontiguousarray(faces, dtype=np.int64).reshape(-1, 3)
+    p = np.ascontiguousarray(pixels, dtype=np.int64).reshape(-1, 2)
+    lengths = None  # the kernel measures the image plane itself
+    if getattr(camera, "directions", None) is not None:
+        lengths = np.stack([pixel_lengths(camera, p, f[:, k], f[:, (k + 1) % 3]) for k in range(3)],
+                           axis=1)
+    # the rule's one home: `rangemesh._core.wall_faces` (the native refine call's too)
+    return _core.wall_faces(f, p, np.ascontiguousarray(z, dtype=np.float64), float(jump), lengths)
 
 
 def drop_walls(faces: np.ndarray, pixels: np.ndarray, z: np.ndarray,

@@ -10,5 +10,6 @@ void bind_geometry_tests(nanobind::module_& m);
 void bind_paper(nanobind::module_& m);
 void bind_heights(nanobind::module_& m);
 void bind_refine(nanobind::module_& m);
+void bind_refine_mesh(nanobind::module_& m);
 
 }  // namespace rangemesh::bind

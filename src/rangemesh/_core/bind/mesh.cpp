@@ -1,0 +1,154 @@
+// Python binding of the whole refine call (refine/mesh.hpp): its request and result as classes
+// with named fields, one function between them.
+#include <nanobind/stl/optional.h>
+
+#include <cmath>
+#include <cstdint>
+#include <optional>
+#include <vector>
+
+#include "../refine/mesh.hpp"
+#include "../refine/walls.hpp"
+#include "bindings.hpp"
+#include "numpy.hpp"
+#include "release.hpp"
+
+namespace rangemesh::bind {
+
+namespace {
+
+using refine::HeightRule;
+using refine::MeshRequest;
+using refine::MeshResult;
+
+// A NumPy view of rows x cols values of a result the Python object keeps alive.
+template <class T>
+nb::ndarray<nb::numpy, T> rows_of(std::vector<T>& v, std::size_t cols) {
+    const std::size_t shape[2] = {v.size() / cols, cols};
+    return nb::ndarray<nb::numpy, T>(v.data(), 2, shape, nb::handle());
+}
+
+void bind_request(nb::module_& m) {
+    nb::class_<HeightRule>(m, "HeightRule",
+                           "The least-squares heights' rules (refine/heights.py holds their values and reasons).")
+        .def(nb::init<>())
+        .def_rw("outlier_mads", &HeightRule::outlier_mads)
+        .def_rw("outlier_floor", &HeightRule::outlier_floor)
+        .def_rw("ridge", &HeightRule::ridge)
+        .def_rw("rtol", &HeightRule::rtol)
+        .def_rw("residual_stride", &HeightRule::residual_stride)
+        .def_rw("residual_min", &HeightRule::residual_min)
+        .def_rw("residual_sample", &HeightRule::residual_sample)
+        .def_rw("order_tile", &HeightRule::order_tile)
+        .def_rw("order_min_pixels", &HeightRule::order_min_pixels)
+        .def_rw("threads", &HeightRule::threads);
+    nb::class_<MeshRequest>(m, "RefineRequest",
+                            "What one ``refine_mesh`` call asks for (rangemesh/refine/insertion.py fills it).")
+        .def(nb::init<>())
+        .def_rw("vertices", &MeshRequest::vertices, "Valid vertices wanted (at most n_valid); with max_error, the cap.")
+        .def_rw("max_error", &MeshRequest::max_error,
+                "The relative error bound, percent of the reference's valid range (negative: none).")
+        .def_rw("n_valid", &MeshRequest::n_valid, "The image's valid pixels.")
+        .def_rw("lo", &MeshRequest::lo, "Their smallest depth.")
+        .def_rw("hi", &MeshRequest::hi, "Their largest depth.")
+        .def_rw("n_grid", &MeshRequest::n_grid, "Grid points of the first mesh.")
+        .def_rw("sr", &MeshRequest::sr, "Weight of rows in the Delaunay test.")
+        .def_rw("sc", &MeshRequest::sc, "Weight of columns in the Delaunay test.")
+        .def_rw("flip", &MeshRequest::flip, "Each quad's diagonal by the error.")
+        .def_rw("fit", &MeshRequest::fit, "Heights by least squares, else copied.")
+        .def_rw("walls", &MeshRequest::walls, "Keep the walls of jumps (false: drop them; not with a ray camera).")
+        .def_rw("jump", &MeshRequest::jump, "The jump rule's share of the local depth per pixel.")
+        .def_rw("max_runs", &MeshRequest::max_runs, "Meshings at most.")
+        .def_rw("max_bisect_runs", &MeshRequest::max_bisect_runs, "... once a request gave more than the count.")
+        .def_rw("heights", &MeshRequest::heights, "The fit's rules (a HeightRule).");
+}
+
+void bind_result(nb::module_& m) {
+    nb::class_<MeshResult>(m, "RefineResult", "What ``refine_mesh`` made; arrays are views this object keeps alive.")
+        .def_prop_ro("done", [](const MeshResult& r) { return r.outcome == refine::MeshOutcome::done; },
+                     "False when the call declined the case (no triangle left, a fit that must raise or "
+                     "solve directly): the Python path then meshes it.")
+        .def_prop_ro("faces", [](MeshResult& r) { return rows_of(r.faces, 3); }, nb::rv_policy::reference_internal,
+                     "(F, 3) int32, counter-clockwise.")
+        .def_prop_ro("pixels", [](MeshResult& r) { return rows_of(r.pixels, 2); }, nb::rv_policy::reference_internal,
+                     "(V, 2) int32: each vertex's (row, col).")
+        .def_prop_ro("vertices", [](MeshResult& r) { return rows_of(r.vertices, 3); },
+                     nb::rv_policy::reference_internal, "(V, 3) float64, lifted by the camera.")
+        .def_prop_ro("vertex_count", [](const MeshResult& r) { return r.pixels.size() / 2; }, "Vertices of the mesh.")
+        .def_ro("edges", &MeshResult::edges, "Distinct edges of the faces.")
+        .def_ro("insertions", &MeshResult::insertions, "Vertices of the last insertion, background corners included.")
+        .def_ro("flips", &MeshResult::flips, "Edges the last insertion's diagonals flipped.")
+        .def_ro("meshings", &MeshResult::meshings, "Meshings the search ran.")
+        .def_ro("walls_dropped", &MeshResult::walls_dropped, "Walls dropped from the mesh (walls false).")
+        .def_ro("asked", &MeshResult::asked, "The last meshing's vertex request.")
+        .def_ro("achieved", &MeshResult::achieved, "With max_error: the relative error reached (NaN: no valid "
+                "pixel covered).")
+        .def_ro("fit_seconds", &MeshResult::fit_seconds, "Time fitting the heights.")
+        .def_ro("seconds", &MeshResult::seconds, "Time of the whole call.");
+}
+
+}  // namespace
+
+void bind_refine_mesh(nb::module_& m) {
+    bind_request(m);
+    bind_result(m);
+    m.def(
+        "wall_faces",
+        [](In2<index_t> faces, In2<index_t> pixels, In1<double> z, double jump, std::optional<In2<double>> lengths) {
+            check_input(faces.shape(1) == 3 && pixels.shape(1) == 2 && z.shape(0) == pixels.shape(0),
+                        "wall_faces: faces (F, 3), pixels (V, 2), one depth a vertex");
+            check_input(!lengths || (lengths->shape(0) == faces.shape(0) && lengths->shape(1) == 3),
+                        "wall_faces: lengths (F, 3), one an edge");
+            const index_t n_v = static_cast<index_t>(pixels.shape(0));
+            for (index_t i = 0; i < static_cast<index_t>(faces.size()); ++i)
+                check_input(0 <= faces.data()[i] && faces.data()[i] < n_v, "wall_faces: a vertex id is out of range");
+            const index_t n_f = static_cast<index_t>(faces.shape(0));
+            auto* out = new bool[n_f];
+            nb::capsule owner(out, [](void* p) noexcept { delete[] static_cast<bool*>(p); });
+            run_released([&] {
+                refine::wall_faces(grid(faces), grid(pixels), span(z), jump,
+                                   lengths ? grid(*lengths) : Grid<const double>{}, {out, n_f});
+            }, work(faces));
+            const std::size_t shape[1] = {static_cast<std::size_t>(n_f)};
+            return nb::ndarray<nb::numpy, bool>(out, 1, shape, owner);
+        },
+        nb::arg("faces"), nb::arg("pixels"), nb::arg("z"), nb::arg("jump"), nb::arg("lengths").none() = nb::none(),
+        "Which faces are walls: an edge a -> b (corner k to k + 1) with |za - zb| > jump * min(|za|, |zb|) * "
+        "max(L, 1), L ``lengths[t, k]`` (ray angles in pixels) or the distance of its corners' ``pixels``.");
+    m.def(
+        "refine_mesh",
+        [](In2<double> depth, In2<bool> valid, In1<double> camera, const MeshRequest& req,
+           std::optional<In2<double>> ref_depth, std::optional<In2<bool>> ref_valid) {
+            check_input(same_shape(depth, valid), "refine_mesh: depth and valid must have one shape");
+            check_input(ref_depth.has_value() == ref_valid.has_value() &&
+                            (!ref_depth || (same_shape(*ref_depth, depth) && same_shape(*ref_valid, depth))),
+                        "refine_mesh: ref_depth and ref_valid both or neither, of the image's shape");
+            check_input(depth.shape(0) >= 2 && depth.shape(1) >= 2, "refine_mesh: an image of at least 2x2 pixels");
+            check_input(0 < req.vertices && req.vertices <= req.n_valid &&
+                            req.n_valid <= static_cast<index_t>(depth.size()),
+                        "refine_mesh: 0 < vertices <= n_valid <= the image's pixels");
+            check_input(req.max_error < 0.0 || (req.max_error > 0.0 && std::isfinite(req.max_error)),
+                        "refine_mesh: max_error negative (none) or a finite positive percentage");
+            check_input(req.walls || camera(0) != 2.0, "refine_mesh: walls dropped with a ray camera (ray-angle "
+                                                         "lengths) are not native");
+            check_input(req.sr >= 1 && req.sc >= 1 && req.max_runs >= 1 && req.max_bisect_runs >= 1,
+                        "refine_mesh: sr, sc, max_runs and max_bisect_runs at least 1");
+            check_input(camera.shape(0) >= 6 && (camera(0) == 0.0 || camera(0) == 1.0 ||
+                                                  (camera(0) == 2.0 && camera(1) == depth.shape(0) &&
+                                                   camera(2) == depth.shape(1) &&
+                                                   camera.shape(0) == 6 + 3 * depth.size())),
+                        "refine_mesh: camera is a Camera.as_array() for the image's shape");
+            const refine::Image image{grid(depth), grid(valid), req.hi - req.lo};
+            const refine::Reference ref = ref_depth ? refine::Reference{grid(*ref_depth), grid(*ref_valid)}
+                                                    : refine::Reference{image.depth, image.valid};
+            return run_released([&] { return refine::refine_mesh(image, span(camera), ref, req); }, work(depth));
+        },
+        nb::arg("depth"), nb::arg("valid"), nb::arg("camera"), nb::arg("request"), nb::arg("ref_depth").none() = nb::none(),
+        nb::arg("ref_valid").none() = nb::none(),
+        "The whole refine call on one strip: first mesh, insertion, diagonals, valid faces with one fan "
+        "each, heights and the lift by ``camera`` (``Camera.as_array()``), searched until "
+        "``request.vertices`` vertices or, with ``request.max_error``, the relative error against "
+        "``ref_depth``, ``ref_valid`` (default: depth, valid) is met. Returns a RefineResult.");
+}
+
+}  // namespace rangemesh::bind

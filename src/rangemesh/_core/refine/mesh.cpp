@@ -1,0 +1,576 @@
+#include "mesh.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <limits>
+#include <cmath>
+#include <memory>
+#include <numeric>
+#include <utility>
+
+#include "../geometry/delaunay.hpp"
+#include "../geometry/fans.hpp"
+#include "../geometry/halfedges.hpp"
+#include "../geometry/pixels.hpp"
+#include "../geometry/rasterize.hpp"
+#include "../geometry/vectors.hpp"
+#include "../heights/order.hpp"
+#include "../heights/pass.hpp"
+#include "../interrupt.hpp"
+#include "diagonals.hpp"
+#include "insertion.hpp"
+#include "walls.hpp"
+
+namespace rangemesh::refine {
+
+namespace {
+
+template <class T>
+Span<const T> view(const std::vector<T>& v) {
+    return {v.data(), static_cast<index_t>(v.size())};
+}
+
+template <class T>
+Span<const T> view(Span<T> s) {
+    return {s.data, s.size};
+}
+
+double seconds_since(std::chrono::steady_clock::time_point t) {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+}
+
+// The first mesh's arrays (start.py's `first_mesh` on the whole image).
+struct FirstArrays {
+    std::vector<index_t> vr, vc, triangles, halfedges;
+    std::vector<double> vz;
+
+    FirstMesh view() const {
+        return {refine::view(vr), refine::view(vc), refine::view(vz), refine::view(triangles),
+                refine::view(halfedges)};
+    }
+
+    // The image rectangle cut in two, (0,0) (H-1,0) (H-1,W-1) and (0,0) (H-1,W-1) (0,W-1).
+    void rectangle() {
+        triangles = {0, 1, 2, 0, 2, 3};
+        halfedges = {-1, -1, 3, 2, -1, -1};
+    }
+};
+
+// A corner's depth: its own, or the nearest valid pixel's (ties to the smallest (row, col)).
+double corner_depth(const Image& image, index_t r, index_t c) {
+    if (!image.valid(r, c)) {
+        const auto p = nearest_valid(image.valid, r, c);
+        check_input(p.r >= 0, "corner_depths: the image has no valid pixel");
+        r = p.r;
+        c = p.c;
+    }
+    return image.depth(r, c);
+}
+
+// Grid rows (or columns) of the first mesh: Python's int(round(sqrt(a / b))), ties to even.
+index_t grid_side(index_t a, index_t b) {
+    return static_cast<index_t>(std::nearbyint(std::sqrt(static_cast<double>(a) / static_cast<double>(b))));
+}
+
+// The image corners and about `n_grid` valid grid pixels, Delaunay in units sr x sc.
+FirstArrays first_mesh(const Image& image, index_t n_grid, index_t sr, index_t sc) {
+    const index_t h = image.rows(), w = image.cols();
+    FirstArrays f;
+    f.vz = {corner_depth(image, 0, 0), corner_depth(image, h - 1, 0), corner_depth(image, h - 1, w - 1),
+            corner_depth(image, 0, w - 1)};
+    if (n_grid < 4) {  // the image rectangle: a small call's start
+        f.vr = {0, h - 1, h - 1, 0};
+        f.vc = {0, 0, w - 1, w - 1};
+        f.rectangle();
+        return f;
+    }
+    PixelList grid = grid_pixels(image.valid, grid_side(n_grid * h * sr, w * sc), grid_side(n_grid * w * sc, h * sr),
+                                 0, w - 1, false);
+    f.vr = std::move(grid.rows);
+    f.vc = std::move(grid.cols);
+    const index_t n = static_cast<index_t>(f.vr.size());
+    if (n > 4) {
+        std::vector<index_t> r(n), c(n);
+        for (index_t i = 0; i < n; ++i) {
+            r[i] = f.vr[i] * sr;
+            c[i] = f.vc[i] * sc;
+        }
+        Triangulation t = delaunay_sweep(PointSet{view(r), view(c)});
+        require(!t.triangles.empty(), "first_mesh: the image corners cannot be collinear");
+        f.triangles = std::move(t.triangles);
+        f.halfedges = std::move(t.halfedges);
+    } else {
+        f.rectangle();
+    }
+    for (index_t i = 4; i < n; ++i) f.vz.push_back(image.depth(f.vr[i], f.vc[i]));
+    return f;
+}
+
+// Each vertex keeps its largest fan once the background triangles are gone (SPEC P4); lone
+// triangles stay (insertion.py's `_one_fan_each`).
+ValidFaces one_fan_each(const Image& image, ValidFaces f) {
+    const index_t n_f = static_cast<index_t>(f.faces.size() / 3), n_v = static_cast<index_t>(f.pixels.size() / 2);
+    const std::vector<index_t> wide(f.faces.begin(), f.faces.end());
+    std::vector<index_t> triangles, halfedges;
+    build_halfedges(Grid<const index_t>{wide.data(), n_f, 3}, n_v, triangles, halfedges);
+    std::vector<index_t> neighbors(3 * n_f);
+    neighbors_from_halfedges(view(halfedges), Grid<index_t>{neighbors.data(), n_f, 3});
+    const std::unique_ptr<bool[]> kept(new bool[n_f]);
+    std::fill(kept.get(), kept.get() + n_f, true);
+    const LiveTriangles live{{wide.data(), n_f, 3}, {neighbors.data(), n_f, 3}, {kept.get(), n_f}};
+    if (prune_dangling(live, n_v, false) == 0) return f;
+    std::vector<index_t> rows(n_v), cols(n_v), tv;
+    for (index_t i = 0; i < n_v; ++i) {
+        rows[i] = f.pixels[2 * i];
+        cols[i] = f.pixels[2 * i + 1];
+    }
+    for (index_t t = 0; t < n_f; ++t) {
+        poll_every(t);
+        if (kept[t]) tv.insert(tv.end(), wide.begin() + 3 * t, wide.begin() + 3 * t + 3);
+    }
+    return valid_faces(view(rows), view(cols), view(tv), image.valid);
+}
+
+// The walls dropped, then what leaves a vertex with two fans and lone triangles, the faces
+// renumbered over the vertices left (insertion.py's `_assemble`, walls.py's `drop_walls`).
+ValidFaces drop_walls(const Image& image, ValidFaces f, double jump, index_t& n_walls) {
+    const index_t n_f = static_cast<index_t>(f.faces.size() / 3), n_v = static_cast<index_t>(f.pixels.size() / 2);
+    const std::vector<index_t> wide(f.faces.begin(), f.faces.end()), pixels(f.pixels.begin(), f.pixels.end());
+    std::vector<double> z(n_v);
+    for (index_t i = 0; i < n_v; ++i) z[i] = image.depth(pixels[2 * i], pixels[2 * i + 1]);
+    const std::unique_ptr<bool[]> kept(new bool[n_f]);
+    wall_faces({wide.data(), n_f, 3}, {pixels.data(), n_v, 2}, view(z), jump, {}, {kept.get(), n_f});
+    n_walls = 0;
+    for (index_t t = 0; t < n_f; ++t) {
+        n_walls += kept[t];
+        kept[t] = !kept[t];
+    }
+    if (n_walls == 0) return f;
+    if (n_walls < n_f) {
+        std::vector<index_t> triangles, halfedges, neighbors(3 * n_f);
+        build_halfedges(Grid<const index_t>{wide.data(), n_f, 3}, n_v, triangles, halfedges);
+        neighbors_from_halfedges(view(halfedges), Grid<index_t>{neighbors.data(), n_f, 3});
+        prune_dangling(LiveTriangles{{wide.data(), n_f, 3}, {neighbors.data(), n_f, 3}, {kept.get(), n_f}}, n_v);
+    }
+    std::vector<index_t> rows(n_v), cols(n_v), tv;
+    for (index_t i = 0; i < n_v; ++i) {
+        rows[i] = pixels[2 * i];
+        cols[i] = pixels[2 * i + 1];
+    }
+    for (index_t t = 0; t < n_f; ++t) {
+        poll_every(t);
+        if (kept[t]) tv.insert(tv.end(), wide.begin() + 3 * t, wide.begin() + 3 * t + 3);
+    }
+    return valid_faces(view(rows), view(cols), view(tv), image.valid);
+}
+
+// One meshing: the insertion's mesh (its diagonals flipped by the error when asked), kept to the
+// valid faces with one fan each.
+struct Meshing {
+    ValidFaces mesh;
+    index_t insertions = 0, flips = 0, n_walls = 0;
+    bool error_left = false;  // the insertion's summed error (before any flip) is above 0
+
+    index_t n_vertices() const { return static_cast<index_t>(mesh.pixels.size() / 2); }
+};
+
+// Insertion until `asked` valid vertices or, when `max_sum` is not negative, a summed error of
+// at most `max_sum` (insertion.py's `_refine` and `_assemble`, walls kept).
+Meshing mesh_once(const Image& image, const FirstMesh& first, index_t asked, double max_sum, const MeshRequest& req) {
+    Insertion ins(image, first, max_sum < 0.0 ? asked : 0, req.sr, req.sc);
+    ins.advance(Stop{asked, max_sum});
+    Meshing out;
+    out.insertions = ins.n_vertices();
+    out.error_left = ins.total() > 0.0;
+    if (req.flip) {
+        std::vector<double> sums = ins.sums();
+        out.error_left = std::any_of(sums.begin(), sums.end(), [](double x) { return x > 0.0; });
+        const FlipMesh mesh{view(ins.vertex_rows()), view(ins.vertex_cols()), ins.triangles(), ins.halfedges(),
+                            {sums.data(), static_cast<index_t>(sums.size())}};
+        out.flips = flip_by_error(image, mesh).flips;
+    }
+    const Span<const index_t> tv = view(ins.triangles());
+    out.mesh = valid_faces(view(ins.vertex_rows()), view(ins.vertex_cols()), tv, image.valid);
+    const index_t n_f = static_cast<index_t>(out.mesh.faces.size() / 3);
+    if (0 < n_f && n_f < tv.size / 3) out.mesh = one_fan_each(image, std::move(out.mesh));
+    if (!req.walls && !out.mesh.faces.empty()) out.mesh = drop_walls(image, std::move(out.mesh), req.jump, out.n_walls);
+    return out;
+}
+
+// The search for exactly `want` vertices: vertices left without a triangle (background
+// corners' fans) are inserted again as many more; once a request gave more than `want`, the
+// requests are bisected between the last one short of it and the first beyond it. The result
+// nearest `want` is kept, one not above it first.
+class CountSearch {
+  public:
+    CountSearch(const MeshRequest& req) : req_(req), want_(req.vertices), beyond_(req.n_valid + 1) {}
+
+    // Note meshing `runs` (request `asked`); false when the search ends, else `asked` is the next.
+    bool next(Meshing&& m, index_t runs, index_t& asked) {
+        const index_t got = m.n_vertices();
+        const std::pair<bool, index_t> rank{got > want_, std::abs(got - want_)};
+        if (!has_best_ || rank < best_rank_) {
+            best_rank_ = rank;
+            best_ = std::move(m);
+            has_best_ = true;
+        }
+        if (got == want_ || runs >= (beyond_ > req_.n_valid ? req_.max_runs : req_.max_bisect_runs)) return false;
+        if (got < want_)
+            short_ = std::max(short_, asked);
+        else
+            beyond_ = std::min(beyond_, asked);
+        index_t nxt = beyond_ > req_.n_valid ? asked + (want_ - got) : (short_ + beyond_) / 2;
+        nxt = std::min(nxt, req_.n_valid);
+        if (!(short_ < nxt && nxt < beyond_ && nxt != asked)) return false;
+        asked = nxt;
+        return true;
+    }
+
+    Meshing& best() { return best_; }
+
+  private:
+    const MeshRequest& req_;
+    index_t want_, short_ = 0, beyond_;
+    Meshing best_;
+    std::pair<bool, index_t> best_rank_{false, 0};
+    bool has_best_ = false;
+};
+
+// The image the heights are fitted in: depth, or inverse depth before a pinhole (whose flat
+// triangles are linear in it), and the range of its valid values (heights.py's `fit_heights`).
+struct FitValues {
+    std::vector<double> inverse;  // pinhole only
+    Grid<const double> values;
+    double lo, hi;
+};
+
+FitValues fit_values(const Image& image, bool pinhole, const MeshRequest& req) {
+    FitValues v{{}, image.depth, req.lo, req.hi};
+    if (!pinhole) return v;
+    const index_t n = image.rows() * image.cols();
+    grow_polled(v.inverse, static_cast<std::size_t>(n));
+    for (index_t i = 0; i < n; ++i) {
+        poll_every(i);
+        v.inverse[i] = 1.0 / image.depth.data[i];
+    }
+    v.values = {v.inverse.data(), image.rows(), image.cols()};
+    if (req.lo > 0.0) {  // (the inverse of the largest depth is the smallest inverse exactly)
+        v.lo = 1.0 / req.hi;
+        v.hi = 1.0 / req.lo;
+    } else if (req.n_valid > 0) {  // depths <= 0 before a pinhole: the inverses' own range
+        bool first = true;
+        for (index_t i = 0; i < n; ++i) {
+            poll_every(i);
+            if (!image.valid.data[i]) continue;
+            const double x = v.inverse[i];
+            v.lo = first || x < v.lo ? x : v.lo;
+            v.hi = first || x > v.hi ? x : v.hi;
+            first = false;
+        }
+    }
+    return v;
+}
+
+// The fit's settings for a mesh of `n_faces` faces and `n_vertices` vertices.
+heights::FitSettings fit_settings(const MeshRequest& req, const FitValues& v, index_t n_faces, index_t n_vertices) {
+    const HeightRule& rule = req.heights;
+    heights::Sample sample{rule.residual_stride, 1};  // heights.py's `sample_strides`
+    if (n_faces >= rule.residual_stride * rule.residual_min)
+        sample = {1, std::max(rule.residual_stride, n_faces / rule.residual_sample)};
+    const int threads = n_faces < heights::SPLIT_MIN_FACES ? 1 : rule.threads;
+    return {sample, req.n_valid, rule.outlier_mads, rule.outlier_floor, rule.ridge, rule.rtol,
+            10 * n_vertices, threads, v.lo, v.hi};
+}
+
+// The vertices' depths fitted by least squares, into `z`; false when the fit must raise (a value
+// that is not finite) or solve directly (not converged): the Python path does both.
+bool fitted_depths(const Image& image, bool pinhole, const ValidFaces& f, const MeshRequest& req,
+                   std::vector<double>& z) {
+    const index_t n_f = static_cast<index_t>(f.faces.size() / 3), n_v = static_cast<index_t>(f.pixels.size() / 2);
+    const FitValues v = fit_values(image, pinhole, req);
+    std::vector<index_t> rows(n_v), cols(n_v);
+    std::vector<double> copied(n_v);
+    for (index_t i = 0; i < n_v; ++i) {
+        poll_every(i);
+        rows[i] = f.pixels[2 * i];
+        cols[i] = f.pixels[2 * i + 1];
+        copied[i] = v.values(rows[i], cols[i]);
+        if (!std::isfinite(copied[i])) return false;
+    }
+    const std::vector<index_t> faces(f.faces.begin(), f.faces.end());
+    std::vector<index_t> order(n_f);
+    if (image.rows() * image.cols() >= req.heights.order_min_pixels)
+        heights::face_order({faces.data(), n_f, 3}, view(rows), view(cols), image.rows(), image.cols(),
+                            req.heights.order_tile, {order.data(), n_f});
+    else
+        std::iota(order.begin(), order.end(), index_t{0});
+    const heights::FitMesh mesh{{faces.data(), n_f, 3}, view(rows), view(cols), view(copied)};
+    heights::FitResult fit =
+        heights::fit_heights(mesh, {v.values, image.valid}, view(order), fit_settings(req, v, n_f, n_v));
+    if (fit.outcome == heights::FitOutcome::not_converged) return false;
+    if (fit.outcome != heights::FitOutcome::fitted) return true;  // the copied depths are the solution
+    if (pinhole)
+        for (double& x : fit.values) x = 1.0 / x;
+    z = std::move(fit.values);
+    return true;
+}
+
+// The mesh's vertices lifted to 3-D from depths `z` (camera.py's `backproject`).
+std::vector<double> lifted(Span<const double> camera, const ValidFaces& f, const std::vector<double>& z) {
+    const index_t n_v = static_cast<index_t>(z.size());
+    std::vector<double> out(3 * n_v);
+    for (index_t i = 0; i < n_v; ++i) {
+        poll_every(i);
+        const Vec3 p = lift(camera, f.pixels[2 * i], f.pixels[2 * i + 1], z[i]);
+        out[3 * i] = p.x;
+        out[3 * i + 1] = p.y;
+        out[3 * i + 2] = p.z;
+    }
+    return out;
+}
+
+// The relative error of a mesh against the reference (render.py's `relative_error`): percent of
+// the reference's valid depth range, mean over its valid pixels the mesh covers; NaN when none.
+class ErrorMeasure {
+  public:
+    ErrorMeasure(Span<const double> camera, const Reference& ref)
+        : camera_(camera), ref_(ref), n_(ref.depth.rows * ref.depth.cols) {}
+
+    double operator()(const ValidFaces& f, const std::vector<double>& vertices) {
+        const bool inverse = camera_[0] == PINHOLE;
+        bool stored = false;  // a pinhole's inverse depths beyond the float range: stored units
+        const std::vector<double> val = corner_values(vertices, stored);
+        const index_t n_f = static_cast<index_t>(f.faces.size() / 3), w = ref_.depth.cols;
+        std::vector<double> fr, fc, fv;
+        for (index_t t = 0; t < n_f; ++t) {
+            poll_every(t);
+            double r[3], c[3];
+            for (int k = 0; k < 3; ++k) {
+                const index_t v = f.faces[3 * t + k];
+                r[k] = static_cast<double>(f.pixels[2 * v]);
+                c[k] = static_cast<double>(f.pixels[2 * v + 1]);
+            }
+            // a wrap-around seam face (clockwise, as wide as the image) covers no pixel centre
+            const double area = (r[1] - r[0]) * (c[2] - c[0]) - (c[1] - c[0]) * (r[2] - r[0]);
+            if (area < 0 && std::max({c[0], c[1], c[2]}) - std::min({c[0], c[1], c[2]}) > 0.5 * w) continue;
+            for (int k = 0; k < 3; ++k) {
+                fr.push_back(r[k]);
+                fc.push_back(c[k]);
+                fv.push_back(val[f.faces[3 * t + k]]);
+            }
+        }
+        fill_polled(pred_, static_cast<std::size_t>(n_), std::numeric_limits<double>::quiet_NaN());
+        fill_polled(face_, static_cast<std::size_t>(n_), index_t{-1});
+        const index_t n_kept = static_cast<index_t>(fr.size() / 3);
+        rasterize({{fr.data(), n_kept, 3}, {fc.data(), n_kept, 3}, {fv.data(), n_kept, 3}},
+                  {{pred_.data(), ref_.depth.rows, w}, {face_.data(), ref_.depth.rows, w}});
+        if (inverse)
+            for (index_t i = 0; i < n_; ++i) {
+                poll_every(i);
+                pred_[i] = stored ? 1.0 / pred_[i] : 1.0 / pred_[i] / camera_[5];
+            }
+        const CoveredError e = covered_error({pred_.data(), ref_.depth.rows, w}, ref_.depth, ref_.valid);
+        if (e.count == 0) return std::numeric_limits<double>::quiet_NaN();
+        if (!has_range_) {  // (only an error bound measures: a count's call makes no pass for it)
+            range_ = valid_range(ref_.depth, ref_.valid);
+            has_range_ = true;
+        }
+        return per_span(e.total / static_cast<double>(e.count), range_.hi - range_.lo);
+    }
+
+  private:
+    // The value each vertex interpolates: depth (orthographic), inverse depth (pinhole), range.
+    std::vector<double> corner_values(const std::vector<double>& vertices, bool& stored) const {
+        const index_t n_v = static_cast<index_t>(vertices.size() / 3);
+        std::vector<double> val(n_v);
+        for (index_t i = 0; i < n_v; ++i) {
+            poll_every(i);
+            const double x = vertices[3 * i], y = vertices[3 * i + 1], z = vertices[3 * i + 2];
+            if (camera_[0] == ORTHOGRAPHIC) {
+                val[i] = z / camera_[3];
+            } else if (camera_[0] == PINHOLE) {
+                val[i] = 1.0 / z;
+                stored = stored || (z != 0.0 && !std::isfinite(val[i]));
+            } else {
+                val[i] = std::sqrt((x * x + y * y) + z * z) / camera_[3];  // np.linalg.norm's order
+            }
+        }
+        if (stored)
+            for (index_t i = 0; i < n_v; ++i) val[i] = camera_[5] / vertices[3 * i + 2];
+        return val;
+    }
+
+    // x * 100 / span (render.py's `per_span`): 0 for no span, x / span * 100 when 100 / span overflows.
+    static double per_span(double x, double span) {
+        if (!(span > 0)) return x * 0.0;
+        const double factor = 100.0 / span;
+        return std::isfinite(factor) ? x * factor : x / span * 100.0;
+    }
+
+    Span<const double> camera_;
+    Reference ref_;
+    DepthRange range_;
+    bool has_range_ = false;
+    index_t n_;
+    std::vector<double> pred_;
+    std::vector<index_t> face_;
+};
+
+// A meshing with its vertices lifted and, under an error bound, the error they reach.
+struct Candidate {
+    Meshing meshing;
+    std::vector<double> vertices;
+    double achieved = 0.0;
+};
+
+// The call's searches over meshings of one first mesh.
+class Refiner {
+  public:
+    Refiner(const Image& image, Span<const double> camera, const Reference& ref, const MeshRequest& req)
+        : image_(image), camera_(camera), req_(req), measure_(camera, ref),
+          first_(first_mesh(image, req.n_grid, req.sr, req.sc)) {}
+
+    MeshResult by_count();
+    MeshResult by_error();
+
+  private:
+    Meshing mesh(index_t asked, double max_sum);
+    bool lift(const ValidFaces& f, bool fit, std::vector<double>& vertices);
+    bool bounded(Candidate& c);
+    MeshResult finish(Candidate&& c);
+
+    const Image& image_;
+    Span<const double> camera_;
+    const MeshRequest& req_;
+    ErrorMeasure measure_;
+    FirstArrays first_;
+    MeshResult out_;
+    index_t insertions_ = 0, flips_ = 0;  // of the last meshing
+};
+
+Meshing Refiner::mesh(index_t asked, double max_sum) {
+    ++out_.meshings;
+    out_.asked = asked;
+    Meshing m = mesh_once(image_, first_.view(), asked, max_sum, req_);
+    insertions_ = m.insertions;
+    flips_ = m.flips;
+    return m;
+}
+
+// The vertices of `f` lifted from fitted or copied depths; false when the fit declines.
+bool Refiner::lift(const ValidFaces& f, bool fit, std::vector<double>& vertices) {
+    const index_t n_v = static_cast<index_t>(f.pixels.size() / 2);
+    std::vector<double> z(n_v);
+    for (index_t i = 0; i < n_v; ++i) z[i] = image_.depth(f.pixels[2 * i], f.pixels[2 * i + 1]);
+    if (fit && !fitted_depths(image_, camera_[0] == PINHOLE, f, req_, z)) return false;
+    vertices = lifted(camera_, f, z);
+    return true;
+}
+
+// insertion.py's `_bounded`: fitted depths first (they meet the bound far more often, so one
+// render usually decides), copied ones kept only when they meet it and the fitted do not.
+bool Refiner::bounded(Candidate& c) {
+    const auto t = std::chrono::steady_clock::now();
+    const ValidFaces& f = c.meshing.mesh;
+    if (!lift(f, req_.fit, c.vertices)) return false;
+    c.achieved = measure_(f, c.vertices);
+    if (req_.fit && c.achieved > req_.max_error) {
+        std::vector<double> copied;
+        lift(f, false, copied);
+        const double copied_error = measure_(f, copied);
+        if (copied_error <= req_.max_error) {
+            c.vertices = std::move(copied);
+            c.achieved = copied_error;
+        }
+    }
+    if (req_.fit) out_.fit_seconds += seconds_since(t);
+    return true;
+}
+
+MeshResult Refiner::finish(Candidate&& c) {
+    ValidFaces& mesh = c.meshing.mesh;
+    const index_t n_f = static_cast<index_t>(mesh.faces.size() / 3);
+    out_.edges = count_edges(Grid<const std::int32_t>{mesh.faces.data(), n_f, 3}, c.meshing.n_vertices());
+    out_.faces = std::move(mesh.faces);
+    out_.pixels = std::move(mesh.pixels);
+    out_.vertices = std::move(c.vertices);
+    out_.achieved = c.achieved;
+    out_.insertions = insertions_;
+    out_.flips = flips_;
+    out_.walls_dropped = c.meshing.n_walls;
+    out_.outcome = MeshOutcome::done;
+    return std::move(out_);
+}
+
+MeshResult Refiner::by_count() {
+    CountSearch search(req_);
+    index_t asked = req_.vertices;
+    for (bool more = true; more;) {
+        Meshing m = mesh(asked, -1.0);
+        more = search.next(std::move(m), out_.meshings, asked);
+    }
+    Candidate c{std::move(search.best()), {}, 0.0};
+    if (c.meshing.mesh.faces.empty()) return MeshResult{};  // declined: the hull's start is Python's
+    const auto t = std::chrono::steady_clock::now();
+    if (!lift(c.meshing.mesh, req_.fit, c.vertices)) return MeshResult{};
+    if (req_.fit) out_.fit_seconds = seconds_since(t);
+    return finish(std::move(c));
+}
+
+// insertion.py's `_greedy` under an error bound: the insertion's own summed error stops it, the
+// rendered error decides. A miss tightens the sum by a tenth while the insertion saw error
+// left; else (every pixel fits its plane in the kernel's arithmetic while the render rounds
+// otherwise) the count is bisected between the last miss and `vertices`.
+MeshResult Refiner::by_error() {
+    const index_t want = req_.vertices;
+    double max_sum = req_.max_error / 100.0 * (req_.hi - req_.lo) * static_cast<double>(req_.n_valid);
+    index_t asked = want, few = 0, most = 0;
+    bool counted = false;
+    Candidate met;  // searching by count: the smallest count that met the bound
+    bool has_met = false;
+    for (;;) {
+        Candidate c{mesh(asked, max_sum), {}, 0.0};
+        if (c.meshing.mesh.faces.empty()) return MeshResult{};  // declined: the hull's start is Python's
+        if (!bounded(c)) return MeshResult{};
+        const index_t runs = out_.meshings, got = c.meshing.n_vertices();
+        if (counted) {
+            if (c.achieved <= req_.max_error) {
+                most = asked;
+                met = std::move(c);
+                has_met = true;
+            } else {
+                few = asked;
+            }
+            // the last meshing asks for the largest count if no count met the bound yet
+            const index_t nxt = runs == req_.max_runs - 1 && !has_met ? want : (few + most) / 2;
+            if (runs < req_.max_runs && few < nxt && nxt <= most && nxt != asked && (!has_met || nxt < most)) {
+                asked = nxt;
+                continue;
+            }
+            return finish(has_met ? std::move(met) : std::move(c));
+        }
+        if (!(c.achieved > req_.max_error && asked > got && runs < req_.max_runs)) return finish(std::move(c));
+        if (c.meshing.error_left) {
+            max_sum *= 0.9;  // the running sum is an estimate: tighten and go on
+            continue;
+        }
+        counted = true;
+        few = got;
+        most = want;
+        max_sum = -1.0;
+        asked = runs == req_.max_runs - 1 ? want : (got + want) / 2;
+    }
+}
+
+}  // namespace
+
+MeshResult refine_mesh(const Image& image, Span<const double> camera, const Reference& reference,
+                       const MeshRequest& req) {
+    const auto t0 = std::chrono::steady_clock::now();
+    Refiner refiner(image, camera, reference, req);
+    MeshResult out = req.max_error < 0.0 ? refiner.by_count() : refiner.by_error();
+    out.seconds = seconds_since(t0);
+    return out;
+}
+
+}  // namespace rangemesh::refine

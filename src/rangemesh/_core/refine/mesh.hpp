@@ -1,0 +1,75 @@
+// The whole refine call on one strip: first mesh, insertion, diagonals, assembly (walls kept
+// or dropped), heights and
+// the lift to 3-D, repeated by one small search until the target is met: a vertex count
+// (`vertices=`) or an error bound (`max_error=`, with a vertex cap: the default target).
+//
+// The rules and their reasons are those of rangemesh/refine/insertion.py, which checks the
+// arguments, chooses this path or the strips' and wraps the result; every step is a kernel of
+// its own family (Insertion, flip_by_error, valid_faces, prune_dangling, fit_heights, lift), in
+// the arithmetic and order of the Python steps it stands for, so the mesh is the same bit for bit.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "../heights/fit.hpp"
+#include "image.hpp"
+
+namespace rangemesh::refine {
+
+// The least-squares heights' rules (rangemesh/refine/heights.py holds the values and reasons).
+struct HeightRule {
+    double outlier_mads = 6.0, outlier_floor = 1e-9, ridge = 1e-3, rtol = 1e-8;
+    index_t residual_stride = 4, residual_min = 500, residual_sample = 2000;
+    index_t order_tile = 8, order_min_pixels = 150000;
+    int threads = 1;  // for the pass over the pixels of meshes of SPLIT_MIN_FACES faces or more
+};
+
+// What one call asks for; the caller resolves the library's defaults into it.
+struct MeshRequest {
+    index_t vertices = 0;  // valid vertices wanted (at most n_valid); with max_error, the cap
+    double max_error = -1.0;  // percent of the reference's valid range, mean; < 0: none
+    index_t n_valid = 0;   // the image's valid pixels
+    double lo = 0.0, hi = 0.0;  // their smallest and largest depth
+    index_t n_grid = 0;    // grid points of the first mesh
+    index_t sr = 1, sc = 1;  // weights of rows and columns in the Delaunay test
+    bool flip = true;      // each quad's diagonal by the error (`flip_by_error`)
+    bool fit = true;       // heights by least squares, else copied from the pixels
+    bool walls = true;     // keep the walls of jumps; false drops them (not with a ray camera)
+    double jump = 0.05;    // the jump rule's share of the local depth per pixel (walls.hpp)
+    index_t max_runs = 8, max_bisect_runs = 5;  // meshings at most, and once past the count
+    HeightRule heights;
+};
+
+// The image an error bound is measured against (the one before gap filling).
+struct Reference {
+    Grid<const double> depth;
+    Grid<const bool> valid;
+};
+
+// How the call ended. `declined`: a case the Python path handles (no triangle left, so the
+// valid pixels' hull is the next start; a fit that must raise or solve directly): nothing else
+// of the result is set.
+enum class MeshOutcome { done, declined };
+
+struct MeshResult {
+    MeshOutcome outcome = MeshOutcome::declined;
+    std::vector<std::int32_t> faces;   // 3 a triangle, counter-clockwise
+    std::vector<std::int32_t> pixels;  // (row, col) a vertex
+    std::vector<double> vertices;      // (x, y, z) a vertex, lifted by the camera
+    index_t edges = 0;                 // distinct edges of the faces
+    index_t insertions = 0;            // vertices of the last insertion, background corners included
+    index_t flips = 0;                 // edges the last insertion's diagonals flipped
+    index_t meshings = 0;
+    index_t walls_dropped = 0;         // walls dropped from the mesh (walls false)
+    index_t asked = 0;                 // the last meshing's request (max_error: its vertex count)
+    double achieved = 0.0;             // max_error: the relative error reached (NaN: none covered)
+    double fit_seconds = 0.0, seconds = 0.0;
+};
+
+// The mesh of `image` for `req`, lifted by `camera` (`Camera.as_array()`; vectors.hpp); an
+// error bound is measured against `reference`.
+MeshResult refine_mesh(const Image& image, Span<const double> camera, const Reference& reference,
+                       const MeshRequest& req);
+
+}  // namespace rangemesh::refine

@@ -1,0 +1,16 @@
+// The walls of jumps (rangemesh/refine/walls.py holds the rule's reasons): a face is a wall when
+// an edge between vertices of depths za and zb, L pixels long, has
+//     |za - zb| > jump * min(|za|, |zb|) * max(L, 1).
+#pragma once
+
+#include "../views.hpp"
+
+namespace rangemesh::refine {
+
+// Which faces (F x 3 vertex ids) are walls, into `out` (F). Edge k runs from corner k to corner
+// k + 1; its length is lengths(t, k) when `lengths` has rows (ray angles in pixels, computed by
+// the caller), else the distance between its corners' pixels (V x 2, row and column).
+void wall_faces(Grid<const index_t> faces, Grid<const index_t> pixels, Span<const double> z, double jump,
+                Grid<const double> lengths, Span<bool> out);
+
+}  // namespace rangemesh::refine

@@ -54,6 +54,10 @@ void bind_request(nb::module_& m) {
         .def_rw("n_grid", &MeshRequest::n_grid, "Grid points of the first mesh.")
         .def_rw("sr", &MeshRequest::sr, "Weight of rows in the Delaunay test.")
         .def_rw("sc", &MeshRequest::sc, "Weight of columns in the Delaunay test.")
+        .def_rw("strips", &MeshRequest::strips, "Insert as two strips (until a count search needs one).")
+        .def_rw("seam_density", &MeshRequest::seam_density, "The seam's vertices for a count (strips.py).")
+        .def_rw("seam_error_share", &MeshRequest::seam_error_share, "... and under an error bound.")
+        .def_rw("threads", &MeshRequest::threads, "The strips' threads (the mesh is the same for 1 or 2).")
         .def_rw("flip", &MeshRequest::flip, "Each quad's diagonal by the error.")
         .def_rw("fit", &MeshRequest::fit, "Heights by least squares, else copied.")
         .def_rw("walls", &MeshRequest::walls, "Keep the walls of jumps (false: drop them; not with a ray camera).")
@@ -78,6 +82,7 @@ void bind_result(nb::module_& m) {
         .def_ro("edges", &MeshResult::edges, "Distinct edges of the faces.")
         .def_ro("insertions", &MeshResult::insertions, "Vertices of the last insertion, background corners included.")
         .def_ro("flips", &MeshResult::flips, "Edges the last insertion's diagonals flipped.")
+        .def_ro("strips", &MeshResult::strips, "Strips of the last insertion (1 or 2).")
         .def_ro("meshings", &MeshResult::meshings, "Meshings the search ran.")
         .def_ro("walls_dropped", &MeshResult::walls_dropped, "Walls dropped from the mesh (walls false).")
         .def_ro("asked", &MeshResult::asked, "The last meshing's vertex request.")
@@ -131,6 +136,8 @@ void bind_refine_mesh(nb::module_& m) {
                         "refine_mesh: max_error negative (none) or a finite positive percentage");
             check_input(req.walls || camera(0) != 2.0, "refine_mesh: walls dropped with a ray camera (ray-angle "
                                                          "lengths) are not native");
+            check_input(req.threads >= 1 && (!req.strips || depth.shape(1) >= 4),
+                        "refine_mesh: threads at least 1, strips on images of 4 columns or more");
             check_input(req.sr >= 1 && req.sc >= 1 && req.max_runs >= 1 && req.max_bisect_runs >= 1,
                         "refine_mesh: sr, sc, max_runs and max_bisect_runs at least 1");
             check_input(camera.shape(0) >= 6 && (camera(0) == 0.0 || camera(0) == 1.0 ||

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <memory>
 #include <numeric>
+#include <optional>
 #include <utility>
 
 #include "../geometry/delaunay.hpp"
@@ -18,6 +19,7 @@
 #include "../heights/pass.hpp"
 #include "../interrupt.hpp"
 #include "diagonals.hpp"
+#include "halves.hpp"
 #include "insertion.hpp"
 #include "walls.hpp"
 
@@ -174,8 +176,19 @@ struct Meshing {
     index_t n_vertices() const { return static_cast<index_t>(mesh.pixels.size() / 2); }
 };
 
+// The valid faces of an insertion's mesh, with one fan each, its walls dropped unless kept
+// (insertion.py's `_assemble`); `n_walls` counts the dropped ones.
+ValidFaces assemble(const Image& image, Span<const index_t> vr, Span<const index_t> vc, Span<const index_t> tv,
+                    const MeshRequest& req, index_t& n_walls) {
+    ValidFaces f = valid_faces(vr, vc, tv, image.valid);
+    const index_t n_f = static_cast<index_t>(f.faces.size() / 3);
+    if (0 < n_f && n_f < tv.size / 3) f = one_fan_each(image, std::move(f));
+    if (!req.walls && !f.faces.empty()) f = drop_walls(image, std::move(f), req.jump, n_walls);
+    return f;
+}
+
 // Insertion until `asked` valid vertices or, when `max_sum` is not negative, a summed error of
-// at most `max_sum` (insertion.py's `_refine` and `_assemble`, walls kept).
+// at most `max_sum` (insertion.py's `_refine`), then assembled.
 Meshing mesh_once(const Image& image, const FirstMesh& first, index_t asked, double max_sum, const MeshRequest& req) {
     Insertion ins(image, first, max_sum < 0.0 ? asked : 0, req.sr, req.sc);
     ins.advance(Stop{asked, max_sum});
@@ -189,11 +202,20 @@ Meshing mesh_once(const Image& image, const FirstMesh& first, index_t asked, dou
                             {sums.data(), static_cast<index_t>(sums.size())}};
         out.flips = flip_by_error(image, mesh).flips;
     }
-    const Span<const index_t> tv = view(ins.triangles());
-    out.mesh = valid_faces(view(ins.vertex_rows()), view(ins.vertex_cols()), tv, image.valid);
-    const index_t n_f = static_cast<index_t>(out.mesh.faces.size() / 3);
-    if (0 < n_f && n_f < tv.size / 3) out.mesh = one_fan_each(image, std::move(out.mesh));
-    if (!req.walls && !out.mesh.faces.empty()) out.mesh = drop_walls(image, std::move(out.mesh), req.jump, out.n_walls);
+    out.mesh = assemble(image, view(ins.vertex_rows()), view(ins.vertex_cols()), view(ins.triangles()), req, out.n_walls);
+    return out;
+}
+
+// The same on two strips (`insert_halves`).
+Meshing mesh_halves(const Image& image, index_t asked, double max_sum, const MeshRequest& req) {
+    const HalvesRequest hreq{asked, max_sum, req.n_grid, req.n_valid, req.sr, req.sc, req.seam_density,
+                             req.seam_error_share, req.threads, req.flip};
+    const Halves halves = insert_halves(image, hreq);
+    Meshing out;
+    out.insertions = static_cast<index_t>(halves.vr.size());
+    out.flips = halves.flips;
+    out.error_left = halves.total > 0.0;
+    out.mesh = assemble(image, view(halves.vr), view(halves.vc), view(halves.triangles), req, out.n_walls);
     return out;
 }
 
@@ -427,8 +449,7 @@ struct Candidate {
 class Refiner {
   public:
     Refiner(const Image& image, Span<const double> camera, const Reference& ref, const MeshRequest& req)
-        : image_(image), camera_(camera), req_(req), measure_(camera, ref),
-          first_(first_mesh(image, req.n_grid, req.sr, req.sc)) {}
+        : image_(image), camera_(camera), req_(req), measure_(camera, ref), strips_(req.strips) {}
 
     MeshResult by_count();
     MeshResult by_error();
@@ -443,7 +464,8 @@ class Refiner {
     Span<const double> camera_;
     const MeshRequest& req_;
     ErrorMeasure measure_;
-    FirstArrays first_;
+    std::optional<FirstArrays> first_;  // one strip's first mesh, made when first needed
+    bool strips_;                       // the next meshing is on two strips
     MeshResult out_;
     index_t insertions_ = 0, flips_ = 0;  // of the last meshing
 };
@@ -451,7 +473,8 @@ class Refiner {
 Meshing Refiner::mesh(index_t asked, double max_sum) {
     ++out_.meshings;
     out_.asked = asked;
-    Meshing m = mesh_once(image_, first_.view(), asked, max_sum, req_);
+    if (!strips_ && !first_) first_ = first_mesh(image_, req_.n_grid, req_.sr, req_.sc);
+    Meshing m = strips_ ? mesh_halves(image_, asked, max_sum, req_) : mesh_once(image_, first_->view(), asked, max_sum, req_);
     insertions_ = m.insertions;
     flips_ = m.flips;
     return m;
@@ -498,6 +521,7 @@ MeshResult Refiner::finish(Candidate&& c) {
     out_.insertions = insertions_;
     out_.flips = flips_;
     out_.walls_dropped = c.meshing.n_walls;
+    out_.strips = strips_ ? 2 : 1;
     out_.outcome = MeshOutcome::done;
     return std::move(out_);
 }
@@ -555,6 +579,7 @@ MeshResult Refiner::by_error() {
             continue;
         }
         counted = true;
+        strips_ = false;  // (strips never insert the seam column's other pixels)
         few = got;
         most = want;
         max_sum = -1.0;

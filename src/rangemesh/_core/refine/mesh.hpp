@@ -33,6 +33,9 @@ struct MeshRequest {
     double lo = 0.0, hi = 0.0;  // their smallest and largest depth
     index_t n_grid = 0;    // grid points of the first mesh
     index_t sr = 1, sc = 1;  // weights of rows and columns in the Delaunay test
+    bool strips = false;   // insert as two strips (`insert_halves`) until a count search needs one
+    double seam_density = 0.7, seam_error_share = 1.0;  // the seam's vertices (strips.py)
+    int threads = 1;       // the strips' threads
     bool flip = true;      // each quad's diagonal by the error (`flip_by_error`)
     bool fit = true;       // heights by least squares, else copied from the pixels
     bool walls = true;     // keep the walls of jumps; false drops them (not with a ray camera)
@@ -60,6 +63,7 @@ struct MeshResult {
     index_t edges = 0;                 // distinct edges of the faces
     index_t insertions = 0;            // vertices of the last insertion, background corners included
     index_t flips = 0;                 // edges the last insertion's diagonals flipped
+    index_t strips = 1;                // strips of the last insertion (1 or 2)
     index_t meshings = 0;
     index_t walls_dropped = 0;         // walls dropped from the mesh (walls false)
     index_t asked = 0;                 // the last meshing's request (max_error: its vertex count)

@@ -27,7 +27,7 @@ from .heights import fit_heights, height_rule
 from .start import corner_depths, first_mesh, hull_mesh, valid_hull
 from .strips import SEAM_DENSITY, SEAM_ERROR_SHARE, strip_insert, use_strips
 from . import threads as _threads
-from .walls import drop_walls
+from .walls import pixel_angle, drop_walls
 
 __all__ = ["greedy_mesh", "corner_depths", "first_mesh", "delaunay_scales"]
 
@@ -279,11 +279,9 @@ def greedy_mesh(depth: np.ndarray, valid: np.ndarray, camera, *, vertices: int |
         depth = np.ldexp(depth, -exponent)
         ref = (np.ldexp(ref[0], -exponent), ref[1])
         extent = (math.ldexp(extent[0], -exponent), math.ldexp(extent[1], -exponent), extent[2])
-    mesh = None
-    if walls or getattr(camera, "directions", None) is None:  # (ray angles: Python's lengths)
-        mesh, target = _native(depth, valid, camera, ref, extent, exponent, vertices, max_error,
-                               max_vertices, fit=fit, diagonals=diagonals, walls=walls, jump=jump)
-    if mesh is None:  # the cases the native call does not take, or declined
+    mesh, target = _native(depth, valid, camera, ref, extent, exponent, vertices, max_error,
+                           max_vertices, fit=fit, diagonals=diagonals, walls=walls, jump=jump)
+    if mesh is None:  # declined
         mesh, target = _greedy(depth, valid, camera, ref, extent, exponent, vertices=vertices,
                                max_error=max_error, fit=fit, diagonals=diagonals, walls=walls,
                                jump=jump, max_vertices=max_vertices, first=None)
@@ -382,6 +380,8 @@ def _native(depth, valid, camera, ref, extent, exponent, vertices, max_error, ma
     req.vertices, req.n_valid, req.lo, req.hi, req.n_grid = want, n_valid, lo, hi, n_grid
     req.sr, req.sc = scales
     req.flip, req.fit, req.walls, req.jump = diagonals == "error", fit, walls, float(jump)
+    if not walls and getattr(camera, "directions", None) is not None:
+        req.pixel_angle = pixel_angle(camera)  # (edge lengths are ray angles)
     req.max_runs, req.max_bisect_runs = MAX_RUNS, MAX_BISECT_RUNS
     req.heights = height_rule(n_valid)
     if max_error is not None:

@@ -135,13 +135,27 @@ ValidFaces one_fan_each(const Image& image, ValidFaces f) {
 
 // The walls dropped, then what leaves a vertex with two fans and lone triangles, the faces
 // renumbered over the vertices left (insertion.py's `_assemble`, walls.py's `drop_walls`).
-ValidFaces drop_walls(const Image& image, ValidFaces f, double jump, index_t& n_walls) {
+// With a ray camera, edge lengths are ray angles in units of `pixel_angle`.
+ValidFaces drop_walls(const Image& image, Span<const double> camera, double pixel_angle, ValidFaces f, double jump,
+                      index_t& n_walls) {
     const index_t n_f = static_cast<index_t>(f.faces.size() / 3), n_v = static_cast<index_t>(f.pixels.size() / 2);
     const std::vector<index_t> wide(f.faces.begin(), f.faces.end()), pixels(f.pixels.begin(), f.pixels.end());
     std::vector<double> z(n_v);
     for (index_t i = 0; i < n_v; ++i) z[i] = image.depth(pixels[2 * i], pixels[2 * i + 1]);
+    std::vector<double> lengths;  // (F, 3): edge k from corner k to k + 1
+    if (camera[0] == 2.0) {
+        std::vector<index_t> a(3 * n_f), b(3 * n_f);
+        for (index_t t = 0; t < n_f; ++t)
+            for (int k = 0; k < 3; ++k) {
+                a[3 * t + k] = wide[3 * t + k];
+                b[3 * t + k] = wide[3 * t + (k + 1) % 3];
+            }
+        lengths.resize(3 * n_f);
+        ray_lengths(camera, {pixels.data(), n_v, 2}, view(a), view(b), pixel_angle, {lengths.data(), 3 * n_f});
+    }
     const std::unique_ptr<bool[]> kept(new bool[n_f]);
-    wall_faces({wide.data(), n_f, 3}, {pixels.data(), n_v, 2}, view(z), jump, {}, {kept.get(), n_f});
+    wall_faces({wide.data(), n_f, 3}, {pixels.data(), n_v, 2}, view(z), jump,
+               lengths.empty() ? Grid<const double>{} : Grid<const double>{lengths.data(), n_f, 3}, {kept.get(), n_f});
     n_walls = 0;
     for (index_t t = 0; t < n_f; ++t) {
         n_walls += kept[t];
@@ -178,18 +192,19 @@ struct Meshing {
 
 // The valid faces of an insertion's mesh, with one fan each, its walls dropped unless kept
 // (insertion.py's `_assemble`); `n_walls` counts the dropped ones.
-ValidFaces assemble(const Image& image, Span<const index_t> vr, Span<const index_t> vc, Span<const index_t> tv,
-                    const MeshRequest& req, index_t& n_walls) {
+ValidFaces assemble(const Image& image, Span<const double> camera, Span<const index_t> vr, Span<const index_t> vc,
+                    Span<const index_t> tv, const MeshRequest& req, index_t& n_walls) {
     ValidFaces f = valid_faces(vr, vc, tv, image.valid);
     const index_t n_f = static_cast<index_t>(f.faces.size() / 3);
     if (0 < n_f && n_f < tv.size / 3) f = one_fan_each(image, std::move(f));
-    if (!req.walls && !f.faces.empty()) f = drop_walls(image, std::move(f), req.jump, n_walls);
+    if (!req.walls && !f.faces.empty()) f = drop_walls(image, camera, req.pixel_angle, std::move(f), req.jump, n_walls);
     return f;
 }
 
 // Insertion until `asked` valid vertices or, when `max_sum` is not negative, a summed error of
 // at most `max_sum` (insertion.py's `_refine`), then assembled.
-Meshing mesh_once(const Image& image, const FirstMesh& first, index_t asked, double max_sum, const MeshRequest& req) {
+Meshing mesh_once(const Image& image, Span<const double> camera, const FirstMesh& first, index_t asked, double max_sum,
+                  const MeshRequest& req) {
     Insertion ins(image, first, max_sum < 0.0 ? asked : 0, req.sr, req.sc);
     ins.advance(Stop{asked, max_sum});
     Meshing out;
@@ -202,12 +217,12 @@ Meshing mesh_once(const Image& image, const FirstMesh& first, index_t asked, dou
                             {sums.data(), static_cast<index_t>(sums.size())}};
         out.flips = flip_by_error(image, mesh).flips;
     }
-    out.mesh = assemble(image, view(ins.vertex_rows()), view(ins.vertex_cols()), view(ins.triangles()), req, out.n_walls);
+    out.mesh = assemble(image, camera, view(ins.vertex_rows()), view(ins.vertex_cols()), view(ins.triangles()), req, out.n_walls);
     return out;
 }
 
 // The same on two strips (`insert_halves`).
-Meshing mesh_halves(const Image& image, index_t asked, double max_sum, const MeshRequest& req) {
+Meshing mesh_halves(const Image& image, Span<const double> camera, index_t asked, double max_sum, const MeshRequest& req) {
     const HalvesRequest hreq{asked, max_sum, req.n_grid, req.n_valid, req.sr, req.sc, req.seam_density,
                              req.seam_error_share, req.threads, req.flip};
     const Halves halves = insert_halves(image, hreq);
@@ -215,7 +230,7 @@ Meshing mesh_halves(const Image& image, index_t asked, double max_sum, const Mes
     out.insertions = static_cast<index_t>(halves.vr.size());
     out.flips = halves.flips;
     out.error_left = halves.total > 0.0;
-    out.mesh = assemble(image, view(halves.vr), view(halves.vc), view(halves.triangles), req, out.n_walls);
+    out.mesh = assemble(image, camera, view(halves.vr), view(halves.vc), view(halves.triangles), req, out.n_walls);
     return out;
 }
 
@@ -474,7 +489,8 @@ Meshing Refiner::mesh(index_t asked, double max_sum) {
     ++out_.meshings;
     out_.asked = asked;
     if (!strips_ && !first_) first_ = first_mesh(image_, req_.n_grid, req_.sr, req_.sc);
-    Meshing m = strips_ ? mesh_halves(image_, asked, max_sum, req_) : mesh_once(image_, first_->view(), asked, max_sum, req_);
+    Meshing m = strips_ ? mesh_halves(image_, camera_, asked, max_sum, req_)
+                         : mesh_once(image_, camera_, first_->view(), asked, max_sum, req_);
     insertions_ = m.insertions;
     flips_ = m.flips;
     return m;

@@ -1,12 +1,11 @@
-// The whole refine call on one strip: first mesh, insertion, diagonals, assembly (walls kept
-// or dropped), heights and
-// the lift to 3-D, repeated by one small search until the target is met: a vertex count
-// (`vertices=`) or an error bound (`max_error=`, with a vertex cap: the default target).
+// The whole refine call on one strip or two: first mesh, insertion, diagonals, assembly (walls
+// kept or dropped), heights and the lift to 3-D, repeated by one small search until the target
+// is met: a vertex count (`vertices=`) or an error bound (`max_error=`, with a vertex cap: the
+// default target).
 //
 // The rules and their reasons are those of rangemesh/refine/insertion.py, which checks the
-// arguments, chooses this path or the strips' and wraps the result; every step is a kernel of
-// its own family (Insertion, flip_by_error, valid_faces, prune_dangling, fit_heights, lift), in
-// the arithmetic and order of the Python steps it stands for, so the mesh is the same bit for bit.
+// arguments and wraps the result; every step is a kernel of its own family (Insertion,
+// flip_by_error, valid_faces, prune_dangling, fit_heights, lift), in the arithmetic and order of the Python steps it stands for, so the mesh is the same bit for bit.
 #pragma once
 
 #include <cstdint>
@@ -38,8 +37,9 @@ struct MeshRequest {
     int threads = 1;       // the strips' threads
     bool flip = true;      // each quad's diagonal by the error (`flip_by_error`)
     bool fit = true;       // heights by least squares, else copied from the pixels
-    bool walls = true;     // keep the walls of jumps; false drops them (not with a ray camera)
+    bool walls = true;     // keep the walls of jumps; false drops them
     double jump = 0.05;    // the jump rule's share of the local depth per pixel (walls.hpp)
+    double pixel_angle = 0.0;  // a ray camera's angle of one pixel, the unit of its edge lengths
     index_t max_runs = 8, max_bisect_runs = 5;  // meshings at most, and once past the count
     HeightRule heights;
 };

@@ -650,7 +650,7 @@ def test_the_native_call_gives_the_meshes_of_the_python_steps(seed, h, w, kind, 
     depth = 100 + rng.random((h, w)) * noise + (np.arange(w) > w // 2) * 40 * rng.integers(2)
     if rng.integers(2):
         depth = np.round(depth)  # exact planes and ties: the count search's and the fit's edge cases
-    valid = rng.random((h, w)) >= rng.choice([0.0, 0.3, 0.7])
+    valid = rng.random((h, w)) >= rng.choice([0.0, 0.3, 0.7, 0.97])  # (0.97: hull restarts)
     if valid.sum() < 3:
         return
     depth = np.where(valid, depth, 0.0)
@@ -694,9 +694,10 @@ def test_the_native_call_drops_walls_by_ray_angle(kind):
     assert np.array_equal(a.vertices, b.vertices) and str(ta) == str(tb)
 
 
-def test_the_native_call_leaves_a_mesh_without_valid_corners_to_the_hull_start():
+def test_the_native_call_restarts_from_the_valid_pixels_hull():
     # Four valid pixels far apart in a 17 x 14 background: every triangle of the image corners'
-    # mesh keeps a background corner, so the call declines and insertion starts from their hull.
+    # mesh keeps a background corner, so insertion starts again from their hull, in the native
+    # call too (it declined to Python before): every valid pixel is a vertex, nothing else.
     depth = np.zeros((17, 14))
     valid = np.zeros((17, 14), bool)
     pixels = [(0, 11), (1, 9), (4, 0), (5, 2)]
@@ -704,7 +705,16 @@ def test_the_native_call_leaves_a_mesh_without_valid_corners_to_the_hull_start()
         valid[r, c] = True
         depth[r, c] = 10.0 + r
     camera = rangemesh.Orthographic()
-    assert _native_call(depth, valid, camera, (depth, valid), True, "error", vertices=5) == (None, None)
+    for asked in ({"vertices": 5}, {"max_error": 0.5, "max_vertices": 5}):
+        a, ta = _native_call(depth, valid, camera, (depth, valid), True, "error", **asked)
+        assert a is not None and len(a.faces)
+        b, tb = _python_steps(depth, valid, camera, (depth, valid), fit=True, diagonals="error",
+                              **asked)
+        assert np.array_equal(a.faces, b.faces) and np.array_equal(a.pixels, b.pixels)
+        assert np.array_equal(a.vertices, b.vertices) and str(ta) == str(tb)
+        assert a.stats.strips == b.stats.strips == 1
+        if "vertices" in asked:
+            assert sorted(map(tuple, a.pixels.tolist())) == pixels
     mesh = triangulate(np.where(valid, depth, np.nan), vertices=5)
     assert sorted(map(tuple, mesh.pixels.tolist())) == pixels  # every valid pixel, nothing else
     assert_valid_mesh(mesh)

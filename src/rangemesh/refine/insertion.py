@@ -365,8 +365,8 @@ def _native(depth, valid, camera, ref, extent, exponent, vertices, max_error, ma
     """`_greedy` on one strip or two, as one native call (`rangemesh._core.refine_mesh`).
 
     Returns ``(mesh, target)``, or ``(None, None)`` when the call declines
-    (no triangle of valid corners, so the valid pixels' hull is the next
-    start; a fit that must raise or solve directly): `_greedy` then meshes
+    (no triangle left, even from the valid pixels' hull: `_greedy` names
+    why; a fit that must raise or solve directly): `_greedy` then meshes
     the image.
     """
     h, w = depth.shape

@@ -234,6 +234,68 @@ Meshing mesh_halves(const Image& image, Span<const double> camera, index_t asked
     return out;
 }
 
+// Corners of the convex hull of the valid pixels, counter-clockwise in (row, col), none on a hull
+// edge; empty when fewer than 3 (start.py's `valid_hull`: each valid row's first and last pixels,
+// monotone chain in exact integers).
+std::vector<std::pair<index_t, index_t>> valid_hull(Grid<const bool> valid) {
+    using Point = std::pair<index_t, index_t>;
+    std::vector<Point> pts;
+    for (index_t r = 0; r < valid.rows; ++r) {
+        index_t first = -1, last = -1;
+        for (index_t c = 0; c < valid.cols; ++c)
+            if (valid(r, c)) {
+                if (first < 0) first = c;
+                last = c;
+            }
+        if (first < 0) continue;
+        pts.emplace_back(r, first);
+        if (last != first) pts.emplace_back(r, last);
+    }
+    const auto turn = [](const Point& o, const Point& a, const Point& b) {
+        return (a.first - o.first) * (b.second - o.second) - (a.second - o.second) * (b.first - o.first);
+    };
+    const auto half = [&](auto begin, auto end, std::vector<Point>& out) {
+        std::vector<Point> chain;
+        for (auto p = begin; p != end; ++p) {
+            while (chain.size() >= 2 && turn(chain[chain.size() - 2], chain.back(), *p) <= 0) chain.pop_back();
+            chain.push_back(*p);
+        }
+        if (!chain.empty()) chain.pop_back();
+        out.insert(out.end(), chain.begin(), chain.end());
+    };
+    std::vector<Point> hull;  // (pts is sorted by row, then column, and unique)
+    half(pts.begin(), pts.end(), hull);
+    half(pts.rbegin(), pts.rend(), hull);
+    if (hull.size() < 3) hull.clear();
+    return hull;
+}
+
+// A first mesh of valid pixels only: at most `limit` corners of their hull, Delaunay in units
+// sr x sc (start.py's `hull_mesh`); none when the hull has fewer than 3 corners or `limit` < 3.
+std::optional<FirstArrays> hull_mesh(const Image& image, index_t limit, index_t sr, index_t sc) {
+    const auto hull = valid_hull(image.valid);
+    const index_t n = static_cast<index_t>(hull.size());
+    if (n < 3 || limit < 3) return std::nullopt;
+    FirstArrays f;
+    const index_t k = std::min(n, limit);
+    // np.linspace(0, n, limit, endpoint=False).astype(np.int64): evenly spread corners
+    const double step = static_cast<double>(n) / static_cast<double>(limit);
+    std::vector<index_t> r(k), c(k);
+    for (index_t i = 0; i < k; ++i) {
+        const index_t j = n > limit ? static_cast<index_t>(static_cast<double>(i) * step + 0.0) : i;
+        f.vr.push_back(hull[j].first);
+        f.vc.push_back(hull[j].second);
+        f.vz.push_back(image.depth(hull[j].first, hull[j].second));
+        r[i] = hull[j].first * sr;
+        c[i] = hull[j].second * sc;
+    }
+    Triangulation t = delaunay_sweep(PointSet{view(r), view(c)});
+    require(!t.triangles.empty(), "hull_mesh: the hull's corners cannot be collinear");
+    f.triangles = std::move(t.triangles);
+    f.halfedges = std::move(t.halfedges);
+    return f;
+}
+
 // The search for exactly `want` vertices: vertices left without a triangle (background
 // corners' fans) are inserted again as many more; once a request gave more than `want`, the
 // requests are bisected between the last one short of it and the first beyond it. The result
@@ -466,14 +528,22 @@ class Refiner {
     Refiner(const Image& image, Span<const double> camera, const Reference& ref, const MeshRequest& req)
         : image_(image), camera_(camera), req_(req), measure_(camera, ref), strips_(req.strips) {}
 
-    MeshResult by_count();
-    MeshResult by_error();
+    // The search; when it leaves no face (every triangle keeps a background image corner), once
+    // more from the valid pixels' hull (insertion.py's restart), unless walls were dropped.
+    MeshResult run();
 
   private:
+    MeshResult by_count();
+    MeshResult by_error();
     Meshing mesh(index_t asked, double max_sum);
     bool lift(const ValidFaces& f, bool fit, std::vector<double>& vertices);
     bool bounded(Candidate& c);
     MeshResult finish(Candidate&& c);
+    MeshResult no_face(const Meshing& m) {
+        empty_ = true;
+        empty_walls_ = m.n_walls;
+        return MeshResult{};
+    }
 
     const Image& image_;
     Span<const double> camera_;
@@ -483,7 +553,22 @@ class Refiner {
     bool strips_;                       // the next meshing is on two strips
     MeshResult out_;
     index_t insertions_ = 0, flips_ = 0;  // of the last meshing
+    bool empty_ = false;                  // the search declined: no face left
+    index_t empty_walls_ = 0;             // ... and the walls its mesh dropped
 };
+
+MeshResult Refiner::run() {
+    MeshResult out = req_.max_error < 0.0 ? by_count() : by_error();
+    if (!empty_ || (!req_.walls && empty_walls_ > 0)) return out;
+    std::optional<FirstArrays> hull = hull_mesh(image_, req_.vertices, req_.sr, req_.sc);
+    if (!hull) return out;  // declined: no triangle of valid pixels (Python names the reason)
+    first_ = std::move(hull);
+    strips_ = false;
+    out_ = MeshResult{};
+    empty_ = false;
+    out = req_.max_error < 0.0 ? by_count() : by_error();
+    return empty_ ? MeshResult{} : out;  // still no face: declined (Python names the reason)
+}
 
 Meshing Refiner::mesh(index_t asked, double max_sum) {
     ++out_.meshings;
@@ -550,7 +635,7 @@ MeshResult Refiner::by_count() {
         more = search.next(std::move(m), out_.meshings, asked);
     }
     Candidate c{std::move(search.best()), {}, 0.0};
-    if (c.meshing.mesh.faces.empty()) return MeshResult{};  // declined: the hull's start is Python's
+    if (c.meshing.mesh.faces.empty()) return no_face(c.meshing);
     const auto t = std::chrono::steady_clock::now();
     if (!lift(c.meshing.mesh, req_.fit, c.vertices)) return MeshResult{};
     if (req_.fit) out_.fit_seconds = seconds_since(t);
@@ -570,7 +655,7 @@ MeshResult Refiner::by_error() {
     bool has_met = false;
     for (;;) {
         Candidate c{mesh(asked, max_sum), {}, 0.0};
-        if (c.meshing.mesh.faces.empty()) return MeshResult{};  // declined: the hull's start is Python's
+        if (c.meshing.mesh.faces.empty()) return no_face(c.meshing);
         if (!bounded(c)) return MeshResult{};
         const index_t runs = out_.meshings, got = c.meshing.n_vertices();
         if (counted) {
@@ -609,7 +694,7 @@ MeshResult refine_mesh(const Image& image, Span<const double> camera, const Refe
                        const MeshRequest& req) {
     const auto t0 = std::chrono::steady_clock::now();
     Refiner refiner(image, camera, reference, req);
-    MeshResult out = req.max_error < 0.0 ? refiner.by_count() : refiner.by_error();
+    MeshResult out = refiner.run();
     out.seconds = seconds_since(t0);
     return out;
 }

@@ -50,9 +50,9 @@ struct Reference {
     Grid<const bool> valid;
 };
 
-// How the call ended. `declined`: a case the Python path handles (no triangle left, so the
-// valid pixels' hull is the next start; a fit that must raise or solve directly): nothing else
-// of the result is set.
+// How the call ended. `declined`: a case the Python path handles (no triangle left, even from
+// the valid pixels' hull, so the mesh is empty and Python names why; a fit that must raise or
+// solve directly): nothing else of the result is set.
 enum class MeshOutcome { done, declined };
 
 struct MeshResult {

@@ -155,7 +155,7 @@ index_t fit_blocks(const FitMesh& mesh, const FitImage& image, Span<const index_
     const index_t half = n / 2;
     index_t used_first = 0;
     std::exception_ptr failed;
-    std::thread worker([&] {
+    std::thread worker = polled_thread([&] {
         try {
             used_first = accumulate(mesh, image, order, threshold, blocks, 0, half);
         } catch (...) {

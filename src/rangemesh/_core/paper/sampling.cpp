@@ -220,7 +220,8 @@ void sample_tiles(Grid<const double> f, const Tiling& tiling, const SampleGrid& 
             failed[k] = std::current_exception();
         }
     };
-    for (index_t k = 1; k < n_threads; ++k) threads.emplace_back(work, k);
+    threads.reserve(static_cast<std::size_t>(n_threads - 1));  // push_back then never drops a running thread
+    for (index_t k = 1; k < n_threads; ++k) threads.push_back(polled_thread(work, k));
     work(0);
     for (std::thread& thread : threads) thread.join();
     threads.clear();

@@ -116,7 +116,7 @@ constexpr double EXPONENT_MIN = 0.75, EXPONENT_MAX = 4.0;
 // scans, each round, the flips) that `both` hands it while the calling thread runs the other.
 class Worker {
   public:
-    Worker() : thread_([this] { loop(); }) {}
+    Worker() : thread_(polled_thread([this] { loop(); })) {}
 
     ~Worker() {
         {

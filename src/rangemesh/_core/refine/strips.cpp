@@ -320,7 +320,11 @@ StripMesh finish(Insertion& s, const Image& image, bool flip) {
 
 }  // namespace
 
-Strips strip_insert(const Image& image, const FirstMesh& left, const FirstMesh& right, const StripRequest& req) {
+Strips strip_insert(const Image& image, const FirstMesh& left, const FirstMesh& right, const StripRequest& request) {
+    // at most every pixel in each strip: a larger count (a raw call's INT64_MAX) asks for no
+    // more, and would overflow the rounds' arithmetic (a cap of rem as a double rounds to 2^63)
+    StripRequest req = request;
+    req.target = std::min(req.target, 2 * image.rows() * image.cols());
     std::optional<Worker> worker;
     if (req.threads >= 2) worker.emplace();
     Worker* const second = worker ? &*worker : nullptr;

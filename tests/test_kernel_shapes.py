@@ -167,7 +167,8 @@ MALFORMED = {
     "prune_dangling/neighbour below -1": lambda: _core.prune_dangling(
         FACES, np.array([[-1, -1, -1], [-2, -1, -1]], I64), np.ones(2, bool), 4),
     "flip_loop/rule": lambda: _flip_loop(rule=2),
-    "flip_loop/twins that do not pair up": lambda: _flip_loop(halfedges=np.array([-1, -1, 3, 1, -1, -1], I64)),
+    "flip_loop/twins that do not pair up": lambda: _flip_loop(
+        halfedges=np.array([-1, -1, 3, 1, -1, -1], I64)),
     # greedy insertion from a first mesh whose twins do not pair up never ended, its arrays
     # growing without bound (F5)
     "greedy_insert/twin below -1": lambda: _core.greedy_insert(
@@ -200,6 +201,7 @@ MALFORMED = {
     "keep_faces/point outside": lambda: _core.keep_faces(
         FACES, np.array([[0, 0], [-3, 0], [6, 3], [0, 3]], I64), VALID, np.inf, np.empty(2, bool)),
     # (the inverted sums put a sample 10,000 columns past the tile: read out of bounds)
+    "compact_faces/point beyond int32": lambda: _core.compact_faces(FACES, np.ones(2, bool), PTS + 2**40),
     "sample_tiles/weights not positive": lambda: _sample_tiles(f=np.tile([1.0, -0.001, -10.0, -10.0], (4, 1)),
                                                                zs=3),
     "line_pixel/k beyond the line": lambda: _core.line_pixel(0, 0, 3, 1, 4),
@@ -212,7 +214,8 @@ def _flip_loop(halfedges=HE, rule=1):
     return _core.flip_loop(
         TV.copy(), halfedges.copy(), PTS, np.column_stack([VR, VC, np.zeros(4)]).astype(float), DEPTH, VALID,
         Orthographic().as_array(), rule=rule, threshold=-np.inf, delta=0.3, epsilon=0.005, max_angle=2.8,
-        min_bend=0.08, quantum=2.0**-32, max_edge2=np.inf, verdicts=np.zeros(8, I64), log=np.zeros((0, 3), I64))
+        min_bend=0.08, quantum=2.0**-32, max_edge2=np.inf, verdicts=np.zeros(8, I64),
+        log=np.zeros((0, 3), I64))
 
 
 # Two strips of a 4 x 7 image meeting down column 3, each first meshed by its corners' two triangles.
@@ -382,7 +385,8 @@ ENDLESS = {
     "_triangle_rows/corner at 2^31": ("_core._triangle_rows(0, 0, 2**31, 0, 0, 4, True, True, True)",
                                       "_triangle_rows: corners are pixels within EXACT_SPAN"),
     # F5: insertion on twins that do not pair up grew its arrays at 100 MB/s
-    "strip_insert/twins that do not pair up": ("_strips(left_he=HE.astype(bool).astype(I64))", "greedy_insert: "),
+    "strip_insert/twins that do not pair up": ("_strips(left_he=HE.astype(bool).astype(I64))",
+                                               "greedy_insert: "),
 }
 
 

@@ -1,6 +1,7 @@
 #include "triangulation.hpp"
 
 #include <algorithm>
+#include <cstdint>
 
 #include "../geometry/predicates.hpp"
 #include "../interrupt.hpp"
@@ -97,6 +98,9 @@ CompactMesh compact_faces(Grid<const index_t> faces, Span<const bool> alive, Gri
     for (index_t v = 0, k = 0; v < n; ++v) {
         poll_every(v);
         if (!used[v]) continue;
+        // (the pixels come back as int32: a point beyond it would come back as another)
+        check_input(0 <= points(v, 0) && points(v, 0) <= INT32_MAX && 0 <= points(v, 1) && points(v, 1) <= INT32_MAX,
+                    "compact_faces: a point used is not a pixel (row and column from 0 to 2^31 - 1)");
         new_id[v] = k++;
         out.pixels.push_back(static_cast<std::int32_t>(points(v, 0)));
         out.pixels.push_back(static_cast<std::int32_t>(points(v, 1)));

@@ -162,8 +162,8 @@ def _derive(calls):
     return derived
 
 
-@pytest.fixture(scope="module")
-def captured():
+def capture():
+    """Kernel name -> [(args, kwargs)]: the calls meshing makes, then those derived from them."""
     calls = {}
     image = _image()
     with _spying(calls), _patched(refine_heights, ORDER_MIN_PIXELS=0):
@@ -177,6 +177,11 @@ def captured():
     for kernel, kept in _derive(calls).items():
         calls.setdefault(kernel, kept)
     return calls
+
+
+@pytest.fixture(scope="module")
+def captured():
+    return capture()
 
 
 OUTCOMES: dict[str, dict[str, int]] = {}

@@ -167,6 +167,7 @@ MALFORMED = {
     "prune_dangling/neighbour below -1": lambda: _core.prune_dangling(
         FACES, np.array([[-1, -1, -1], [-2, -1, -1]], I64), np.ones(2, bool), 4),
     "flip_loop/rule": lambda: _flip_loop(rule=2),
+    "flip_loop/verdict count": lambda: _flip_loop(verdicts=np.full(8, np.iinfo(I64).max)),
     "flip_loop/twins that do not pair up": lambda: _flip_loop(
         halfedges=np.array([-1, -1, 3, 1, -1, -1], I64)),
     # greedy insertion from a first mesh whose twins do not pair up never ended, its arrays
@@ -210,12 +211,12 @@ MALFORMED = {
 }
 
 
-def _flip_loop(halfedges=HE, rule=1):
+def _flip_loop(halfedges=HE, rule=1, verdicts=None):
     return _core.flip_loop(
         TV.copy(), halfedges.copy(), PTS, np.column_stack([VR, VC, np.zeros(4)]).astype(float), DEPTH, VALID,
         Orthographic().as_array(), rule=rule, threshold=-np.inf, delta=0.3, epsilon=0.005, max_angle=2.8,
-        min_bend=0.08, quantum=2.0**-32, max_edge2=np.inf, verdicts=np.zeros(8, I64),
-        log=np.zeros((0, 3), I64))
+        min_bend=0.08, quantum=2.0**-32, max_edge2=np.inf,
+        verdicts=np.zeros(8, I64) if verdicts is None else verdicts, log=np.zeros((0, 3), I64))
 
 
 # Two strips of a 4 x 7 image meeting down column 3, each first meshed by its corners' two triangles.
@@ -228,6 +229,19 @@ def _strips(left_he=HE, sr=1, target=22):
     right = (VR, VC + 3, np.zeros(4), TV, HE)
     return _core.strip_insert(STRIP_DEPTH, STRIP_VALID, left, right, 20, target, 20, -1.0, 45.0, sr, 1, 2,
                               True, True)
+
+
+def _far_depth_strips():
+    """Whether the strips of an image with a depth of 1e300 come back well formed, within the count."""
+    depth = STRIP_DEPTH.copy()
+    depth[1, 1] = 1e300  # keys and sums of inf and NaN
+    left, right = (VR, VC, np.zeros(4), TV, HE), (VR, VC + 3, np.zeros(4), TV, HE)
+    out = _core.strip_insert(depth, STRIP_VALID, left, right, 20, 22, 20, -1.0, 45.0, 1, 1, 2, True, True)
+    ok = out[0][5] + out[1][5] <= 22
+    for vr, vc, tv, he, *_ in out[:2]:
+        _, twins = _core.build_halfedges(tv.reshape(-1, 3), len(vr))
+        ok &= twins.tolist() == he.tolist() and bool(((0 <= vr) & (vr < 4) & (0 <= vc) & (vc < 7)).all())
+    return [ok]
 
 
 def _sample_errors(row_stride=1, face_stride=1, capacity=16):
@@ -342,6 +356,9 @@ def test_a_vertex_count_beyond_the_pixels_inserts_every_pixel(big):
     assert every[3] == 16  # all 16 pixels are vertices
     assert [a.tolist() for a in every[:3]] == [a.tolist() for a in _core.greedy_insert(
         DEPTH, VALID, VR, VC, DEPTH[VR, VC], TV, HE, 16, -1.0, 12.0)[:3]]
+    # (target - count overflowed for a target of INT64_MIN)
+    least = _strips(target=-big - 1)
+    assert [a.tolist() for a in least[0][:5]] == [a.tolist() for a in _strips(target=0)[0][:5]]
     strips = _strips(target=big)
     # every pixel, the seam's four twice, but its two inner ones (fixed beforehand: a first mesh
     # of a strip holds them)
@@ -361,8 +378,9 @@ def test_a_vertex_count_beyond_the_ids_in_use_changes_nothing(n_vertices):
 # Calls that ran for ever, or until memory ran out, before the fix: each runs in a child
 # process with a time and memory limit, so that a regression fails instead of hanging the run.
 CHILD = """
-import json, resource, sys
-resource.setrlimit(resource.RLIMIT_AS, (3 << 30, 3 << 30))
+import json, os, resource, sys
+if "libasan" not in os.environ.get("LD_PRELOAD", ""):  # (ASan's shadow memory needs terabytes)
+    resource.setrlimit(resource.RLIMIT_AS, (3 << 30, 3 << 30))
 sys.path.insert(0, {tests!r})
 import numpy as np
 import test_kernel_shapes as t
@@ -384,6 +402,9 @@ ENDLESS = {
     # F8: a list of 2^31 rows
     "_triangle_rows/corner at 2^31": ("_core._triangle_rows(0, 0, 2**31, 0, 0, 4, True, True, True)",
                                       "_triangle_rows: corners are pixels within EXACT_SPAN"),
+    # the strips' last vertices one at a time: a NaN key (a depth of 1e300) made neither strip
+    # go on, and the loop asked them again for ever
+    "strip_insert/a depth of 1e300": ("_far_depth_strips()", [True]),
     # F5: insertion on twins that do not pair up grew its arrays at 100 MB/s
     "strip_insert/twins that do not pair up": ("_strips(left_he=HE.astype(bool).astype(I64))",
                                                "greedy_insert: "),

@@ -355,6 +355,9 @@ index_t flip_loop(const FlipMesh& mesh, const RangeImage& image, const FlipSetti
                     "flip_loop: half-edge twins must pair up (he[he[e]] == e, in [-1, len), back along one edge)");
     }
     require(record.verdicts.size == N_VERDICTS, "flip_loop: one counter per verdict");
+    // counted on: each decision adds 1, and no call makes 2^62 of them
+    for (const index_t count : record.verdicts)
+        check_input(0 <= count && count <= index_t{1} << 62, "flip_loop: the verdicts' counts from 0 to 2^62");
     require(record.log.cols == 3, "flip_loop: the log has three columns");
     FlipStage stage(mesh, image, settings);
     return stage.run(record);

@@ -10,6 +10,11 @@ the arrays are otherwise fine.
 
 from __future__ import annotations
 
+import json
+import subprocess
+import sys
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -146,13 +151,115 @@ MALFORMED = {
                                                      np.array([2], I64)),
     "error_flips/vertex outside": lambda: _core.error_flips(VR, VC + 1, TV, DEPTH, VALID, 1.0),
     "error_flips/vertex id": lambda: _core.error_flips(VR[:3], VC[:3], TV, DEPTH, VALID, 1.0),
+    # a flip writes through the twins: a twin of -2 wrote 8 bytes before the array (F1)
+    "flip_by_error/twin below -1": lambda: _core.flip_by_error(
+        VR, VC, TV.copy(), np.array([-1, -1, -2, 2, -1, -1], I64), np.zeros(2), DEPTH, VALID, 1.0),
+    "flip_from_edges/twin below -1": lambda: _core.flip_from_edges(
+        VR, VC, TV.copy(), np.array([-1, -1, 3, -2, -1, -1], I64), np.zeros(2), DEPTH, VALID, 1.0,
+        np.array([3], I64)),
+    "flip_by_error/twins that do not pair up": lambda: _core.flip_by_error(
+        VR, VC, TV.copy(), HE.astype(bool).astype(I64), np.zeros(2), DEPTH, VALID, 1.0),
+    "flip_from_edges/first half-edge": lambda: _flips(_core.flip_from_edges, VR, VC, np.array([6], I64)),
+    "legalize_all/twins that do not pair up": lambda: _core.legalize_all(
+        TV.copy(), np.array([-1, -1, 3, 1, -1, -1], I64), VR, VC),
+    "neighbors_from_halfedges/twin below -1": lambda: _core.neighbors_from_halfedges(
+        np.array([-1, -1, -2, 2, -1, -1], I64)),
+    "prune_dangling/neighbour below -1": lambda: _core.prune_dangling(
+        FACES, np.array([[-1, -1, -1], [-2, -1, -1]], I64), np.ones(2, bool), 4),
+    "flip_loop/rule": lambda: _flip_loop(rule=2),
+    "flip_loop/verdict count": lambda: _flip_loop(verdicts=np.full(8, np.iinfo(I64).max)),
+    "flip_loop/twins that do not pair up": lambda: _flip_loop(
+        halfedges=np.array([-1, -1, 3, 1, -1, -1], I64)),
+    # greedy insertion from a first mesh whose twins do not pair up never ended, its arrays
+    # growing without bound (F5)
+    "greedy_insert/twin below -1": lambda: _core.greedy_insert(
+        DEPTH, VALID, VR, VC, np.zeros(4), TV, np.array([-2, -1, 3, 2, -1, -1], I64), 5, -1.0, 1.0),
+    "greedy_insert/twins that do not pair up": lambda: _core.greedy_insert(
+        DEPTH, VALID, VR, VC, np.zeros(4), TV, HE.astype(bool).astype(I64), 5, -1.0, 1.0),
+    "greedy_insert_sums/twins that do not pair up": lambda: _core.greedy_insert_sums(
+        DEPTH, VALID, VR, VC, np.zeros(4), TV, np.array([-1, -1, 3, 1, -1, -1], I64), 5, -1.0, 1.0),
+    "greedy_insert/clockwise triangle": lambda: _core.greedy_insert(
+        DEPTH, VALID, VR, VC, np.zeros(4), np.array([0, 2, 1, 0, 3, 2], I64),
+        np.array([-1, -1, -1, -1, -1, -1], I64), 5, -1.0, 1.0),
+    "strip_insert/twins that do not pair up": lambda: _strips(left_he=HE.astype(bool).astype(I64)),
+    # (rows - 1) * sr overflowed int64 and passed the EXACT_SPAN check (F6)
+    "greedy_insert/Delaunay scale beyond EXACT_SPAN": lambda: _core.greedy_insert(
+        DEPTH, VALID, VR, VC, np.zeros(4), TV, HE, 5, -1.0, 1.0, 2**62, 1),
+    "greedy_insert_sums/Delaunay scale beyond EXACT_SPAN": lambda: _core.greedy_insert_sums(
+        DEPTH, VALID, VR, VC, np.zeros(4), TV, HE, 5, -1.0, 1.0, 1, 2**62),
+    "strip_insert/Delaunay scale beyond EXACT_SPAN": lambda: _strips(sr=2**62),
+    "greedy_insert/Delaunay scale 0": lambda: _core.greedy_insert(
+        DEPTH, VALID, VR, VC, np.zeros(4), TV, HE, 5, -1.0, 1.0, 0, 1),
+    # every vertex is checked, not only each face's smallest row and column (F9)
+    "face_order/vertex outside": lambda: _core.face_order(FACES, np.array([0, 3, 10, 0], I64), VC, 4, 4, 2),
+    "face_order/vertex far outside": lambda: _core.face_order(FACES, VR, np.array([0, 0, 2**31, 3], I64),
+                                                              4, 4, 2),
+    "face_order/more cells than an image has": lambda: _core.face_order(FACES, VR, VC, 2**40, 2**40, 1),
+    "fit_sample_errors/stride 0": lambda: _sample_errors(row_stride=0),
+    "fit_sample_errors/order entry": lambda: _core.fit_sample_errors(
+        FACES, np.array([0, 2], I64), VR, VC, np.zeros(4), DEPTH, VALID, 1, 1, 16),
+    # (a barycentre inside, a corner outside: the squared edge lengths overflowed for far ones)
+    "keep_faces/point outside": lambda: _core.keep_faces(
+        FACES, np.array([[0, 0], [-3, 0], [6, 3], [0, 3]], I64), VALID, np.inf, np.empty(2, bool)),
+    # (the inverted sums put a sample 10,000 columns past the tile: read out of bounds)
+    "compact_faces/point beyond int32": lambda: _core.compact_faces(FACES, np.ones(2, bool), PTS + 2**40),
+    "sample_tiles/weights not positive": lambda: _sample_tiles(f=np.tile([1.0, -0.001, -10.0, -10.0], (4, 1)),
+                                                               zs=3),
+    "line_pixel/k beyond the line": lambda: _core.line_pixel(0, 0, 3, 1, 4),
+    "line_pixel/far endpoint": lambda: _core.line_pixel(0, 0, 2**62, 1, 1),
+    "_triangle_rows/step": lambda: _core._triangle_rows(0, 0, 4, 0, 0, 4, True, True, True, 0, 2**62),
 }
+
+
+def _flip_loop(halfedges=HE, rule=1, verdicts=None):
+    return _core.flip_loop(
+        TV.copy(), halfedges.copy(), PTS, np.column_stack([VR, VC, np.zeros(4)]).astype(float), DEPTH, VALID,
+        Orthographic().as_array(), rule=rule, threshold=-np.inf, delta=0.3, epsilon=0.005, max_angle=2.8,
+        min_bend=0.08, quantum=2.0**-32, max_edge2=np.inf,
+        verdicts=np.zeros(8, I64) if verdicts is None else verdicts, log=np.zeros((0, 3), I64))
+
+
+# Two strips of a 4 x 7 image meeting down column 3, each first meshed by its corners' two triangles.
+STRIP_DEPTH = np.add.outer(np.arange(4.0), np.arange(7.0) ** 2)
+STRIP_VALID = np.ones((4, 7), bool)
+
+
+def _strips(left_he=HE, sr=1, target=22):
+    left = (VR, VC, np.zeros(4), TV, left_he)
+    right = (VR, VC + 3, np.zeros(4), TV, HE)
+    return _core.strip_insert(STRIP_DEPTH, STRIP_VALID, left, right, 20, target, 20, -1.0, 45.0, sr, 1, 2,
+                              True, True)
+
+
+def _far_depth_strips():
+    """Whether the strips of an image with a depth of 1e300 come back well formed, within the count."""
+    depth = STRIP_DEPTH.copy()
+    depth[1, 1] = 1e300  # keys and sums of inf and NaN
+    left, right = (VR, VC, np.zeros(4), TV, HE), (VR, VC + 3, np.zeros(4), TV, HE)
+    out = _core.strip_insert(depth, STRIP_VALID, left, right, 20, 22, 20, -1.0, 45.0, 1, 1, 2, True, True)
+    ok = out[0][5] + out[1][5] <= 22
+    for vr, vc, tv, he, *_ in out[:2]:
+        _, twins = _core.build_halfedges(tv.reshape(-1, 3), len(vr))
+        ok &= twins.tolist() == he.tolist() and bool(((0 <= vr) & (vr < 4) & (0 <= vc) & (vc < 7)).all())
+    return [ok]
+
+
+def _sample_errors(row_stride=1, face_stride=1, capacity=16):
+    return _core.fit_sample_errors(FACES, np.arange(2, dtype=I64), VR, VC, DEPTH[VR, VC], DEPTH, VALID,
+                                   row_stride, face_stride, capacity)
+
+
+def _sample_tiles(f, rs=2, zs=2):
+    grid = np.zeros((rs, zs, 2), np.int32)
+    _core.sample_tiles(f, np.array([0, 3], I64), np.array([0, 3], I64), rs, zs, grid)
+    return grid
 
 
 # the message's start where it is not the kernel's own name
 NAMED = {"_heap_sift_up": "heap: ", "_heap_rekey": "heap: ", "flip_by_error": "flips: ",
          "flip_from_edges": "flips: ", "error_flips/vertex outside": "flips: ",
-         "error_flips/vertex id": "build_halfedges: "}
+         "error_flips/vertex id": "build_halfedges: ", "greedy_insert_sums": "greedy_insert: ",
+         "strip_insert": "greedy_insert: ", "fit_sample_errors": "fit: "}
 
 
 @pytest.mark.parametrize("case", MALFORMED, ids=MALFORMED)
@@ -172,8 +279,6 @@ REFUSED_BY_THE_KERNEL = {
     "fill_gaps_inplace/shapes": lambda: _core.fill_gaps_inplace(DEPTH.copy(), VALID[:3].copy()),
     "add_curvature/shapes": lambda: _core.add_curvature(DEPTH, VALID, 1.0, 2, np.zeros((4, 3))),
     "seam_rows/lengths": lambda: _core.seam_rows(DEPTH[:, 0].copy(), VALID[:3, 0].copy(), 2, -1.0, 1.0),
-    "greedy_insert/twin below -1": lambda: _core.greedy_insert(
-        DEPTH, VALID, VR, VC, np.zeros(4), TV, np.array([-2, -1, 3, 2, -1, -1], I64), 5, -1.0, 1.0),
     "greedy_insert/vr and vc lengths": lambda: _core.greedy_insert(
         DEPTH, VALID, VR, VC[:3], np.zeros(4), TV, HE, 5, -1.0, 1.0),
     "greedy_insert/depth and valid": lambda: _core.greedy_insert(
@@ -193,3 +298,127 @@ REFUSED_BY_THE_KERNEL = {
 def test_a_malformed_call_is_refused_by_the_kernel(case):
     with pytest.raises(RuntimeError, match="broken invariant"):
         REFUSED_BY_THE_KERNEL[case]()
+
+
+# F6: hi - lo of a coordinate of INT64_MIN overflowed and passed the EXACT_SPAN check; a
+# triangulation came back on a point at -9.2e18.
+FAR = np.array([np.iinfo(I64).min, 3, 3, 0], I64)
+
+
+@pytest.mark.parametrize("kernel", ["delaunay_sweep", "legalize_all"])
+def test_a_coordinate_of_int64_min_is_beyond_the_exact_span(kernel):
+    with pytest.raises(RuntimeError, match="EXACT_SPAN"):
+        if kernel == "delaunay_sweep":
+            _core.delaunay_sweep(FAR, VC)
+        else:
+            _core.legalize_all(TV.copy(), HE.copy(), FAR, VC)
+
+
+# Counts, strides and tiles beyond the image ask for no more than the image holds: the same
+# result as the largest that means something, with no int64 overflow on the way (F6). (Before
+# the fix UBSan aborted these; a plain build gave undefined results.)
+BIG = [2**62, np.iinfo(I64).max]
+
+
+@pytest.mark.parametrize("big", BIG)
+def test_a_row_stride_beyond_the_image_samples_its_first_row(big):
+    # The square 2 rows down a 6 x 4 image: rows 2..5, none a multiple of a stride of 6 or more
+    # (top + stride - 1 overflowed, and the walk started 2^63 rows above the image). A stride of
+    # 3 samples row 3, where both faces' plane is r + 3c against depth r + c^2: |c^2 - 3c| at
+    # columns 0 (the lower face's), 1 and 2 (the upper's; column 3, on the border edge that
+    # runs up, is no face's). A face stride beyond the faces samples the first face alone.
+    depth, valid = np.add.outer(np.arange(6.0), np.arange(4.0) ** 2), np.ones((6, 4), bool)
+    rows = VR + 2
+
+    def sample(row_stride, face_stride=1):
+        return _core.fit_sample_errors(FACES, np.arange(2, dtype=I64), rows, VC, depth[rows, VC], depth,
+                                       valid, row_stride, face_stride, 24).tolist()
+
+    assert sample(big) == sample(6) == []
+    assert sample(3) == pytest.approx([0.0, 2.0, 2.0], abs=1e-12)
+    assert sample(3, big) == sample(3, 2) == [0.0]
+
+
+@pytest.mark.parametrize("big", BIG)
+def test_a_tile_beyond_the_image_is_one_cell(big):
+    # one cell: the faces as they come (stable)
+    assert _core.face_order(FACES[::-1].copy(), VR, VC, 4, 4, big).tolist() == [0, 1]
+
+
+@pytest.mark.parametrize("big", BIG)
+def test_a_capacity_beyond_the_pixels_is_the_pixels(big):
+    assert _sample_errors(capacity=big).tolist() == _sample_errors(capacity=16).tolist()
+
+
+@pytest.mark.parametrize("big", BIG)
+def test_a_vertex_count_beyond_the_pixels_inserts_every_pixel(big):
+    every = _core.greedy_insert(DEPTH, VALID, VR, VC, DEPTH[VR, VC], TV, HE, big, -1.0, 12.0)
+    assert every[3] == 16  # all 16 pixels are vertices
+    assert [a.tolist() for a in every[:3]] == [a.tolist() for a in _core.greedy_insert(
+        DEPTH, VALID, VR, VC, DEPTH[VR, VC], TV, HE, 16, -1.0, 12.0)[:3]]
+    # (target - count overflowed for a target of INT64_MIN)
+    least = _strips(target=-big - 1)
+    assert [a.tolist() for a in least[0][:5]] == [a.tolist() for a in _strips(target=0)[0][:5]]
+    strips = _strips(target=big)
+    # every pixel, the seam's four twice, but its two inner ones (fixed beforehand: a first mesh
+    # of a strip holds them)
+    assert strips[0][5] + strips[1][5] == 28 + 4 - 4
+    assert [a.tolist() for a in strips[0][:5]] == [a.tolist() for a in _strips(target=56)[0][:5]]
+
+
+@pytest.mark.parametrize("n_vertices", BIG)
+def test_a_vertex_count_beyond_the_ids_in_use_changes_nothing(n_vertices):
+    assert _core.build_halfedges(FACES, n_vertices)[1].tolist() == HE.tolist()
+    assert _core.count_edges(FACES, n_vertices) == 5
+    assert _core.canonical_faces(TV, n_vertices).tolist() == [[0, 1, 2], [0, 2, 3]]
+    assert _core.prune_dangling(FACES, np.array([[-1, 1, -1], [-1, -1, 0]], I64), np.ones(2, bool),
+                                n_vertices) == 0
+
+
+# Calls that ran for ever, or until memory ran out, before the fix: each runs in a child
+# process with a time and memory limit, so that a regression fails instead of hanging the run.
+CHILD = """
+import json, os, resource, sys
+if "libasan" not in os.environ.get("LD_PRELOAD", ""):  # (ASan's shadow memory needs terabytes)
+    resource.setrlimit(resource.RLIMIT_AS, (3 << 30, 3 << 30))
+sys.path.insert(0, {tests!r})
+import numpy as np
+import test_kernel_shapes as t
+try:
+    got = eval({call!r}, vars(t))
+    print(json.dumps([np.asarray(a).tolist() for a in got]))
+except ValueError as e:
+    print(json.dumps(str(e)))
+"""
+
+ENDLESS = {
+    # F8: a loop over 2^62 grid rows; a grid finer than the pixels has every pixel for a centre:
+    # the corners, then rows 0..3 at the centres 1 and 3 of 2 columns (no corner twice)
+    "grid_pixels/2^62 rows": ("_core.grid_pixels(VALID, 2**62, 2, 0, 3, False)",
+                              [[0, 3, 3, 0, 0, 1, 1, 2, 2, 3], [0, 0, 3, 3, 1, 1, 3, 1, 3, 1]]),
+    # ... and columns 0..3 on rows 1 and 3 of 2
+    "grid_pixels/2^62 columns": ("_core.grid_pixels(VALID, 2, 2**62, 0, 3, False)",
+                                 [[0, 3, 3, 0, 1, 1, 1, 1, 3, 3], [0, 0, 3, 3, 0, 1, 2, 3, 1, 2]]),
+    # F8: a list of 2^31 rows
+    "_triangle_rows/corner at 2^31": ("_core._triangle_rows(0, 0, 2**31, 0, 0, 4, True, True, True)",
+                                      "_triangle_rows: corners are pixels within EXACT_SPAN"),
+    # the strips' last vertices one at a time: a NaN key (a depth of 1e300) made neither strip
+    # go on, and the loop asked them again for ever
+    "strip_insert/a depth of 1e300": ("_far_depth_strips()", [True]),
+    # F5: insertion on twins that do not pair up grew its arrays at 100 MB/s
+    "strip_insert/twins that do not pair up": ("_strips(left_he=HE.astype(bool).astype(I64))",
+                                               "greedy_insert: "),
+}
+
+
+@pytest.mark.parametrize("case", ENDLESS, ids=ENDLESS)
+def test_a_call_that_ran_for_ever_ends_at_once(case):
+    call, expected = ENDLESS[case]
+    code = CHILD.format(tests=str(Path(__file__).parent), call=call)
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    assert done.returncode == 0, done.stderr[-2000:]
+    got = json.loads(done.stdout)
+    if isinstance(expected, str):  # a refusal
+        assert got.startswith(expected), got
+    else:
+        assert got == expected

@@ -38,10 +38,31 @@ inline std::atomic<bool>& interrupt_flag() {
     return flag;
 }
 
-// Throws `Interrupted` once a SIGINT arrived during the current call. A relaxed load: costs
-// about as much as a branch.
+// Whether this thread's kernels stop when the flag is up: on the main thread while a watch is
+// alive, and on the threads its kernels start (`polled_thread`). Python raises KeyboardInterrupt
+// in the main thread only, so a call on any other thread must finish.
+inline bool& stops_on_interrupt() noexcept {
+    static thread_local bool stops = false;
+    return stops;
+}
+
+// Throws `Interrupted` once a SIGINT arrived during the current call of the main thread. A
+// relaxed load: costs about as much as a branch (the thread's own setting is read only once the
+// flag is up).
 inline void poll_interrupt() {
-    if (interrupt_flag().load(std::memory_order_relaxed)) throw Interrupted();
+    if (interrupt_flag().load(std::memory_order_relaxed) && stops_on_interrupt()) throw Interrupted();
+}
+
+// `std::thread(f, args...)` whose kernels stop for Ctrl-C when the calling thread's do: every
+// thread a kernel starts is made with it.
+template <class F, class... A>
+std::thread polled_thread(F&& f, A&&... args) {
+    return std::thread(
+        [stops = stops_on_interrupt()](auto run, auto... a) {
+            stops_on_interrupt() = stops;
+            run(std::move(a)...);
+        },
+        std::forward<F>(f), std::forward<A>(args)...);
 }
 
 // Elements between two polls of a flat loop or an array's fill: at a few ns each, well under a

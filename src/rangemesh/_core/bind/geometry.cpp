@@ -206,6 +206,9 @@ void bind_geometry(nb::module_& m) {
         "neighbors_from_halfedges",
         [](In1<index_t> halfedges) {
             check_input(halfedges.shape(0) % 3 == 0, "neighbors_from_halfedges: three half-edges a triangle");
+            for (const index_t g : span(halfedges))
+                check_input(-1 <= g && g < static_cast<index_t>(halfedges.shape(0)),
+                            "neighbors_from_halfedges: a twin below -1 or out of range");
             const index_t n_t = halfedges.shape(0) / 3;
             std::vector<index_t> out;
             run_released([&] {
@@ -253,6 +256,12 @@ void bind_geometry_tests(nb::module_& m) {
         "_triangle_rows",
         [](index_t ar, index_t ac, index_t br, index_t bc, index_t cr, index_t cc, bool own_ab, bool own_bc,
            bool own_ca, std::optional<index_t> first, index_t step) {
+            // pixels of an image the predicates take, rows walked from near the triangle: a
+            // corner at 2^31 (or a step of 2^62) would walk for ever or overflow
+            for (const index_t x : {ar, ac, br, bc, cr, cc})
+                check_input(0 <= x && x <= EXACT_SPAN, "_triangle_rows: corners are pixels within EXACT_SPAN");
+            check_input(1 <= step && step <= EXACT_SPAN && (!first || (-EXACT_SPAN <= *first && *first <= 2 * EXACT_SPAN)),
+                        "_triangle_rows: 1 <= step <= EXACT_SPAN, and the first row within EXACT_SPAN of the image");
             const TriangleRows top(ar, ac, br, bc, cr, cc);
             const index_t r0 = first.value_or(top.r0);
             TriangleRows rows = first ? TriangleRows(ar, ac, br, bc, cr, cc, r0, step) : top;

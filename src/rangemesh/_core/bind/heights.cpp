@@ -176,7 +176,8 @@ void bind_heights(nb::module_& m) {
         "fit_sample_errors",
         [](In2<index_t> faces, In1<index_t> order, In1<index_t> rows, In1<index_t> cols, In1<double> values,
            In2<double> image, In2<bool> valid, index_t row_stride, index_t face_stride, index_t capacity) {
-            std::vector<double> errors(std::max<index_t>(capacity, 0));
+            // at most an error a pixel: a raw call's capacity of 2^62 would only allocate
+            std::vector<double> errors(std::min(std::max<index_t>(capacity, 0), work(image)));
             const index_t used = run_released([&] {
                 const heights::FitMesh mesh = fit_mesh(faces, rows, cols, values);
                 const heights::FitImage img = fit_image(image, valid);

@@ -1,5 +1,7 @@
 // Python bindings of the paper method's kernels and the primitives they share (lift, edge error).
+#include <algorithm>
 #include <cmath>
+#include <cstdlib>
 
 #include "../geometry/lines.hpp"
 #include "../paper/flipping.hpp"
@@ -13,6 +15,9 @@
 namespace rangemesh::bind {
 
 namespace {
+
+// The farthest endpoint `line_pixel` takes: 2 k n stays within int64 for lines up to 2^30 long.
+constexpr index_t LINE_REACH = index_t{1} << 29;
 
 RangeImage range_image(const In2<double>& depth, const In2<bool>& valid, const In1<double>& cam) {
     return {grid(depth), grid(valid), span(cam)};
@@ -70,6 +75,7 @@ void bind_paper(nb::module_& m) {
            In2<double> depth, In2<bool> valid, In1<double> cam, index_t rule, double threshold, double delta,
            double epsilon, double max_angle, double min_bend, double quantum, double max_edge2,
            Out1<index_t> verdicts, Out2<index_t> log) {
+            check_input(rule == RULE_DISPARITY || rule == RULE_ERROR, "flip_loop: rule is one of FLIP_RULES");
             const FlipMesh mesh{span(triangles), span(halfedges), {grid(pixels), grid(vertices)}};
             const FlipSettings settings{static_cast<FlipRule>(rule), {delta, epsilon, max_angle, min_bend},
                                         threshold, quantum, max_edge2};
@@ -171,6 +177,11 @@ void bind_paper(nb::module_& m) {
     m.def(
         "line_pixel",
         [](index_t r0, index_t c0, index_t r1, index_t c1, index_t k) {
+            // (2 k n of a line much longer than 2^30 overflows int64)
+            for (const index_t x : {r0, c0, r1, c1})
+                check_input(-LINE_REACH <= x && x <= LINE_REACH, "line_pixel: endpoints within 2^29 of the origin");
+            check_input(0 <= k && k <= std::max(std::llabs(r1 - r0), std::llabs(c1 - c0)),
+                        "line_pixel: k from 0 to the line's length");
             const Pixel p = line_pixel(r0, c0, r1, c1, k);
             return nb::make_tuple(p.r, p.c);
         },

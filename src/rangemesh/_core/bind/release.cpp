@@ -67,6 +67,7 @@ SigintWatch::SigintWatch() {
     counted_ = true;
     if (depth++ > 0) return;
     interrupt_flag().store(false, std::memory_order_relaxed);
+    stops_on_interrupt() = true;  // the flag is process-wide: only this thread's kernels heed it
     active_ = install();
 }
 
@@ -74,7 +75,10 @@ SigintWatch::~SigintWatch() {
     if (active_) restore();
     // a signal the kernel did not poll in time has reached Python's handler already: the
     // flag must not stop the next kernel
-    if (counted_ && --depth == 0) interrupt_flag().store(false, std::memory_order_relaxed);
+    if (counted_ && --depth == 0) {
+        interrupt_flag().store(false, std::memory_order_relaxed);
+        stops_on_interrupt() = false;
+    }
 }
 
 void raise_interrupted() {

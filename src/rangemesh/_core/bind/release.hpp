@@ -11,7 +11,8 @@
 namespace rangemesh::bind {
 
 // While alive (main thread only), SIGINT raises the kernels' interrupt flag and then runs the
-// handler that was installed before, so Python still learns of the signal.
+// handler that was installed before, so Python still learns of the signal. Only the kernels of
+// the main thread and of the threads they start heed the flag (`stops_on_interrupt`).
 class SigintWatch {
   public:
     SigintWatch();

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <utility>
 
 #include "../interrupt.hpp"
@@ -336,10 +337,19 @@ index_t legalize_all(Span<index_t> triangles, Span<index_t> halfedges, const Poi
     stack.reserve(triangles.size + 16);
     for (index_t e = 0; e < triangles.size; ++e) {
         poll_every(e);
-        check_input(0 <= triangles[e] && triangles[e] < pts.size() && -1 <= halfedges[e] && halfedges[e] < halfedges.size,
-                    "legalize_all: a vertex id or twin half-edge out of range");
+        check_input(0 <= triangles[e] && triangles[e] < pts.size(), "legalize_all: a vertex id out of range");
+    }
+    const Span<const index_t> tri{triangles.data, triangles.size}, he{halfedges.data, halfedges.size};
+    for (index_t e = 0; e < triangles.size; ++e) {
+        poll_every(e);
+        check_input(twin_ok(tri, he, e),
+                    "legalize_all: a twin half-edge out of range, or twins that do not run back along one edge");
         if (halfedges[e] > e) stack.push_back(e);
     }
+    // an edge flipped away never comes back (each flip lowers the lifted surface), so a mesh
+    // that needs more flips than there are point pairs is no triangulation of its points
+    const index_t n = pts.size();
+    const index_t max_flips = n < (index_t{1} << 31) ? n * (n - 1) / 2 : std::numeric_limits<index_t>::max();
     index_t flips = 0;
     for (index_t popped = 1; !stack.empty(); ++popped) {
         poll_every(popped);  // tens of millions of edges to test even when none flips
@@ -348,6 +358,7 @@ index_t legalize_all(Span<index_t> triangles, Span<index_t> halfedges, const Poi
         const index_t t = halfedges[e];
         if (t == -1 || !pts.illegal(triangles[e], triangles[nxt(e)], triangles[prv(e)], triangles[prv(t)]))
             continue;
+        require(flips < max_flips, "legalize_all: more flips than point pairs (a mesh that is no triangulation)");
         flip_quad(triangles, halfedges, e);
         ++flips;
         for (const index_t s : {nxt(e), prv(e), nxt(t), prv(t)}) stack.push_back(s);
@@ -363,13 +374,16 @@ std::vector<index_t> canonical_faces(Span<const index_t> triangles, index_t n_ve
     const FreeLater late(first, order, sorted, count);
     const FreeLater late_out(on_throw, out);
     first.reserve(n_t);
+    index_t used = 0;  // the ids in use: a raw call's n_vertices of INT64_MAX would size the counts
     for (index_t t = 0; t < n_t; ++t) {
         poll_every(t);
         const index_t* f = triangles.data + 3 * t;
         check_input(std::min({f[0], f[1], f[2]}) >= 0 && std::max({f[0], f[1], f[2]}) < n_vertices,
                     "canonical_faces: a corner id is out of range");
+        used = std::max(used, std::max({f[0], f[1], f[2]}) + 1);
         first.push_back(static_cast<unsigned char>(f[1] < f[0] ? (f[2] < f[1] ? 2 : 1) : (f[2] < f[0] ? 2 : 0)));
     }
+    n_vertices = used;
     const auto corner = [&](index_t t, int k) { return triangles[3 * t + (first[t] + k) % 3]; };
     // a stable counting sort by the third corner, then the second, then the first: lexsort's order
     order.reserve(n_t);

@@ -156,15 +156,18 @@ index_t drop_small_fans(LiveTriangles mesh, Corners& fans, BestFans& scratch) {
 index_t prune_dangling(LiveTriangles mesh, index_t n_vertices, bool drop_lone) {
     const index_t n_t = mesh.simplices.rows;
     require(mesh.neighbors.rows == n_t && mesh.alive.size == n_t, "prune_dangling: arrays differ in length");
+    index_t used = 0;  // the ids in use: a raw call's n_vertices of INT64_MAX would size the table
     for (index_t t = 0; t < n_t; ++t) {
         poll_every(t);
-        for (int k = 0; k < 3; ++k)
-            require(mesh.simplices(t, k) >= 0 && mesh.simplices(t, k) < n_vertices &&
-                        mesh.neighbors(t, k) < n_t,
-                    "prune_dangling: a vertex or neighbour id out of range");
+        for (int k = 0; k < 3; ++k) {
+            check_input(mesh.simplices(t, k) >= 0 && mesh.simplices(t, k) < n_vertices && -1 <= mesh.neighbors(t, k) &&
+                            mesh.neighbors(t, k) < n_t,
+                        "prune_dangling: a vertex or neighbour id out of range");
+            used = std::max(used, mesh.simplices(t, k) + 1);
+        }
     }
     Corners fans(3 * n_t);
-    BestFans scratch(n_t, n_vertices);
+    BestFans scratch(n_t, used);
     index_t removed = 0;
     for (bool changed = true; changed;) {
         poll_interrupt();

@@ -35,11 +35,14 @@ void build_halfedges(Grid<const T> faces, index_t n_vertices, std::vector<index_
     const FreeLater late(start, fill, leaving);
     triangles.clear();
     triangles.reserve(n_he);
+    index_t used = 0;  // the ids in use: a raw call's n_vertices of INT64_MAX would size the table
     for (index_t e = 0; e < n_he; ++e) {
         poll_every(e);
         check_input(0 <= faces.data[e] && faces.data[e] < n_vertices, "build_halfedges: a vertex id is out of range");
         triangles.push_back(faces.data[e]);
+        used = std::max<index_t>(used, faces.data[e] + 1);
     }
+    n_vertices = used;
     fill_polled(halfedges, n_he, index_t{-1});
     // a CSR table of the half-edges by start vertex: O(F * degree), no sort
     fill_polled(start, n_vertices + 1, index_t{0});
@@ -79,11 +82,16 @@ index_t count_edges(Grid<const T> faces, index_t n_vertices) {
     const index_t n_t = faces.rows;
     std::vector<index_t> start, fill, other, mark;
     const FreeLater late(start, fill, other, mark);
+    index_t used = 0;  // the ids in use: a raw call's n_vertices of INT64_MAX would size the tables
+    for (index_t k = 0; k < 3 * n_t; ++k) {
+        poll_every(k);
+        check_input(0 <= faces.data[k] && faces.data[k] < n_vertices, "count_edges: a vertex id is out of range");
+        used = std::max<index_t>(used, faces.data[k] + 1);
+    }
+    n_vertices = used;
     fill_polled(start, n_vertices + 1, index_t{0});
     for (index_t t = 0; t < n_t; ++t) {
         poll_every(t);
-        for (int k = 0; k < 3; ++k)
-            check_input(0 <= faces(t, k) && faces(t, k) < n_vertices, "count_edges: a vertex id is out of range");
         for (int k = 0; k < 3; ++k) start[std::min(faces(t, k), faces(t, (k + 1) % 3)) + 1] += 1;
     }
     for (index_t v = 0; v < n_vertices; ++v) {

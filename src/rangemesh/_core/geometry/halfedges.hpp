@@ -23,6 +23,16 @@ inline void link(Span<index_t> halfedges, index_t a, index_t b) {
     if (b != -1) halfedges[b] = a;
 }
 
+// Whether half-edge e's twin is well formed: -1 (a border), or a half-edge of another triangle
+// that runs back along e's edge and has e for its twin. `triangles` holds ids already checked
+// (or none read out of bounds: only ids at half-edges in range are read).
+inline bool twin_ok(Span<const index_t> triangles, Span<const index_t> halfedges, index_t e) {
+    const index_t g = halfedges[e];
+    if (g == -1) return true;
+    return 0 <= g && g < halfedges.size && halfedges[g] == e && g / 3 != e / 3 &&
+           triangles[g] == triangles[nxt(e)] && triangles[nxt(g)] == triangles[e];
+}
+
 // The half-edges of the quad around e0's edge. With e0 = A->B in triangle ABC and its twin
 // e1 = B->A in BAD: b0 = B->C, c0 = C->A, b1 = A->D, c1 = D->B.
 struct Quad {

@@ -136,6 +136,10 @@ PixelList grid_pixels(Grid<const bool> valid, index_t n_rows, index_t n_cols, in
                       bool inner) {
     const index_t h = valid.rows;
     if (n_rows < 2 || n_cols < 2) n_rows = n_cols = 0;  // no grid, the corners alone
+    // a grid finer than the pixels has every pixel for a centre, as one of exactly the pixels
+    // does: the same centres, without a loop over a raw call's 2^62 rows
+    n_rows = std::min(n_rows, h);
+    n_cols = std::min(n_cols, c_hi - c_lo + 1);
     const std::vector<index_t> rows = grid_centres(0, h, n_rows);
     const std::vector<index_t> cols = grid_centres(c_lo, c_hi - c_lo + 1, n_cols);
     PixelList out;

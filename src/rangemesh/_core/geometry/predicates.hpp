@@ -7,6 +7,7 @@
 #pragma once
 
 #include <algorithm>
+#include <cstdint>
 
 #include "../views.hpp"
 
@@ -16,8 +17,15 @@ namespace rangemesh {
 // the largest span along an axis (pixels, times the Delaunay scales) the predicates take.
 constexpr index_t EXACT_SPAN = 29'000;
 
-// Whether coordinates from lo to hi along an axis stay within EXACT_SPAN of each other.
-inline bool exact_span(index_t lo, index_t hi) { return hi - lo <= EXACT_SPAN; }
+// Whether coordinates from lo to hi along an axis stay within EXACT_SPAN of each other. The
+// difference is taken unsigned: hi - lo of far coordinates (INT64_MIN) overflows int64.
+inline bool exact_span(index_t lo, index_t hi) {
+    return hi <= lo || static_cast<std::uint64_t>(hi) - static_cast<std::uint64_t>(lo) <= EXACT_SPAN;
+}
+
+// The largest coordinate magnitude the Delaunay sweep takes: it orders points by float64
+// distances, which stay exact to well below a pixel this close to the origin.
+constexpr index_t EXACT_COORDINATE = index_t{1} << 31;
 
 // Twice the signed area of (a, b, c); > 0 when counter-clockwise in (row, column).
 template <class T>
@@ -57,13 +65,16 @@ struct PointSet {
 
     index_t size() const { return r.size; }
 
-    // Raises InvariantError unless the points lie within EXACT_SPAN along each axis.
+    // Raises InvariantError unless the points lie within EXACT_SPAN along each axis (and
+    // within EXACT_COORDINATE of the origin).
     void check_span() const {
         if (size() == 0) return;
         const auto [r0, r1] = std::minmax_element(r.begin(), r.end());
         const auto [c0, c1] = std::minmax_element(c.begin(), c.end());
-        require(exact_span(*r0, *r1) && exact_span(*c0, *c1),
-                "Delaunay: points span more than EXACT_SPAN, where the int64 predicates overflow");
+        require(exact_span(*r0, *r1) && exact_span(*c0, *c1) && -EXACT_COORDINATE <= std::min(*r0, *c0) &&
+                    std::max(*r1, *c1) <= EXACT_COORDINATE,
+                "Delaunay: points span more than EXACT_SPAN (or lie beyond 2^31), where the int64 predicates "
+                "overflow");
     }
 
     // Twice the signed area of points a, b, c; > 0 counter-clockwise.

@@ -18,7 +18,9 @@ FitResult fit_heights(const FitMesh& mesh, const FitImage& image, Span<const ind
     FitResult result;
     // room for an error a valid pixel, left uninitialised: a sample writes a few thousand of
     // them, and zeroing would touch every page
-    const index_t capacity = std::max<index_t>(settings.capacity, 0);
+    // (at most an error a pixel: a larger capacity, a raw call's 2^62, would only allocate)
+    const index_t capacity =
+        std::min(std::max<index_t>(settings.capacity, 0), image.values.rows * image.values.cols);
     const std::unique_ptr<double[]> errors(new double[capacity]);
     const Span<double> room{errors.get(), capacity};
     index_t sampled = sample_errors(mesh, image, order, settings.sample, room);

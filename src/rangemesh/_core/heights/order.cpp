@@ -9,23 +9,36 @@
 
 namespace rangemesh::heights {
 
+namespace {
+
+// The most cells the counting sort takes (a 65,536 x 65,536 image at tile 8; the library's
+// images stop at 29,001 a side): a raw call's h and w of 2^40 would allocate terabytes.
+constexpr index_t MAX_CELLS = index_t{1} << 26;
+
+}  // namespace
+
 void face_order(Grid<const index_t> faces, Span<const index_t> rows, Span<const index_t> cols,
                 index_t h, index_t w, index_t tile, Span<index_t> order) {
-    require(order.size == faces.rows && tile > 0, "face_order: one order entry a face");
-    const index_t across = floor_div(w + tile - 1, tile);
-    const index_t cells = floor_div(h + tile - 1, tile) * across;
+    require(order.size == faces.rows && tile > 0 && h > 0 && w > 0, "face_order: one order entry a face");
+    // ceil(w / tile) without w + tile - 1, which overflows for a raw call's tile of INT64_MAX
+    const index_t across = (w - 1) / tile + 1, down = (h - 1) / tile + 1;
+    check_input(down <= MAX_CELLS / across, "face_order: more than 2^26 cells of tile x tile pixels; a larger tile");
+    const index_t cells = down * across;
     std::vector<index_t> start, cell;
+    for (index_t k = 0; k < 3 * faces.rows; ++k) {  // before anything is read through them
+        poll_every(k);
+        const index_t v = faces.data[k];
+        check_input(0 <= v && v < rows.size, "face_order: a face's vertex id is out of range");
+        check_input(0 <= rows[v] && rows[v] < h && 0 <= cols[v] && cols[v] < w,
+                    "face_order: a vertex lies outside the image");
+    }
     fill_polled(start, cells + 1, index_t{0});
     fill_polled(cell, faces.rows, index_t{0});
     for (index_t t = 0; t < faces.rows; ++t) {
         poll_every(t);
         const index_t a = faces(t, 0), b = faces(t, 1), c = faces(t, 2);
-        require(std::min({a, b, c}) >= 0 && std::max({a, b, c}) < rows.size,
-                "face_order: a face's vertex id is out of range");
         const index_t r = std::min({rows[a], rows[b], rows[c]});
         const index_t col = std::min({cols[a], cols[b], cols[c]});
-        if (r < 0 || col < 0 || r >= h || col >= w)
-            throw std::invalid_argument("face_order: a vertex lies outside the image");
         cell[t] = (r / tile) * across + col / tile;  // both >= 0: C++ division is Python's
         start[cell[t] + 1] += 1;
     }

@@ -124,7 +124,7 @@ index_t accumulate(const FitMesh& mesh, const FitImage& image, Span<const index_
 }
 
 void check_order(const FitMesh& mesh, Span<const index_t> order) {
-    for (const index_t t : order) require(0 <= t && t < mesh.faces.rows, "fit: an order entry is not a face");
+    for (const index_t t : order) check_input(0 <= t && t < mesh.faces.rows, "fit: an order entry is not a face");
 }
 
 }  // namespace
@@ -132,11 +132,15 @@ void check_order(const FitMesh& mesh, Span<const index_t> order) {
 index_t sample_errors(const FitMesh& mesh, const FitImage& image, Span<const index_t> order, Sample sample,
                       Span<double> errors) {
     check_order(mesh, order);
-    require(sample.row_stride > 0 && sample.face_stride > 0, "fit: strides are positive");
+    check_input(sample.row_stride > 0 && sample.face_stride > 0, "fit: strides are positive");
+    // a stride beyond the rows (faces) samples row (face) 0 alone, as the rows (faces) do: the
+    // same rows, and no sum past int64 in the walk (a raw call's stride of 2^62)
+    const index_t row_stride = std::min(sample.row_stride, std::max<index_t>(image.values.rows, 1));
+    const index_t face_stride = std::min(sample.face_stride, std::max<index_t>(order.size, 1));
     index_t k = 0;
-    for (index_t i = 0; i < order.size; i += sample.face_stride) {
+    for (index_t i = 0; i < order.size; i += face_stride) {
         poll_interrupt();
-        visit_pixels(mesh, image, ccw_corners(mesh, order[i]), sample.row_stride,
+        visit_pixels(mesh, image, ccw_corners(mesh, order[i]), row_stride,
                      [&](double, double, double, double, double error) {
                          if (k < errors.size) errors[k++] = error;  // overlapping faces could visit a pixel twice
                          return false;
@@ -155,7 +159,7 @@ index_t fit_blocks(const FitMesh& mesh, const FitImage& image, Span<const index_
     const index_t half = n / 2;
     index_t used_first = 0;
     std::exception_ptr failed;
-    std::thread worker([&] {
+    std::thread worker = polled_thread([&] {
         try {
             used_first = accumulate(mesh, image, order, threshold, blocks, 0, half);
         } catch (...) {

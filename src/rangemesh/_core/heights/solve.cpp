@@ -79,7 +79,7 @@ bool solve_blocks(Span<const FaceBlock> blocks, Span<const double> h0, double ri
         block_product(blocks, s.ridge.data(), p, q, n);
         double pq = 0.0;
         for (std::size_t i = 0; i < n; ++i) pq += p[i] * q[i];
-        if (pq <= 0.0) break;  // not positive definite along p (the ridge rules it out): stop
+        if (!(pq > 0.0)) break;  // not positive definite along p (the ridge rules it out), or NaN: stop
         const double alpha = rz / pq;
         for (std::size_t i = 0; i < n; ++i) {  // (vectorised: no sum in this loop)
             xs[i] += alpha * p[i];

@@ -345,12 +345,19 @@ index_t flip_loop(const FlipMesh& mesh, const RangeImage& image, const FlipSetti
     require(image.consistent() && mesh.points.fit(image), "flip_loop: the vertices' pixels must lie in the image");
     for (index_t e = 0; e < mesh.triangles.size; ++e) {
         poll_every(e);
-        require(0 <= mesh.triangles[e] && mesh.triangles[e] < mesh.points.size(), "flip_loop: a vertex id out of range");
-        const index_t twin = mesh.halfedges[e];
-        require(twin == -1 || (0 <= twin && twin < mesh.halfedges.size && mesh.halfedges[twin] == e),
-                "flip_loop: half-edge twins must pair up");
+        check_input(0 <= mesh.triangles[e] && mesh.triangles[e] < mesh.points.size(),
+                    "flip_loop: a vertex id out of range");
+    }
+    // the flips write through the twins and the fans' walks follow them
+    for (index_t e = 0; e < mesh.triangles.size; ++e) {
+        poll_every(e);
+        check_input(twin_ok(read_only(mesh.triangles), read_only(mesh.halfedges), e),
+                    "flip_loop: half-edge twins must pair up (he[he[e]] == e, in [-1, len), back along one edge)");
     }
     require(record.verdicts.size == N_VERDICTS, "flip_loop: one counter per verdict");
+    // counted on: each decision adds 1, and no call makes 2^62 of them
+    for (const index_t count : record.verdicts)
+        check_input(0 <= count && count <= index_t{1} << 62, "flip_loop: the verdicts' counts from 0 to 2^62");
     require(record.log.cols == 3, "flip_loop: the log has three columns");
     FlipStage stage(mesh, image, settings);
     return stage.run(record);

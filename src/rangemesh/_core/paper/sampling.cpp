@@ -129,7 +129,8 @@ void invert_cdf(const std::vector<double>& cum, index_t n, index_t count, std::v
         while (k < n - 2 && cum[k + 1] < y) ++k;
         const double lo = cum[k], hi = cum[k + 1];
         const double x = static_cast<double>(k) + (y - lo) / (hi - lo);
-        require(x >= 0.0 && std::isfinite(x), "sample_tiles: the weights must be positive and finite");
+        // (weights that are not positive can put x anywhere, past the row's end)
+        check_input(x >= 0.0 && x <= static_cast<double>(n - 1), "sample_tiles: the weights must be positive and finite");
         out[j] = static_cast<index_t>(x + 0.5);  // floor(x + 0.5): x >= 0, so truncation (no libm call)
     }
 }
@@ -188,7 +189,10 @@ void sample_tile_range(Grid<const double> f, const Tiling& t, const SampleGrid& 
 void sample_tiles(Grid<const double> f, const Tiling& tiling, const SampleGrid& grid, index_t workers) {
     require(tiling.n_rows() >= 1 && tiling.n_cols() >= 1 && tiling.rs >= 2 && tiling.zs >= 2,
             "sample_tiles: at least one tile and two samples a tile each way");
-    require(grid.rows == (tiling.rs - 1) * tiling.n_rows() + 1 && grid.cols == (tiling.zs - 1) * tiling.n_cols() + 1,
+    // (by division: (rs - 1) * tiles overflows for a raw call's rs of 2^62)
+    require(grid.rows >= 1 && grid.cols >= 1 && (grid.rows - 1) % tiling.n_rows() == 0 &&
+                (grid.rows - 1) / tiling.n_rows() == tiling.rs - 1 && (grid.cols - 1) % tiling.n_cols() == 0 &&
+                (grid.cols - 1) / tiling.n_cols() == tiling.zs - 1,
             "sample_tiles: the grid's shape must match the tiles and samples");
     for (index_t v = 0; v < tiling.n_rows(); ++v)
         require(0 <= tiling.row_bounds[v] && tiling.row_bounds[v] < tiling.row_bounds[v + 1] &&
@@ -220,7 +224,8 @@ void sample_tiles(Grid<const double> f, const Tiling& tiling, const SampleGrid& 
             failed[k] = std::current_exception();
         }
     };
-    for (index_t k = 1; k < n_threads; ++k) threads.emplace_back(work, k);
+    threads.reserve(static_cast<std::size_t>(n_threads - 1));  // push_back then never drops a running thread
+    for (index_t k = 1; k < n_threads; ++k) threads.push_back(polled_thread(work, k));
     work(0);
     for (std::thread& thread : threads) thread.join();
     threads.clear();

@@ -1,6 +1,7 @@
 #include "triangulation.hpp"
 
 #include <algorithm>
+#include <cstdint>
 
 #include "../geometry/predicates.hpp"
 #include "../interrupt.hpp"
@@ -46,6 +47,10 @@ void keep_faces(Grid<const index_t> faces, Grid<const index_t> points, Grid<cons
         poll_every(t);
         const index_t a = faces(t, 0), b = faces(t, 1), c = faces(t, 2);
         check_input(std::min({a, b, c}) >= 0 && std::max({a, b, c}) < n, "keep_faces: a point id is out of range");
+        // pixels of the image: the sums and squares below stay far from int64's end
+        for (const index_t p : {a, b, c})
+            check_input(0 <= points(p, 0) && points(p, 0) < valid.rows && 0 <= points(p, 1) && points(p, 1) < valid.cols,
+                        "keep_faces: a face's point lies outside the image");
         const index_t br = floor_div(points(a, 0) + points(b, 0) + points(c, 0) + 1, 3);
         const index_t bc = floor_div(points(a, 1) + points(b, 1) + points(c, 1) + 1, 3);
         check_input(0 <= br && br < valid.rows && 0 <= bc && bc < valid.cols,
@@ -93,6 +98,9 @@ CompactMesh compact_faces(Grid<const index_t> faces, Span<const bool> alive, Gri
     for (index_t v = 0, k = 0; v < n; ++v) {
         poll_every(v);
         if (!used[v]) continue;
+        // (the pixels come back as int32: a point beyond it would come back as another)
+        check_input(0 <= points(v, 0) && points(v, 0) <= INT32_MAX && 0 <= points(v, 1) && points(v, 1) <= INT32_MAX,
+                    "compact_faces: a point used is not a pixel (row and column from 0 to 2^31 - 1)");
         new_id[v] = k++;
         out.pixels.push_back(static_cast<std::int32_t>(points(v, 0)));
         out.pixels.push_back(static_cast<std::int32_t>(points(v, 1)));

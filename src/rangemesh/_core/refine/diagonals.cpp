@@ -35,8 +35,15 @@ class Flipper {
         const index_t n_v = mesh.vr.size;
         for (index_t k = 0; k < mesh.triangles.size; ++k) {
             poll_every(k);
-            require(0 <= mesh.triangles[k] && mesh.triangles[k] < n_v && mesh.halfedges[k] < mesh.triangles.size,
-                    "flips: corners and twins in range");
+            check_input(0 <= mesh.triangles[k] && mesh.triangles[k] < n_v, "flips: a corner id out of range");
+        }
+        // a flip writes through the twins (`link`): a twin below -1 would write before the array
+        const Span<const index_t> tri{mesh.triangles.data, mesh.triangles.size};
+        const Span<const index_t> he{mesh.halfedges.data, mesh.halfedges.size};
+        for (index_t k = 0; k < mesh.triangles.size; ++k) {
+            poll_every(k);
+            check_input(twin_ok(tri, he, k),
+                        "flips: a twin below -1 or out of range, or twins that do not run back along one edge");
         }
         // the vertex depths; triangles with a background vertex get sum -1 (never flipped)
         fill_polled(vz_, n_v, 0.0);
@@ -102,7 +109,7 @@ class Flipper {
     void push_first(Span<const index_t> first) {
         for (const index_t e : first) {
             poll_interrupt();
-            require(0 <= e && e < m_.triangles.size, "flips: first half-edges in range");
+            check_input(0 <= e && e < m_.triangles.size, "flips: a first half-edge out of range");
             for (const index_t g : {e, m_.halfedges[e]})
                 if (g >= 0 && m_.sums[g / 3] >= 0.0) m_.sums[g / 3] = face_error(g / 3);
         }

@@ -25,8 +25,9 @@ Insertion::Insertion(const Image& image, const FirstMesh& first, index_t reserve
     : image_(image), sr_(sr), sc_(sc) {
     // stopped half way, no destructor runs: the arrays made so far are freed later all the same
     const FreeLater late(on_throw, vr_, vc_, vz_, vbg_, tv_, he_, keyed_, stamp_, keys_, heap_, slot_);
-    require(sr >= 1 && sc >= 1 && exact_span(0, (image.rows() - 1) * sr) && exact_span(0, (image.cols() - 1) * sc),
-            "insertion: the image, times its Delaunay scales, within EXACT_SPAN a side");
+    // (compared by division: (rows - 1) * sr overflows for a huge scale)
+    check_input(sr >= 1 && sc >= 1 && image.rows() - 1 <= EXACT_SPAN / sr && image.cols() - 1 <= EXACT_SPAN / sc,
+                "greedy_insert: the image, times its Delaunay scales sr and sc (>= 1), within EXACT_SPAN a side");
     const index_t n_v = first.vr.size;
     require(first.vc.size == n_v && first.vz.size == n_v, "first mesh: one row, column and depth a vertex");
     require(first.triangles.size % 3 == 0 && first.halfedges.size == first.triangles.size,
@@ -35,10 +36,24 @@ Insertion::Insertion(const Image& image, const FirstMesh& first, index_t reserve
         require(0 <= first.vr[i] && first.vr[i] < image.rows() && 0 <= first.vc[i] && first.vc[i] < image.cols(),
                 "first mesh: vertices on the image's pixels");
     for (index_t k = 0; k < first.triangles.size; ++k)
-        require(0 <= first.triangles[k] && first.triangles[k] < n_v && -1 <= first.halfedges[k] &&
-                    first.halfedges[k] < first.triangles.size,
-                "first mesh: corners and twins in range");
+        require(0 <= first.triangles[k] && first.triangles[k] < n_v, "first mesh: corners in range");
+    // the flips follow the twins and the splits need area: twins that do not pair up, or a
+    // triangle turned the wrong way, make an insertion that never ends (its arrays growing)
+    for (index_t k = 0; k < first.triangles.size; ++k) {
+        poll_every(k);
+        check_input(twin_ok(first.triangles, first.halfedges, k),
+                    "greedy_insert: the first mesh's twins must pair up (he[he[e]] == e, in [-1, len), back along "
+                    "one edge)");
+    }
+    for (index_t k = 0; k < first.triangles.size; k += 3) {
+        poll_every(k);
+        const index_t a = first.triangles[k], b = first.triangles[k + 1], c = first.triangles[k + 2];
+        check_input(orient(first.vr[a], first.vc[a], first.vr[b], first.vc[b], first.vr[c], first.vc[c]) > 0,
+                    "greedy_insert: the first mesh's triangles must be counter-clockwise in (row, column)");
+    }
     n_t_ = first.triangles.size / 3;
+    // no more vertices than pixels: a larger reserve (a raw call's INT64_MAX) buys nothing
+    reserve = std::min(std::max<index_t>(reserve, 0), image.rows() * image.cols());
     // a small floor: the triangle arrays are zeroed, and on a small image that costs more than the work
     const index_t cap_v = std::max({index_t(32), 2 * n_v, n_v + reserve + 8});
     const index_t cap_t = 2 * cap_v + 8;
@@ -219,6 +234,8 @@ void Insertion::legalize(index_t e0, const Plane* guard) {
     const Span<index_t> he{he_.data(), static_cast<index_t>(he_.size())};
     stack_.clear();
     stack_.push_back(e0);
+    // each flip gives the new point an edge: more flips than triangles is a mesh gone wrong
+    index_t flips = 0;
     while (!stack_.empty()) {
         const index_t a = stack_.back();
         stack_.pop_back();
@@ -231,6 +248,7 @@ void Insertion::legalize(index_t e0, const Plane* guard) {
             continue;
         if (guard && keyed_[b / 3].key < SMALL_KEY && !guard->holds(vr_[pd], vc_[pd], vz_[pd], image_.span))
             continue;
+        require(++flips <= n_t_, "insertion: more flips around a new vertex than triangles");
         const index_t hbp = he_[bp], har = he_[ar];
         tv_[a] = pd;
         tv_[b] = pc;
@@ -276,6 +294,8 @@ void Insertion::advance(const Stop& stop) {
         if (key < 0.0 || key < stop.min_key || (key <= COVER_KEY && stop.max_sum >= 0.0 && total_ <= stop.max_sum))
             break;
         const index_t pr = keyed_[t].r, pc = keyed_[t].c;
+        // vertices are distinct pixels: one more than the pixels is a mesh gone wrong
+        require(n_vertices() < image_.rows() * image_.cols(), "insertion: more vertices than pixels");
         make_room();
         const index_t p = n_vertices();
         vr_.push_back(pr);

@@ -94,6 +94,8 @@ void merge_tail(Insertion& a, Insertion& b, index_t n_target, double max_sum) {
         else  // b while its key is above a's
             b.advance(Stop{nb + rem, max_sum >= 0.0 ? max_sum - ta : -1.0,
                            std::nextafter(ka, std::numeric_limits<double>::infinity())});
+        // neither moved: a NaN key or sum (a raw call's depth of 1e300) would repeat this for ever
+        if (a.valid_vertices() == na && b.valid_vertices() == nb) break;
     }
 }
 
@@ -116,7 +118,7 @@ constexpr double EXPONENT_MIN = 0.75, EXPONENT_MAX = 4.0;
 // scans, each round, the flips) that `both` hands it while the calling thread runs the other.
 class Worker {
   public:
-    Worker() : thread_([this] { loop(); }) {}
+    Worker() : thread_(polled_thread([this] { loop(); })) {}
 
     ~Worker() {
         {
@@ -320,7 +322,12 @@ StripMesh finish(Insertion& s, const Image& image, bool flip) {
 
 }  // namespace
 
-Strips strip_insert(const Image& image, const FirstMesh& left, const FirstMesh& right, const StripRequest& req) {
+Strips strip_insert(const Image& image, const FirstMesh& left, const FirstMesh& right, const StripRequest& request) {
+    // from none to every pixel in each strip: a count beyond (a raw call's INT64_MIN or MAX)
+    // asks for no more, and would overflow the rounds' arithmetic (target - count, or a cap of
+    // the rest as a double that rounds to 2^63)
+    StripRequest req = request;
+    req.target = std::clamp<index_t>(req.target, 0, 2 * image.rows() * image.cols());
     std::optional<Worker> worker;
     if (req.threads >= 2) worker.emplace();
     Worker* const second = worker ? &*worker : nullptr;

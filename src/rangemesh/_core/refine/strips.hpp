@@ -27,7 +27,7 @@ std::vector<index_t> seam_rows(Span<const double> z, Span<const bool> ok, index_
 // Insert one vertex at a time into strip `a` or `b`, whichever's first key is larger (ties to
 // `a`), until they hold `n_target` valid vertices between them (the seam counted twice), their
 // summed error is at most `max_sum` (when not negative) with no pixel left to cover, or
-// nothing is left to insert.
+// nothing is left to insert (or neither strip goes on: keys or sums of NaN).
 void merge_tail(Insertion& a, Insertion& b, index_t n_target, double max_sum);
 
 // What the two strips are asked for.

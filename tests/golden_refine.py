@@ -143,23 +143,26 @@ def vertex_count(inp, share) -> int:
 def meshing(strips=False, threads=None):
     """Refine's meshing with the strips' size limits lifted and on `threads` threads, if given.
 
-    Yields a list that receives, per call of `rangemesh.refine.strips.strip_insert`
-    (the two-strip path), the threads it ran on. Threads are those of the strips
-    and of the fit (`rangemesh.refine.threads`).
+    Yields a list that receives, per native call (`rangemesh._core.refine_mesh`,
+    which meshes one strip or two), ``(threads, strips)``: the threads it was
+    given for two strips (None when asked for one) and the strips of its mesh
+    (None when it declined). Threads are those of the strips and of the fit
+    (`rangemesh.refine.threads`).
     """
     from rangemesh.refine import heights, insertion
     from rangemesh.refine import strips as strips_module
     from rangemesh.refine import threads as threads_module
 
     calls = []
-    insert = insertion.strip_insert
+    refine_mesh = insertion._core.refine_mesh
 
-    def counted(*args, **kwargs):
-        calls.append(threads_module.threads())
-        return insert(*args, **kwargs)
+    def counted(depth, valid, camera, req, *ref):
+        res = refine_mesh(depth, valid, camera, req, *ref)
+        calls.append((req.threads if req.strips else None, res.strips if res.done else None))
+        return res
 
     with pytest.MonkeyPatch.context() as mp:
-        mp.setattr(insertion, "strip_insert", counted)
+        mp.setattr(insertion._core, "refine_mesh", counted)
         if strips:  # the limits tests/test_strips.py lifts
             mp.setattr(strips_module, "STRIP_MIN_VERTICES", 0)
             mp.setattr(strips_module, "STRIP_MIN_COLUMNS", 8)
@@ -198,7 +201,7 @@ def kwargs_for(inp, config: dict) -> dict:
 
 
 def mesh(inp, config: dict, threads=None):
-    """``(mesh, strip_insert calls)`` of one input under one config (see `meshing`)."""
+    """``(mesh, native calls)`` of one input under one config (see `meshing`)."""
     import rangemesh
 
     with meshing(config.get("strips", False), threads) as calls:

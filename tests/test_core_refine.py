@@ -256,6 +256,12 @@ def _refine_request(**fields):
      "camera"),
     (lambda d, v, cam: _core.refine_mesh(d, v, cam, _refine_request(), d[:2], v), "ref_depth"),
     (lambda d, v, cam: _core.refine_mesh(d[:1], v[:1], cam, _refine_request()), "2x2"),
+    (lambda d, v, cam: _core.refine_mesh(d, v, np.concatenate([[2.0, 4, 4, 1, 0, 0], np.tile([0, 0, 1.0], 16)]),
+                                         _refine_request(walls=False)), "pixel_angle"),
+    (lambda d, v, cam: _core.refine_mesh(d, v, cam, _refine_request(strips=True, threads=0)),
+     "threads"),
+    (lambda d, v, cam: _core.refine_mesh(d[:, :3], v[:, :3], cam,
+                                         _refine_request(strips=True, n_valid=12)), "strips"),
 ])
 def test_the_native_refine_call_refuses_malformed_requests(call, match):
     depth = np.arange(16.0).reshape(4, 4) / 15.0

@@ -174,15 +174,27 @@ def capture():
     with _spying(calls), _patched(refine_heights, ORDER_MIN_PIXELS=0):
         rangemesh.triangulate(image, vertices=60, diagonals="delaunay")
         rangemesh.triangulate(image, max_error=0.5, diagonals="error", walls=False)
-        if hasattr(refine_insertion, "_native"):  # one native call for a whole strip: the path
-            with _patched(refine_insertion, _native=lambda *a, **k: (None, None)):  # it declines to
-                rangemesh.triangulate(image, vertices=60, diagonals="delaunay")
-                rangemesh.triangulate(image, max_error=0.5, diagonals="error", walls=False)
         rangemesh.triangulate(image, method="paper", threads=2)
         rangemesh.triangulate(image, method="paper", vertices=80, flips="error", threads=2)
         with _patched(refine_strips, STRIP_MIN_PIXELS=1000, STRIP_MIN_COLUMNS=16, STRIP_MIN_VERTICES=20):
+            strips = [dict(max_error=0.5, diagonals="error", walls=False),
+                      dict(vertices=300, diagonals="error", walls=False)]
+            for kw in strips:
+                rangemesh.triangulate(image, **kw)
+        # one native call a whole refine call: the path it declines to (the fit's fallbacks) holds
+        # the other kernels, the strips' and the ray cameras' lengths of walls among them
+        with _patched(refine_insertion, _native=lambda *a, **k: (None, None)):
+            rangemesh.triangulate(image, vertices=60, diagonals="delaunay")
             rangemesh.triangulate(image, max_error=0.5, diagonals="error", walls=False)
-            rangemesh.triangulate(image, vertices=300, diagonals="error", walls=False)
+            rays = rangemesh.Spherical.from_beams({"elevation_deg": list(np.linspace(-10, 10, 48)),
+                                                   "azimuth0_deg": 0.0, "azimuth_step_deg": 0.5,
+                                                   "cols": 40})
+            rangemesh.triangulate(np.where(np.isnan(image), 0.0, image), camera=rays, vertices=60,
+                                  walls=False)
+            with _patched(refine_strips, STRIP_MIN_PIXELS=1000, STRIP_MIN_COLUMNS=16,
+                          STRIP_MIN_VERTICES=20):
+                for kw in strips:
+                    rangemesh.triangulate(image, **kw)
     for kernel, kept in _derive(calls).items():
         calls.setdefault(kernel, kept)
     return calls

@@ -629,25 +629,28 @@ def _camera(kind, h, w):
         return rangemesh.Spherical.from_beams({"elevation_deg": list(np.linspace(-10, 10, h)),
                                                "azimuth0_deg": 0.0, "azimuth_step_deg": 0.5,
                                                "cols": w}, range_scale=0.5)
+    if kind == "rays":  # a fisheye-like fan of rays: the pixel's angle is their median step
+        rows, cols = np.meshgrid(np.linspace(-0.6, 0.6, h), np.linspace(-0.9, 0.9, w), indexing="ij")
+        return rangemesh.Rays(np.stack([np.sin(cols), np.sin(rows), np.cos(rows) * np.cos(cols)], axis=2))
     return rangemesh.Orthographic(3.1, 1.0, 2.0) if kind == "wide rows" else rangemesh.Orthographic()
 
 
 @settings(max_examples=80, deadline=None)
 @given(st.integers(0, 2**31), st.integers(2, 48), st.integers(2, 48),
-       st.sampled_from(["unit", "wide rows", "pinhole", "spherical"]), st.booleans(),
+       st.sampled_from(["unit", "wide rows", "pinhole", "spherical", "rays"]), st.booleans(),
        st.sampled_from(["error", "delaunay"]), st.sampled_from(["vertices", "max_error", "default"]),
        st.booleans())
 def test_the_native_call_gives_the_meshes_of_the_python_steps(seed, h, w, kind, fit, diagonals,
                                                               target, walls):
     # One strip: _core.refine_mesh stands for _greedy, bit for bit (vertices, faces, pixels,
     # stats but the timings, the target record), for every camera, heights and diagonals, walls
-    # kept or dropped (dropped: not with a ray camera, whose lengths are Python's).
+    # kept or dropped (with a ray camera: edge lengths by ray angle).
     rng = np.random.default_rng(seed)
     noise = rng.choice([10.0, 0.01])
     depth = 100 + rng.random((h, w)) * noise + (np.arange(w) > w // 2) * 40 * rng.integers(2)
     if rng.integers(2):
         depth = np.round(depth)  # exact planes and ties: the count search's and the fit's edge cases
-    valid = rng.random((h, w)) >= rng.choice([0.0, 0.3, 0.7])
+    valid = rng.random((h, w)) >= rng.choice([0.0, 0.3, 0.7, 0.97])  # (0.97: hull restarts)
     if valid.sum() < 3:
         return
     depth = np.where(valid, depth, 0.0)
@@ -657,7 +660,6 @@ def test_the_native_call_gives_the_meshes_of_the_python_steps(seed, h, w, kind, 
     asked = {"vertices": {"vertices": n},
              "max_error": {"max_error": float(rng.choice([1e-6, 0.05, 0.5, 3.0]))},
              "default": {"max_error": 0.5, "max_vertices": n}}[target]
-    walls = walls or kind == "spherical"
     a, ta = _native_call(depth, valid, camera, ref, fit, diagonals, walls=walls, **asked)
     b, tb = _python_steps(depth, valid, camera, ref, walls, fit=fit, diagonals=diagonals, **asked)
     if a is None:  # declined: no triangle of valid corners (the next test); the Python steps mesh it
@@ -671,9 +673,31 @@ def test_the_native_call_gives_the_meshes_of_the_python_steps(seed, h, w, kind, 
     assert str(ta) == str(tb)  # (str: a NaN error compares equal to itself)
 
 
-def test_the_native_call_leaves_a_mesh_without_valid_corners_to_the_hull_start():
+@pytest.mark.parametrize("kind", ["spherical", "rays"])
+def test_the_native_call_drops_walls_by_ray_angle(kind):
+    # Ranges of 5 left of column 20 and 20 right of it: an edge across steps by 15, above
+    # 5 % of 5 per pixel for any edge shorter than 60 pixels, so every face across is a wall.
+    # The native call takes ray cameras with walls dropped (it declined them before) and gives
+    # the Python steps' mesh; no face left joins the two ranges.
+    h, w = 24, 40
+    depth = np.where(np.arange(w) < 20, 5.0, 20.0) + np.zeros((h, 1))
+    valid = np.ones((h, w), bool)
+    camera = _camera(kind, h, w)
+    a, ta = _native_call(depth, valid, camera, (depth, valid), True, "error", vertices=60,
+                         walls=False)
+    assert a is not None and ta["walls_dropped"] > 0
+    z = depth[a.pixels[:, 0], a.pixels[:, 1]][a.faces]
+    assert len(a.faces) and (z.min(axis=1) == z.max(axis=1)).all()
+    b, tb = _python_steps(depth, valid, camera, (depth, valid), False, fit=True, diagonals="error",
+                          vertices=60)
+    assert np.array_equal(a.faces, b.faces) and np.array_equal(a.pixels, b.pixels)
+    assert np.array_equal(a.vertices, b.vertices) and str(ta) == str(tb)
+
+
+def test_the_native_call_restarts_from_the_valid_pixels_hull():
     # Four valid pixels far apart in a 17 x 14 background: every triangle of the image corners'
-    # mesh keeps a background corner, so the call declines and insertion starts from their hull.
+    # mesh keeps a background corner, so insertion starts again from their hull, in the native
+    # call too (it declined to Python before): every valid pixel is a vertex, nothing else.
     depth = np.zeros((17, 14))
     valid = np.zeros((17, 14), bool)
     pixels = [(0, 11), (1, 9), (4, 0), (5, 2)]
@@ -681,7 +705,16 @@ def test_the_native_call_leaves_a_mesh_without_valid_corners_to_the_hull_start()
         valid[r, c] = True
         depth[r, c] = 10.0 + r
     camera = rangemesh.Orthographic()
-    assert _native_call(depth, valid, camera, (depth, valid), True, "error", vertices=5) == (None, None)
+    for asked in ({"vertices": 5}, {"max_error": 0.5, "max_vertices": 5}):
+        a, ta = _native_call(depth, valid, camera, (depth, valid), True, "error", **asked)
+        assert a is not None and len(a.faces)
+        b, tb = _python_steps(depth, valid, camera, (depth, valid), fit=True, diagonals="error",
+                              **asked)
+        assert np.array_equal(a.faces, b.faces) and np.array_equal(a.pixels, b.pixels)
+        assert np.array_equal(a.vertices, b.vertices) and str(ta) == str(tb)
+        assert a.stats.strips == b.stats.strips == 1
+        if "vertices" in asked:
+            assert sorted(map(tuple, a.pixels.tolist())) == pixels
     mesh = triangulate(np.where(valid, depth, np.nan), vertices=5)
     assert sorted(map(tuple, mesh.pixels.tolist())) == pixels  # every valid pixel, nothing else
     assert_valid_mesh(mesh)

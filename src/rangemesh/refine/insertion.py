@@ -25,8 +25,9 @@ from ..mesh import Mesh, Stats, empty_mesh, with_fields
 from ..render import relative_error
 from .heights import fit_heights, height_rule
 from .start import corner_depths, first_mesh, hull_mesh, valid_hull
-from .strips import strip_insert, use_strips
-from .walls import drop_walls
+from .strips import SEAM_DENSITY, SEAM_ERROR_SHARE, strip_insert, use_strips
+from . import threads as _threads
+from .walls import pixel_angle, drop_walls
 
 __all__ = ["greedy_mesh", "corner_depths", "first_mesh", "delaunay_scales"]
 
@@ -278,11 +279,9 @@ def greedy_mesh(depth: np.ndarray, valid: np.ndarray, camera, *, vertices: int |
         depth = np.ldexp(depth, -exponent)
         ref = (np.ldexp(ref[0], -exponent), ref[1])
         extent = (math.ldexp(extent[0], -exponent), math.ldexp(extent[1], -exponent), extent[2])
-    mesh = None
-    if walls or getattr(camera, "directions", None) is None:  # (ray angles: Python's lengths)
-        mesh, target = _native(depth, valid, camera, ref, extent, exponent, vertices, max_error,
-                               max_vertices, fit=fit, diagonals=diagonals, walls=walls, jump=jump)
-    if mesh is None:  # the cases the native call does not take, or declined
+    mesh, target = _native(depth, valid, camera, ref, extent, exponent, vertices, max_error,
+                           max_vertices, fit=fit, diagonals=diagonals, walls=walls, jump=jump)
+    if mesh is None:  # declined
         mesh, target = _greedy(depth, valid, camera, ref, extent, exponent, vertices=vertices,
                                max_error=max_error, fit=fit, diagonals=diagonals, walls=walls,
                                jump=jump, max_vertices=max_vertices, first=None)
@@ -363,23 +362,26 @@ _NATIVE_MESH = Mesh(np.zeros((0, 3)), np.zeros((0, 3), np.int32), np.zeros((0, 2
 
 def _native(depth, valid, camera, ref, extent, exponent, vertices, max_error, max_vertices, *,
             fit, diagonals, walls=True, jump=0.05):
-    """`_greedy` on one strip, as one native call (`rangemesh._core.refine_mesh`).
+    """`_greedy` on one strip or two, as one native call (`rangemesh._core.refine_mesh`).
 
-    Returns ``(mesh, target)``, or ``(None, None)`` for the cases it does not
-    take (two strips) or declines (no triangle of valid corners, so the
-    valid pixels' hull is the next start; a fit that must raise or solve
-    directly): `_greedy` then meshes the image.
+    Returns ``(mesh, target)``, or ``(None, None)`` when the call declines
+    (no triangle left, even from the valid pixels' hull: `_greedy` names
+    why; a fit that must raise or solve directly): `_greedy` then meshes
+    the image.
     """
     h, w = depth.shape
     lo, hi, n_valid = extent
     want, scales, n_grid, strips = _plan((h, w), camera, n_valid, vertices, max_error,
                                          max_vertices)
-    if strips:
-        return None, None
     req = _core.RefineRequest()
+    if strips:
+        req.strips, req.seam_density, req.seam_error_share = True, SEAM_DENSITY, SEAM_ERROR_SHARE
+        req.threads = _threads.threads()
     req.vertices, req.n_valid, req.lo, req.hi, req.n_grid = want, n_valid, lo, hi, n_grid
     req.sr, req.sc = scales
     req.flip, req.fit, req.walls, req.jump = diagonals == "error", fit, walls, float(jump)
+    if not walls and getattr(camera, "directions", None) is not None:
+        req.pixel_angle = pixel_angle(camera)  # (edge lengths are ray angles)
     req.max_runs, req.max_bisect_runs = MAX_RUNS, MAX_BISECT_RUNS
     req.heights = height_rule(n_valid)
     if max_error is not None:
@@ -395,7 +397,8 @@ def _native(depth, valid, camera, ref, extent, exponent, vertices, max_error, ma
     # (from templates: the frozen classes' own __init__ weighs on a call on a small image)
     stats = with_fields(_NATIVE_STATS, vertices=got, triangles=len(faces), edges=res.edges,
                         sampled_points=got, seconds=seconds, flip_tests={}, flipped_edges=res.flips,
-                        insertions=res.insertions, heights="fit" if fit else "pixel")
+                        insertions=res.insertions, strips=res.strips,
+                        heights="fit" if fit else "pixel")
     mesh = with_fields(_NATIVE_MESH, vertices=res.vertices, faces=faces, pixels=pixels,
                        camera=camera, image_shape=(h, w), stats=stats, attributes={})
     dropped = None if walls else res.walls_dropped

@@ -29,7 +29,7 @@ import numpy as np
 from .. import _core
 from .._core import build_halfedges, neighbors_from_halfedges, prune_dangling
 
-__all__ = ["wall_faces", "drop_walls", "pixel_lengths"]
+__all__ = ["wall_faces", "drop_walls", "pixel_lengths", "pixel_angle"]
 
 
 def pixel_lengths(camera, pixels: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -47,12 +47,13 @@ def pixel_lengths(camera, pixels: np.ndarray, a: np.ndarray, b: np.ndarray) -> n
     if rays is None:
         p = p.astype(np.float64)
         return np.hypot(p[a, 0] - p[b, 0], p[a, 1] - p[b, 1])
-    ra, rb = rays[p[a, 0], p[a, 1]], rays[p[b, 0], p[b, 1]]
-    angle = np.arctan2(np.linalg.norm(np.cross(ra, rb), axis=1), np.sum(ra * rb, axis=1))
-    return angle / _pixel_angle(camera)
+    # the angles' one home: `rangemesh._core.ray_lengths` (the native refine call's too)
+    return _core.ray_lengths(camera.as_array(), np.ascontiguousarray(p, dtype=np.int64),
+                             np.ascontiguousarray(a, dtype=np.int64),
+                             np.ascontiguousarray(b, dtype=np.int64), pixel_angle(camera))
 
 
-def _pixel_angle(camera) -> float:
+def pixel_angle(camera) -> float:
     """Angle of one pixel: the azimuth step, or the median angle between neighbouring columns."""
     step = getattr(camera, "step", None)
     if step:

@@ -54,10 +54,15 @@ void bind_request(nb::module_& m) {
         .def_rw("n_grid", &MeshRequest::n_grid, "Grid points of the first mesh.")
         .def_rw("sr", &MeshRequest::sr, "Weight of rows in the Delaunay test.")
         .def_rw("sc", &MeshRequest::sc, "Weight of columns in the Delaunay test.")
+        .def_rw("strips", &MeshRequest::strips, "Insert as two strips (until a count search needs one).")
+        .def_rw("seam_density", &MeshRequest::seam_density, "The seam's vertices for a count (strips.py).")
+        .def_rw("seam_error_share", &MeshRequest::seam_error_share, "... and under an error bound.")
+        .def_rw("threads", &MeshRequest::threads, "The strips' threads (the mesh is the same for 1 or 2).")
         .def_rw("flip", &MeshRequest::flip, "Each quad's diagonal by the error.")
         .def_rw("fit", &MeshRequest::fit, "Heights by least squares, else copied.")
         .def_rw("walls", &MeshRequest::walls, "Keep the walls of jumps (false: drop them; not with a ray camera).")
         .def_rw("jump", &MeshRequest::jump, "The jump rule's share of the local depth per pixel.")
+        .def_rw("pixel_angle", &MeshRequest::pixel_angle, "A ray camera's angle of one pixel (walls false).")
         .def_rw("max_runs", &MeshRequest::max_runs, "Meshings at most.")
         .def_rw("max_bisect_runs", &MeshRequest::max_bisect_runs, "... once a request gave more than the count.")
         .def_rw("heights", &MeshRequest::heights, "The fit's rules (a HeightRule).");
@@ -78,6 +83,7 @@ void bind_result(nb::module_& m) {
         .def_ro("edges", &MeshResult::edges, "Distinct edges of the faces.")
         .def_ro("insertions", &MeshResult::insertions, "Vertices of the last insertion, background corners included.")
         .def_ro("flips", &MeshResult::flips, "Edges the last insertion's diagonals flipped.")
+        .def_ro("strips", &MeshResult::strips, "Strips of the last insertion (1 or 2).")
         .def_ro("meshings", &MeshResult::meshings, "Meshings the search ran.")
         .def_ro("walls_dropped", &MeshResult::walls_dropped, "Walls dropped from the mesh (walls false).")
         .def_ro("asked", &MeshResult::asked, "The last meshing's vertex request.")
@@ -116,6 +122,30 @@ void bind_refine_mesh(nb::module_& m) {
         "Which faces are walls: an edge a -> b (corner k to k + 1) with |za - zb| > jump * min(|za|, |zb|) * "
         "max(L, 1), L ``lengths[t, k]`` (ray angles in pixels) or the distance of its corners' ``pixels``.");
     m.def(
+        "ray_lengths",
+        [](In1<double> camera, In2<index_t> pixels, In1<index_t> a, In1<index_t> b, double pixel_angle) {
+            check_input(camera.shape(0) >= 6 && camera(0) == 2.0 && camera(1) >= 1 && camera(2) >= 1 &&
+                            static_cast<double>(camera.shape(0)) == 6 + 3 * camera(1) * camera(2),
+                        "ray_lengths: camera is a ray camera's Camera.as_array()");
+            check_input(pixels.shape(1) == 2 && a.shape(0) == b.shape(0), "ray_lengths: pixels (V, 2), a and b of one length");
+            check_input(pixel_angle > 0.0 && std::isfinite(pixel_angle), "ray_lengths: pixel_angle finite and above 0");
+            const index_t n_v = static_cast<index_t>(pixels.shape(0)), n_e = static_cast<index_t>(a.shape(0));
+            for (index_t i = 0; i < n_v; ++i)
+                check_input(0 <= pixels(i, 0) && pixels(i, 0) < camera(1) && 0 <= pixels(i, 1) && pixels(i, 1) < camera(2),
+                            "ray_lengths: a pixel is outside the camera's image");
+            for (index_t i = 0; i < n_e; ++i)
+                check_input(0 <= a(i) && a(i) < n_v && 0 <= b(i) && b(i) < n_v, "ray_lengths: a vertex id is out of range");
+            auto* out = new double[n_e];
+            nb::capsule owner(out, [](void* p) noexcept { delete[] static_cast<double*>(p); });
+            run_released([&] { refine::ray_lengths(span(camera), grid(pixels), span(a), span(b), pixel_angle, {out, n_e}); },
+                         work(a));
+            const std::size_t shape[1] = {static_cast<std::size_t>(n_e)};
+            return nb::ndarray<nb::numpy, double>(out, 1, shape, owner);
+        },
+        nb::arg("camera"), nb::arg("pixels"), nb::arg("a"), nb::arg("b"), nb::arg("pixel_angle"),
+        "Lengths of edges a -> b between vertices' ``pixels`` by the angle of their rays (a ray camera's "
+        "``as_array()``), in units of ``pixel_angle``.");
+    m.def(
         "refine_mesh",
         [](In2<double> depth, In2<bool> valid, In1<double> camera, const MeshRequest& req,
            std::optional<In2<double>> ref_depth, std::optional<In2<bool>> ref_valid) {
@@ -129,8 +159,10 @@ void bind_refine_mesh(nb::module_& m) {
                         "refine_mesh: 0 < vertices <= n_valid <= the image's pixels");
             check_input(req.max_error < 0.0 || (req.max_error > 0.0 && std::isfinite(req.max_error)),
                         "refine_mesh: max_error negative (none) or a finite positive percentage");
-            check_input(req.walls || camera(0) != 2.0, "refine_mesh: walls dropped with a ray camera (ray-angle "
-                                                         "lengths) are not native");
+            check_input(req.walls || camera(0) != 2.0 || (req.pixel_angle > 0.0 && std::isfinite(req.pixel_angle)),
+                        "refine_mesh: walls dropped with a ray camera need a finite pixel_angle above 0");
+            check_input(req.threads >= 1 && (!req.strips || depth.shape(1) >= 4),
+                        "refine_mesh: threads at least 1, strips on images of 4 columns or more");
             check_input(req.sr >= 1 && req.sc >= 1 && req.max_runs >= 1 && req.max_bisect_runs >= 1,
                         "refine_mesh: sr, sc, max_runs and max_bisect_runs at least 1");
             check_input(camera.shape(0) >= 6 && (camera(0) == 0.0 || camera(0) == 1.0 ||
@@ -145,7 +177,7 @@ void bind_refine_mesh(nb::module_& m) {
         },
         nb::arg("depth"), nb::arg("valid"), nb::arg("camera"), nb::arg("request"), nb::arg("ref_depth").none() = nb::none(),
         nb::arg("ref_valid").none() = nb::none(),
-        "The whole refine call on one strip: first mesh, insertion, diagonals, valid faces with one fan "
+        "The whole refine call on one strip or two: first mesh, insertion, diagonals, valid faces with one fan "
         "each, heights and the lift by ``camera`` (``Camera.as_array()``), searched until "
         "``request.vertices`` vertices or, with ``request.max_error``, the relative error against "
         "``ref_depth``, ``ref_valid`` (default: depth, valid) is met. Returns a RefineResult.");

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <memory>
 #include <numeric>
+#include <optional>
 #include <utility>
 
 #include "../geometry/delaunay.hpp"
@@ -18,6 +19,7 @@
 #include "../heights/pass.hpp"
 #include "../interrupt.hpp"
 #include "diagonals.hpp"
+#include "halves.hpp"
 #include "insertion.hpp"
 #include "walls.hpp"
 
@@ -133,13 +135,27 @@ ValidFaces one_fan_each(const Image& image, ValidFaces f) {
 
 // The walls dropped, then what leaves a vertex with two fans and lone triangles, the faces
 // renumbered over the vertices left (insertion.py's `_assemble`, walls.py's `drop_walls`).
-ValidFaces drop_walls(const Image& image, ValidFaces f, double jump, index_t& n_walls) {
+// With a ray camera, edge lengths are ray angles in units of `pixel_angle`.
+ValidFaces drop_walls(const Image& image, Span<const double> camera, double pixel_angle, ValidFaces f, double jump,
+                      index_t& n_walls) {
     const index_t n_f = static_cast<index_t>(f.faces.size() / 3), n_v = static_cast<index_t>(f.pixels.size() / 2);
     const std::vector<index_t> wide(f.faces.begin(), f.faces.end()), pixels(f.pixels.begin(), f.pixels.end());
     std::vector<double> z(n_v);
     for (index_t i = 0; i < n_v; ++i) z[i] = image.depth(pixels[2 * i], pixels[2 * i + 1]);
+    std::vector<double> lengths;  // (F, 3): edge k from corner k to k + 1
+    if (camera[0] == 2.0) {
+        std::vector<index_t> a(3 * n_f), b(3 * n_f);
+        for (index_t t = 0; t < n_f; ++t)
+            for (int k = 0; k < 3; ++k) {
+                a[3 * t + k] = wide[3 * t + k];
+                b[3 * t + k] = wide[3 * t + (k + 1) % 3];
+            }
+        lengths.resize(3 * n_f);
+        ray_lengths(camera, {pixels.data(), n_v, 2}, view(a), view(b), pixel_angle, {lengths.data(), 3 * n_f});
+    }
     const std::unique_ptr<bool[]> kept(new bool[n_f]);
-    wall_faces({wide.data(), n_f, 3}, {pixels.data(), n_v, 2}, view(z), jump, {}, {kept.get(), n_f});
+    wall_faces({wide.data(), n_f, 3}, {pixels.data(), n_v, 2}, view(z), jump,
+               lengths.empty() ? Grid<const double>{} : Grid<const double>{lengths.data(), n_f, 3}, {kept.get(), n_f});
     n_walls = 0;
     for (index_t t = 0; t < n_f; ++t) {
         n_walls += kept[t];
@@ -174,9 +190,21 @@ struct Meshing {
     index_t n_vertices() const { return static_cast<index_t>(mesh.pixels.size() / 2); }
 };
 
+// The valid faces of an insertion's mesh, with one fan each, its walls dropped unless kept
+// (insertion.py's `_assemble`); `n_walls` counts the dropped ones.
+ValidFaces assemble(const Image& image, Span<const double> camera, Span<const index_t> vr, Span<const index_t> vc,
+                    Span<const index_t> tv, const MeshRequest& req, index_t& n_walls) {
+    ValidFaces f = valid_faces(vr, vc, tv, image.valid);
+    const index_t n_f = static_cast<index_t>(f.faces.size() / 3);
+    if (0 < n_f && n_f < tv.size / 3) f = one_fan_each(image, std::move(f));
+    if (!req.walls && !f.faces.empty()) f = drop_walls(image, camera, req.pixel_angle, std::move(f), req.jump, n_walls);
+    return f;
+}
+
 // Insertion until `asked` valid vertices or, when `max_sum` is not negative, a summed error of
-// at most `max_sum` (insertion.py's `_refine` and `_assemble`, walls kept).
-Meshing mesh_once(const Image& image, const FirstMesh& first, index_t asked, double max_sum, const MeshRequest& req) {
+// at most `max_sum` (insertion.py's `_refine`), then assembled.
+Meshing mesh_once(const Image& image, Span<const double> camera, const FirstMesh& first, index_t asked, double max_sum,
+                  const MeshRequest& req) {
     Insertion ins(image, first, max_sum < 0.0 ? asked : 0, req.sr, req.sc);
     ins.advance(Stop{asked, max_sum});
     Meshing out;
@@ -189,12 +217,83 @@ Meshing mesh_once(const Image& image, const FirstMesh& first, index_t asked, dou
                             {sums.data(), static_cast<index_t>(sums.size())}};
         out.flips = flip_by_error(image, mesh).flips;
     }
-    const Span<const index_t> tv = view(ins.triangles());
-    out.mesh = valid_faces(view(ins.vertex_rows()), view(ins.vertex_cols()), tv, image.valid);
-    const index_t n_f = static_cast<index_t>(out.mesh.faces.size() / 3);
-    if (0 < n_f && n_f < tv.size / 3) out.mesh = one_fan_each(image, std::move(out.mesh));
-    if (!req.walls && !out.mesh.faces.empty()) out.mesh = drop_walls(image, std::move(out.mesh), req.jump, out.n_walls);
+    out.mesh = assemble(image, camera, view(ins.vertex_rows()), view(ins.vertex_cols()), view(ins.triangles()), req, out.n_walls);
     return out;
+}
+
+// The same on two strips (`insert_halves`).
+Meshing mesh_halves(const Image& image, Span<const double> camera, index_t asked, double max_sum, const MeshRequest& req) {
+    const HalvesRequest hreq{asked, max_sum, req.n_grid, req.n_valid, req.sr, req.sc, req.seam_density,
+                             req.seam_error_share, req.threads, req.flip};
+    const Halves halves = insert_halves(image, hreq);
+    Meshing out;
+    out.insertions = static_cast<index_t>(halves.vr.size());
+    out.flips = halves.flips;
+    out.error_left = halves.total > 0.0;
+    out.mesh = assemble(image, camera, view(halves.vr), view(halves.vc), view(halves.triangles), req, out.n_walls);
+    return out;
+}
+
+// Corners of the convex hull of the valid pixels, counter-clockwise in (row, col), none on a hull
+// edge; empty when fewer than 3 (start.py's `valid_hull`: each valid row's first and last pixels,
+// monotone chain in exact integers).
+std::vector<std::pair<index_t, index_t>> valid_hull(Grid<const bool> valid) {
+    using Point = std::pair<index_t, index_t>;
+    std::vector<Point> pts;
+    for (index_t r = 0; r < valid.rows; ++r) {
+        index_t first = -1, last = -1;
+        for (index_t c = 0; c < valid.cols; ++c)
+            if (valid(r, c)) {
+                if (first < 0) first = c;
+                last = c;
+            }
+        if (first < 0) continue;
+        pts.emplace_back(r, first);
+        if (last != first) pts.emplace_back(r, last);
+    }
+    const auto turn = [](const Point& o, const Point& a, const Point& b) {
+        return (a.first - o.first) * (b.second - o.second) - (a.second - o.second) * (b.first - o.first);
+    };
+    const auto half = [&](auto begin, auto end, std::vector<Point>& out) {
+        std::vector<Point> chain;
+        for (auto p = begin; p != end; ++p) {
+            while (chain.size() >= 2 && turn(chain[chain.size() - 2], chain.back(), *p) <= 0) chain.pop_back();
+            chain.push_back(*p);
+        }
+        if (!chain.empty()) chain.pop_back();
+        out.insert(out.end(), chain.begin(), chain.end());
+    };
+    std::vector<Point> hull;  // (pts is sorted by row, then column, and unique)
+    half(pts.begin(), pts.end(), hull);
+    half(pts.rbegin(), pts.rend(), hull);
+    if (hull.size() < 3) hull.clear();
+    return hull;
+}
+
+// A first mesh of valid pixels only: at most `limit` corners of their hull, Delaunay in units
+// sr x sc (start.py's `hull_mesh`); none when the hull has fewer than 3 corners or `limit` < 3.
+std::optional<FirstArrays> hull_mesh(const Image& image, index_t limit, index_t sr, index_t sc) {
+    const auto hull = valid_hull(image.valid);
+    const index_t n = static_cast<index_t>(hull.size());
+    if (n < 3 || limit < 3) return std::nullopt;
+    FirstArrays f;
+    const index_t k = std::min(n, limit);
+    // np.linspace(0, n, limit, endpoint=False).astype(np.int64): evenly spread corners
+    const double step = static_cast<double>(n) / static_cast<double>(limit);
+    std::vector<index_t> r(k), c(k);
+    for (index_t i = 0; i < k; ++i) {
+        const index_t j = n > limit ? static_cast<index_t>(static_cast<double>(i) * step + 0.0) : i;
+        f.vr.push_back(hull[j].first);
+        f.vc.push_back(hull[j].second);
+        f.vz.push_back(image.depth(hull[j].first, hull[j].second));
+        r[i] = hull[j].first * sr;
+        c[i] = hull[j].second * sc;
+    }
+    Triangulation t = delaunay_sweep(PointSet{view(r), view(c)});
+    require(!t.triangles.empty(), "hull_mesh: the hull's corners cannot be collinear");
+    f.triangles = std::move(t.triangles);
+    f.halfedges = std::move(t.halfedges);
+    return f;
 }
 
 // The search for exactly `want` vertices: vertices left without a triangle (background
@@ -427,31 +526,56 @@ struct Candidate {
 class Refiner {
   public:
     Refiner(const Image& image, Span<const double> camera, const Reference& ref, const MeshRequest& req)
-        : image_(image), camera_(camera), req_(req), measure_(camera, ref),
-          first_(first_mesh(image, req.n_grid, req.sr, req.sc)) {}
+        : image_(image), camera_(camera), req_(req), measure_(camera, ref), strips_(req.strips) {}
 
-    MeshResult by_count();
-    MeshResult by_error();
+    // The search; when it leaves no face (every triangle keeps a background image corner), once
+    // more from the valid pixels' hull (insertion.py's restart), unless walls were dropped.
+    MeshResult run();
 
   private:
+    MeshResult by_count();
+    MeshResult by_error();
     Meshing mesh(index_t asked, double max_sum);
     bool lift(const ValidFaces& f, bool fit, std::vector<double>& vertices);
     bool bounded(Candidate& c);
     MeshResult finish(Candidate&& c);
+    MeshResult no_face(const Meshing& m) {
+        empty_ = true;
+        empty_walls_ = m.n_walls;
+        return MeshResult{};
+    }
 
     const Image& image_;
     Span<const double> camera_;
     const MeshRequest& req_;
     ErrorMeasure measure_;
-    FirstArrays first_;
+    std::optional<FirstArrays> first_;  // one strip's first mesh, made when first needed
+    bool strips_;                       // the next meshing is on two strips
     MeshResult out_;
     index_t insertions_ = 0, flips_ = 0;  // of the last meshing
+    bool empty_ = false;                  // the search declined: no face left
+    index_t empty_walls_ = 0;             // ... and the walls its mesh dropped
 };
+
+MeshResult Refiner::run() {
+    MeshResult out = req_.max_error < 0.0 ? by_count() : by_error();
+    if (!empty_ || (!req_.walls && empty_walls_ > 0)) return out;
+    std::optional<FirstArrays> hull = hull_mesh(image_, req_.vertices, req_.sr, req_.sc);
+    if (!hull) return out;  // declined: no triangle of valid pixels (Python names the reason)
+    first_ = std::move(hull);
+    strips_ = false;
+    out_ = MeshResult{};
+    empty_ = false;
+    out = req_.max_error < 0.0 ? by_count() : by_error();
+    return empty_ ? MeshResult{} : out;  // still no face: declined (Python names the reason)
+}
 
 Meshing Refiner::mesh(index_t asked, double max_sum) {
     ++out_.meshings;
     out_.asked = asked;
-    Meshing m = mesh_once(image_, first_.view(), asked, max_sum, req_);
+    if (!strips_ && !first_) first_ = first_mesh(image_, req_.n_grid, req_.sr, req_.sc);
+    Meshing m = strips_ ? mesh_halves(image_, camera_, asked, max_sum, req_)
+                         : mesh_once(image_, camera_, first_->view(), asked, max_sum, req_);
     insertions_ = m.insertions;
     flips_ = m.flips;
     return m;
@@ -498,6 +622,7 @@ MeshResult Refiner::finish(Candidate&& c) {
     out_.insertions = insertions_;
     out_.flips = flips_;
     out_.walls_dropped = c.meshing.n_walls;
+    out_.strips = strips_ ? 2 : 1;
     out_.outcome = MeshOutcome::done;
     return std::move(out_);
 }
@@ -510,7 +635,7 @@ MeshResult Refiner::by_count() {
         more = search.next(std::move(m), out_.meshings, asked);
     }
     Candidate c{std::move(search.best()), {}, 0.0};
-    if (c.meshing.mesh.faces.empty()) return MeshResult{};  // declined: the hull's start is Python's
+    if (c.meshing.mesh.faces.empty()) return no_face(c.meshing);
     const auto t = std::chrono::steady_clock::now();
     if (!lift(c.meshing.mesh, req_.fit, c.vertices)) return MeshResult{};
     if (req_.fit) out_.fit_seconds = seconds_since(t);
@@ -530,7 +655,7 @@ MeshResult Refiner::by_error() {
     bool has_met = false;
     for (;;) {
         Candidate c{mesh(asked, max_sum), {}, 0.0};
-        if (c.meshing.mesh.faces.empty()) return MeshResult{};  // declined: the hull's start is Python's
+        if (c.meshing.mesh.faces.empty()) return no_face(c.meshing);
         if (!bounded(c)) return MeshResult{};
         const index_t runs = out_.meshings, got = c.meshing.n_vertices();
         if (counted) {
@@ -555,6 +680,7 @@ MeshResult Refiner::by_error() {
             continue;
         }
         counted = true;
+        strips_ = false;  // (strips never insert the seam column's other pixels)
         few = got;
         most = want;
         max_sum = -1.0;
@@ -568,7 +694,7 @@ MeshResult refine_mesh(const Image& image, Span<const double> camera, const Refe
                        const MeshRequest& req) {
     const auto t0 = std::chrono::steady_clock::now();
     Refiner refiner(image, camera, reference, req);
-    MeshResult out = req.max_error < 0.0 ? refiner.by_count() : refiner.by_error();
+    MeshResult out = refiner.run();
     out.seconds = seconds_since(t0);
     return out;
 }

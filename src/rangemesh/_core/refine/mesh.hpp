@@ -1,12 +1,11 @@
-// The whole refine call on one strip: first mesh, insertion, diagonals, assembly (walls kept
-// or dropped), heights and
-// the lift to 3-D, repeated by one small search until the target is met: a vertex count
-// (`vertices=`) or an error bound (`max_error=`, with a vertex cap: the default target).
+// The whole refine call on one strip or two: first mesh, insertion, diagonals, assembly (walls
+// kept or dropped), heights and the lift to 3-D, repeated by one small search until the target
+// is met: a vertex count (`vertices=`) or an error bound (`max_error=`, with a vertex cap: the
+// default target).
 //
 // The rules and their reasons are those of rangemesh/refine/insertion.py, which checks the
-// arguments, chooses this path or the strips' and wraps the result; every step is a kernel of
-// its own family (Insertion, flip_by_error, valid_faces, prune_dangling, fit_heights, lift), in
-// the arithmetic and order of the Python steps it stands for, so the mesh is the same bit for bit.
+// arguments and wraps the result; every step is a kernel of its own family (Insertion,
+// flip_by_error, valid_faces, prune_dangling, fit_heights, lift), in the arithmetic and order of the Python steps it stands for, so the mesh is the same bit for bit.
 #pragma once
 
 #include <cstdint>
@@ -33,10 +32,14 @@ struct MeshRequest {
     double lo = 0.0, hi = 0.0;  // their smallest and largest depth
     index_t n_grid = 0;    // grid points of the first mesh
     index_t sr = 1, sc = 1;  // weights of rows and columns in the Delaunay test
+    bool strips = false;   // insert as two strips (`insert_halves`) until a count search needs one
+    double seam_density = 0.7, seam_error_share = 1.0;  // the seam's vertices (strips.py)
+    int threads = 1;       // the strips' threads
     bool flip = true;      // each quad's diagonal by the error (`flip_by_error`)
     bool fit = true;       // heights by least squares, else copied from the pixels
-    bool walls = true;     // keep the walls of jumps; false drops them (not with a ray camera)
+    bool walls = true;     // keep the walls of jumps; false drops them
     double jump = 0.05;    // the jump rule's share of the local depth per pixel (walls.hpp)
+    double pixel_angle = 0.0;  // a ray camera's angle of one pixel, the unit of its edge lengths
     index_t max_runs = 8, max_bisect_runs = 5;  // meshings at most, and once past the count
     HeightRule heights;
 };
@@ -47,9 +50,9 @@ struct Reference {
     Grid<const bool> valid;
 };
 
-// How the call ended. `declined`: a case the Python path handles (no triangle left, so the
-// valid pixels' hull is the next start; a fit that must raise or solve directly): nothing else
-// of the result is set.
+// How the call ended. `declined`: a case the Python path handles (no triangle left, even from
+// the valid pixels' hull, so the mesh is empty and Python names why; a fit that must raise or
+// solve directly): nothing else of the result is set.
 enum class MeshOutcome { done, declined };
 
 struct MeshResult {
@@ -60,6 +63,7 @@ struct MeshResult {
     index_t edges = 0;                 // distinct edges of the faces
     index_t insertions = 0;            // vertices of the last insertion, background corners included
     index_t flips = 0;                 // edges the last insertion's diagonals flipped
+    index_t strips = 1;                // strips of the last insertion (1 or 2)
     index_t meshings = 0;
     index_t walls_dropped = 0;         // walls dropped from the mesh (walls false)
     index_t asked = 0;                 // the last meshing's request (max_error: its vertex count)

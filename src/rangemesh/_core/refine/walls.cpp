@@ -26,4 +26,19 @@ void wall_faces(Grid<const index_t> faces, Grid<const index_t> pixels, Span<cons
     }
 }
 
+void ray_lengths(Span<const double> camera, Grid<const index_t> pixels, Span<const index_t> a, Span<const index_t> b,
+                 double pixel_angle, Span<double> out) {
+    const index_t w = static_cast<index_t>(camera[2]);
+    const double* rays = camera.data + 6;
+    for (index_t i = 0; i < a.size; ++i) {
+        poll_every(i);
+        const double* p = rays + 3 * (pixels(a[i], 0) * w + pixels(a[i], 1));
+        const double* q = rays + 3 * (pixels(b[i], 0) * w + pixels(b[i], 1));
+        // |p x q| and p . q summed in numpy's order (np.cross, np.linalg.norm, np.sum)
+        const double c0 = p[1] * q[2] - p[2] * q[1], c1 = p[2] * q[0] - p[0] * q[2], c2 = p[0] * q[1] - p[1] * q[0];
+        const double sine = std::sqrt(c0 * c0 + c1 * c1 + c2 * c2), cosine = p[0] * q[0] + p[1] * q[1] + p[2] * q[2];
+        out[i] = std::atan2(sine, cosine) / pixel_angle;
+    }
+}
+
 }  // namespace rangemesh::refine

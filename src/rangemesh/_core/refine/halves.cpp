@@ -10,16 +10,12 @@
 #include "../geometry/pixels.hpp"
 #include "diagonals.hpp"
 #include "insertion.hpp"
+#include "start.hpp"
 #include "strips.hpp"
 
 namespace rangemesh::refine {
 
 namespace {
-
-template <class T>
-Span<const T> view(const std::vector<T>& v) {
-    return {v.data(), static_cast<index_t>(v.size())};
-}
 
 // The column that halves the valid pixels, kept within the middle half (strips.py's `seam_column`).
 index_t seam_column(Grid<const bool> valid) {
@@ -37,20 +33,8 @@ index_t seam_column(Grid<const bool> valid) {
     return std::min(std::max(m, w / 4), (3 * w) / 4);
 }
 
-// Python's int(round(x)) of a float: ties to even.
-index_t round_even(double x) { return static_cast<index_t>(std::nearbyint(x)); }
-
 // A first mesh (start.py's `first_mesh` with `cols` and `seam`): the strip's corners, about
 // `n_grid` valid grid pixels strictly inside its columns, the seam's rows on column `seam_col`.
-struct StripStart {
-    std::vector<index_t> vr, vc, triangles, halfedges;
-    std::vector<double> vz;
-
-    FirstMesh view() const {
-        return {refine::view(vr), refine::view(vc), refine::view(vz), refine::view(triangles), refine::view(halfedges)};
-    }
-};
-
 // A strip corner's depth: its own, or that of the nearest valid pixel of the strip.
 double strip_corner(const Image& image, index_t r, index_t c, index_t c_lo, index_t c_hi) {
     if (image.valid(r, c)) return image.depth(r, c);
@@ -63,14 +47,14 @@ double strip_corner(const Image& image, index_t r, index_t c, index_t c_lo, inde
     return image.depth(p.r, c_lo + p.c);
 }
 
-StripStart strip_start(const Image& image, index_t n_grid, const HalvesRequest& req, index_t c_lo, index_t c_hi,
+StartArrays strip_start(const Image& image, index_t n_grid, const HalvesRequest& req, index_t c_lo, index_t c_hi,
                        const std::vector<index_t>& seam, index_t seam_col) {
     const index_t h = image.rows(), w = c_hi - c_lo + 1, sr = req.sr, sc = req.sc;
-    StripStart s;
+    StartArrays s;
     s.vz = {strip_corner(image, 0, c_lo, c_lo, c_hi), strip_corner(image, h - 1, c_lo, c_lo, c_hi),
             strip_corner(image, h - 1, c_hi, c_lo, c_hi), strip_corner(image, 0, c_hi, c_lo, c_hi)};
-    const index_t gr = n_grid >= 4 ? round_even(std::sqrt(static_cast<double>(n_grid * h * sr) / static_cast<double>(w * sc))) : 0;
-    const index_t gc = n_grid >= 4 ? round_even(std::sqrt(static_cast<double>(n_grid * w * sc) / static_cast<double>(h * sr))) : 0;
+    const index_t gr = n_grid >= 4 ? grid_side(n_grid * h * sr, w * sc) : 0;
+    const index_t gc = n_grid >= 4 ? grid_side(n_grid * w * sc, h * sr) : 0;
     PixelList grid = grid_pixels(image.valid, gr, gc, c_lo, c_hi, true);
     s.vr = std::move(grid.rows);
     s.vc = std::move(grid.cols);
@@ -79,22 +63,7 @@ StripStart strip_start(const Image& image, index_t n_grid, const HalvesRequest& 
             s.vr.push_back(r);
             s.vc.push_back(seam_col);
         }
-    const index_t n = static_cast<index_t>(s.vr.size());
-    if (n > 4) {
-        std::vector<index_t> r(n), c(n);
-        for (index_t i = 0; i < n; ++i) {
-            r[i] = s.vr[i] * sr;
-            c[i] = s.vc[i] * sc;
-        }
-        Triangulation t = delaunay_sweep(PointSet{view(r), view(c)});
-        require(!t.triangles.empty(), "first_mesh: the image corners cannot be collinear");
-        s.triangles = std::move(t.triangles);
-        s.halfedges = std::move(t.halfedges);
-    } else {
-        s.triangles = {0, 1, 2, 0, 2, 3};
-        s.halfedges = {-1, -1, 3, 2, -1, -1};
-    }
-    for (index_t i = 4; i < n; ++i) s.vz.push_back(image.depth(s.vr[i], s.vc[i]));
+    s.triangulate(image, sr, sc);
     return s;
 }
 
@@ -216,8 +185,8 @@ Halves insert_halves(const Image& image, const HalvesRequest& req) {
         rows = seam_rows(zs, oks, std::max<index_t>(2, round_even(req.seam_density * std::sqrt(n))), -1.0, image.span);
     }
     const double share = static_cast<double>(m) / static_cast<double>(w - 1);
-    const StripStart left = strip_start(image, static_cast<index_t>(static_cast<double>(req.n_grid) * share), req, 0, m, rows, m);
-    const StripStart right =
+    const StartArrays left = strip_start(image, static_cast<index_t>(static_cast<double>(req.n_grid) * share), req, 0, m, rows, m);
+    const StartArrays right =
         strip_start(image, static_cast<index_t>(static_cast<double>(req.n_grid) * (1 - share)), req, m, w - 1, rows, m);
     index_t shared = 0;  // the seam's valid vertices, in both strips
     for (std::size_t i = 0; i < left.vr.size(); ++i) shared += left.vc[i] == m && image.valid(left.vr[i], m);

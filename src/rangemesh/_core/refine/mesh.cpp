@@ -21,42 +21,16 @@
 #include "diagonals.hpp"
 #include "halves.hpp"
 #include "insertion.hpp"
+#include "start.hpp"
 #include "walls.hpp"
 
 namespace rangemesh::refine {
 
 namespace {
 
-template <class T>
-Span<const T> view(const std::vector<T>& v) {
-    return {v.data(), static_cast<index_t>(v.size())};
-}
-
-template <class T>
-Span<const T> view(Span<T> s) {
-    return {s.data, s.size};
-}
-
 double seconds_since(std::chrono::steady_clock::time_point t) {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
 }
-
-// The first mesh's arrays (start.py's `first_mesh` on the whole image).
-struct FirstArrays {
-    std::vector<index_t> vr, vc, triangles, halfedges;
-    std::vector<double> vz;
-
-    FirstMesh view() const {
-        return {refine::view(vr), refine::view(vc), refine::view(vz), refine::view(triangles),
-                refine::view(halfedges)};
-    }
-
-    // The image rectangle cut in two, (0,0) (H-1,0) (H-1,W-1) and (0,0) (H-1,W-1) (0,W-1).
-    void rectangle() {
-        triangles = {0, 1, 2, 0, 2, 3};
-        halfedges = {-1, -1, 3, 2, -1, -1};
-    }
-};
 
 // A corner's depth: its own, or the nearest valid pixel's (ties to the smallest (row, col)).
 double corner_depth(const Image& image, index_t r, index_t c) {
@@ -69,15 +43,10 @@ double corner_depth(const Image& image, index_t r, index_t c) {
     return image.depth(r, c);
 }
 
-// Grid rows (or columns) of the first mesh: Python's int(round(sqrt(a / b))), ties to even.
-index_t grid_side(index_t a, index_t b) {
-    return static_cast<index_t>(std::nearbyint(std::sqrt(static_cast<double>(a) / static_cast<double>(b))));
-}
-
 // The image corners and about `n_grid` valid grid pixels, Delaunay in units sr x sc.
-FirstArrays first_mesh(const Image& image, index_t n_grid, index_t sr, index_t sc) {
+StartArrays first_mesh(const Image& image, index_t n_grid, index_t sr, index_t sc) {
     const index_t h = image.rows(), w = image.cols();
-    FirstArrays f;
+    StartArrays f;
     f.vz = {corner_depth(image, 0, 0), corner_depth(image, h - 1, 0), corner_depth(image, h - 1, w - 1),
             corner_depth(image, 0, w - 1)};
     if (n_grid < 4) {  // the image rectangle: a small call's start
@@ -90,21 +59,7 @@ FirstArrays first_mesh(const Image& image, index_t n_grid, index_t sr, index_t s
                                  0, w - 1, false);
     f.vr = std::move(grid.rows);
     f.vc = std::move(grid.cols);
-    const index_t n = static_cast<index_t>(f.vr.size());
-    if (n > 4) {
-        std::vector<index_t> r(n), c(n);
-        for (index_t i = 0; i < n; ++i) {
-            r[i] = f.vr[i] * sr;
-            c[i] = f.vc[i] * sc;
-        }
-        Triangulation t = delaunay_sweep(PointSet{view(r), view(c)});
-        require(!t.triangles.empty(), "first_mesh: the image corners cannot be collinear");
-        f.triangles = std::move(t.triangles);
-        f.halfedges = std::move(t.halfedges);
-    } else {
-        f.rectangle();
-    }
-    for (index_t i = 4; i < n; ++i) f.vz.push_back(image.depth(f.vr[i], f.vc[i]));
+    f.triangulate(image, sr, sc);
     return f;
 }
 
@@ -272,11 +227,11 @@ std::vector<std::pair<index_t, index_t>> valid_hull(Grid<const bool> valid) {
 
 // A first mesh of valid pixels only: at most `limit` corners of their hull, Delaunay in units
 // sr x sc (start.py's `hull_mesh`); none when the hull has fewer than 3 corners or `limit` < 3.
-std::optional<FirstArrays> hull_mesh(const Image& image, index_t limit, index_t sr, index_t sc) {
+std::optional<StartArrays> hull_mesh(const Image& image, index_t limit, index_t sr, index_t sc) {
     const auto hull = valid_hull(image.valid);
     const index_t n = static_cast<index_t>(hull.size());
     if (n < 3 || limit < 3) return std::nullopt;
-    FirstArrays f;
+    StartArrays f;
     const index_t k = std::min(n, limit);
     // np.linspace(0, n, limit, endpoint=False).astype(np.int64): evenly spread corners
     const double step = static_cast<double>(n) / static_cast<double>(limit);
@@ -549,7 +504,7 @@ class Refiner {
     Span<const double> camera_;
     const MeshRequest& req_;
     ErrorMeasure measure_;
-    std::optional<FirstArrays> first_;  // one strip's first mesh, made when first needed
+    std::optional<StartArrays> first_;  // one strip's first mesh, made when first needed
     bool strips_;                       // the next meshing is on two strips
     MeshResult out_;
     index_t insertions_ = 0, flips_ = 0;  // of the last meshing
@@ -560,7 +515,7 @@ class Refiner {
 MeshResult Refiner::run() {
     MeshResult out = req_.max_error < 0.0 ? by_count() : by_error();
     if (!empty_ || (!req_.walls && empty_walls_ > 0)) return out;
-    std::optional<FirstArrays> hull = hull_mesh(image_, req_.vertices, req_.sr, req_.sc);
+    std::optional<StartArrays> hull = hull_mesh(image_, req_.vertices, req_.sr, req_.sc);
     if (!hull) return out;  // declined: no triangle of valid pixels (Python names the reason)
     first_ = std::move(hull);
     strips_ = false;

@@ -141,13 +141,13 @@ def distortion_rays(k, d, model: str, shape, *, depth_scale: float = 1.0, where:
     d = np.asarray(d, dtype=np.float64).ravel()
     if not np.isfinite(d).all():
         raise ValueError(f"{where}: distortion_coefficients must be finite numbers")
+    fx, s, cx, fy, cy = k[0, 0], k[0, 1], k[0, 2], k[1, 1], k[1, 2]
+    if not d.any() and s == 0:  # any model without distortion is the pinhole
+        return Pinhole(fx, fy, cx, cy, depth_scale=depth_scale)
     kind = DISTORTION_MODELS.get(str(model).strip().lower())
     if kind is None:
         raise ValueError(f"{where}: distortion_model {model!r} is not one of "
                          f"{', '.join(sorted(DISTORTION_MODELS))}")
-    fx, s, cx, fy, cy = k[0, 0], k[0, 1], k[0, 2], k[1, 1], k[1, 2]
-    if not d.any() and s == 0:
-        return Pinhole(fx, fy, cx, cy, depth_scale=depth_scale)
     if kind == "brown":
         if d.size not in (0, 4, 5, 8) and not (d.size in (12, 14) and not d[8:].any()):
             raise ValueError(f"{where}: distortion_coefficients has {d.size} values; "

@@ -207,3 +207,17 @@ def test_undistortion_inverts_a_strong_lens_at_the_corners():
     corner = math.hypot(ray[0, 0, 0] / ray[0, 0, 2] * 60, ray[0, 0, 1] / ray[0, 0, 2] * 60)
     # barrel distortion: the corner's ray lies further out, by 1/radial (0.866 at r = 2/3)
     assert corner > 45.0
+
+
+def test_depth_rays_lift_a_stored_depth_to_that_z(shared_data):
+    # z_depth: the kernels lift a stored depth to z = depth x scale, not to a range along a unit ray
+    img = rangemesh.read_range_image(shared_data / "rgbd" / "open3d_TUM_depth.png")
+    r, c = np.mgrid[0:img.shape[0], 0:img.shape[1]].astype(np.float64)
+    rays = np.stack([(c - 319.5) / 525.0, (r - 239.5) / 525.0, np.ones_like(r)], axis=-1)
+    mesh = triangulate(img, camera=Rays(rays, 0.0002, z_depth=True), vertices=1000,
+                       heights="pixel")  # each vertex at its pixel's own depth
+    p = mesh.pixels
+    z = img[p[:, 0], p[:, 1]] * 0.0002
+    np.testing.assert_allclose(mesh.vertices[:, 2], z, rtol=1e-12)
+    np.testing.assert_allclose(mesh.vertices[:, 0], (p[:, 1] - 319.5) / 525.0 * z, rtol=1e-12,
+                               atol=1e-15)

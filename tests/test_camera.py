@@ -221,3 +221,6 @@ def test_depth_rays_lift_a_stored_depth_to_that_z(shared_data):
     np.testing.assert_allclose(mesh.vertices[:, 2], z, rtol=1e-12)
     np.testing.assert_allclose(mesh.vertices[:, 0], (p[:, 1] - 319.5) / 525.0 * z, rtol=1e-12,
                                atol=1e-15)
+    # and the rendering the error is measured on predicts stored depths, not ranges
+    depth, _ = rangemesh.render_depth(mesh)
+    np.testing.assert_allclose(depth[p[:, 0], p[:, 1]], img[p[:, 0], p[:, 1]], rtol=1e-9)

@@ -168,7 +168,7 @@ class Frame:
 
 @functools.lru_cache(maxsize=8)
 def _rays(k, d, model, height, width, depth_scale, topic):
-    """A CameraInfo's rays, made once for all the frames of its topic (a VGA frame: ~0.2 s)."""
+    """A CameraInfo's rays, made once for all the frames of its topic, not once a frame."""
     return distortion_rays(k, d, model, (height, width), depth_scale=depth_scale, where=topic)
 
 

@@ -9,6 +9,7 @@ import json
 import struct
 import subprocess
 import sys
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -308,12 +309,21 @@ def test_camera_info_topics_equally_near_are_refused_or_chosen(tmp_path, frames)
         assert f.camera == pinhole(0.001)
 
 
-def test_distortion_is_named_in_one_warning(tmp_path, frames):
+def test_a_distorted_camera_info_meshes_with_its_exact_rays(tmp_path, frames):
+    # issue 41: CameraInfo.D is no longer meshed as if rectified
+    from rangemesh.camera_files import distortion_rays
+
+    d = (0.1, -0.02, 0.001, 0.0, 0.0)
     path = write_bag(tmp_path / "d.bag", [image_topic([mm(frames[0][0])], "16UC1"),
-                                          info_topic(d=(0.1, -0.02, 0.0, 0.0, 0.0))], "ros1")
-    with pytest.warns(UserWarning, match="plumb_bob") as said:
-        out = list(mesh_bag(path, vertices=N))
-    assert len(said) == 1 and len(out) == 1
+                                          info_topic(d=d)], "ros1")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        ((_, _, got),) = list(mesh_bag(path, vertices=N))
+    fx, fy, cx, cy = K_TUM
+    cam = distortion_rays([[fx, 0, cx], [0, fy, cy], [0, 0, 1]], d, "plumb_bob", (480, 640),
+                          depth_scale=0.001)
+    assert isinstance(got.camera, rangemesh.Rays) and got.camera == cam
+    same_mesh(got, rangemesh.triangulate(mm(frames[0][0]), camera=cam, background=0, vertices=N))
 
 
 # ---------------------------------------------------------------- errors in one line

@@ -139,14 +139,23 @@ class _RayCamera:
         """The image shape ``(H, W)`` the camera is made for."""
         return self.directions.shape[:2]
 
+    @property
+    def lifts(self) -> np.ndarray:
+        """What a stored value is multiplied by, per pixel: ``point = value * range_scale * lifts``.
+
+        The unit rays, or with ``Rays(..., z_depth=True)`` the rays scaled to ``z = 1``.
+        """
+        return self.directions
+
     def as_array(self) -> np.ndarray:
         """Parameters packed for the kernels: ``[2, H, W, range_scale, 0, 0, rays...]``."""
         h, w = self.shape
-        return np.concatenate([[RAYS, h, w, self.range_scale, 0.0, 0.0], self.directions.ravel()])
+        return np.concatenate([[RAYS, h, w, self.range_scale, 0.0, 0.0], self.lifts.ravel()])
 
     def __eq__(self, other):
         # to 1e-9 (degrees, or ray components): a camera read back from a file's text is equal
         return (type(self) is type(other) and self.range_scale == other.range_scale
+                and getattr(self, "z_depth", False) == getattr(other, "z_depth", False)
                 and all(a.shape == b.shape and np.allclose(a, b, rtol=0.0, atol=1e-9)
                         for a, b in zip(self._key(), other._key(), strict=True)))
 
@@ -306,10 +315,17 @@ class Rays(_RayCamera):
         The ray of each pixel (normalised here; none may be zero).
     range_scale : float, default 1.0
         Multiplier from stored range values to 3-D units.
+    z_depth : bool, default False
+        True when the stored values are depths along the optical axis (Z, as
+        depth cameras store them) rather than distances along the ray: then
+        ``point = value * range_scale * ray / ray_z``, and every ray must
+        point forward (``ray_z > 0``). `rangemesh.read_camera` makes these
+        for a depth camera with lens distortion.
     """
 
     directions: np.ndarray
     range_scale: float = 1.0
+    z_depth: bool = False
 
     def __post_init__(self):
         if np.iscomplexobj(self.directions):
@@ -332,6 +348,21 @@ class Rays(_RayCamera):
         d.setflags(write=False)
         object.__setattr__(self, "directions", d)
         object.__setattr__(self, "range_scale", _positive("range_scale", self.range_scale))
+        if not isinstance(self.z_depth, (bool, np.bool_)):
+            raise TypeError(f"z_depth must be True or False, got {self.z_depth!r}")
+        object.__setattr__(self, "z_depth", bool(self.z_depth))
+        if self.z_depth:
+            # a depth along the optical axis lifts a ray only if it points forward
+            if not (d[..., 2] > 1e-12).all():
+                raise ValueError("with z_depth=True every ray must point forward (z > 0)")
+            lifts = d / d[..., 2:3]
+            lifts.setflags(write=False)
+            object.__setattr__(self, "_lifts", lifts)
+
+    @property
+    def lifts(self) -> np.ndarray:
+        """What a stored value is multiplied by, per pixel (see `_RayCamera.lifts`)."""
+        return self._lifts if self.z_depth else self.directions
 
     def _key(self):
         return (self.directions,)
@@ -503,7 +534,7 @@ def backproject(r, c, z, camera=None) -> np.ndarray:
                         or ri.min() < 0 or ri.max() >= h or ci.min() < 0 or ci.max() >= w):
             raise ValueError(f"a per-pixel camera maps whole pixels of its {h}x{w} image only")
         s = np.asarray(z, dtype=np.float64) * camera.range_scale
-        return s[..., None] * camera.directions[ri.astype(np.int64), ci.astype(np.int64)]
+        return s[..., None] * camera.lifts[ri.astype(np.int64), ci.astype(np.int64)]
     r = np.asarray(r, dtype=np.float64)
     c = np.asarray(c, dtype=np.float64)
     z = np.asarray(z, dtype=np.float64)

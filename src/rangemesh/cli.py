@@ -126,9 +126,14 @@ def _add_camera_options(p):
     c.add_argument("--intrinsics", type=_floats(4), metavar="FX,FY,CX,CY", default=None,
                    help="pinhole depth camera; vertices become camera-frame points "
                         "((c-cx)Z/fx, (r-cy)Z/fy, Z)")
+    c.add_argument("--camera", metavar="FILE", default=None,
+                   help="pinhole depth camera from a calibration file: ROS camera_info YAML, "
+                        "OpenCV YAML/XML, Open3D intrinsics JSON; lens distortion (plumb_bob, "
+                        "equidistant) gives exact per-pixel rays")
     c.add_argument("--depth-scale", type=float, default=None,
-                   help="with --intrinsics: Z = stored value x this (0.001 for mm, 0.0002 for "
-                        "TUM); with --beams: range = stored value x this")
+                   help="with --intrinsics or --camera: Z = stored value x this (0.001 for mm, "
+                        "0.0002 for TUM; needed for integer images); with --beams: range = "
+                        "stored value x this")
     c.add_argument("--beams", metavar="FILE.json", default=None,
                    help="spinning LiDAR: a spherical camera from a beams file (elevation per "
                         "row, azimuth per column; see docs/method.md); vertices = range x ray")
@@ -298,7 +303,23 @@ def _camera(args, image_shape=None):
         raise UserError(str(exc)) from None
 
 
-def _make_camera(args, image_shape=None):
+def _check_depth_scale(args, image) -> None:
+    """A metric camera on an integer image needs the metres per stored value (issue 41)."""
+    if args.depth_scale is None and image.dtype.kind in "iu":
+        for opt in ("intrinsics", "camera"):
+            if getattr(args, opt, None) is not None:
+                raise UserError(f"--{opt} on an integer image needs --depth-scale (metres per "
+                                f"stored value: 0.001 for millimetres, 0.0002 for TUM)")
+
+
+def _make_camera(args, image_shape=None, depth_scale=None):
+    if args.camera is not None:
+        if any(getattr(args, o) is not None for o in ("beams", "intrinsics", "scale")):
+            raise UserError("--camera, --beams, --intrinsics and --scale exclude each other")
+        from .camera_files import read_camera
+
+        scale = depth_scale or (1.0 if args.depth_scale is None else args.depth_scale)
+        return read_camera(args.camera, depth_scale=scale, image_shape=image_shape)
     if args.beams is not None:
         if args.intrinsics is not None or args.scale is not None:
             raise UserError("--beams, --intrinsics and --scale exclude each other")
@@ -307,10 +328,11 @@ def _make_camera(args, image_shape=None):
     if args.intrinsics is not None:
         if args.scale is not None:
             raise UserError("--scale and --intrinsics exclude each other")
-        scale = 1.0 if args.depth_scale is None else args.depth_scale
+        scale = depth_scale or (1.0 if args.depth_scale is None else args.depth_scale)
         return Pinhole(*args.intrinsics, depth_scale=scale)
     if args.depth_scale is not None:
-        raise UserError("--depth-scale goes with --intrinsics (use --scale for orthographic)")
+        raise UserError("--depth-scale goes with --intrinsics or --camera (use --scale for "
+                        "orthographic)")
     if args.scale is not None:
         return Orthographic(*args.scale)
     return Orthographic()
@@ -391,6 +413,7 @@ def _mesh_lines(mesh, ev, outputs):
 
 def _run_mesh(args, image, name, bg, outputs_for):
     params, method, tiles_given = _resolve(args)
+    _check_depth_scale(args, image)
     camera = _camera(args, image.shape)
     bg = _resolve_background(bg, image, camera)
     with _progress(args, 4, f"meshing {name}") as bar:
@@ -408,7 +431,9 @@ def _run_mesh(args, image, name, bg, outputs_for):
         out, preview = outputs_for
         mesh = _with_colors(args, mesh, name)
         if out:
-            write_mesh(mesh, out, ascii=args.ascii, pixels=args.pixels)
+            # a ray table cannot map vertices back to pixels: the file keeps them (--camera)
+            write_mesh(mesh, out, ascii=args.ascii,
+                       pixels=args.pixels or getattr(camera, "z_depth", False))
             written.append(out)
         bar.update(1)
         if preview:
@@ -554,7 +579,8 @@ def _cmd_info(args):
     if is_recording(args.image):
         return _info_recording(args)
     image = _read_image(args.image)
-    given = any(x is not None for x in (args.scale, args.intrinsics, args.depth_scale, args.beams))
+    given = any(x is not None for x in (args.scale, args.intrinsics, args.depth_scale, args.beams,
+                                         args.camera))
     bg = _resolve_background(args.background, image, _camera(args, image.shape) if given else None)
     depth, valid = to_depth_and_mask(image, bg)
     info = {
@@ -591,7 +617,9 @@ def _cmd_info(args):
 
 def _cmd_eval(args):
     image = _read_scan(args)  # an image file, or a LiDAR .bin with --beams, as `mesh` reads
-    given = any(x is not None for x in (args.scale, args.intrinsics, args.depth_scale, args.beams))
+    given = any(x is not None for x in (args.scale, args.intrinsics, args.depth_scale, args.beams,
+                                         args.camera))
+    _check_depth_scale(args, image)
     camera = _camera(args, image.shape) if given else None  # None: the camera the file records
     try:
         mesh = read_mesh(args.mesh, camera=camera, image_shape=image.shape)
@@ -617,6 +645,20 @@ def _cmd_batch(args):
 
     params, method, _ = _resolve(args)
     camera = _camera(args)
+    if _recording_input(args) is None and args.depth_scale is None \
+            and (args.intrinsics is not None or args.camera is not None):
+        from .batch import expand_inputs
+
+        try:  # the first image stands for the batch: its files are one sensor's
+            first = expand_inputs(args.inputs)[:1]
+        except (OSError, ValueError):
+            first = []  # mesh_many reports unreadable inputs one by one
+        try:
+            image = _read_image(first[0]) if first else None
+        except (UserError, MemoryError):
+            image = None  # mesh_many reports it as that input's failure
+        if image is not None:
+            _check_depth_scale(args, image)
     bg = args.background
     bg = None if bg in ("none", "nan") else bg  # 'auto' is resolved image by image, by the camera
     t0 = time.perf_counter()
@@ -678,11 +720,15 @@ def _mesh_recording(args, path, params, method):
     from .recordings import Recording, mesh_recording
 
     camera = None
-    if args.intrinsics is not None and args.depth_scale is None:
+    if (args.intrinsics is not None or args.camera is not None) and args.depth_scale is None:
         with Recording(path) as rec:  # metres per value from the encoding, as with a CameraInfo
             scale = rec.depth_topic(args.topic).depth_scale
-        camera = Pinhole(*args.intrinsics, depth_scale=scale)
-    elif any(x is not None for x in (args.intrinsics, args.scale, args.beams, args.depth_scale)):
+        try:
+            camera = _make_camera(args, depth_scale=scale)
+        except (ValueError, TypeError) as exc:
+            raise UserError(str(exc)) from None
+    elif any(x is not None for x in (args.intrinsics, args.scale, args.beams, args.depth_scale,
+                                     args.camera)):
         camera = _camera(args)
     out = Path(args.output_dir)
     with warnings.catch_warnings(record=True) as said:

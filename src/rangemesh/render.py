@@ -64,7 +64,8 @@ def render_depth(mesh: Mesh, shape: tuple[int, int] | None = None, *,
     plane (closed triangles; on a shared edge the first face in order wins).
     With an orthographic camera depth is interpolated linearly; with a pinhole
     camera inverse depth is, which is the exact intersection of the pixel's ray
-    with the flat 3-D triangle; with `Spherical` and `Rays` cameras the range
+    with the flat 3-D triangle (so is that of a ``Rays(..., z_depth=True)``
+    camera's depth); with `Spherical` and `Rays` cameras the range
     is interpolated linearly. Seam faces of a wrap-around mesh
     (`rangemesh.geometry.seam`) cover no pixel centre and are skipped.
 
@@ -108,6 +109,10 @@ def render_depth(mesh: Mesh, shape: tuple[int, int] | None = None, *,
         if stored:
             with np.errstate(divide="ignore"):
                 val = cam.depth_scale / z
+    elif getattr(cam, "z_depth", False):
+        # depths along the axis, as a pinhole's: their inverse is interpolated
+        with np.errstate(divide="ignore"):
+            val = cam.range_scale / z
     else:
         val = np.linalg.norm(mesh.vertices, axis=1) / cam.range_scale
     f = mesh.faces
@@ -134,6 +139,10 @@ def render_depth(mesh: Mesh, shape: tuple[int, int] | None = None, *,
                 np.divide(1.0, o, out=o)
                 if not stored:
                     np.divide(o, cam.depth_scale, out=o)
+    elif getattr(cam, "z_depth", False):
+        with np.errstate(divide="ignore", invalid="ignore"):
+            for b in blocks(h, per=w):
+                np.divide(1.0, out[b], out=out[b])
     return out, face
 
 

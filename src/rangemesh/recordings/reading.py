@@ -9,6 +9,7 @@ topic, and yields `Frame` objects: a message's header and its undecoded
 
 from __future__ import annotations
 
+import functools
 import os
 import warnings
 from collections.abc import Iterator
@@ -19,6 +20,7 @@ import numpy as np
 
 from .._optional import require
 from ..camera import Pinhole
+from ..camera_files import DISTORTION_MODELS, distortion_rays
 from .decode import DEPTH_SCALES, Payload, depth_shape, is_depth, payload_of
 
 __all__ = ["Recording", "Frame", "ImageTopic", "CameraInfo", "is_recording",
@@ -112,6 +114,19 @@ class CameraInfo:
                              f"matrix (fx and fy must be positive); give --intrinsics")
         return Pinhole(self.k[0], self.k[4], self.k[2], self.k[5], depth_scale=depth_scale)
 
+    def camera(self, depth_scale: float):
+        """`pinhole`, or with non-zero ``D`` of a known model the exact per-pixel `Rays`.
+
+        The rays are those of `rangemesh.camera_files.distortion_rays` (each pixel
+        centre undistorted); a model it does not know is meshed as the pinhole
+        (`Recording.frames` warns).
+        """
+        pin = self.pinhole(depth_scale)
+        if not any(self.d) or self.distortion_model.strip().lower() not in DISTORTION_MODELS:
+            return pin
+        return _rays(self.k, self.d, self.distortion_model, self.height, self.width,
+                     depth_scale, self.topic)
+
 
 @dataclass(frozen=True)
 class Frame:
@@ -127,7 +142,7 @@ class Frame:
         When the recording received it, nanoseconds.
     frame_id : str
     depth : Payload
-    camera : Pinhole, Orthographic or None
+    camera : Pinhole, Rays, Orthographic or None
         None when `error` says why there is none.
     color : Payload or None
     error : str
@@ -149,6 +164,12 @@ class Frame:
     def name(self) -> str:
         """``topic@stamp``, naming the frame in reports."""
         return f"{self.topic}@{stamp_text(self.stamp)}"
+
+
+@functools.lru_cache(maxsize=8)
+def _rays(k, d, model, height, width, depth_scale, topic):
+    """A CameraInfo's rays, made once for all the frames of its topic, not once a frame."""
+    return distortion_rays(k, d, model, (height, width), depth_scale=depth_scale, where=topic)
 
 
 def _shared(a: str, b: str) -> int:
@@ -400,10 +421,12 @@ class Recording:
 
     def _warn_distortion(self, topic, shape, info_topic):
         info = self.camera_info(topic, "", 0, shape, info_topic)
-        if info is not None and any(v != 0.0 for v in info.d):
-            warnings.warn(f"{info.topic}: distortion model {info.distortion_model!r} with "
-                          f"non-zero coefficients; the depth is meshed as if rectified",
-                          stacklevel=3)
+        # known models are meshed with exact per-pixel rays (CameraInfo.camera)
+        if info is not None and any(v != 0.0 for v in info.d) \
+                and info.distortion_model.strip().lower() not in DISTORTION_MODELS:
+            warnings.warn(f"{info.topic}: distortion model {info.distortion_model!r} is none "
+                          f"of {', '.join(sorted(DISTORTION_MODELS))}; the depth is meshed as "
+                          f"if rectified", stacklevel=3)
 
     def _warn_unregistered(self, depth_topic, color_topic, shape, info_topic):
         d = self.camera_info(depth_topic, "", 0, shape, info_topic)
@@ -460,7 +483,7 @@ class Recording:
                 info = self.camera_info(topic, frame_id, stamp, shape, info_topic)
                 if info is None:
                     raise ValueError("no CameraInfo of its size and frame id")
-                cam = info.pinhole(DEPTH_SCALES[payload.depth_encoding])
+                cam = info.camera(DEPTH_SCALES[payload.depth_encoding])
             except ValueError as exc:
                 error = _one_line(exc)
         if want_color and color is None and not error:

@@ -51,6 +51,10 @@ class UserError(Exception):
 
 
 class _Parser(argparse.ArgumentParser):
+    def __init__(self, *args, **kwargs):
+        kwargs.setdefault("allow_abbrev", False)  # `--vertice` must not be taken as `--vertices`
+        super().__init__(*args, **kwargs)
+
     def error(self, message):  # one line, not the usage block
         self.exit(2, f"{self.prog}: error: {message}\n")
 
@@ -329,12 +333,26 @@ def _read_image(path) -> np.ndarray:
         raise UserError(str(exc)) from None
 
 
+class _NoBar:
+    """A progress bar that shows nothing: tqdm is not imported when no bar is shown."""
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        return False
+
+    def update(self, n=1):
+        pass
+
+
 def _progress(args, total, desc):
+    if args.quiet or args.json or not sys.stderr.isatty():
+        return _NoBar()
     from tqdm import tqdm
 
     # Shown only when the work takes longer than a second (tqdm's delay).
-    return tqdm(total=total, desc=desc, file=sys.stderr, delay=1.0, leave=False,
-                disable=args.quiet or args.json or not sys.stderr.isatty(), unit="step")
+    return tqdm(total=total, desc=desc, file=sys.stderr, delay=1.0, leave=False, unit="step")
 
 
 def _clean(obj):
@@ -892,7 +910,12 @@ def main(argv=None) -> int:
     when some inputs failed. Ctrl-C, SIGTERM and SIGHUP end the command with
     128 + the signal number (130, 143, 129) after temporary files are removed.
     """
-    args = build_parser().parse_args(argv)
+    parser = build_parser()
+    argv = sys.argv[1:] if argv is None else list(argv)
+    if not argv:  # `rangemesh` alone: the usage, then argparse's missing-command error (status 2)
+        parser.print_usage(sys.stderr)
+        parser.error("give a command: mesh, demo, batch, info or eval (rangemesh -h says more)")
+    args = parser.parse_args(argv)
     commands = {"mesh": _cmd_mesh, "demo": _cmd_demo, "info": _cmd_info, "eval": _cmd_eval,
                 "batch": _cmd_batch}
     t0 = time.perf_counter()

@@ -126,7 +126,8 @@ def _add_image_options(p):
 def _add_camera_options(p):
     c = p.add_argument_group("camera (how pixels become 3-D points)")
     c.add_argument("--scale", type=_floats(3), metavar="KX,KY,KZ", default=None,
-                   help="orthographic, the paper's eq. 4: X=kx*r, Y=ky*c, Z=kz*value (default 1,1,1)")
+                   help="orthographic, the paper's eq. 4: X=kx*r, Y=ky*c, Z=kz*value, r = row, "
+                        "c = column (default 1,1,1)")
     c.add_argument("--intrinsics", type=_floats(4), metavar="FX,FY,CX,CY", default=None,
                    help="pinhole depth camera; vertices become camera-frame points "
                         "((c-cx)Z/fx, (r-cy)Z/fy, Z)")

@@ -448,3 +448,33 @@ def test_quiet_mesh_imports_no_progress_bar(tmp_path):
     p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert p.stdout.split() == ["0", "False"], p.stderr
     assert p.stderr == "" and rangemesh.read_mesh(out).vertices.shape == (200, 3)
+
+
+def test_an_undecodable_png_is_said_to_be_no_png_not_pillow_s_uri(tmp_path, capsys):
+    # issue 41: the cause read "`pillow` can not handle the given uri"
+    import imageio.v3 as iio
+
+    good = tmp_path / "cones.png"  # the committed crop of middlebury/cones_disp2.png
+    iio.imwrite(good, crops()["cones"][0])
+    data = good.read_bytes()
+    text, badsig, junk, damaged = (tmp_path / n for n in ("text.png", "badsig.png", "junk.pgm",
+                                                          "damaged.png"))
+    text.write_text("a depth frame, said in words")
+    badsig.write_bytes(b"\x00" + data[1:])
+    junk.write_bytes(b"not an image at all")
+    idat = data.index(b"IDAT") + 4  # the compressed pixels, past the header the checks read
+    damaged.write_bytes(data[:idat] + bytes(b ^ 0x5A for b in data[idat:-12]) + data[-12:])
+    no_png = ("cannot be decoded as a PNG file: it does not start with the PNG signature (not a "
+              "PNG file, or damaged at its start)")
+    says = {text: no_png, badsig: no_png,
+            junk: "cannot be decoded as a PGM file: Pillow recognises no image format in its bytes "
+                  "(not a PGM file, or damaged)",
+            damaged: "cannot be decoded as a PNG file ("}
+    for f, said in says.items():
+        with pytest.raises(ValueError) as e:
+            read_range_image(f)
+        assert str(e.value).startswith(f"{f}: {said}") and "pillow" not in str(e.value)
+        rc, _, err = run(["mesh", f, "-o", tmp_path / "x.ply"], capsys)
+        assert rc == 2 and err.startswith(f"rangemesh: error: {f}: {said}") and err.count("\n") == 1
+    rc, _, err = run(["mesh", good, "-o", tmp_path / "x.ply", "--color", text], capsys)
+    assert rc == 2 and err == f"rangemesh: error: {good}: --color: {text}: {no_png}\n"

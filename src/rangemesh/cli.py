@@ -663,7 +663,11 @@ def _cmd_batch(args):
         for r in failed:
             print(f"failed: {r.input}: {r.error}", file=sys.stderr)
         med = summary["median_seconds_per_image"]
-        print(f"meshed {summary['meshed']}, skipped {summary['skipped']} (already there), failed "
+        other = summary.get("skipped_not_depth", 0)  # a recording's summary has none
+        why = "already there" if not other else (
+            f"{summary['skipped'] - other} already there, {other} not depth images: colour "
+            f"images or previews")
+        print(f"meshed {summary['meshed']}, skipped {summary['skipped']} ({why}), failed "
               f"{summary['failed']} of {summary['inputs']} in {summary['wall_seconds']:.1f} s "
               f"({summary['images_per_second']:.2f} images/s"
               + (f", median {med:.3f} s per image" if med is not None else "") + ")", file=sys.stderr)

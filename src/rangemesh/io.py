@@ -273,6 +273,10 @@ def pillow_quiet():
         yield
 
 
+class NotDepthImage(ValueError):
+    """An image of several channels (a colour image, a preview): no range image at all."""
+
+
 def _undecodable(path: Path, exc: BaseException) -> ValueError:
     """Why an image file cannot be decoded, named by its format, not by the reader's plumbing.
 
@@ -377,6 +381,9 @@ def read_range_image(path: str | os.PathLike) -> np.ndarray:
         raise ValueError(f"{path}: the file holds no pixel (empty or truncated)")
     if arr.ndim == 3 and arr.shape[2] in (1,):
         arr = arr[:, :, 0]
+    if arr.ndim == 3 and arr.shape[2] > 1:
+        raise NotDepthImage(f"{path}: a range image has one channel; this file holds "
+                            f"{arr.shape[2]} channels of {arr.dtype} (a colour image?)")
     if arr.ndim != 2:
         raise ValueError(f"{path}: a range image has one channel; this file holds an array of shape "
                          f"{arr.shape}")

@@ -191,3 +191,83 @@ def test_one_worker_meshes_in_this_process_without_dask(tmp_path, monkeypatch):
     assert np.array_equal(back.faces, want.faces)
     np.testing.assert_allclose(back.vertices, want.vertices, rtol=1e-6)  # PLY keeps float32
     assert (tmp_path / "out" / "rangemesh-batch.csv").exists()
+
+
+def _csv_rows(path):
+    import csv
+
+    with open(path, newline="") as fh:
+        return list(csv.DictReader(fh))
+
+
+def test_a_folder_batch_skips_colour_images_and_previews_without_failing(shared_data, tmp_path,
+                                                                          capsys):
+    # issue 41: a folder's colour images and previews were counted as failed inputs
+    import shutil
+
+    import imageio.v3 as iio
+
+    src = tmp_path / "in"
+    src.mkdir()
+    iio.imwrite(src / "cones.png", crops()["cones"][0])  # the committed crop of cones_disp2.png
+    shutil.copy(shared_data / "rgbd/slambook2_ch7_1_color.png", src / "color.png")  # 8-bit RGB
+    assert main(["mesh", str(src / "cones.png"), "-o", str(tmp_path / "c.ply"), "--preview",
+                 str(src / "cones-preview.png"), "--vertices", "100", "--quiet"]) == 0
+    capsys.readouterr()
+    rc = main(["batch", str(src), "-o", str(tmp_path / "out"), "--vertices", "100",
+               "--workers", "1"])
+    err = capsys.readouterr().err
+    assert rc == 0, err
+    assert "meshed 1, skipped 2 (0 already there, 2 not depth images: colour images or " \
+           "previews), failed 0 of 3" in err
+    rows = {Path(r["input"]).name: r for r in _csv_rows(tmp_path / "out" / "rangemesh-batch.csv")}
+    assert rows["cones.png"]["status"] == "meshed" and rows["cones.png"]["vertices"] == "100"
+    for name in ("color.png", "cones-preview.png"):
+        assert rows[name]["status"] == "skipped"
+        assert rows[name]["error"].startswith("not a depth image: a range image has one channel; "
+                                              "this file holds ")
+    assert sorted(p.name for p in (tmp_path / "out").glob("*.ply")) == ["cones.ply"]
+    doc = json.loads((tmp_path / "out" / "rangemesh-batch.json").read_text())
+    assert doc["summary"]["failed"] == 0 and doc["summary"]["skipped_not_depth"] == 2
+
+
+def test_a_rerun_with_other_options_refuses_and_the_report_keeps_earlier_rows(tmp_path, capsys):
+    # issue 41: a re-run with other options skipped every file as "already there" and replaced
+    # the CSV with empty "skipped" rows
+    src = tmp_path / "in"
+    src.mkdir()
+    np.save(src / "chair.npy", crops()["chair"][0])  # the committed crop of odetics/chair-range
+    np.save(src / "venus.npy", crops()["venus"][0])
+    out = tmp_path / "out"
+    csv_path, mesh = out / "rangemesh-batch.csv", out / "chair.ply"
+
+    def batch(*argv):
+        rc = main(["batch", *map(str, argv), "-o", str(out), "--workers", "1", "--quiet"])
+        return rc, capsys.readouterr().err
+
+    assert batch(src / "chair.npy", "--vertices", 100) == (0, "")
+    first = _csv_rows(csv_path)
+    assert [(r["status"], r["vertices"]) for r in first] == [("meshed", "100")]
+    # the same options: the mesh is there; its row keeps the figures, a new input's row joins it
+    assert batch(src / "chair.npy", src / "venus.npy", "--vertices", 100) == (0, "")
+    rows = _csv_rows(csv_path)
+    assert rows[0] == first[0]
+    assert [(Path(r["input"]).name, r["status"], r["vertices"]) for r in rows] == [
+        ("chair.npy", "meshed", "100"), ("venus.npy", "meshed", "100")]
+    doc = json.loads((out / "rangemesh-batch.json").read_text())
+    assert doc["summary"]["skipped"] == 1 and doc["summary"]["meshed"] == 1
+    # other options: refused in one line naming --overwrite; nothing written, no row lost
+    report, stamp = csv_path.read_bytes(), mesh.stat().st_mtime_ns
+    rc, err = batch(src / "chair.npy", "--vertices", 200)
+    assert rc == 2 and err.count("\n") == 1
+    assert err.startswith(f"rangemesh: error: {out}: its meshes were made with other options "
+                          f"(vertices 100 then, 200 now); give --overwrite")
+    assert csv_path.read_bytes() == report and mesh.stat().st_mtime_ns == stamp
+    rc, err = batch(src / "chair.npy", "--vertices", 100, "--no-walls")
+    assert rc == 2 and "walls default then, False now" in err, err
+    # --overwrite meshes again with the new options and keeps the other input's row
+    assert batch(src / "chair.npy", "--vertices", 200, "--overwrite") == (0, "")
+    rows = _csv_rows(csv_path)
+    assert sorted((Path(r["input"]).name, r["status"], r["vertices"]) for r in rows) == [
+        ("chair.npy", "meshed", "200"), ("venus.npy", "meshed", "100")]
+    assert rangemesh.read_mesh(mesh).vertices.shape == (200, 3)

@@ -397,3 +397,84 @@ def test_a_png_past_pillow_s_bomb_limit_reads_without_its_warning(tmp_path, caps
         assert err.startswith(f"rangemesh: error: not enough memory ({png}: a 40x50 image needs "
                               f"about "), err
     assert opened == []
+
+
+# ---------------------------------------------------------------- the parser (issue 41)
+
+
+def test_an_abbreviated_option_is_an_error_not_the_long_option(tmp_path, capsys):
+    # issue 41: argparse's prefix matching took `--vertice 500` as `--vertices 500`
+    src = tmp_path / "chair.npy"  # the committed crop of odetics/chair-range
+    np.save(src, crops()["chair"][0])
+    out = tmp_path / "c.ply"
+    cases = [(["mesh", src, "-o", out, "--vertice", "500"], "--vertice"),
+             (["batch", src, "-o", tmp_path / "b", "--vertice", "500"], "--vertice"),
+             (["demo", "-o", out, "--preview", tmp_path / "p.png", "--quie"], "--quie"),
+             (["info", src, "--jso"], "--jso"),
+             (["eval", src, out, "--jso"], "--jso"),
+             (["--vers"], "")]  # argparse names the missing command; --version would exit 0
+    for argv, typed in cases:
+        with pytest.raises(SystemExit) as e:
+            main([str(a) for a in argv])
+        o, err = capsys.readouterr()
+        assert e.value.code == 2 and o == "", argv
+        assert err.startswith("rangemesh") and typed in err and "error:" in err, err
+    assert not out.exists() and not (tmp_path / "b").exists()
+
+
+def test_rangemesh_alone_prints_the_usage_and_exits_2(capsys):
+    # issue 41: `rangemesh` alone printed one error line and no usage
+    with pytest.raises(SystemExit) as e:
+        main([])
+    out, err = capsys.readouterr()
+    assert e.value.code == 2 and out == ""
+    usage, error = err.splitlines()[0], err.strip().splitlines()[-1]
+    assert usage.startswith("usage: rangemesh ")
+    for command in ("mesh", "demo", "batch", "info", "eval"):
+        assert command in err
+    assert error.startswith("rangemesh: error: ")
+    p = subprocess.run([sys.executable, "-m", "rangemesh"], capture_output=True, text=True)
+    assert p.returncode == 2 and p.stdout == "" and p.stderr.startswith("usage: rangemesh ")
+
+
+def test_quiet_mesh_imports_no_progress_bar(tmp_path):
+    # issue 41: tqdm was imported (and a disabled bar built) even with --quiet
+    src = tmp_path / "chair.npy"
+    np.save(src, crops()["chair"][0])
+    out = tmp_path / "c.ply"
+    code = ("import sys; from rangemesh.cli import main; "
+            f"rc = main(['mesh', {str(src)!r}, '-o', {str(out)!r}, '--vertices', '200', '--quiet']); "
+            "print(rc, 'tqdm' in sys.modules)")
+    p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert p.stdout.split() == ["0", "False"], p.stderr
+    assert p.stderr == "" and rangemesh.read_mesh(out).vertices.shape == (200, 3)
+
+
+def test_an_undecodable_png_is_said_to_be_no_png_not_pillow_s_uri(tmp_path, capsys):
+    # issue 41: the cause read "`pillow` can not handle the given uri"
+    import imageio.v3 as iio
+
+    good = tmp_path / "cones.png"  # the committed crop of middlebury/cones_disp2.png
+    iio.imwrite(good, crops()["cones"][0])
+    data = good.read_bytes()
+    text, badsig, junk, damaged = (tmp_path / n for n in ("text.png", "badsig.png", "junk.pgm",
+                                                          "damaged.png"))
+    text.write_text("a depth frame, said in words")
+    badsig.write_bytes(b"\x00" + data[1:])
+    junk.write_bytes(b"not an image at all")
+    idat = data.index(b"IDAT") + 4  # the compressed pixels, past the header the checks read
+    damaged.write_bytes(data[:idat] + bytes(b ^ 0x5A for b in data[idat:-12]) + data[-12:])
+    no_png = ("cannot be decoded as a PNG file: it does not start with the PNG signature (not a "
+              "PNG file, or damaged at its start)")
+    says = {text: no_png, badsig: no_png,
+            junk: "cannot be decoded as a PGM file: Pillow recognises no image format in its bytes "
+                  "(not a PGM file, or damaged)",
+            damaged: "cannot be decoded as a PNG file ("}
+    for f, said in says.items():
+        with pytest.raises(ValueError) as e:
+            read_range_image(f)
+        assert str(e.value).startswith(f"{f}: {said}") and "pillow" not in str(e.value)
+        rc, _, err = run(["mesh", f, "-o", tmp_path / "x.ply"], capsys)
+        assert rc == 2 and err.startswith(f"rangemesh: error: {f}: {said}") and err.count("\n") == 1
+    rc, _, err = run(["mesh", good, "-o", tmp_path / "x.ply", "--color", text], capsys)
+    assert rc == 2 and err == f"rangemesh: error: {good}: --color: {text}: {no_png}\n"

@@ -87,6 +87,35 @@ def test_readme_has_examples():
         assert len(prints) == len(expected_prints(code)), prints
 
 
+def test_readme_and_docstrings_state_the_orthographic_axes_the_code_uses():
+    # issue 41: the README said x = column, y = row; eq. 4 of the paper, X = kx*r, Y = ky*c
+    import numpy as np
+
+    import rangemesh
+    from rangemesh.camera import Orthographic, backproject
+    from rangemesh.cli import build_parser
+
+    from .golden import crops
+
+    text = README.read_text(encoding="utf-8")
+    said = re.search(r"`Orthographic\(kx, ky, kz\)`[^)]*?x = (row|column), y = (row|column)", text)
+    assert said, "the README states Orthographic's axes"
+    # by hand: pixel row 4, column 1, depth 7 with kx = 1, ky = 10, kz = 1
+    by_axis = {"row": 4.0, "column": 10.0}
+    want = [by_axis[said[1]], by_axis[said[2]], 7.0]
+    assert backproject([4], [1], [7.0], Orthographic(1, 10, 1)).tolist() == [want]
+    doc = Orthographic.__doc__
+    assert "X = kx*r, Y = ky*c" in doc and f"x along the {said[1]}s" in doc.replace("\n", " ")
+    scale_help = next(a.help for a in build_parser()._subparsers._group_actions[0]
+                      .choices["mesh"]._actions if "--scale" in a.option_strings)
+    assert "X=kx*r, Y=ky*c" in scale_help and "r = row" in scale_help
+    # a real mesh with the default camera: x is each vertex's row, y its column
+    mesh = rangemesh.triangulate(crops()["chair"][0], vertices=200)
+    axis = {"row": 0, "column": 1}
+    assert np.array_equal(mesh.vertices[:, 0], mesh.pixels[:, axis[said[1]]])
+    assert np.array_equal(mesh.vertices[:, 1], mesh.pixels[:, axis[said[2]]])
+
+
 def test_ci_runs_the_quick_start():
     """CI installs and tests with the README's own quick-start command."""
     quick = next(code for lang, code in EXAMPLES if "pip install" in code)

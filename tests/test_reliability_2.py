@@ -280,7 +280,8 @@ def test_e15_a_glob_over_the_output_folder_gives_the_same_inputs_every_run(tmp_p
     assert names == ["c0.npy", "c0.ply", "c1.npy", "c1.ply", "rangemesh-batch.csv",
                      "rangemesh-batch.json"]
     report = json.loads((g / "rangemesh-batch.json").read_text())
-    assert [r["status"] for r in report["results"]] == ["skipped", "skipped"]  # a re-run skips
+    assert report["summary"]["skipped"] == 2  # a re-run skips, and keeps the rows of the meshes
+    assert [r["status"] for r in report["results"]] == ["meshed", "meshed"]
 
 
 def test_e16_a_running_batchs_temp_files_are_left_alone(tmp_path):

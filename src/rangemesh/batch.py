@@ -35,6 +35,7 @@ from .io import (
     IMAGE_SUFFIXES,
     MESH_SUFFIXES,
     SCAN_SUFFIX,
+    NotDepthImage,
     atomic_path,
     bin_layout,
     part_owner,
@@ -113,8 +114,8 @@ class BatchResult:
 
     input: str
     output: str
-    status: str  # 'meshed', 'skipped' (output already there) or 'failed'
-    error: str = ""
+    status: str  # 'meshed', 'skipped' (output already there, or not a depth image) or 'failed'
+    error: str = ""  # why it failed, or why it was skipped when not for its output
     vertices: int = 0
     triangles: int = 0
     flipped_edges: int = 0
@@ -123,6 +124,7 @@ class BatchResult:
 
 
 REPORT_NAMES = ("rangemesh-batch.csv", "rangemesh-batch.json")
+NOT_DEPTH = "not a depth image"  # a skipped row's reason when the input is no range image
 
 
 def _not_an_output(path: Path) -> bool:
@@ -249,7 +251,11 @@ def _one(path: str, out: str, call: dict, background, camera, overwrite: bool,
     if not overwrite and Path(out).exists():
         return BatchResult(path, out, "skipped")
     try:
-        img = read_scan(path, layout)
+        try:
+            img = read_scan(path, layout)
+        except NotDepthImage as exc:  # a colour image or a preview in the folder: not an input
+            why = str(exc).removeprefix(f"{path}: ")
+            return BatchResult(path, out, "skipped", error=f"{NOT_DEPTH}: {why}")
         mesh = triangulate(img, background=background, camera=camera, **call)
         if mesh.is_empty:
             raise ValueError(f"nothing to mesh: {mesh.stats.reason}")
@@ -433,7 +439,10 @@ def mesh_many(paths, out_dir, params: MeshParams | None = None, *,
         `workers` are processes everywhere in rangemesh; `threads` is the
         in-call thread count of the paper's method.
     overwrite : bool, default False
-        Mesh again files whose output already exists.
+        Mesh again files whose output already exists. Without it, a batch
+        into a folder whose report records other options (method, targets,
+        options, background, camera, format) is refused with a ValueError
+        naming them: the meshes there would be skipped as done.
     fmt : str, default '.ply'
         Output format, one of ``MESH_SUFFIXES``.
     progress : bool, default False
@@ -450,7 +459,11 @@ def mesh_many(paths, out_dir, params: MeshParams | None = None, *,
     -------
     list of BatchResult
         In input order. Inputs that share a stem are written under their
-        whole file name (``x.png.ply``); see `output_paths`.
+        whole file name (``x.png.ply``); see `output_paths`. An image of
+        several channels (a colour image, a preview) is ``'skipped'``, its
+        `error` saying it is not a depth image; it is no failure. The report
+        keeps earlier runs' rows: of other inputs, and of inputs skipped
+        because their mesh is there.
 
     Raises
     ------
@@ -484,6 +497,11 @@ def mesh_many(paths, out_dir, params: MeshParams | None = None, *,
     if beams is not None and any(f.suffix.lower() == SCAN_SUFFIX for f in files):
         layout = bin_layout(beams)  # checked before any work
     out_dir = Path(out_dir)
+    record = _options_record(call, background, camera, fmt, beams)
+    earlier = _earlier_report(out_dir)
+    before = earlier.get("options")
+    if before is not None and before != record and not overwrite:
+        raise ValueError(_other_options(out_dir, before, record))
     out_dir.mkdir(parents=True, exist_ok=True)
     _clean_stale_parts(out_dir)
     outs = output_paths(files, out_dir, fmt)
@@ -511,8 +529,69 @@ def mesh_many(paths, out_dir, params: MeshParams | None = None, *,
         if bar is not None:
             bar.close()
     ordered = [results[i] for i in range(len(files))]
-    write_report(ordered, out_dir, time.perf_counter() - t0)
+    write_report(_report_rows(earlier.get("results", ()), ordered), out_dir,
+                 time.perf_counter() - t0, counted=ordered, options=record)
     return ordered
+
+
+def _options_record(call: dict, background, camera, fmt: str, beams) -> dict:
+    """What a batch's meshes are made with, as JSON holds it: compared on a re-run."""
+    import hashlib
+
+    def value(v):
+        if hasattr(v, "tobytes"):  # a per-pixel camera's arrays: their digest, not their numbers
+            return "sha256:" + hashlib.sha256(v.tobytes()).hexdigest()[:16]
+        return v
+
+    cam = camera
+    fields = getattr(cam, "__dataclass_fields__", {})
+    mesh_options = {k: v for k, v in call.items() if k != "threads"}  # any count: the same mesh
+    record = {**mesh_options, "background": background, "format": fmt,
+              "beams": None if beams is None else str(beams),
+              "camera": None if cam is None else
+              {"type": type(cam).__name__, **{k: value(getattr(cam, k)) for k in fields}}}
+    return json.loads(json.dumps(record, default=str))  # tuples as lists, as read back
+
+
+def _earlier_report(out_dir: Path) -> dict:
+    """The JSON report of an earlier batch into `out_dir` ({} if none, or unreadable)."""
+    try:
+        doc = json.loads((out_dir / REPORT_NAMES[1]).read_text())
+    except (OSError, ValueError):
+        return {}
+    return doc if isinstance(doc, dict) else {}
+
+
+def _other_options(out_dir: Path, before: dict, now: dict) -> str:
+    """One line: the folder's meshes were made with other options, which, and what to do."""
+    keys = [k for k in {**before, **now} if before.get(k) != now.get(k)]
+    def said_of(record, k):  # an option left out of a record is at its default
+        return repr(record[k]) if k in record else "default"
+
+    said = "; ".join(f"{k} {said_of(before, k)} then, {said_of(now, k)} now" for k in keys[:3])
+    more = f" and {len(keys) - 3} more" if len(keys) > 3 else ""
+    return (f"{out_dir}: its meshes were made with other options ({said}{more}); give --overwrite "
+            f"(overwrite=True) to mesh again with these, or another output folder")
+
+
+def _report_rows(rows, results: list[BatchResult]) -> list[BatchResult]:
+    """The report's rows: earlier runs' rows of other outputs, then this run's.
+
+    An input skipped because its output is already there keeps its earlier row, which holds the
+    figures of its mesh.
+    """
+    fields = BatchResult.__dataclass_fields__
+    earlier = {}
+    for row in rows if isinstance(rows, list) else ():
+        if isinstance(row, dict) and {"input", "output", "status"} <= row.keys():
+            r = BatchResult(**{k: v for k, v in row.items() if k in fields})
+            if r.relative_error is None:  # JSON's null for NaN
+                r.relative_error = float("nan")
+            earlier[r.output] = r
+    now = {r.output for r in results}
+    kept = [r for out, r in earlier.items() if out not in now]
+    return kept + [earlier.get(r.output, r) if r.status == "skipped" and not r.error else r
+                   for r in results]
 
 
 def _gather(done, results: dict, bar) -> None:
@@ -533,6 +612,8 @@ def summarize(results: list[BatchResult], wall: float) -> dict:
         "inputs": len(results),
         "meshed": len(done),
         "skipped": sum(r.status == "skipped" for r in results),
+        "skipped_not_depth": sum(r.status == "skipped" and r.error.startswith(NOT_DEPTH)
+                                 for r in results),
         "failed": sum(r.status == "failed" for r in results),
         "wall_seconds": wall,
         "images_per_second": len(done) / wall if wall > 0 else float("nan"),
@@ -542,10 +623,14 @@ def summarize(results: list[BatchResult], wall: float) -> dict:
 
 
 def write_report(results: list[BatchResult], out_dir: Path, wall: float,
-                 names: tuple[str, str] = REPORT_NAMES):
+                 names: tuple[str, str] = REPORT_NAMES, *, counted: list[BatchResult] | None = None,
+                 options: dict | None = None):
     """``rangemesh-batch.csv`` (one row per input) and ``rangemesh-batch.json`` (with the summary).
 
     `names` gives other names to the two files (a recording's batch names them after its output).
+    `counted` are the results the summary counts (default `results`: a re-run's report keeps
+    earlier rows, its summary counts this run); `options`, what the meshes were made with, goes
+    into the JSON file.
     """
     rows = [asdict(r) for r in results]
     fields = list(BatchResult.__dataclass_fields__)
@@ -555,6 +640,8 @@ def write_report(results: list[BatchResult], out_dir: Path, wall: float,
         w.writerows(rows)
     clean = [{k: (None if isinstance(v, float) and v != v else v) for k, v in r.items()}
              for r in rows]  # JSON has no NaN
-    doc = {"summary": summarize(results, wall), "results": clean}
+    doc = {"summary": summarize(results if counted is None else counted, wall), "results": clean}
+    if options is not None:
+        doc["options"] = options
     with atomic_path(out_dir / names[1]) as tmp:
         tmp.write_text(json.dumps(doc, indent=1))

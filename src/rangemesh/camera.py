@@ -40,6 +40,9 @@ def _positive(name, value, allow_negative=False):
 class Orthographic:
     """The paper's mapping, eq. (4): ``X = kx*r, Y = ky*c, Z = kz*depth``.
 
+    x along the rows (down the image), y along the columns, z the depth
+    value: unlike `Pinhole`, whose x runs along the columns.
+
     Parameters
     ----------
     kx, ky, kz : float, default 1.0

@@ -51,6 +51,10 @@ class UserError(Exception):
 
 
 class _Parser(argparse.ArgumentParser):
+    def __init__(self, *args, **kwargs):
+        kwargs.setdefault("allow_abbrev", False)  # `--vertice` must not be taken as `--vertices`
+        super().__init__(*args, **kwargs)
+
     def error(self, message):  # one line, not the usage block
         self.exit(2, f"{self.prog}: error: {message}\n")
 
@@ -122,7 +126,8 @@ def _add_image_options(p):
 def _add_camera_options(p):
     c = p.add_argument_group("camera (how pixels become 3-D points)")
     c.add_argument("--scale", type=_floats(3), metavar="KX,KY,KZ", default=None,
-                   help="orthographic, the paper's eq. 4: X=kx*r, Y=ky*c, Z=kz*value (default 1,1,1)")
+                   help="orthographic, the paper's eq. 4: X=kx*r, Y=ky*c, Z=kz*value, r = row, "
+                        "c = column (default 1,1,1)")
     c.add_argument("--intrinsics", type=_floats(4), metavar="FX,FY,CX,CY", default=None,
                    help="pinhole depth camera; vertices become camera-frame points "
                         "((c-cx)Z/fx, (r-cy)Z/fy, Z)")
@@ -351,12 +356,26 @@ def _read_image(path) -> np.ndarray:
         raise UserError(str(exc)) from None
 
 
+class _NoBar:
+    """A progress bar that shows nothing: tqdm is not imported when no bar is shown."""
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        return False
+
+    def update(self, n=1):
+        pass
+
+
 def _progress(args, total, desc):
+    if args.quiet or args.json or not sys.stderr.isatty():
+        return _NoBar()
     from tqdm import tqdm
 
     # Shown only when the work takes longer than a second (tqdm's delay).
-    return tqdm(total=total, desc=desc, file=sys.stderr, delay=1.0, leave=False,
-                disable=args.quiet or args.json or not sys.stderr.isatty(), unit="step")
+    return tqdm(total=total, desc=desc, file=sys.stderr, delay=1.0, leave=False, unit="step")
 
 
 def _clean(obj):
@@ -686,7 +705,11 @@ def _cmd_batch(args):
         for r in failed:
             print(f"failed: {r.input}: {r.error}", file=sys.stderr)
         med = summary["median_seconds_per_image"]
-        print(f"meshed {summary['meshed']}, skipped {summary['skipped']} (already there), failed "
+        other = summary.get("skipped_not_depth", 0)  # a recording's summary has none
+        why = "already there" if not other else (
+            f"{summary['skipped'] - other} already there, {other} not depth images: colour "
+            f"images or previews")
+        print(f"meshed {summary['meshed']}, skipped {summary['skipped']} ({why}), failed "
               f"{summary['failed']} of {summary['inputs']} in {summary['wall_seconds']:.1f} s "
               f"({summary['images_per_second']:.2f} images/s"
               + (f", median {med:.3f} s per image" if med is not None else "") + ")", file=sys.stderr)
@@ -938,7 +961,12 @@ def main(argv=None) -> int:
     when some inputs failed. Ctrl-C, SIGTERM and SIGHUP end the command with
     128 + the signal number (130, 143, 129) after temporary files are removed.
     """
-    args = build_parser().parse_args(argv)
+    parser = build_parser()
+    argv = sys.argv[1:] if argv is None else list(argv)
+    if not argv:  # `rangemesh` alone: the usage, then argparse's missing-command error (status 2)
+        parser.print_usage(sys.stderr)
+        parser.error("give a command: mesh, demo, batch, info or eval (rangemesh -h says more)")
+    args = parser.parse_args(argv)
     commands = {"mesh": _cmd_mesh, "demo": _cmd_demo, "info": _cmd_info, "eval": _cmd_eval,
                 "batch": _cmd_batch}
     t0 = time.perf_counter()

@@ -273,6 +273,34 @@ def pillow_quiet():
         yield
 
 
+class NotDepthImage(ValueError):
+    """An image of several channels (a colour image, a preview): no range image at all."""
+
+
+def _undecodable(path: Path, exc: BaseException) -> ValueError:
+    """Why an image file cannot be decoded, named by its format, not by the reader's plumbing.
+
+    imageio's words for bytes no Pillow plugin recognises ("`pillow` can not
+    handle the given uri") say nothing of the file; a PNG without its
+    signature is said so.
+    """
+    kind = _suffix(path)[1:].upper() or "image"
+    a = "an" if kind[0] in "AEIOUi" else "a"
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(8)
+    except OSError:
+        head = b""
+    if kind == "PNG" and head != PNG_SIGNATURE:
+        return ValueError(f"{path}: cannot be decoded as a PNG file: it does not start with the "
+                          f"PNG signature (not a PNG file, or damaged at its start)")
+    cause = _first_line(exc)
+    if any(s in cause for s in ("can not handle", "cannot identify", "Could not find a backend")):
+        return ValueError(f"{path}: cannot be decoded as {a} {kind} file: Pillow recognises "
+                          f"no image format in its bytes (not {a} {kind} file, or damaged)")
+    return ValueError(f"{path}: cannot be decoded as {a} {kind} file ({type(exc).__name__}: {cause})")
+
+
 def read_range_image(path: str | os.PathLike) -> np.ndarray:
     """Read a range image as a 2-D array, values exactly as stored.
 
@@ -336,8 +364,11 @@ def read_range_image(path: str | os.PathLike) -> np.ndarray:
                 if header[2]:
                     raise ValueError(f"{path}: {header[2]}")
                 check_pillow_size(str(path), header[0], header[1])
-            with pillow_quiet():
-                arr = iio.imread(path, plugin="pillow")  # no probing of other plugins
+            try:
+                with pillow_quiet():
+                    arr = iio.imread(path, plugin="pillow")  # no probing of other plugins
+            except Exception as exc:
+                raise _undecodable(path, exc) from None
     except ValueError as exc:
         if str(exc).startswith(str(path)):
             raise
@@ -350,6 +381,9 @@ def read_range_image(path: str | os.PathLike) -> np.ndarray:
         raise ValueError(f"{path}: the file holds no pixel (empty or truncated)")
     if arr.ndim == 3 and arr.shape[2] in (1,):
         arr = arr[:, :, 0]
+    if arr.ndim == 3 and arr.shape[2] > 1:
+        raise NotDepthImage(f"{path}: a range image has one channel; this file holds "
+                            f"{arr.shape[2]} channels of {arr.dtype} (a colour image?)")
     if arr.ndim != 2:
         raise ValueError(f"{path}: a range image has one channel; this file holds an array of shape "
                          f"{arr.shape}")
@@ -375,8 +409,15 @@ def read_color_image(path: str | os.PathLike) -> np.ndarray:
         else:
             import imageio.v3 as iio
 
-            with pillow_quiet():
-                arr = iio.imread(path)
+            try:  # our own handle: imageio leaves its file open when no plugin can read it
+                with pillow_quiet(), open(path, "rb") as fh:
+                    arr = iio.imread(fh, extension=_suffix(path) or None)
+            except Exception as exc:
+                raise _undecodable(path, exc) from None
+    except ValueError as exc:
+        if str(exc).startswith(str(path)):
+            raise
+        raise ValueError(f"{path}: cannot read it as an image ({_first_line(exc)})") from None
     except Exception as exc:  # readers raise many kinds of errors on bad files
         raise ValueError(f"{path}: cannot read it as an image "
                          f"({type(exc).__name__}: {_first_line(exc)})") from None

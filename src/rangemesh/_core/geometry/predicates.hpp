@@ -65,14 +65,14 @@ struct PointSet {
 
     index_t size() const { return r.size; }
 
-    // Raises InvariantError unless the points lie within EXACT_SPAN along each axis (and
-    // within EXACT_COORDINATE of the origin).
+    // Raises ValueError (check_input: a raw call's points) unless the points lie within
+    // EXACT_SPAN along each axis (and within EXACT_COORDINATE of the origin).
     void check_span() const {
         if (size() == 0) return;
         const auto [r0, r1] = std::minmax_element(r.begin(), r.end());
         const auto [c0, c1] = std::minmax_element(c.begin(), c.end());
-        require(exact_span(*r0, *r1) && exact_span(*c0, *c1) && -EXACT_COORDINATE <= std::min(*r0, *c0) &&
-                    std::max(*r1, *c1) <= EXACT_COORDINATE,
+        check_input(exact_span(*r0, *r1) && exact_span(*c0, *c1) && -EXACT_COORDINATE <= std::min(*r0, *c0) &&
+                        std::max(*r1, *c1) <= EXACT_COORDINATE,
                 "Delaunay: points span more than EXACT_SPAN (or lie beyond 2^31), where the int64 predicates "
                 "overflow");
     }

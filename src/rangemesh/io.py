@@ -277,6 +277,24 @@ class NotDepthImage(ValueError):
     """An image of several channels (a colour image, a preview): no range image at all."""
 
 
+@contextmanager
+def _reading(path: Path, what: str):
+    """A reader's errors as one ValueError naming `path` and `what` it was read as.
+
+    Our own messages, which start with the path, pass as they are; readers
+    raise OSError, SyntaxError, struct.error, pydantic's... on bad files.
+    """
+    try:
+        yield
+    except ValueError as exc:
+        if str(exc).startswith(str(path)):
+            raise
+        raise ValueError(f"{path}: cannot read it as {what} ({_first_line(exc)})") from None
+    except Exception as exc:
+        raise ValueError(f"{path}: cannot read it as {what} "
+                         f"({type(exc).__name__}: {_first_line(exc)})") from None
+
+
 def _undecodable(path: Path, exc: BaseException) -> ValueError:
     """Why an image file cannot be decoded, named by its format, not by the reader's plumbing.
 
@@ -340,7 +358,7 @@ def read_range_image(path: str | os.PathLike) -> np.ndarray:
     suffix = _suffix(path)
     if suffix not in IMAGE_SUFFIXES:
         raise ValueError(f"{path}: unknown image type {suffix!r}; known: {', '.join(IMAGE_SUFFIXES)}")
-    try:
+    with _reading(path, "a range image"):
         if suffix == ".npy":
             arr = np.load(path, allow_pickle=False)
         elif suffix in (".tif", ".tiff"):
@@ -369,13 +387,6 @@ def read_range_image(path: str | os.PathLike) -> np.ndarray:
                     arr = iio.imread(path, plugin="pillow")  # no probing of other plugins
             except Exception as exc:
                 raise _undecodable(path, exc) from None
-    except ValueError as exc:
-        if str(exc).startswith(str(path)):
-            raise
-        raise ValueError(f"{path}: cannot read it as a range image ({_first_line(exc)})") from None
-    except Exception as exc:  # readers raise OSError, SyntaxError, struct.error, pydantic's...
-        raise ValueError(f"{path}: cannot read it as a range image "
-                         f"({type(exc).__name__}: {_first_line(exc)})") from None
     arr = np.asarray(arr)
     if arr.size == 0:
         raise ValueError(f"{path}: the file holds no pixel (empty or truncated)")
@@ -403,7 +414,7 @@ def read_color_image(path: str | os.PathLike) -> np.ndarray:
     """
     path = Path(path)
     _check_readable(path)
-    try:
+    with _reading(path, "an image"):
         if _suffix(path) == ".npy":
             arr = np.load(path, allow_pickle=False)
         else:
@@ -414,13 +425,6 @@ def read_color_image(path: str | os.PathLike) -> np.ndarray:
                     arr = iio.imread(fh, extension=_suffix(path) or None)
             except Exception as exc:
                 raise _undecodable(path, exc) from None
-    except ValueError as exc:
-        if str(exc).startswith(str(path)):
-            raise
-        raise ValueError(f"{path}: cannot read it as an image ({_first_line(exc)})") from None
-    except Exception as exc:  # readers raise many kinds of errors on bad files
-        raise ValueError(f"{path}: cannot read it as an image "
-                         f"({type(exc).__name__}: {_first_line(exc)})") from None
     arr = np.asarray(arr)
     if arr.ndim not in (2, 3) or arr.size == 0:
         raise ValueError(f"{path}: not an image (array of shape {arr.shape})")

@@ -271,3 +271,22 @@ def test_a_rerun_with_other_options_refuses_and_the_report_keeps_earlier_rows(tm
     assert sorted((Path(r["input"]).name, r["status"], r["vertices"]) for r in rows) == [
         ("chair.npy", "meshed", "200"), ("venus.npy", "meshed", "100")]
     assert rangemesh.read_mesh(mesh).vertices.shape == (200, 3)
+
+
+def test_a_batch_keeps_each_vertex_pixel_when_the_camera_needs_it(tmp_path):
+    # a distorted camera's rays (z_depth) cannot be projected back to pixels: the mesh file must
+    # carry them, as `rangemesh mesh` writes them, or `rangemesh eval` cannot place its vertices
+    from rangemesh import Rays, read_mesh, triangulate
+
+    r, c = np.mgrid[0:24, 0:32].astype(np.float64)
+    img = (1000 + 3 * r + 2 * c).astype(np.uint16)
+    rays = np.stack([(c - 16.0) / 30.0, (r - 12.0) / 30.0, np.ones_like(r)], axis=-1)
+    cam = Rays(rays, 0.001, z_depth=True)
+    np.save(tmp_path / "a.npy", img)
+    [res] = rangemesh.mesh_many([tmp_path / "a.npy"], tmp_path / "out", camera=cam,
+                                vertices=20, workers=1)
+    assert res.status == "meshed", res.error
+    written = read_mesh(res.output, camera=cam)
+    want = triangulate(img, camera=cam, vertices=20)
+    assert written.pixels is not None
+    assert np.array_equal(written.pixels, want.pixels)

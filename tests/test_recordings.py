@@ -5,6 +5,7 @@ or are the real RealSense bag, and the markers we write are read back by `rosbag
 come from the arrays the fixtures wrote and from `rangemesh.triangulate` on them.
 """
 
+import csv
 import json
 import struct
 import subprocess
@@ -647,12 +648,19 @@ def test_folder_output_one_file_per_frame_named_by_stamp(bags, frames, tmp_path,
         np.testing.assert_allclose(np.asarray(o3.vertices), w.vertices, rtol=1e-6, atol=1e-9)
         rgb = w.with_colors(frames[1]).colors
         np.testing.assert_allclose(np.asarray(o3.vertex_colors) * 255, rgb, atol=1e-6)
-    # a second run skips what is there and loses nothing
+    # a second run skips what is there and loses nothing: the rows keep each mesh's figures
     code, _, err = _cli(["batch", bags["ros1"]["16UC1"], "-o", out, "--vertices", N,
-                         "--workers", 1], capsys)
+                         "--workers", 1, "--color-topic", COLOR_TOPIC], capsys)
     assert code == 0 and "skipped 3 (already there)" in err, err
-    rows = (out / "rangemesh-batch.csv").read_text().splitlines()
-    assert len(rows) == 4 and all(",skipped," in r for r in rows[1:])
+    with open(out / "rangemesh-batch.csv", newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    assert [r["status"] for r in rows] == ["meshed"] * 3
+    assert [int(r["vertices"]) for r in rows] == [len(w.vertices) for w in want]
+    # a run with other options is refused in one line that names --overwrite (exit status 2)
+    code, _, err = _cli(["batch", bags["ros1"]["16UC1"], "-o", out, "--vertices", 2 * N,
+                         "--workers", 1, "--color-topic", COLOR_TOPIC], capsys)
+    assert code == 2 and "other options" in err and "--overwrite" in err, err
+    assert sorted(p.name for p in out.glob("*.ply")) == names
 
 
 def test_info_lists_the_depth_topics(odd_bags, bags, capsys):

@@ -16,7 +16,17 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import NamedTuple
 
-from ..batch import BatchResult, _clean_stale_parts, dask_client, progress_bar, write_report
+from ..batch import (
+    BatchResult,
+    _clean_stale_parts,
+    _earlier_report,
+    _options_record,
+    _other_options,
+    _report_rows,
+    dask_client,
+    progress_bar,
+    write_report,
+)
 from ..io import MESH_SUFFIXES, write_mesh
 from ..mesh import Mesh
 from ..metrics import evaluate
@@ -216,8 +226,10 @@ def mesh_recording(path: str | os.PathLike, output: str | os.PathLike, topic: st
         As for `rangemesh.mesh_many`. ``workers=1`` (and no scheduler) meshes
         in this process, without Dask.
     overwrite : bool, default False
-        A folder: mesh again frames whose file is there (else skipped). An
-        MCAP file: replace it (else an existing file is an error).
+        A folder: mesh again frames whose file is there (else skipped, their
+        earlier rows kept in the report); without it, a folder whose meshes
+        were made with other options is an error. An MCAP file: replace it
+        (else an existing file is an error).
     fmt : str, default '.ply'
         The mesh files' format, one of ``MESH_SUFFIXES`` (folder output).
     write_options : dict, optional
@@ -261,6 +273,13 @@ def mesh_recording(path: str | os.PathLike, output: str | os.PathLike, topic: st
                 _clean_stale_parts(report_dir, name)
             sink = _BagSink(output, marker_topic or dt.topic.rstrip("/") + "/mesh")
         else:
+            # a folder keeps its record: the options its meshes were made with, and every row
+            record = {**_options_record(call, BACKGROUND, camera, fmt, None), "topic": dt.topic,
+                      "color_topic": color_topic, "camera_info_topic": camera_info_topic,
+                      "color_how": color_how, "write": write_options or {}}
+            earlier = _earlier_report(output)
+            if earlier.get("options") not in (None, record) and not overwrite:
+                raise ValueError(_other_options(output, earlier["options"], record))
             output.mkdir(parents=True, exist_ok=True)
             _clean_stale_parts(output)
             report_dir, names = output, None
@@ -276,7 +295,8 @@ def mesh_recording(path: str | os.PathLike, output: str | os.PathLike, topic: st
                 bar.close()
     wall = time.perf_counter() - t0
     if names is None:
-        write_report(results, report_dir, wall)
+        write_report(_report_rows(earlier.get("results", ()), results), report_dir, wall,
+                     counted=results, options=record)
     else:
         write_report(results, report_dir, wall, names)
     return results

@@ -585,6 +585,41 @@ def test_a_damaged_compressed_frame_fails_alone_and_the_others_mesh(tmp_path, da
         np.testing.assert_array_equal(pts, want.vertices[want.faces].reshape(-1, 3))
 
 
+def test_mesh_bag_skips_a_damaged_frame_when_asked_and_stops_at_it_by_default(tmp_path):
+    # a generator that raised cannot go on: errors='skip' warns, names the frame and meshes the rest
+    from rangemesh.recordings import SkippedFrame
+
+    d = smooth()
+    _, good = compressed_depth(d, "16UC1")
+    path = compressed_bag(tmp_path / "b.bag", [good, good[:40], good])
+    (want,) = expected([d], 0.001)
+    with pytest.warns(SkippedFrame, match=rf"{DEPTH_TOPIC}@{stamp_of(1)}.*cannot be decoded.*skipped"):
+        got = list(mesh_bag(path, vertices=N, errors="skip"))
+    assert [stamp for stamp, _, _ in got] == [T0, T0 + 2 * PERIOD]
+    for _, _, mesh in got:
+        np.testing.assert_array_equal(mesh.vertices, want.vertices)
+    frames = mesh_bag(path, vertices=N)
+    assert next(frames).stamp == T0
+    with pytest.raises(ValueError, match=rf"{DEPTH_TOPIC}@{stamp_of(1)}"):
+        next(frames)
+    with pytest.raises(ValueError, match="errors must be 'raise' or 'skip'"):
+        mesh_bag(path, vertices=N, errors="ignore")
+
+
+def test_mesh_bag_leaves_the_callers_warnings_alone_between_frames(tmp_path):
+    import warnings
+
+    _, good = compressed_depth(smooth(), "16UC1")
+    path = compressed_bag(tmp_path / "b.bag", [good, good])
+    before = list(warnings.filters)
+    frames = mesh_bag(path, vertices=N)
+    next(frames)
+    silence = ("ignore", None, UserWarning, None, 0)  # what the generator silences frames with
+    # (imported libraries may add filters of their own on the first frame: those are not ours)
+    assert warnings.filters.count(silence) == before.count(silence)
+    frames.close()
+
+
 def test_the_cli_names_the_damaged_compressed_frame_and_meshes_the_rest(tmp_path, capsys):
     # F3: through the command, with and without --topic, and what info says of the topic
     _, good = compressed_depth(smooth(), "16UC1")

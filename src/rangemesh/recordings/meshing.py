@@ -101,8 +101,8 @@ def mesh_frame(frame: Frame, call: dict, how: str = "pixel") -> tuple[Mesh, obje
 
 def mesh_bag(path: str | os.PathLike, topic: str | None = None, *, color_topic: str | None = None,
              camera=None, camera_info_topic: str | None = None, color_how: str = "pixel",
-             method: str = "refine", vertices: int | None = None, max_error: float | None = None,
-             **options) -> Iterator[MeshFrame]:
+             errors: str = "raise", method: str = "refine", vertices: int | None = None,
+             max_error: float | None = None, **options) -> Iterator[MeshFrame]:
     """Mesh every depth message of a recording, in its order: ``(stamp, frame_id, mesh)``.
 
     Parameters
@@ -125,6 +125,11 @@ def mesh_bag(path: str | os.PathLike, topic: str | None = None, *, color_topic: 
         Take the CameraInfo from this topic.
     color_how : {'pixel', 'mean'}, default 'pixel'
         As `Mesh.with_colors`'s ``how``.
+    errors : {'raise', 'skip'}, default 'raise'
+        A frame that cannot be meshed (damaged data, an encoding refused, too
+        large): ``'raise'`` ends the iteration with its error; ``'skip'``
+        warns (`SkippedFrame`, naming the frame and why) and goes on with the
+        next frame, as ``rangemesh batch`` does.
     method, vertices, max_error, **options
         As for `rangemesh.triangulate`, checked once, before the first frame.
 
@@ -140,8 +145,9 @@ def mesh_bag(path: str | os.PathLike, topic: str | None = None, *, color_topic: 
     ------
     FileNotFoundError, ValueError
         At the call: no recording there, no such depth topic, no CameraInfo
-        and no `camera`, bad options. While iterating: a frame that cannot be
-        meshed (its encoding, damaged data), naming the frame.
+        and no `camera`, bad options. While iterating, with ``errors='raise'``:
+        a frame that cannot be meshed (its encoding, damaged data), naming the
+        frame.
     ImportError
         `rosbags` is missing (``pip install "rangemesh[ros]"``).
 
@@ -150,21 +156,42 @@ def mesh_bag(path: str | os.PathLike, topic: str | None = None, *, color_topic: 
     ``for stamp, frame_id, mesh in rangemesh.mesh_bag("run.bag", vertices=2000): ...`` (the
     README's "Recordings" runs it on the shared RealSense bag).
     """
+    if errors not in ("raise", "skip"):
+        raise ValueError(f"errors must be 'raise' or 'skip', got {errors!r}")
     call = resolve(method, vertices, max_error, dict(options))
     with Recording(path) as rec:  # checked at the call, not at the first next()
         rec.frames(topic, color_topic=color_topic, camera=camera,
                    camera_info_topic=camera_info_topic)
-    return _meshes(path, topic, color_topic, camera, camera_info_topic, call, color_how)
+    return _meshes(path, topic, color_topic, camera, camera_info_topic, call, color_how, errors)
 
 
-def _meshes(path, topic, color_topic, camera, camera_info_topic, call, how):
+class SkippedFrame(UserWarning):
+    """`mesh_bag(..., errors='skip')` skipped a frame that cannot be meshed; the message says why."""
+
+
+def _meshes(path, topic, color_topic, camera, camera_info_topic, call, how, errors):
     import warnings
 
-    with Recording(path) as rec, warnings.catch_warnings():
-        warnings.simplefilter("ignore", UserWarning)  # said once, at the call
-        for frame in rec.frames(topic, color_topic=color_topic, camera=camera,
-                                camera_info_topic=camera_info_topic):
-            mesh, _ = mesh_frame(frame, call, how)
+    with Recording(path) as rec:
+        frames = rec.frames(topic, color_topic=color_topic, camera=camera,
+                            camera_info_topic=camera_info_topic)
+        while True:
+            # silenced only while a frame is read and meshed: what they warn was said at the
+            # call, and the caller's own code between frames keeps its warnings
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", UserWarning)
+                frame = next(frames, None)
+                if frame is None:
+                    return
+                try:
+                    mesh, _ = mesh_frame(frame, call, how)
+                except (ValueError, MemoryError) as exc:
+                    if errors == "raise":
+                        raise
+                    mesh = exc
+            if isinstance(mesh, Exception):
+                warnings.warn(f"{mesh}; skipped", SkippedFrame, stacklevel=2)
+                continue
             yield MeshFrame(frame.stamp, frame.frame_id, mesh)
 
 

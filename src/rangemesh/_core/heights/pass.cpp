@@ -2,14 +2,13 @@
 
 #include <algorithm>
 #include <cmath>
-#include <exception>
 #include <stdexcept>
-#include <thread>
 #include <utility>
 
 #include "../geometry/predicates.hpp"
 #include "../geometry/raster.hpp"
 #include "../interrupt.hpp"
+#include "../parallel.hpp"
 #include "../refine/ownership.hpp"
 
 namespace rangemesh::heights {
@@ -155,27 +154,12 @@ index_t fit_blocks(const FitMesh& mesh, const FitImage& image, Span<const index_
     require(blocks.size == order.size, "fit: one block a visited face");
     const index_t n = order.size;
     if (threads < 2 || n < SPLIT_MIN_FACES) return accumulate(mesh, image, order, threshold, blocks, 0, n);
-    // the first half on a worker thread, the second here; each face writes its own block
-    const index_t half = n / 2;
-    index_t used_first = 0;
-    std::exception_ptr failed;
-    std::thread worker = polled_thread([&] {
-        try {
-            used_first = accumulate(mesh, image, order, threshold, blocks, 0, half);
-        } catch (...) {
-            failed = std::current_exception();
-        }
+    // two halves, each on a thread; each face writes its own block
+    index_t used[2] = {0, 0};
+    split_run(2, n, [&](index_t k, index_t begin, index_t end) {
+        used[k] = accumulate(mesh, image, order, threshold, blocks, begin, end);
     });
-    index_t used_second = 0;
-    try {
-        used_second = accumulate(mesh, image, order, threshold, blocks, half, n);
-    } catch (...) {
-        worker.join();
-        throw;
-    }
-    worker.join();
-    if (failed) std::rethrow_exception(failed);
-    return used_first + used_second;
+    return used[0] + used[1];
 }
 
 }  // namespace rangemesh::heights

@@ -9,7 +9,7 @@
 #include "../geometry/raster.hpp"
 #include "../interrupt.hpp"
 #include "../parallel.hpp"
-#include "../refine/ownership.hpp"
+#include "../geometry/ownership.hpp"
 
 namespace rangemesh::heights {
 
@@ -61,18 +61,13 @@ index_t visit_pixels(const FitMesh& mesh, const FitImage& image, Corners v, inde
     if (area == 0) return 0;
     const double az = mesh.values[v.a], bz = mesh.values[v.b], cz = mesh.values[v.c];
     const double inv = 1.0 / static_cast<double>(area);
-    const bool own_ab = refine::owns(ar, ac, br, bc);
-    const bool own_bc = refine::owns(br, bc, cr, cc);
-    const bool own_ca = refine::owns(cr, cc, ar, ac);
+    const EdgeOwnership own{owns(ar, ac, br, bc), owns(br, bc, cr, cc), owns(cr, cc, ar, ac)};
     TriangleRows walk(ar, ac, br, bc, cr, cc, first, row_stride);
     // the edge functions grow by these a column (integers, held exactly as float64 too: the
     // floats the weights are made of, without keeping six of them in registers)
     const index_t d0 = br - ar, d1 = cr - br, d2 = ar - cr;
     index_t count = 0;
-    for (index_t r = first; r <= bottom; r += row_stride) {
-        if (r > first) walk.next_row();
-        const RowSpan span = walk.columns(own_ab, own_bc, own_ca);
-        if (span.first > span.last) continue;
+    owned_rows(walk, first, bottom, row_stride, own, [&](index_t r, const RowSpan& span) {
         const bool* valid = image.valid.row(r);
         const double* values = image.values.row(r);
         index_t w0 = span.w0, w1 = span.w1, w2 = span.w2;
@@ -88,7 +83,8 @@ index_t visit_pixels(const FitMesh& mesh, const FitImage& image, Corners v, inde
             w1 += d1;
             w2 += d2;
         }
-    }
+        return true;
+    });
     return count;
 }
 

@@ -6,10 +6,11 @@
 #include <stdexcept>
 
 #include "../geometry/halfedges.hpp"
+#include "../geometry/ownership.hpp"
 #include "../geometry/heap.hpp"
 #include "../geometry/predicates.hpp"
 #include "../interrupt.hpp"
-#include "ownership.hpp"
+#include "keys.hpp"
 
 namespace rangemesh::refine {
 

@@ -9,7 +9,7 @@
 #include "../interrupt.hpp"
 #include "../parallel.hpp"
 #include "diagonals.hpp"
-#include "ownership.hpp"
+#include "keys.hpp"
 
 namespace rangemesh::refine {
 

@@ -1,5 +1,5 @@
 // Which triangle owns the pixels on an edge, and the row loop over the pixels a triangle owns:
-// refine's keys and diagonals, the heights' fit and the depth render all walk triangles this way.
+// refine's keys, cover pixels and diagonals and the heights' fit all walk triangles this way.
 #pragma once
 
 #include <utility>
@@ -12,9 +12,7 @@ namespace rangemesh {
 // Whether the triangle left of the directed edge a -> b owns the pixels on it: of the two
 // triangles of a shared edge, the one on its left when it is walked with rows, then columns,
 // increasing.
-inline bool owns(index_t ar, index_t ac, index_t br, index_t bc) {
-    return br > ar || (br == ar && bc > ac);
-}
+inline bool owns(index_t ar, index_t ac, index_t br, index_t bc) { return br > ar || (br == ar && bc > ac); }
 
 // Whether a triangle owns the pixels on its edge a -> b, whose twin half-edge is `twin`. A hull
 // edge's pixels are its only triangle's, except on a seam: a hull edge down an inner column of

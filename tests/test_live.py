@@ -230,6 +230,21 @@ def test_the_realsense_bag_through_the_sdk(shared_data):
         assert np.array_equal(frame.depth, depth)
 
 
+def test_a_realsense_bag_read_late_gives_every_frame(shared_data):
+    # the SDK's playback position runs ahead of the frames handed out: ending the playback when
+    # it reached the end lost the second frame when the reading began late
+    sdk("pyrealsense2")
+    from rangemesh.live.sources import RealSenseSource
+
+    src = RealSenseSource(str(shared_data / REALSENSE))
+    try:
+        time.sleep(0.5)
+        stamps = [frame.stamp for frame in src.frames()]
+    finally:
+        src.close()
+    assert stamps == [360815089000, 360981765000]
+
+
 def test_a_distorted_realsense_stream_meshes_with_exact_rays():
     from types import SimpleNamespace
 

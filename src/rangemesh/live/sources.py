@@ -34,7 +34,8 @@ SOURCE_KINDS = ("realsense", "ouster", "ros")
 OUSTER_SUFFIXES = (".pcap", ".osf")
 # a RealSense SDK recording starts with these topics (librealsense's rosbag format)
 _REALSENSE_TOPICS = ("/file_version", "/device_0/")
-_WAIT_MS = 1000  # a frame the SDK does not give within this long means the playback ended
+_WAIT_MS = 5000  # no frame from the SDK for this long: a device's error, a recording's end
+_POLL_MS = 50  # how long one wait for a RealSense frame lasts before the playback's state is read
 
 
 class LiveFrame(NamedTuple):
@@ -219,22 +220,33 @@ class RealSenseSource:
         self.name = source
 
     def frames(self):
-        """The depth frames as they come (a recording: to its end, or without end with `loop`)."""
+        """The depth frames as they come (a recording: to its end, or without end with `loop`).
+
+        A recording has ended when no frame comes and the SDK's playback has
+        stopped (its position runs ahead of the frames handed out, so it
+        cannot tell); a device that gives no frame for `_WAIT_MS` is an error.
+        """
+        rs, waited, seen = self._rs, 0, False
         while True:
-            ok, got = self._pipe.try_wait_for_frames(_WAIT_MS)
+            ok, got = self._pipe.try_wait_for_frames(_POLL_MS)
             if not ok:
-                if self.device:
-                    raise ValueError(f"{self.name}: no frame from the camera in {_WAIT_MS} ms")
-                return
+                waited += _POLL_MS
+                stopped = self._playback is not None \
+                    and self._playback.current_status() == rs.playback_status.stopped
+                if stopped and seen:
+                    return
+                if waited >= _WAIT_MS:
+                    if self.device:
+                        raise ValueError(f"{self.name}: no frame from the camera in {_WAIT_MS} ms")
+                    return
+                continue
+            waited = 0
             depth = got.get_depth_frame()
             if not depth:
                 continue
+            seen = True
             image = np.array(depth.get_data(), dtype=np.uint16, copy=True)
             yield LiveFrame(int(round(depth.get_timestamp() * 1e6)), self.frame_id, image, self.camera)
-            pb = self._playback
-            if pb is not None and not self._loop \
-                    and pb.get_position() >= pb.get_duration().total_seconds() * 1e9:
-                return  # the last frame: no wait for a timeout
 
     def close(self):
         """Stop the SDK's pipeline."""
@@ -287,7 +299,7 @@ class OusterSource:
         self.info = self._src.sensor_info[0]
         rays, self.offsets = ouster_geometry(self.info)
         self.camera = Rays(rays, range_scale=0.001)  # RANGE is in millimetres
-        self.fps = float(self.info.format.fps) if hasattr(self.info.format, "fps") else 10.0
+        self.fps = float(self.info.format.fps)
         self.name, self._loop = source, loop
 
     def frames(self):

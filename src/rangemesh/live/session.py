@@ -8,6 +8,7 @@ figures (`rangemesh.live.stats`).
 
 from __future__ import annotations
 
+import contextlib
 import os
 import sys
 from collections.abc import Iterator
@@ -72,7 +73,6 @@ def _meshes(src, call, pace, frames, queue, clock, stats) -> Iterator[LiveMesh]:
                 return
     finally:
         feed.close()
-        src.close()
 
 
 def live(source: str | os.PathLike, *, kind: str | None = None, meta=None, topic: str | None = None,
@@ -129,8 +129,16 @@ def live(source: str | os.PathLike, *, kind: str | None = None, meta=None, topic
     """
     call, pace, src = _open(source, kind, meta, topic, pace, loop, frames, queue, method,
                             vertices, max_error, options)
-    return (MeshFrame(m.stamp, m.frame_id, m.mesh)
-            for m in _meshes(src, call, pace, frames, queue, Clock(), None))
+    return _yielding(src, _meshes(src, call, pace, frames, queue, Clock(), None))
+
+
+def _yielding(src, meshes):
+    try:
+        for m in meshes:
+            yield MeshFrame(m.stamp, m.frame_id, m.mesh)
+    finally:
+        meshes.close()
+        src.close()
 
 
 class _Status:
@@ -218,22 +226,25 @@ def run(source: str | os.PathLike, *, foxglove: str | None = None, outputs=(),
     try:
         if fox is not None and fox.url is not None:
             print(fox.url, file=url_stream, flush=True)
-        for item in _meshes(src, call, pace, frames, queue, clock, stats):
-            t0 = clock.now()
-            if fox is not None:
-                fox.publish(item.stamp, item.frame_id, item.mesh, item.shape)
-            for sink in sinks:
-                sink.write(item.stamp, item.mesh)
-            now = clock.now()
-            stats.published(item.stamp, item.arrival, now, item.mesh_seconds, now - t0,
-                            item.mesh.stats.vertices, item.mesh.stats.triangles)
-            if fox is not None:
-                fox.log_stats(stats.figures(now))
-            status.show(stats.line(now), now)
+        meshes = contextlib.closing(_meshes(src, call, pace, frames, queue, clock, stats))
+        with meshes as items:  # the source closed at once on Ctrl-C during publishing too
+            for item in items:
+                t0 = clock.now()
+                if fox is not None:
+                    fox.publish(item.stamp, item.frame_id, item.mesh, item.shape)
+                for sink in sinks:
+                    sink.write(item.stamp, item.mesh)
+                now = clock.now()
+                stats.published(item.stamp, item.arrival, now, item.mesh_seconds, now - t0,
+                                item.mesh.stats.vertices, item.mesh.stats.triangles)
+                if fox is not None:
+                    fox.log_stats(stats.figures(now))
+                status.show(stats.line(now), now)
     finally:
         now = clock.now()
         status.show(stats.line(now), now, force=True)
         status.end()
+        src.close()
         if fox is not None:
             fox.close()
         if csv is not None and stats.rows:

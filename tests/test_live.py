@@ -121,6 +121,20 @@ def test_a_looped_recording_goes_on_one_frame_gap_after_its_end():
     assert [a for _, a, _ in out] == [0.0, 0.5, 1.0, 1.5]
 
 
+def test_a_device_s_frames_dropped_before_the_mesher_takes_them_are_counted():
+    # a sensor gave 1100 frames while the mesher was busy: the feed keeps the newest 64, the
+    # queue the newest one; all 1100 arrived, 1099 were dropped, the last one is meshed
+    frames = _frames(np.arange(1100) * 0.01)
+    feed = pacing.DeviceFeed(iter(frames), pacing.Clock())
+    end = time.monotonic() + 30
+    while not feed.ended and time.monotonic() < end:
+        time.sleep(0.01)
+    stats = Stats(0.0)
+    out = [f for f, _ in paced(feed, 1, stats)]
+    assert out == [frames[-1]]
+    assert (stats.frames_in, stats.dropped) == (1100, 1099)
+
+
 @pytest.mark.parametrize("bad", ["slow", "0", "-3", "nan", "inf", None])
 def test_a_bad_pace_is_a_value_error_naming_pace(bad):
     with pytest.raises(ValueError, match="pace"):

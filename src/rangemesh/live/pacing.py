@@ -132,6 +132,10 @@ class Playback:
             self.clock.sleep(item[1] - self.clock.now())
         return True
 
+    def lost(self) -> int:
+        """None is lost: the playback releases every frame to `paced`."""
+        return 0
+
     def close(self) -> None:
         """Nothing to stop: the frames are read on the caller's thread."""
 
@@ -139,11 +143,15 @@ class Playback:
 class DeviceFeed:
     """A sensor's frames gathered by a thread as they come, each with its arrival time.
 
-    An error of the sensor's reader is raised by the next `take`.
+    At most `keep` frames wait between two `take` calls; older ones are
+    dropped here and counted (`lost`). An error of the sensor's reader is
+    raised by the next `take`.
     """
 
-    def __init__(self, frames: Iterator, clock: Clock):
+    def __init__(self, frames: Iterator, clock: Clock, keep: int = 64):
         self.clock = clock
+        self.keep = keep
+        self._lost = 0
         self._items: list[tuple] = []
         self._cond = threading.Condition()
         self._stop = False
@@ -160,7 +168,9 @@ class DeviceFeed:
                     if self._stop:
                         return
                     self._items.append((frame, self.clock.now()))
-                    del self._items[:-1024]  # a stalled mesher never holds more than this
+                    if len(self._items) > self.keep:  # a stalled mesher holds no more than this
+                        del self._items[0]
+                        self._lost += 1
                     self._cond.notify()
         except BaseException as exc:  # handed to the mesher's thread, which raises it
             self._error = exc
@@ -176,6 +186,12 @@ class DeviceFeed:
         if self._error is not None:
             raise self._error
         return out
+
+    def lost(self) -> int:
+        """Frames dropped here since the last call (arrived and never taken)."""
+        with self._cond:
+            n, self._lost = self._lost, 0
+        return n
 
     def wait(self) -> bool:
         """Wait for the next frame; False when the sensor's stream has ended."""
@@ -215,7 +231,13 @@ def paced(feed, queue: int = 1, stats=None) -> Iterator[tuple]:
         raise ValueError(f"queue must be an integer >= 1, got {queue!r}")
     waiting: deque = deque()
     while True:
-        for item in feed.take(feed.clock.now()):
+        now = feed.clock.now()
+        items = feed.take(now)
+        if stats is not None:
+            for _ in range(feed.lost()):  # dropped by a device's reader before `take`
+                stats.arrived(now)
+                stats.drop()
+        for item in items:
             waiting.append(item)
             if stats is not None:
                 stats.arrived(item[1])

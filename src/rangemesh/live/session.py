@@ -60,7 +60,7 @@ def _open(source, kind, meta, topic, pace, loop, frames, queue, method, vertices
 
 
 def _meshes(src, call, pace, frames, queue, clock, stats) -> Iterator[LiveMesh]:
-    feed = DeviceFeed(src.frames(), clock) if src.device else \
+    feed = DeviceFeed(src.frames(), clock, max(queue, 8)) if src.device else \
         Playback(src.frames(), pace, clock, getattr(src, "fps", None))
     try:
         for n, (frame, arrival) in enumerate(paced(feed, queue, stats)):

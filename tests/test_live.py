@@ -319,6 +319,19 @@ def test_the_ouster_pcap_s_three_frames_mesh_at_the_sdk_s_points(shared_data):
         assert np.allclose(mesh.vertices, xyz[r, c], rtol=0, atol=1e-9)
 
 
+def test_an_ouster_scan_of_the_whole_circle_closes_its_seam(shared_data):
+    sdk("ouster.sdk")
+    kw = {"meta": shared_data / META, "pace": "fast", "frames": 1, "vertices": 800}
+    closed = next(iter(rangemesh.live(shared_data / PCAP, **kw))).mesh
+    opened = next(iter(rangemesh.live(shared_data / PCAP, wrap=False, **kw))).mesh
+
+    def seam_faces(mesh):  # faces with corners on both the first and the last column
+        cols = mesh.pixels[mesh.faces, 1]
+        return int(((cols == 0).any(axis=1) & (cols == 1023).any(axis=1)).sum())
+
+    assert seam_faces(closed) > 0 and seam_faces(opened) == 0
+
+
 def test_meta_goes_with_an_ouster_recording(shared_data):
     with pytest.raises(ValueError, match="--meta"):
         rangemesh.live(shared_data / REALSENSE, kind="ros", meta=shared_data / META)

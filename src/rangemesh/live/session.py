@@ -60,6 +60,8 @@ def _open(source, kind, meta, topic, pace, loop, frames, queue, method, vertices
 
 
 def _meshes(src, call, pace, frames, queue, clock, stats) -> Iterator[LiveMesh]:
+    if getattr(src, "wraps", False) and "wrap" not in call:  # a whole circle: --no-wrap opens it
+        call = {**call, "wrap": True}
     feed = DeviceFeed(src.frames(), clock, max(queue, 8)) if src.device else \
         Playback(src.frames(), pace, clock, getattr(src, "fps", None))
     try:

@@ -300,6 +300,9 @@ class OusterSource:
         rays, self.offsets = ouster_geometry(self.info)
         self.camera = Rays(rays, range_scale=0.001)  # RANGE is in millimetres
         self.fps = float(self.info.format.fps)
+        # every column of the circle is read: column W-1 is beside column 0 (the seam is closed)
+        fmt = self.info.format
+        self.wraps = tuple(fmt.column_window) == (0, fmt.columns_per_frame - 1)
         self.name, self._loop = source, loop
 
     def frames(self):

@@ -4,6 +4,7 @@ import base64
 import importlib
 import json
 import os
+import re
 import signal
 import struct
 import subprocess
@@ -502,6 +503,25 @@ def test_ctrl_c_leaves_a_readable_mcap(shared_data, tmp_path):
     assert counts["/rangemesh/mesh"] == counts["/rangemesh/stats"] >= 1
     assert len(scenes) == counts["/rangemesh/mesh"]
     assert len(csv.read_text().splitlines()) == counts["/rangemesh/mesh"] + 1
+
+
+def test_the_status_line_gives_the_rates_drops_and_latency_unless_quiet(shared_data, tmp_path):
+    import io
+
+    from rangemesh.live import run
+
+    said = io.StringIO()
+    s = run(shared_data / REALSENSE, kind="ros", pace="fast", vertices=300,
+            outputs=[tmp_path / "m"], status_stream=said)
+    line = said.getvalue().splitlines()[-1]  # not a terminal: whole lines, the last one forced
+    assert re.fullmatch(r"in \d+\.\d/s  out \d+\.\d/s  frames 2  dropped 0  "
+                        r"latency \d+ ms \(p95 \d+ ms\)", line), line
+    assert (s["frames_in"], s["frames_out"], s["dropped"]) == (2, 2, 0)
+    assert s["csv"] == str(tmp_path / "m" / "rangemesh-live.csv")
+    quiet = io.StringIO()
+    run(shared_data / REALSENSE, kind="ros", pace="fast", vertices=300, quiet=True,
+        status_stream=quiet)
+    assert quiet.getvalue() == ""
 
 
 def test_the_foxglove_address_is_host_and_port():

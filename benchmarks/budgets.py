@@ -198,9 +198,13 @@ def run(images, repeat, data=None, log=print, extra=None):
             f"pix {got['refine, pixel depths']['relative_error']:.4f} "
             f"quadric {q['relative_error']:.4f} delatin {d['relative_error']:.4f} | band "
             f"{m['edge_band_error']:.3f} delatin {d['edge_band_error']:.3f} | ms "
-            f"{m['ms']:.1f} delatin {d['ms']:.1f} | 2 threads / 1 {m['wall2'] / m['wall1']:.2f} "
+            f"{m['ms']:.1f} delatin {d['ms']:.1f} | 2 threads / 1 {_ratio_text(m['wall2'], m['wall1'])} "
             f"| uncovered {m['uncovered']:.2f} %")
     return rows
+
+
+def _ratio_text(a, b):
+    return f"{a / b:.2f}" if a == a else "n/a"  # (NaN: one core, no two-thread call)
 
 
 def thread_summary(rows):

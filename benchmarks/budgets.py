@@ -182,7 +182,8 @@ def run(images, repeat, data=None, log=print, extra=None):
         from pydelatin import Delatin
 
         arr, ask = peers.delatin_request(masked, valid, n_mine)
-        mesh, t = thread_times(calls[MINE], lambda: Delatin(arr, max_error=0.0, max_points=ask),
+        mesh, t = thread_times(calls[MINE],
+                               lambda arr=arr, ask=ask: Delatin(arr, max_error=0.0, max_points=ask),
                                repeat)
         got[MINE] = peers._record(image, f"{frac:.0%}", MINE, mesh, t["cpu1"], valid)
         got[MINE].update(wall1=t["wall1"], wall2=t["wall2"], shape=image.depth.shape[:2])

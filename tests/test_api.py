@@ -111,7 +111,7 @@ def test_a_paper_default_passed_to_refine_is_refused():
 
 def test_the_table_covers_every_setting():
     fields = {f.name for f in dataclasses.fields(MeshParams)}
-    shared = {"fill_gaps", "wrap"}
+    shared = {"fill_gaps", "wrap", "depth_limits", "min_region"}
     # MeshParams' 'workers' is the option 'threads'
     assert set(OPTION_METHOD) | shared == (fields - {"workers"}) | {"threads"}
 

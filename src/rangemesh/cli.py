@@ -123,6 +123,29 @@ def _add_image_options(p):
                         f"always)")
 
 
+def _limits(text: str):
+    """``NEAR,FAR`` (either side may be empty: no limit there) for --depth-limits."""
+    parts = text.split(",")
+    try:
+        if len(parts) != 2:
+            raise ValueError
+        near, far = (float(t) if t.strip() else None for t in parts)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected NEAR,FAR (one side may be empty), got "
+                                         f"{text!r}") from None
+    return near, far
+
+
+def _add_cleanup_options(p):
+    p.add_argument("--depth-limits", type=_limits, default=None, metavar="NEAR,FAR",
+                   help="pixels whose depth is outside are missing depth: metres with "
+                        "--intrinsics/--camera/--beams (depth scale applied), stored units "
+                        "otherwise; one side may be empty (both methods)")
+    p.add_argument("--min-region", type=int, default=None, metavar="K",
+                   help="drop connected regions of fewer than K valid pixels, split where depth "
+                        "jumps by more than 5 %% a pixel: specks (both methods; default off)")
+
+
 def _add_camera_options(p):
     c = p.add_argument_group("camera (how pixels become 3-D points)")
     c.add_argument("--scale", type=_floats(3), metavar="KX,KY,KZ", default=None,
@@ -228,6 +251,7 @@ def _add_mesh_options(p):
     p.add_argument("--no-fill-gaps", action="store_true",
                    help="keep single-pixel holes instead of filling them with the 8-neighbour "
                         "mean (both methods)")
+    _add_cleanup_options(p)
     g.add_argument("--threads", type=int, default=None,
                    help=f"threads sharing stage one's tiles; the mesh is the same for any number "
                         f"(default {d('workers')})")
@@ -444,7 +468,8 @@ def _run_mesh(args, image, name, bg, outputs_for):
         bar.update(1)
         if mesh.is_empty:
             raise UserError(f"{name}: nothing to mesh: {mesh.stats.reason}")
-        ev = evaluate(mesh, image, background=bg)
+        ev = evaluate(mesh, image, background=bg, depth_limits=params.depth_limits,
+                      min_region=params.min_region)
         bar.update(1)
         written = []
         out, preview = outputs_for
@@ -458,7 +483,7 @@ def _run_mesh(args, image, name, bg, outputs_for):
         if preview:
             from .preview import save_preview
 
-            depth, valid = prepare(image, params, bg)  # gap-filled in place: no second copy
+            depth, valid = prepare(image, params, bg, camera=camera)  # gap-filled in place
             weights = sampling_weights(depth, valid, params) if method == "paper" else None
             save_preview(mesh, depth, valid, preview, evaluation=ev, title=Path(name).name,
                          weights=weights)
@@ -600,8 +625,10 @@ def _cmd_info(args):
     image = _read_image(args.image)
     given = any(x is not None for x in (args.scale, args.intrinsics, args.depth_scale, args.beams,
                                          args.camera))
-    bg = _resolve_background(args.background, image, _camera(args, image.shape) if given else None)
+    camera = _camera(args, image.shape) if given else None
+    bg = _resolve_background(args.background, image, camera)
     depth, valid = to_depth_and_mask(image, bg)
+    dropped = _cleaned(args, depth, valid, camera)  # as `mesh` would see the pixels
     info = {
         "file": args.image,
         "shape": list(image.shape),
@@ -617,6 +644,7 @@ def _cmd_info(args):
         "distinct_values": int(np.unique(depth[valid]).size) if valid.any() else 0,
         # exact zeros kept as data: a no-return marker meshed at depth 0 if they are one
         "zero_pixels_valid": int(np.count_nonzero(valid & (depth == 0.0))),
+        **{f"dropped_by_{k}": n for k, n in dropped.items()},
     }
     if args.json:
         print(json.dumps(_clean(info)))
@@ -625,6 +653,8 @@ def _cmd_info(args):
     print(f"{args.image}: {image.shape[0]} rows x {image.shape[1]} cols, {image.dtype}")
     print(f"background ({how}): {info['background']}; valid pixels {info['valid_pixels']} "
           f"({info['valid_share_percent']:.1f} %)")
+    for k, n in dropped.items():
+        print(f"--{k.replace('_', '-')} made {n} more pixels missing depth")
     if info["zero_pixels_valid"]:
         print(f"{info['zero_pixels_valid']} valid pixels are exactly 0: if 0 marks no return, "
               f"give the camera (--intrinsics, --beams) or --background 0")
@@ -632,6 +662,17 @@ def _cmd_info(args):
         print(f"depth range {info['depth_min']:g} .. {info['depth_max']:g} "
               f"({info['distinct_values']} distinct values)")
     return 0
+
+
+def _cleaned(args, depth, valid, camera):
+    """--depth-limits and --min-region applied to a masked image, in place; pixels each dropped."""
+    from .cleanup import clean_inplace
+
+    try:
+        params = MeshParams(depth_limits=args.depth_limits, min_region=args.min_region)
+    except (ValueError, TypeError) as exc:
+        raise UserError(_one_line(exc)) from None
+    return clean_inplace(depth, valid, params, camera)
 
 
 def _cmd_eval(args):
@@ -644,7 +685,8 @@ def _cmd_eval(args):
         mesh = read_mesh(args.mesh, camera=camera, image_shape=image.shape)
         # 'auto' by the mesh's camera, as `mesh` took it
         ev = evaluate(mesh, image, background=_resolve_background(args.background, image,
-                                                                   mesh.camera))
+                                                                   mesh.camera),
+                      depth_limits=args.depth_limits, min_region=args.min_region)
     except (FileNotFoundError, ValueError) as exc:
         raise UserError(str(exc)) from None
     if args.json:
@@ -896,6 +938,7 @@ def build_parser() -> argparse.ArgumentParser:
                                    "size, encoding, count and camera.")
     i.add_argument("image")
     _add_image_options(i)
+    _add_cleanup_options(i)
     _add_camera_options(i)  # the camera says what 'auto' marks as missing depth
     i.add_argument("--json", action="store_true", help="print as JSON on stdout")
 
@@ -908,6 +951,7 @@ def build_parser() -> argparse.ArgumentParser:
     e.add_argument("image")
     e.add_argument("mesh", help=f"mesh file ({' '.join(MESH_SUFFIXES)})")
     _add_image_options(e)
+    _add_cleanup_options(e)
     _add_camera_options(e)
     e.add_argument("--json", action="store_true", help="print as JSON on stdout")
     return p

@@ -146,6 +146,16 @@ def _add_cleanup_options(p):
                         "jumps by more than 5 %% a pixel: specks (both methods; default off)")
 
 
+def _add_cloud_options(c):
+    from .clouds import SENSORS
+
+    c.add_argument("--sensor", choices=sorted(SENSORS), default=None,
+                   help="an unorganised LiDAR cloud (.bin, KITTI's x, y, z, intensity): the "
+                        "Velodyne head whose beams are found from the cloud to make the range "
+                        "image (rangemesh.project_scan); with --beams a cloud is projected on "
+                        "the file's beams")
+
+
 def _add_camera_options(p):
     c = p.add_argument_group("camera (how pixels become 3-D points)")
     c.add_argument("--scale", type=_floats(3), metavar="KX,KY,KZ", default=None,
@@ -165,6 +175,7 @@ def _add_camera_options(p):
     c.add_argument("--beams", metavar="FILE.json", default=None,
                    help="spinning LiDAR: a spherical camera from a beams file (elevation per "
                         "row, azimuth per column; see docs/method.md); vertices = range x ray")
+    _add_cloud_options(c)
 
 
 def _default(name):
@@ -342,6 +353,9 @@ def _check_depth_scale(args, image) -> None:
 
 
 def _make_camera(args, image_shape=None, depth_scale=None):
+    scanned = getattr(args, "scan_camera", None)
+    if scanned is not None:  # a cloud projected with --sensor: its beams were found (_read_scan)
+        return scanned
     if args.camera is not None:
         if any(getattr(args, o) is not None for o in ("beams", "intrinsics", "scale")):
             raise UserError("--camera, --beams, --intrinsics and --scale exclude each other")
@@ -561,10 +575,15 @@ def _with_colors(args, mesh, name):
 def _read_scan(args):
     """The range image of a mesh command: an image file, or a LiDAR .bin read with --beams."""
     if Path(args.image).suffix.lower() != SCAN_SUFFIX:
+        if getattr(args, "sensor", None) is not None:
+            raise UserError(f"{args.image}: --sensor goes with a LiDAR cloud (.bin)")
         return _read_image(args.image)
+    scan = _project(args)
+    if scan is not None:
+        return scan.ranges
     if args.beams is None:
         raise UserError(f"{args.image}: a .bin LiDAR scan needs --beams FILE.json (its rows and "
-                        f"column shifts)")
+                        f"column shifts) or, for an unorganised cloud, --sensor NAME")
     try:
         layout = bin_layout(args.beams)
     except ValueError as exc:
@@ -573,6 +592,26 @@ def _read_scan(args):
         return read_scan(args.image, layout)
     except (OSError, ValueError) as exc:
         raise UserError(_one_line(exc)) from None
+
+
+def _project(args):
+    """A .bin cloud made a range image with --sensor (`rangemesh.project_scan`), else None.
+
+    (With --beams, `rangemesh.io.read_scan` projects a cloud that is not the file's organised scan.)
+    """
+    from .clouds import project_scan, read_cloud
+
+    sensor = getattr(args, "sensor", None)
+    if sensor is None:
+        return None
+    if args.beams is not None:
+        raise UserError("--sensor and --beams exclude each other (--sensor finds the beams)")
+    try:
+        scan = project_scan(read_cloud(args.image), sensor=sensor)
+    except (ValueError, TypeError) as exc:
+        raise UserError(_one_line(exc)) from None
+    args.scan_camera, args.scan_beams = scan.camera, scan.beams
+    return scan
 
 
 def _default_output(args) -> None:
@@ -622,9 +661,16 @@ def _cmd_info(args):
 
     if is_recording(args.image):
         return _info_recording(args)
-    image = _read_image(args.image)
+    if Path(args.image).suffix.lower() == SCAN_SUFFIX:
+        if args.beams is None and args.sensor is None:
+            return _info_cloud(args)
+        image = _read_scan(args)
+    else:
+        image = _read_image(args.image)
+    if args.write_beams is not None:
+        _write_beams(args)
     given = any(x is not None for x in (args.scale, args.intrinsics, args.depth_scale, args.beams,
-                                         args.camera))
+                                         args.camera, args.sensor))
     camera = _camera(args, image.shape) if given else None
     bg = _resolve_background(args.background, image, camera)
     depth, valid = to_depth_and_mask(image, bg)
@@ -664,6 +710,55 @@ def _cmd_info(args):
     return 0
 
 
+def _info_cloud(args):
+    """`rangemesh info cloud.bin`: its points, returns and angles (no beams: no range image)."""
+    from .clouds import read_cloud
+
+    try:
+        pts = read_cloud(args.image)
+    except ValueError as exc:
+        raise UserError(_one_line(exc)) from None
+    xyz = pts[:, :3].astype(np.float64)
+    with np.errstate(over="ignore", invalid="ignore"):
+        r = np.sqrt(np.sum(xyz * xyz, axis=1))
+    ok = np.isfinite(r) & (r > 0)
+    el = np.degrees(np.arcsin(xyz[ok, 2] / r[ok])) if ok.any() else np.zeros(0)
+    info = {"file": args.image, "points": len(pts), "returns": int(ok.sum()),
+            "no_returns": int((~ok).sum()),
+            "range_min": float(r[ok].min()) if ok.any() else None,
+            "range_max": float(r[ok].max()) if ok.any() else None,
+            "elevation_min_deg": float(el.min()) if ok.any() else None,
+            "elevation_max_deg": float(el.max()) if ok.any() else None}
+    if args.json:
+        print(json.dumps(_clean(info)))
+        return 0
+    print(f"{args.image}: a LiDAR cloud of {info['points']} points (float32 x, y, z, "
+          f"intensity), {info['returns']} with a return, {info['no_returns']} at the origin "
+          f"(no return)")
+    if ok.any():
+        print(f"range {info['range_min']:g} .. {info['range_max']:g} m, elevation "
+              f"{info['elevation_min_deg']:.2f} .. {info['elevation_max_deg']:.2f} degrees")
+    print("as a range image: give --sensor NAME (the beams found from the cloud) or --beams "
+          "FILE.json; --write-beams FILE.json keeps the beams found")
+    return 0
+
+
+def _write_beams(args):
+    """--write-beams: the beams of the projected cloud, as --beams reads them."""
+    from .clouds import project_scan, read_cloud, write_beams
+
+    if Path(args.image).suffix.lower() != SCAN_SUFFIX or args.sensor is None:
+        raise UserError("--write-beams goes with a LiDAR cloud (.bin) and --sensor")
+    try:
+        beams = getattr(args, "scan_beams", None) or project_scan(read_cloud(args.image),
+                                                                  sensor=args.sensor).beams
+        write_beams(args.write_beams, beams)
+    except (ValueError, OSError) as exc:
+        raise UserError(_one_line(exc)) from None
+    if not args.json:
+        print(f"wrote {args.write_beams} ({beams['rows']} beams, {beams['cols']} columns)")
+
+
 def _cleaned(args, depth, valid, camera):
     """--depth-limits and --min-region applied to a masked image, in place; pixels each dropped."""
     from .cleanup import clean_inplace
@@ -678,7 +773,7 @@ def _cleaned(args, depth, valid, camera):
 def _cmd_eval(args):
     image = _read_scan(args)  # an image file, or a LiDAR .bin with --beams, as `mesh` reads
     given = any(x is not None for x in (args.scale, args.intrinsics, args.depth_scale, args.beams,
-                                         args.camera))
+                                         args.camera, args.sensor))
     _check_depth_scale(args, image)
     camera = _camera(args, image.shape) if given else None  # None: the camera the file records
     try:
@@ -705,6 +800,10 @@ def _cmd_batch(args):
     from .batch import mesh_many, summarize
 
     params, method, _ = _resolve(args)
+    if args.sensor is not None:
+        raise UserError("--sensor goes with mesh, eval and info (one cloud at a time); for a "
+                        "batch, write its beams once (info CLOUD.bin --sensor NAME --write-beams "
+                        "B.json) and give --beams B.json")
     camera = _camera(args)
     if _recording_input(args) is None and args.depth_scale is None \
             and (args.intrinsics is not None or args.camera is not None):
@@ -940,6 +1039,8 @@ def build_parser() -> argparse.ArgumentParser:
     _add_image_options(i)
     _add_cleanup_options(i)
     _add_camera_options(i)  # the camera says what 'auto' marks as missing depth
+    i.add_argument("--write-beams", metavar="FILE.json", default=None,
+                   help="with a .bin cloud and --sensor: write the beams found, for --beams")
     i.add_argument("--json", action="store_true", help="print as JSON on stdout")
 
     e = sub.add_parser("eval", help="the paper's relative error of any mesh file",

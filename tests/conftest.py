@@ -72,3 +72,12 @@ def open3d():
 @pytest.fixture
 def rng():
     return np.random.default_rng(12345)
+
+
+@pytest.fixture(autouse=True)
+def _zero_marker_warning_unsaid():
+    """Each test starts with the once-a-process zero-marker warning unsaid (rangemesh.cleanup)."""
+    import rangemesh.cleanup
+
+    rangemesh.cleanup._warned.clear()
+    yield

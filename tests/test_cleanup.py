@@ -1,14 +1,16 @@
 """depth_limits and min_region (rangemesh.cleanup): the same pixels missing at every entry point."""
 
 import json
+import warnings
 
 import numpy as np
 import pytest
 
 import rangemesh
+import rangemesh.cleanup
 from rangemesh import triangulate
+from rangemesh.cleanup import ZeroMarkerWarning, apply_depth_limits, zeros_like_a_marker
 from rangemesh.cli import main
-from rangemesh.cleanup import apply_depth_limits
 
 from .images import load
 
@@ -132,3 +134,64 @@ def test_a_recording_drops_the_pixels_triangulate_drops(shared_data):
     assert np.array_equal(got.faces, want.faces) and np.array_equal(got.pixels, want.pixels)
     z = depth[got.pixels[:, 0], got.pixels[:, 1]] * 0.001
     assert z.min() >= 0.5 and z.max() <= 2.0
+
+
+# ------------------------------------------------------------ exact zeros with Orthographic
+
+
+def test_zeros_cut_off_from_the_data_look_like_a_marker_by_hand():
+    # zeros beside 5.0-5.2: steps of 5 at the border, 0.1 inside (90th percentile) -> 3 zeros
+    d = np.array([[0.0, 0.0, 5.0, 5.1], [0.0, 5.0, 5.1, 5.2]])
+    assert zeros_like_a_marker(d, np.ones(d.shape, bool)) == 3
+    # a ramp through 0: steps of 0.1 off the zeros as everywhere: data
+    ramp = np.array([[0.0, 0.1, 0.2, 0.3], [0.0, 0.1, 0.2, 0.3]])
+    assert zeros_like_a_marker(ramp, np.ones(ramp.shape, bool)) == 0
+    # data on both sides of 0 (heights): 0 is a height like any other
+    signed = np.array([[0.0, 0.0, 5.0, -5.0]])
+    assert zeros_like_a_marker(signed, np.ones(signed.shape, bool)) == 0
+    # no zero touches the data: the gap from 0 to the smallest value decides
+    apart = np.array([[0.0, np.nan, 5.0, 5.1]])
+    assert zeros_like_a_marker(np.nan_to_num(apart), ~np.isnan(apart)) == 1
+
+
+@pytest.mark.parametrize("rel, scale, zeros", [
+    ("lidar/rellis3d_os1-64_000000.range.npy", 1.0, 52414),  # README: 40.0 % no return
+    ("middlebury/cones_disp2.png", 0.25, 5429),  # 0 = unknown, 3.2 % (README)
+    ("rgbd/open3d_SUN_depth.mm.npy", 0.001, 56012),  # 18.2 %
+])
+def test_real_no_return_markers_look_like_one_and_a_terrain_does_not(shared_data, rel, scale,
+                                                                      zeros):
+    img = load(shared_data, rel).astype(np.float64) * scale  # float: 0 is data under 'auto'
+    d, v = rangemesh.to_depth_and_mask(img)
+    assert zeros_like_a_marker(d, v) == zeros == int((img == 0).sum())
+    rr, cc = np.mgrid[0:50, 0:60]
+    terrain = np.maximum(0.0, 3.0 * np.sin(cc / 9.0) + 0.01 * rr)  # a lake at level 0
+    assert (terrain == 0).sum() > 1000
+    assert zeros_like_a_marker(terrain, np.ones(terrain.shape, bool)) == 0
+
+
+def test_the_api_warns_once_naming_the_count(shared_data):
+    img = load(shared_data, "lidar/rellis3d_os1-64_000000.range.npy")
+    with pytest.warns(ZeroMarkerWarning, match=r"^52414 valid pixels are exactly 0 and look like "
+                                               r"a no-return marker"):
+        triangulate(img, vertices=100)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        triangulate(img, vertices=100)  # said once
+        triangulate(img, vertices=100, background=0)  # no zero is data here
+    rangemesh.cleanup._warned.clear()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        cam = rangemesh.Spherical.from_beams(shared_data / "lidar/rellis3d_os1-64_000000.beams.json")
+        triangulate(img, vertices=100, camera=cam)  # a ray camera: 0 is no return, no warning
+
+
+def test_info_says_whether_the_zeros_look_like_a_marker(shared_data, tmp_path, capsys):
+    assert main(["info", str(shared_data / "lidar/rellis3d_os1-64_000000.range.npy"),
+                 "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["zero_pixels_valid"] == 52414 and doc["zeros_look_like_no_return"] is True
+    rr, cc = np.mgrid[0:50, 0:60]
+    np.save(tmp_path / "terrain.npy", np.maximum(0.0, 3.0 * np.sin(cc / 9.0) + 0.01 * rr))
+    assert main(["info", str(tmp_path / "terrain.npy")]) == 0
+    assert "data by the look of them" in capsys.readouterr().out

@@ -474,11 +474,24 @@ def _run_mesh(args, image, name, bg, outputs_for):
     camera = _camera(args, image.shape)
     bg = _resolve_background(bg, image, camera)
     with _progress(args, 4, f"meshing {name}") as bar:
+        import warnings
+
+        from .cleanup import ZeroMarkerWarning
+
         try:
-            mesh = run(image, params, background=bg, camera=camera, vertices=args.vertices,
-                       max_error=args.max_error, tiles_given=tiles_given, method=method)
+            with warnings.catch_warnings(record=True) as said:
+                warnings.simplefilter("always", ZeroMarkerWarning)
+                mesh = run(image, params, background=bg, camera=camera, vertices=args.vertices,
+                           max_error=args.max_error, tiles_given=tiles_given, method=method)
         except (ValueError, TypeError, MemoryError) as exc:
             raise UserError(f"{name}: {_one_line(exc)}") from None
+        for w in said:  # (others pass on as they came)
+            if issubclass(w.category, ZeroMarkerWarning):
+                if not (args.quiet or args.json):
+                    print(f"rangemesh: warning: {name}: {w.message}".replace(
+                        "background=0", "--background 0"), file=sys.stderr)
+            else:
+                warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
         bar.update(1)
         if mesh.is_empty:
             raise UserError(f"{name}: nothing to mesh: {mesh.stats.reason}")
@@ -675,6 +688,7 @@ def _cmd_info(args):
     bg = _resolve_background(args.background, image, camera)
     depth, valid = to_depth_and_mask(image, bg)
     dropped = _cleaned(args, depth, valid, camera)  # as `mesh` would see the pixels
+    from .cleanup import zeros_like_a_marker
     info = {
         "file": args.image,
         "shape": list(image.shape),
@@ -690,6 +704,8 @@ def _cmd_info(args):
         "distinct_values": int(np.unique(depth[valid]).size) if valid.any() else 0,
         # exact zeros kept as data: a no-return marker meshed at depth 0 if they are one
         "zero_pixels_valid": int(np.count_nonzero(valid & (depth == 0.0))),
+        # ... and whether they look like one (rangemesh.cleanup.zeros_like_a_marker)
+        "zeros_look_like_no_return": bool(zeros_like_a_marker(depth, valid)),
         **{f"dropped_by_{k}": n for k, n in dropped.items()},
     }
     if args.json:
@@ -701,9 +717,13 @@ def _cmd_info(args):
           f"({info['valid_share_percent']:.1f} %)")
     for k, n in dropped.items():
         print(f"--{k.replace('_', '-')} made {n} more pixels missing depth")
-    if info["zero_pixels_valid"]:
-        print(f"{info['zero_pixels_valid']} valid pixels are exactly 0: if 0 marks no return, "
-              f"give the camera (--intrinsics, --beams) or --background 0")
+    if info["zeros_look_like_no_return"]:
+        print(f"{info['zero_pixels_valid']} valid pixels are exactly 0 and look like a no-return "
+              f"marker (cut off from the data): if 0 marks no return, give the camera "
+              f"(--intrinsics, --beams) or --background 0")
+    elif info["zero_pixels_valid"]:
+        print(f"{info['zero_pixels_valid']} valid pixels are exactly 0, data by the look of them "
+              f"(they continue their neighbours)")
     if valid.any():
         print(f"depth range {info['depth_min']:g} .. {info['depth_max']:g} "
               f"({info['distinct_values']} distinct values)")

@@ -19,15 +19,15 @@ import warnings
 import numpy as np
 
 from ._core import EXACT_SPAN, valid_range
-from .camera import Spherical, as_camera, check_reach, check_shape
+from .camera import Orthographic, Spherical, as_camera, check_reach, check_shape
 from .checks import real_number, whole_number
+from .cleanup import clean_inplace, warn_zero_marker
 from .geometry.seam import seam_strip, strip_to_keep, unrolled_columns
 from .mesh import Mesh, Stats, Target, count_edges, empty_mesh, with_fields
 from .paper import targets
 from .paper.sampling import fill_gaps_inplace, sample_grid, sampling_weights
 from .paper.stages import mesh_grid
 from .params import DEFAULT_TARGET, METHODS, OPTION_METHOD, MeshParams, default_vertex_cap, misplaced_option
-from .cleanup import clean_inplace
 from .prepare import check_image, mask_into, to_depth_and_mask
 from .refine import greedy_mesh
 from .refine.walls import wall_faces
@@ -509,6 +509,8 @@ def run(image, params: MeshParams, *, background="auto", camera=None, vertices=N
                                     camera=camera, cleaned=cleaned)
     check_shape(camera, depth.shape)
     lo, hi, n_valid = valid_range(depth, valid)
+    if n_valid and lo <= 0.0 <= hi and isinstance(camera, Orthographic):  # (else: no zero)
+        warn_zero_marker(depth, valid)
     if n_valid:
         if not math.isfinite(hi - lo):
             raise ValueError(f"depths {lo:g} .. {hi:g}: their range exceeds the float range; "
@@ -590,8 +592,10 @@ def run(image, params: MeshParams, *, background="auto", camera=None, vertices=N
 
 
 def reference(image, background, cleaned=()):
-    """The error bound's reference: the image masked, not gap-filled, and the pixels the clean-up
-    dropped (`cleaned`: the mask `_prepare_checked` left, if any) missing too."""
+    """The error bound's reference: the image masked, not gap-filled, the clean-up's pixels missing.
+
+    `cleaned`: the mask `_prepare_checked` left after the clean-up (empty when there was none).
+    """
     depth, valid = to_depth_and_mask(image, background)
     if cleaned:
         np.logical_and(valid, cleaned[0], out=valid)

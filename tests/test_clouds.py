@@ -146,3 +146,14 @@ def test_sensor_goes_with_a_cloud_only(shared_data, capsys):
     img = shared_data / "rgbd/open3d_TUM_depth.png"
     assert main(["mesh", str(img), "--sensor", "hdl64", "-o", "/tmp/x.ply"]) == 2
     assert "--sensor goes with a LiDAR cloud" in capsys.readouterr().err
+
+
+def test_a_camera_over_part_of_the_circle_takes_the_points_in_its_columns(shared_data, kitti):
+    _, cloud = kitti
+    beams = json.loads((shared_data / f"{RELLIS}.beams.json").read_text())
+    beams["cols"] = 1024  # the first half turn of the scan's 2048 steps
+    scan = project_scan(cloud, beams=beams)
+    want = np.load(shared_data / f"{RELLIS}.range.npy")[:, :1024]
+    assert not scan.camera.wraps and scan.collisions == 0
+    assert np.array_equal(scan.ranges > 0, want > 0)
+    np.testing.assert_allclose(scan.ranges, want, rtol=1e-6)

@@ -111,3 +111,12 @@ def scan_file(os1, tmp_path):
     dst = tmp_path / "scan.npy"
     shutil.copy(os1["range"], dst)
     return dst
+
+
+@pytest.fixture(autouse=True)
+def _zero_marker_warning_unsaid():
+    """Each test starts with the once-a-process zero-marker warning unsaid (rangemesh.cleanup)."""
+    import rangemesh.cleanup
+
+    rangemesh.cleanup._warned.clear()
+    yield

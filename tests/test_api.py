@@ -15,6 +15,7 @@ from hypothesis import strategies as st
 
 import rangemesh
 from rangemesh import MeshParams, Target, mesh_stream, triangulate
+from rangemesh.cleanup import ZeroMarkerWarning
 from rangemesh.cli import main
 from rangemesh.io import read_mesh
 from rangemesh.params import OPTION_METHOD
@@ -104,7 +105,7 @@ def test_a_paper_default_passed_to_refine_is_refused():
 
 def test_the_table_covers_every_setting():
     fields = {f.name for f in dataclasses.fields(MeshParams)}
-    shared = {"fill_gaps", "wrap"}
+    shared = {"fill_gaps", "wrap", "depth_limits", "min_region"}
     # MeshParams' 'workers' is the option 'threads'
     assert set(OPTION_METHOD) | shared == (fields - {"workers"}) | {"threads"}
 
@@ -186,8 +187,9 @@ def test_auto_takes_zero_as_missing_in_integer_images_only():
     mesh = triangulate(img, vertices=40)
     same_mesh(mesh, triangulate(img, vertices=40, background=0))
     assert mesh.vertices[:, 2].min() >= 1000  # no vertex at z = 0
-    as_float = img.astype(np.float64)  # a float 0 is a depth
-    assert triangulate(as_float, vertices=40).vertices[:, 2].min() == 0.0
+    as_float = img.astype(np.float64)  # a float 0 is a depth, named when it looks like a marker
+    with pytest.warns(ZeroMarkerWarning, match="look like a no-return marker"):
+        assert triangulate(as_float, vertices=40).vertices[:, 2].min() == 0.0
 
 
 def ranges_with_no_returns():

@@ -64,6 +64,7 @@ def mesh_stream(frames: Iterable, params: MeshParams | None = None, *,
                 epsilon: float | None = None, max_angle: float | None = None,
                 min_bend: float | None = None, gain_threshold: float | None = None,
                 max_edge: float | None = None, threads: int | None = None,
+                depth_limits: tuple[float, float] | None = None, min_region: int | None = None,
                 **overrides) -> Iterator[Mesh]:
     """Mesh a stream of range images, one `Mesh` per frame, in order.
 
@@ -259,7 +260,8 @@ def _one(path: str, out: str, call: dict, background, camera, overwrite: bool,
         mesh = triangulate(img, background=background, camera=camera, **call)
         if mesh.is_empty:
             raise ValueError(f"nothing to mesh: {mesh.stats.reason}")
-        ev = evaluate(mesh, img, background=background)
+        ev = evaluate(mesh, img, background=background, depth_limits=call.get("depth_limits"),
+                      min_region=call.get("min_region"))
         write_mesh(mesh, out, pixels=getattr(camera, "z_depth", False))  # as `rangemesh mesh`
     except Exception as exc:  # one bad file must not stop the batch: report it in one line
         msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
@@ -412,6 +414,7 @@ def mesh_many(paths, out_dir, params: MeshParams | None = None, *,
               epsilon: float | None = None, max_angle: float | None = None,
               min_bend: float | None = None, gain_threshold: float | None = None,
               max_edge: float | None = None, threads: int | None = None,
+              depth_limits: tuple[float, float] | None = None, min_region: int | None = None,
               scheduler: str | None = None, workers: int | None = None, overwrite: bool = False,
               fmt: str = ".ply", progress: bool = False, connect_timeout: float = 10.0,
               beams: str | os.PathLike | None = None, **overrides) -> list[BatchResult]:

@@ -123,6 +123,39 @@ def _add_image_options(p):
                         f"always)")
 
 
+def _limits(text: str):
+    """``NEAR,FAR`` (either side may be empty: no limit there) for --depth-limits."""
+    parts = text.split(",")
+    try:
+        if len(parts) != 2:
+            raise ValueError
+        near, far = (float(t) if t.strip() else None for t in parts)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected NEAR,FAR (one side may be empty), got "
+                                         f"{text!r}") from None
+    return near, far
+
+
+def _add_cleanup_options(p):
+    p.add_argument("--depth-limits", type=_limits, default=None, metavar="NEAR,FAR",
+                   help="pixels whose depth is outside are missing depth: metres with "
+                        "--intrinsics/--camera/--beams (depth scale applied), stored units "
+                        "otherwise; one side may be empty (both methods)")
+    p.add_argument("--min-region", type=int, default=None, metavar="K",
+                   help="drop connected regions of fewer than K valid pixels, split where depth "
+                        "jumps by more than 5 %% a pixel: specks (both methods; default off)")
+
+
+def _add_cloud_options(c):
+    from .clouds import SENSORS
+
+    c.add_argument("--sensor", choices=sorted(SENSORS), default=None,
+                   help="an unorganised LiDAR cloud (.bin, KITTI's x, y, z, intensity): the "
+                        "Velodyne head whose beams are found from the cloud to make the range "
+                        "image (rangemesh.project_scan); with --beams a cloud is projected on "
+                        "the file's beams")
+
+
 def _add_camera_options(p):
     c = p.add_argument_group("camera (how pixels become 3-D points)")
     c.add_argument("--scale", type=_floats(3), metavar="KX,KY,KZ", default=None,
@@ -142,6 +175,7 @@ def _add_camera_options(p):
     c.add_argument("--beams", metavar="FILE.json", default=None,
                    help="spinning LiDAR: a spherical camera from a beams file (elevation per "
                         "row, azimuth per column; see docs/method.md); vertices = range x ray")
+    _add_cloud_options(c)
 
 
 def _default(name):
@@ -228,6 +262,7 @@ def _add_mesh_options(p):
     p.add_argument("--no-fill-gaps", action="store_true",
                    help="keep single-pixel holes instead of filling them with the 8-neighbour "
                         "mean (both methods)")
+    _add_cleanup_options(p)
     g.add_argument("--threads", type=int, default=None,
                    help=f"threads sharing stage one's tiles; the mesh is the same for any number "
                         f"(default {d('workers')})")
@@ -318,6 +353,9 @@ def _check_depth_scale(args, image) -> None:
 
 
 def _make_camera(args, image_shape=None, depth_scale=None):
+    scanned = getattr(args, "scan_camera", None)
+    if scanned is not None:  # a cloud projected with --sensor: its beams were found (_read_scan)
+        return scanned
     if args.camera is not None:
         if any(getattr(args, o) is not None for o in ("beams", "intrinsics", "scale")):
             raise UserError("--camera, --beams, --intrinsics and --scale exclude each other")
@@ -436,15 +474,29 @@ def _run_mesh(args, image, name, bg, outputs_for):
     camera = _camera(args, image.shape)
     bg = _resolve_background(bg, image, camera)
     with _progress(args, 4, f"meshing {name}") as bar:
+        import warnings
+
+        from .cleanup import ZeroMarkerWarning
+
         try:
-            mesh = run(image, params, background=bg, camera=camera, vertices=args.vertices,
-                       max_error=args.max_error, tiles_given=tiles_given, method=method)
+            with warnings.catch_warnings(record=True) as said:
+                warnings.simplefilter("always", ZeroMarkerWarning)
+                mesh = run(image, params, background=bg, camera=camera, vertices=args.vertices,
+                           max_error=args.max_error, tiles_given=tiles_given, method=method)
         except (ValueError, TypeError, MemoryError) as exc:
             raise UserError(f"{name}: {_one_line(exc)}") from None
+        for w in said:  # (others pass on as they came)
+            if issubclass(w.category, ZeroMarkerWarning):
+                if not (args.quiet or args.json):
+                    print(f"rangemesh: warning: {name}: {w.message}".replace(
+                        "background=0", "--background 0"), file=sys.stderr)
+            else:
+                warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
         bar.update(1)
         if mesh.is_empty:
             raise UserError(f"{name}: nothing to mesh: {mesh.stats.reason}")
-        ev = evaluate(mesh, image, background=bg)
+        ev = evaluate(mesh, image, background=bg, depth_limits=params.depth_limits,
+                      min_region=params.min_region)
         bar.update(1)
         written = []
         out, preview = outputs_for
@@ -458,7 +510,7 @@ def _run_mesh(args, image, name, bg, outputs_for):
         if preview:
             from .preview import save_preview
 
-            depth, valid = prepare(image, params, bg)  # gap-filled in place: no second copy
+            depth, valid = prepare(image, params, bg, camera=camera)  # gap-filled in place
             weights = sampling_weights(depth, valid, params) if method == "paper" else None
             save_preview(mesh, depth, valid, preview, evaluation=ev, title=Path(name).name,
                          weights=weights)
@@ -536,10 +588,15 @@ def _with_colors(args, mesh, name):
 def _read_scan(args):
     """The range image of a mesh command: an image file, or a LiDAR .bin read with --beams."""
     if Path(args.image).suffix.lower() != SCAN_SUFFIX:
+        if getattr(args, "sensor", None) is not None:
+            raise UserError(f"{args.image}: --sensor goes with a LiDAR cloud (.bin)")
         return _read_image(args.image)
+    scan = _project(args)
+    if scan is not None:
+        return scan.ranges
     if args.beams is None:
         raise UserError(f"{args.image}: a .bin LiDAR scan needs --beams FILE.json (its rows and "
-                        f"column shifts)")
+                        f"column shifts) or, for an unorganised cloud, --sensor NAME")
     try:
         layout = bin_layout(args.beams)
     except ValueError as exc:
@@ -548,6 +605,26 @@ def _read_scan(args):
         return read_scan(args.image, layout)
     except (OSError, ValueError) as exc:
         raise UserError(_one_line(exc)) from None
+
+
+def _project(args):
+    """A .bin cloud made a range image with --sensor (`rangemesh.project_scan`), else None.
+
+    (With --beams, `rangemesh.io.read_scan` projects a cloud that is not the file's organised scan.)
+    """
+    from .clouds import project_scan, read_cloud
+
+    sensor = getattr(args, "sensor", None)
+    if sensor is None:
+        return None
+    if args.beams is not None:
+        raise UserError("--sensor and --beams exclude each other (--sensor finds the beams)")
+    try:
+        scan = project_scan(read_cloud(args.image), sensor=sensor)
+    except (ValueError, TypeError) as exc:
+        raise UserError(_one_line(exc)) from None
+    args.scan_camera, args.scan_beams = scan.camera, scan.beams
+    return scan
 
 
 def _default_output(args) -> None:
@@ -597,11 +674,21 @@ def _cmd_info(args):
 
     if is_recording(args.image):
         return _info_recording(args)
-    image = _read_image(args.image)
+    if Path(args.image).suffix.lower() == SCAN_SUFFIX:
+        if args.beams is None and args.sensor is None:
+            return _info_cloud(args)
+        image = _read_scan(args)
+    else:
+        image = _read_image(args.image)
+    if args.write_beams is not None:
+        _write_beams(args)
     given = any(x is not None for x in (args.scale, args.intrinsics, args.depth_scale, args.beams,
-                                         args.camera))
-    bg = _resolve_background(args.background, image, _camera(args, image.shape) if given else None)
+                                         args.camera, args.sensor))
+    camera = _camera(args, image.shape) if given else None
+    bg = _resolve_background(args.background, image, camera)
     depth, valid = to_depth_and_mask(image, bg)
+    dropped = _cleaned(args, depth, valid, camera)  # as `mesh` would see the pixels
+    from .cleanup import zeros_like_a_marker
     info = {
         "file": args.image,
         "shape": list(image.shape),
@@ -617,6 +704,9 @@ def _cmd_info(args):
         "distinct_values": int(np.unique(depth[valid]).size) if valid.any() else 0,
         # exact zeros kept as data: a no-return marker meshed at depth 0 if they are one
         "zero_pixels_valid": int(np.count_nonzero(valid & (depth == 0.0))),
+        # ... and whether they look like one (rangemesh.cleanup.zeros_like_a_marker)
+        "zeros_look_like_no_return": bool(zeros_like_a_marker(depth, valid)),
+        **{f"dropped_by_{k}": n for k, n in dropped.items()},
     }
     if args.json:
         print(json.dumps(_clean(info)))
@@ -625,26 +715,93 @@ def _cmd_info(args):
     print(f"{args.image}: {image.shape[0]} rows x {image.shape[1]} cols, {image.dtype}")
     print(f"background ({how}): {info['background']}; valid pixels {info['valid_pixels']} "
           f"({info['valid_share_percent']:.1f} %)")
-    if info["zero_pixels_valid"]:
-        print(f"{info['zero_pixels_valid']} valid pixels are exactly 0: if 0 marks no return, "
-              f"give the camera (--intrinsics, --beams) or --background 0")
+    for k, n in dropped.items():
+        print(f"--{k.replace('_', '-')} made {n} more pixels missing depth")
+    if info["zeros_look_like_no_return"]:
+        print(f"{info['zero_pixels_valid']} valid pixels are exactly 0 and look like a no-return "
+              f"marker (cut off from the data): if 0 marks no return, give the camera "
+              f"(--intrinsics, --beams) or --background 0")
+    elif info["zero_pixels_valid"]:
+        print(f"{info['zero_pixels_valid']} valid pixels are exactly 0, data by the look of them "
+              f"(they continue their neighbours)")
     if valid.any():
         print(f"depth range {info['depth_min']:g} .. {info['depth_max']:g} "
               f"({info['distinct_values']} distinct values)")
     return 0
 
 
+def _info_cloud(args):
+    """`rangemesh info cloud.bin`: its points, returns and angles (no beams: no range image)."""
+    from .clouds import read_cloud
+
+    try:
+        pts = read_cloud(args.image)
+    except ValueError as exc:
+        raise UserError(_one_line(exc)) from None
+    xyz = pts[:, :3].astype(np.float64)
+    with np.errstate(over="ignore", invalid="ignore"):
+        r = np.sqrt(np.sum(xyz * xyz, axis=1))
+    ok = np.isfinite(r) & (r > 0)
+    el = np.degrees(np.arcsin(xyz[ok, 2] / r[ok])) if ok.any() else np.zeros(0)
+    info = {"file": args.image, "points": len(pts), "returns": int(ok.sum()),
+            "no_returns": int((~ok).sum()),
+            "range_min": float(r[ok].min()) if ok.any() else None,
+            "range_max": float(r[ok].max()) if ok.any() else None,
+            "elevation_min_deg": float(el.min()) if ok.any() else None,
+            "elevation_max_deg": float(el.max()) if ok.any() else None}
+    if args.json:
+        print(json.dumps(_clean(info)))
+        return 0
+    print(f"{args.image}: a LiDAR cloud of {info['points']} points (float32 x, y, z, "
+          f"intensity), {info['returns']} with a return, {info['no_returns']} at the origin "
+          f"(no return)")
+    if ok.any():
+        print(f"range {info['range_min']:g} .. {info['range_max']:g} m, elevation "
+              f"{info['elevation_min_deg']:.2f} .. {info['elevation_max_deg']:.2f} degrees")
+    print("as a range image: give --sensor NAME (the beams found from the cloud) or --beams "
+          "FILE.json; --write-beams FILE.json keeps the beams found")
+    return 0
+
+
+def _write_beams(args):
+    """--write-beams: the beams of the projected cloud, as --beams reads them."""
+    from .clouds import project_scan, read_cloud, write_beams
+
+    if Path(args.image).suffix.lower() != SCAN_SUFFIX or args.sensor is None:
+        raise UserError("--write-beams goes with a LiDAR cloud (.bin) and --sensor")
+    try:
+        beams = getattr(args, "scan_beams", None) or project_scan(read_cloud(args.image),
+                                                                  sensor=args.sensor).beams
+        write_beams(args.write_beams, beams)
+    except (ValueError, OSError) as exc:
+        raise UserError(_one_line(exc)) from None
+    if not args.json:
+        print(f"wrote {args.write_beams} ({beams['rows']} beams, {beams['cols']} columns)")
+
+
+def _cleaned(args, depth, valid, camera):
+    """--depth-limits and --min-region applied to a masked image, in place; pixels each dropped."""
+    from .cleanup import clean_inplace
+
+    try:
+        params = MeshParams(depth_limits=args.depth_limits, min_region=args.min_region)
+    except (ValueError, TypeError) as exc:
+        raise UserError(_one_line(exc)) from None
+    return clean_inplace(depth, valid, params, camera)
+
+
 def _cmd_eval(args):
     image = _read_scan(args)  # an image file, or a LiDAR .bin with --beams, as `mesh` reads
     given = any(x is not None for x in (args.scale, args.intrinsics, args.depth_scale, args.beams,
-                                         args.camera))
+                                         args.camera, args.sensor))
     _check_depth_scale(args, image)
     camera = _camera(args, image.shape) if given else None  # None: the camera the file records
     try:
         mesh = read_mesh(args.mesh, camera=camera, image_shape=image.shape)
         # 'auto' by the mesh's camera, as `mesh` took it
         ev = evaluate(mesh, image, background=_resolve_background(args.background, image,
-                                                                   mesh.camera))
+                                                                   mesh.camera),
+                      depth_limits=args.depth_limits, min_region=args.min_region)
     except (FileNotFoundError, ValueError) as exc:
         raise UserError(str(exc)) from None
     if args.json:
@@ -663,6 +820,10 @@ def _cmd_batch(args):
     from .batch import mesh_many, summarize
 
     params, method, _ = _resolve(args)
+    if args.sensor is not None:
+        raise UserError("--sensor goes with mesh, eval and info (one cloud at a time); for a "
+                        "batch, write its beams once (info CLOUD.bin --sensor NAME --write-beams "
+                        "B.json) and give --beams B.json")
     camera = _camera(args)
     if _recording_input(args) is None and args.depth_scale is None \
             and (args.intrinsics is not None or args.camera is not None):
@@ -924,7 +1085,10 @@ def build_parser() -> argparse.ArgumentParser:
                                    "size, encoding, count and camera.")
     i.add_argument("image")
     _add_image_options(i)
+    _add_cleanup_options(i)
     _add_camera_options(i)  # the camera says what 'auto' marks as missing depth
+    i.add_argument("--write-beams", metavar="FILE.json", default=None,
+                   help="with a .bin cloud and --sensor: write the beams found, for --beams")
     i.add_argument("--json", action="store_true", help="print as JSON on stdout")
 
     e = sub.add_parser("eval", help="the paper's relative error of any mesh file",
@@ -936,6 +1100,7 @@ def build_parser() -> argparse.ArgumentParser:
     e.add_argument("image")
     e.add_argument("mesh", help=f"mesh file ({' '.join(MESH_SUFFIXES)})")
     _add_image_options(e)
+    _add_cleanup_options(e)
     _add_camera_options(e)
     e.add_argument("--json", action="store_true", help="print as JSON on stdout")
     lv = sub.add_parser("live", help="mesh a depth camera, a LiDAR or a paced recording as it runs",

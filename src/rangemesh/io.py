@@ -516,7 +516,7 @@ def bin_layout(beams_path: str | os.PathLike) -> dict:
         raise ValueError(f"{beams_path}: a beams file for a .bin scan gives its 'rows'") from None
     except (TypeError, ValueError) as exc:
         raise ValueError(f"{beams_path}: {_first_line(exc)}") from None
-    return {"rows": rows, "cols": cols, "column_shift": shift}
+    return {"rows": rows, "cols": cols, "column_shift": shift, "beams": beams}
 
 
 def read_scan(path: str | os.PathLike, layout: dict | None = None) -> np.ndarray:
@@ -540,8 +540,15 @@ def read_scan(path: str | os.PathLike, layout: dict | None = None) -> np.ndarray
         raise ValueError(f"{path}: a .bin LiDAR scan needs --beams FILE.json (its rows and "
                          f"column shifts)")
     try:
-        rng, _ = read_lidar_bin(path, layout["rows"], column_shift=layout["column_shift"],
-                                steps=layout["cols"])
+        rows, cols = layout["rows"], layout["cols"]
+        if cols is not None and layout.get("beams") is not None and Path(path).is_file() \
+                and Path(path).stat().st_size != 16 * rows * cols:
+            # not the organised scan the file lays out: an unorganised cloud (KITTI's dropped
+            # returns left out), each point put in its pixel by the file's beams
+            from .clouds import project_scan, read_cloud
+
+            return project_scan(read_cloud(path), beams=layout["beams"]).ranges
+        rng, _ = read_lidar_bin(path, rows, column_shift=layout["column_shift"], steps=cols)
     except OSError as exc:
         raise ValueError(f"{path}: {_first_line(exc)}") from None
     return rng

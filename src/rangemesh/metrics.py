@@ -6,8 +6,10 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
+from .cleanup import clean_inplace
 from .mesh import Mesh, check_arrays
 from .paper.sampling import curvature, valid_span
+from .params import MeshParams
 from .prepare import to_depth_and_mask
 from .render import per_span, relative_error, render_depth
 
@@ -111,7 +113,7 @@ def dilate_square(mask: np.ndarray, radius: int) -> np.ndarray:
 
 
 def evaluate(mesh: Mesh, depth, *, background="auto", discontinuities: np.ndarray | None = None,
-             band: int = 2) -> Evaluation:
+             band: int = 2, depth_limits=None, min_region: int | None = None) -> Evaluation:
     """The paper's relative error and companions, exact and vectorised.
 
     Parameters
@@ -128,6 +130,10 @@ def evaluate(mesh: Mesh, depth, *, background="auto", discontinuities: np.ndarra
         `discontinuity_mask` of the image.
     band : int, default 2
         Half-width in pixels (Chebyshev distance) of the edge band.
+    depth_limits : (float, float), optional
+    min_region : int, optional
+        As given to `triangulate`: the pixels they drop are missing depth
+        here too (in the units of the mesh's camera; `rangemesh.cleanup`).
 
     Returns
     -------
@@ -148,6 +154,9 @@ def evaluate(mesh: Mesh, depth, *, background="auto", discontinuities: np.ndarra
     of the mean and reported separately as `uncovered`.
     """
     d, valid = to_depth_and_mask(depth, background, camera=mesh.camera)
+    if depth_limits is not None or min_region is not None:
+        clean_inplace(d, valid, MeshParams(depth_limits=depth_limits, min_region=min_region),
+                      mesh.camera)
     check_arrays(mesh.vertices, mesh.faces, mesh.pixels, mesh.image_shape)
     if mesh.image_shape != d.shape:
         raise ValueError(f"depth has shape {d.shape} but the mesh was made from {mesh.image_shape}")

@@ -93,6 +93,31 @@ def default_vertex_cap(n_valid: int, rule: DefaultTarget = DEFAULT_TARGET) -> in
     """
     return max(int(rule.max_share * n_valid), rule.min_vertices)
 
+def check_depth_limits(value) -> tuple[float, float] | None:
+    """`depth_limits` checked: None, or ``(near, far)`` with near < far (None: no limit that side).
+
+    Raises
+    ------
+    TypeError, ValueError
+        Naming ``depth_limits``.
+
+    Examples
+    --------
+    >>> check_depth_limits((0.5, None))
+    (0.5, inf)
+    """
+    if value is None:
+        return None
+    if isinstance(value, (str, bytes)) or not hasattr(value, "__len__") or len(value) != 2:
+        raise TypeError(f"depth_limits must be (near, far), two numbers (None: no limit), "
+                        f"got {value!r}")
+    near = -math.inf if value[0] is None else real_number("depth_limits", value[0], finite=False)
+    far = math.inf if value[1] is None else real_number("depth_limits", value[1], finite=False)
+    if math.isnan(near) or math.isnan(far) or not near < far:
+        raise ValueError(f"depth_limits must be (near, far) with near < far, got {value!r}")
+    return float(near), float(far)
+
+
 SAMPLING_CHOICES = ("adaptive", "uniform")
 FLIP_CHOICES = ("disparity", "error", None)
 
@@ -195,6 +220,16 @@ class MeshParams:
         between them is closed with a strip of triangles
         (`rangemesh.geometry.seam`). ``None``: on when the camera is a
         `rangemesh.Spherical` whose columns go once round.
+    depth_limits : (float, float) or None, default None
+        ``(near, far)``: pixels whose depth lies outside are missing depth
+        (both methods; None on one side: no limit there). In metres with a
+        metric camera (a `rangemesh.Pinhole`'s ``depth_scale`` or a ray
+        camera's ``range_scale`` applied), in stored depth units with
+        `rangemesh.Orthographic` (`rangemesh.cleanup`).
+    min_region : int or None, default None
+        Drop connected regions of valid pixels smaller than this many
+        pixels, regions split where depth jumps (both methods; specks and
+        flying pixels; `rangemesh.regions`). None: keep every region.
 
     Raises
     ------
@@ -230,6 +265,8 @@ class MeshParams:
     walls: bool = True
     jump: float = 0.05
     wrap: bool | None = None
+    depth_limits: tuple[float, float] | None = None
+    min_region: int | None = None
 
     def __post_init__(self):
         tiles = whole_pair("tiles", self.tiles, minimum=1)
@@ -290,6 +327,10 @@ class MeshParams:
         object.__setattr__(self, "jump", jump)
         if self.wrap is not None:
             object.__setattr__(self, "wrap", flag("wrap", self.wrap))
+        object.__setattr__(self, "depth_limits", check_depth_limits(self.depth_limits))
+        if self.min_region is not None:
+            object.__setattr__(self, "min_region",
+                               whole_number("min_region", self.min_region, minimum=1))
 
     @property
     def grid_shape(self) -> tuple[int, int]:

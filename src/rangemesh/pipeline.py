@@ -19,8 +19,9 @@ import warnings
 import numpy as np
 
 from ._core import EXACT_SPAN, valid_range
-from .camera import Spherical, as_camera, check_reach, check_shape
+from .camera import Orthographic, Spherical, as_camera, check_reach, check_shape
 from .checks import real_number, whole_number
+from .cleanup import clean_inplace, warn_zero_marker
 from .geometry.seam import seam_strip, strip_to_keep, unrolled_columns
 from .mesh import Mesh, Stats, Target, count_edges, empty_mesh, with_fields
 from .paper import targets
@@ -200,7 +201,7 @@ def prepare(image, params: MeshParams, background=None, *,
     ----------
     image : (H, W) array_like
     params : MeshParams
-        Only ``fill_gaps`` is read.
+        Only ``depth_limits``, ``min_region`` and ``fill_gaps`` are read.
     background : float, 'auto', 'nonpositive' or None, optional
     workspace : Workspace, optional
         Write into its buffers (same shape as the image) instead of new arrays.
@@ -214,13 +215,17 @@ def prepare(image, params: MeshParams, background=None, *,
     valid : (H, W) ndarray of bool
     """
     arr, background = check_image(image, background, camera=camera)
-    return _prepare_checked(arr, params, background, workspace)
+    return _prepare_checked(arr, params, background, workspace, camera=camera)
 
 
-def _prepare_checked(arr, params: MeshParams, background, workspace, need=("paper", None)):
+def _prepare_checked(arr, params: MeshParams, background, workspace, need=("paper", None),
+                     camera=None, cleaned=None):
     """`prepare` of an image `check_image` has checked (and its background resolved).
 
-    `need`: the method and vertex count `check_memory` checks the image for.
+    `need`: the method and vertex count `check_memory` checks the image for;
+    `camera`: the units of ``params.depth_limits`` (`rangemesh.cleanup`);
+    `cleaned`: a list that gets the mask after the clean-up, before gaps are filled (when
+    there is one: the error bound's reference drops the same pixels, `reference`).
     """
     if workspace is None:
         check_memory(arr.shape, *need)
@@ -229,6 +234,8 @@ def _prepare_checked(arr, params: MeshParams, background, workspace, need=("pape
     else:
         depth, valid = workspace.depth, workspace.valid
     mask_into(arr, background, depth, valid)
+    if clean_inplace(depth, valid, params, camera) and cleaned is not None:  # before gaps fill
+        cleaned.append(valid.copy())
     if params.fill_gaps:
         # the arrays are ours and hold 0.0 on background: fill in place, no copies
         fill_gaps_inplace(depth, valid)
@@ -276,11 +283,12 @@ def _targets_given(params: MeshParams, vertices, max_error, overrides) -> list[s
 # The name "refine" had before (greedy insertion); still accepted, with a warning.
 ALIASES = {"greedy": "refine"}
 # the MeshParams fields the deprecated spellings let method="refine" take
-_LEGACY_REFINE_FIELDS = ("fill_gaps", "workers", "heights", "diagonals", "walls", "jump", "wrap")
+_LEGACY_REFINE_FIELDS = ("fill_gaps", "workers", "heights", "diagonals", "walls", "jump", "wrap",
+                         "depth_limits", "min_region")
 # option -> MeshParams field (the in-call thread count is `threads`; MeshParams calls it workers)
 _FIELD_OF = {name: ("workers" if name == "threads" else name) for name in OPTION_METHOD}
 # The keyword options of `triangulate`, `mesh_stream` and `mesh_many` besides the targets.
-OPTIONS = ("fill_gaps", "wrap", *OPTION_METHOD)
+OPTIONS = ("fill_gaps", "wrap", *OPTION_METHOD, "depth_limits", "min_region")
 
 
 def keyword_options(scope: dict) -> dict:
@@ -496,9 +504,13 @@ def run(image, params: MeshParams, *, background="auto", camera=None, vertices=N
     default_target = method == "refine" and vertices is None and max_error is None
     # refine's need grows with its vertices: those asked, or the default target's cap at most
     budget = default_vertex_cap(image.size) if default_target else vertices
-    depth, valid = _prepare_checked(image, params, background, workspace, (method, budget))
+    cleaned = []
+    depth, valid = _prepare_checked(image, params, background, workspace, (method, budget),
+                                    camera=camera, cleaned=cleaned)
     check_shape(camera, depth.shape)
     lo, hi, n_valid = valid_range(depth, valid)
+    if n_valid and lo <= 0.0 <= hi and isinstance(camera, Orthographic):  # (else: no zero)
+        warn_zero_marker(depth, valid)
     if n_valid:
         if not math.isfinite(hi - lo):
             raise ValueError(f"depths {lo:g} .. {hi:g}: their range exceeds the float range; "
@@ -528,7 +540,7 @@ def run(image, params: MeshParams, *, background="auto", camera=None, vertices=N
             ceiling = vertex_ceiling(depth.shape)
             if ceiling is not None and ceiling < min(cap or n_valid, n_valid):
                 cap = memory_cap = max(ceiling, 3)
-        ref = to_depth_and_mask(image, background) if max_error is not None else None
+        ref = reference(image, background, cleaned) if max_error is not None else None
         mesh, target = greedy_mesh(depth, valid, camera, vertices=vertices, max_error=max_error,
                                    reference=ref, fit=params.heights != "pixel",
                                    diagonals=params.diagonals or "error",
@@ -548,7 +560,7 @@ def run(image, params: MeshParams, *, background="auto", camera=None, vertices=N
     elif vertices is not None:
         mesh, target = targets.fit_vertices(depth, valid, params, camera, int(vertices), tiles=tiles)
     elif max_error is not None:
-        ref_depth, ref_valid = to_depth_and_mask(image, background)
+        ref_depth, ref_valid = reference(image, background, cleaned)
         mesh, target = targets.fit_error(depth, valid, params, camera, float(max_error),
                                          ref_depth, ref_valid, tiles=tiles)
     elif params.max_edge is not None:
@@ -579,6 +591,18 @@ def run(image, params: MeshParams, *, background="auto", camera=None, vertices=N
     return with_fields(mesh, stats=with_fields(mesh.stats, **changes))
 
 
+def reference(image, background, cleaned=()):
+    """The error bound's reference: the image masked, not gap-filled, the clean-up's pixels missing.
+
+    `cleaned`: the mask `_prepare_checked` left after the clean-up (empty when there was none).
+    """
+    depth, valid = to_depth_and_mask(image, background)
+    if cleaned:
+        np.logical_and(valid, cleaned[0], out=valid)
+        depth[~valid] = 0.0
+    return depth, valid
+
+
 def triangulate(image, params: MeshParams | None = None, *,
                 method: str = "refine", vertices: int | None = None,
                 max_error: float | None = None, background="auto", camera=None, color=None,
@@ -592,6 +616,7 @@ def triangulate(image, params: MeshParams | None = None, *,
                 epsilon: float | None = None, max_angle: float | None = None,
                 min_bend: float | None = None, gain_threshold: float | None = None,
                 max_edge: float | None = None, threads: int | None = None,
+                depth_limits: tuple[float, float] | None = None, min_region: int | None = None,
                 **overrides) -> Mesh:
     """Mesh a range image: refined at its worst pixels (default), or Garcia & Sappa's pipeline.
 
@@ -687,6 +712,15 @@ def triangulate(image, params: MeshParams | None = None, *,
         ``'paper'`` only. Threads sharing stage one's tiles; the mesh is the
         same for any number (default 1). (``'refine'`` decides itself:
         `rangemesh.refine.threads`.)
+    depth_limits : (float, float), optional
+        Both methods. ``(near, far)``: pixels outside are missing depth, in
+        metres with a metric camera (``Pinhole(..., depth_scale=)`` applied),
+        in stored units with `Orthographic`; None on a side: no limit there
+        (`rangemesh.cleanup`).
+    min_region : int, optional
+        Both methods. Drop connected regions of valid pixels smaller than
+        this, split where depth jumps by more than 5 % of the depth a pixel
+        (specks; `rangemesh.regions`). Default: keep every region.
     **overrides
         Deprecated: ``workers``, the old name of `threads`.
 

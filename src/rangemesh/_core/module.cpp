@@ -32,4 +32,5 @@ NB_MODULE(_ext, m) {
     rangemesh::bind::bind_heights(m);
     rangemesh::bind::bind_refine(m);
     rangemesh::bind::bind_refine_mesh(m);
+    rangemesh::bind::bind_regions(m);
 }

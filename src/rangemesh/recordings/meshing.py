@@ -209,7 +209,8 @@ def _task(frame: Frame, call: dict, how: str, out: str | None, overwrite: bool,
         mesh, depth = mesh_frame(frame, call, how)
         if mesh.is_empty:
             raise ValueError(f"nothing to mesh: {mesh.stats.reason}")
-        ev = evaluate(mesh, depth, background=BACKGROUND)
+        ev = evaluate(mesh, depth, background=BACKGROUND, depth_limits=call.get("depth_limits"),
+                      min_region=call.get("min_region"))
         data = None
         if out is None:
             data = marker_bytes(mesh, frame.stamp, frame.frame_id)

@@ -11,5 +11,6 @@ void bind_paper(nanobind::module_& m);
 void bind_heights(nanobind::module_& m);
 void bind_refine(nanobind::module_& m);
 void bind_refine_mesh(nanobind::module_& m);
+void bind_regions(nanobind::module_& m);
 
 }  // namespace rangemesh::bind

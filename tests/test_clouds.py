@@ -1,0 +1,159 @@
+"""Unorganised LiDAR clouds to range images (rangemesh.clouds): project_scan, --sensor, .bin info."""
+
+import json
+
+import numpy as np
+import pytest
+
+import rangemesh
+from rangemesh.cli import main
+from rangemesh.clouds import SENSORS, find_beams, project_scan, read_cloud
+
+RELLIS = "lidar/rellis3d_os1-64_000000"
+
+
+@pytest.fixture(scope="module")
+def kitti(shared_data, tmp_path_factory):
+    """The RELLIS scan as KITTI stores a cloud: its no-returns dropped, the rest shuffled."""
+    pts = read_cloud(shared_data / f"{RELLIS}.bin")
+    cloud = pts[(pts[:, :3] != 0).any(axis=1)]
+    cloud = cloud[np.random.default_rng(7).permutation(len(cloud))]
+    path = tmp_path_factory.mktemp("kitti") / "scan.bin"
+    cloud.tofile(path)
+    return path, cloud
+
+
+def test_a_cloud_on_its_beams_file_gives_the_file_s_range_image(shared_data, kitti):
+    _, cloud = kitti
+    scan = project_scan(cloud, beams=shared_data / f"{RELLIS}.beams.json")
+    want = np.load(shared_data / f"{RELLIS}.range.npy")  # the README's organised image
+    assert scan.ranges.shape == (64, 2048) and scan.collisions == 0
+    assert np.array_equal(scan.ranges > 0, want > 0)
+    np.testing.assert_allclose(scan.ranges, want, rtol=1e-6)  # float32 sqrt in the .npy
+    inten = np.load(shared_data / f"{RELLIS}.intensity.npy")
+    assert np.array_equal(scan.intensity[want > 0], inten[want > 0])
+    # every pixel holds its own point: the index maps back to the cloud
+    r, c = np.nonzero(scan.index >= 0)
+    np.testing.assert_allclose(np.linalg.norm(cloud[scan.index[r, c], :3].astype(float), axis=1),
+                               scan.ranges[r, c], rtol=1e-12)
+
+
+def test_beams_found_from_the_cloud_are_the_file_s(shared_data, kitti):
+    _, cloud = kitti
+    beams = json.loads((shared_data / f"{RELLIS}.beams.json").read_text())
+    found = find_beams(cloud, 64)
+    assert found["cols"] == 2048
+    np.testing.assert_allclose(found["elevation_deg"], beams["elevation_deg"], atol=1e-3)
+    # each beam's azimuth offset, up to a whole step (half a step either way is one offset)
+    step = 360.0 / 2048
+    off = np.asarray(found["azimuth_row_residual_deg"]) - (
+        np.asarray(beams["azimuth_row_residual_deg"]) + beams["azimuth0_deg"])
+    assert np.abs((off + step / 2) % step - step / 2).max() < 1e-3
+    scan = project_scan(cloud, rows=64)
+    want = np.load(shared_data / f"{RELLIS}.range.npy")
+    for r in range(64):  # the same image, a row rolled by one column where its offset wrapped
+        assert min(np.abs(np.roll(scan.ranges[r], k) - want[r]).max() for k in (-1, 0, 1)) < 1e-5
+
+
+def test_two_points_in_one_pixel_keep_the_nearest():
+    beams = {"rows": 1, "cols": 4, "elevation_deg": [0.0], "azimuth0_deg": 0.0,
+             "azimuth_step_deg": -90.0}
+    pts = np.array([[2.0, 0, 0], [1.0, 0, 0], [0, 3.0, 0], [0, 0, 0]])
+    scan = project_scan(pts, beams=beams)
+    # azimuth 0 -> column 0; azimuth 90 -> (90 - 0) / -90 = -1 -> column 3 (mod 4)
+    assert scan.ranges.tolist() == [[1.0, 0.0, 0.0, 3.0]]
+    assert scan.index.tolist() == [[1, -1, -1, 2]]
+    assert scan.points == 3 and scan.collisions == 1  # the origin is no return, not a point
+    assert scan.intensity is None
+
+
+def hdl64_cloud(seed=3, cols=2000):
+    """An HDL-64E-like cloud: the nominal beams off by a calibration of up to 0.1 degree each,
+    azimuths off a grid (firing times drift), a room 4-30 m away, a third of the returns lost."""
+    rng = np.random.default_rng(seed)
+    el = np.asarray(SENSORS["hdl64"]) + rng.uniform(-0.1, 0.1, 64)
+    az = np.arange(cols) * 360.0 / cols + rng.uniform(-0.02, 0.02, (64, cols))
+    e, a = np.radians(el)[:, None], np.radians(az)
+    ray = np.stack([np.cos(e) * np.cos(a), np.cos(e) * np.sin(a), np.sin(e) + 0 * a], -1)
+    d = 4.0 + 26.0 * rng.random((64, cols)) ** 2
+    pts = (d[..., None] * ray).reshape(-1, 3)
+    beam = np.repeat(np.arange(64), cols)
+    keep = rng.random(len(pts)) > 1 / 3
+    return pts[keep], beam[keep], el
+
+
+def test_an_hdl64_s_beams_are_found_from_its_cloud():
+    pts, beam, el = hdl64_cloud()
+    scan = project_scan(pts, sensor="hdl64", cols=2000)
+    np.testing.assert_allclose(scan.camera.elevation, el, atol=1e-6)  # (6 decimals kept)
+    r, c = np.nonzero(scan.index >= 0)
+    assert np.array_equal(beam[scan.index[r, c]], r)  # every point in its own beam's row
+    assert scan.collisions < 0.01 * len(pts)  # the jitter puts few points in one pixel
+    assert scan.camera.wraps
+
+
+@pytest.mark.parametrize("kwargs, match", [({}, "one of beams"), ({"sensor": "hdl65"}, "sensor"),
+                                            ({"rows": 4, "sensor": "vlp16"}, "one of beams"),
+                                            ({"rows": 64}, "64 beams")])
+def test_bad_calls_say_what_is_wrong(kwargs, match):
+    with pytest.raises(ValueError, match=match):
+        project_scan(np.ones((20, 4)), **kwargs)
+
+
+def test_points_must_be_n_by_3():
+    with pytest.raises(ValueError, match="points must be"):
+        project_scan(np.ones(12), rows=2)
+
+
+def test_the_command_line_meshes_a_cloud_with_sensor_or_beams(shared_data, kitti, tmp_path, capsys):
+    path, cloud = kitti
+    scan = project_scan(cloud, sensor="hdl64")
+    want = rangemesh.triangulate(scan.ranges, camera=scan.camera, vertices=800, heights="pixel")
+    assert main(["mesh", str(path), "--sensor", "hdl64", "--vertices", "800", "--heights",
+                 "pixel", "-o", str(tmp_path / "a.ply"), "--quiet"]) == 0
+    got = rangemesh.read_mesh(tmp_path / "a.ply")
+    assert np.array_equal(got.faces, want.faces)
+    # vertices are the cloud's own points: this scan's beams lie on a grid the cloud shows
+    ids = scan.index[want.pixels[:, 0], want.pixels[:, 1]]
+    assert (ids >= 0).mean() > 0.99  # (a corner on a no-return pixel takes its neighbour's range)
+    own = cloud[ids[ids >= 0], :3]
+    assert np.abs(got.vertices[ids >= 0] - own).max() < 1e-4  # metres (float32 points and PLY)
+    # the beams written from the cloud mesh it as --sensor does
+    assert main(["info", str(path), "--sensor", "hdl64", "--write-beams",
+                 str(tmp_path / "b.json")]) == 0
+    assert "wrote" in capsys.readouterr().out
+    assert main(["mesh", str(path), "--beams", str(tmp_path / "b.json"), "--vertices", "800",
+                 "--heights", "pixel", "-o", str(tmp_path / "b.ply"), "--quiet"]) == 0
+    assert np.array_equal(rangemesh.read_mesh(tmp_path / "b.ply").faces, want.faces)
+    # and a batch with that beams file meshes it too
+    res = rangemesh.mesh_many([path], tmp_path / "many", beams=tmp_path / "b.json", vertices=800,
+                              heights="pixel")
+    assert res[0].status == "meshed", res[0].error
+
+
+def test_info_reads_a_cloud(kitti, capsys):
+    path, cloud = kitti
+    assert main(["info", str(path), "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["points"] == len(cloud) == doc["returns"] and doc["no_returns"] == 0
+    assert doc["range_max"] == pytest.approx(107.75, abs=0.01)  # the README's 0.82-107.8 m
+    assert main(["info", str(path), "--sensor", "hdl64", "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["shape"] == [64, 2048] and doc["valid_pixels"] == len(cloud)
+
+
+def test_sensor_goes_with_a_cloud_only(shared_data, capsys):
+    img = shared_data / "rgbd/open3d_TUM_depth.png"
+    assert main(["mesh", str(img), "--sensor", "hdl64", "-o", "/tmp/x.ply"]) == 2
+    assert "--sensor goes with a LiDAR cloud" in capsys.readouterr().err
+
+
+def test_a_camera_over_part_of_the_circle_takes_the_points_in_its_columns(shared_data, kitti):
+    _, cloud = kitti
+    beams = json.loads((shared_data / f"{RELLIS}.beams.json").read_text())
+    beams["cols"] = 1024  # the first half turn of the scan's 2048 steps
+    scan = project_scan(cloud, beams=beams)
+    want = np.load(shared_data / f"{RELLIS}.range.npy")[:, :1024]
+    assert not scan.camera.wraps and scan.collisions == 0
+    assert np.array_equal(scan.ranges > 0, want > 0)
+    np.testing.assert_allclose(scan.ranges, want, rtol=1e-6)

@@ -248,3 +248,24 @@ def test_a_bad_error_bound_is_refused_naming_it(value, error):
 @pytest.mark.parametrize("value", [10, np.int64(10), 10.0])
 def test_a_vertex_count_of_any_integer_kind_is_taken(value):
     assert triangulate(np.add.outer(np.arange(8.0), np.arange(8.0) ** 2), vertices=value).stats.vertices == 10
+
+
+def test_run_leaves_a_methods_stats_as_it_made_them(monkeypatch):
+    # issue 43: run added stage one's weights and the seam's time into the paper's Stats.seconds
+    # in place (a frozen Stats); the method's mesh must keep the figures it was made with
+    from rangemesh import pipeline
+
+    made = []
+    real = pipeline.mesh_grid
+
+    def spy(*args, **kwargs):
+        mesh = real(*args, **kwargs)
+        made.append((mesh, dict(mesh.stats.seconds)))
+        return mesh
+
+    monkeypatch.setattr(pipeline, "mesh_grid", spy)
+    r, c = np.mgrid[0:24, 0:32]
+    out = triangulate(100.0 + r + 0.5 * c, method="paper", tiles=2, samples=5, wrap=True)
+    ((mesh, seconds),) = made
+    assert mesh.stats.seconds == seconds and "seam" not in mesh.stats.seconds
+    assert "seam" in out.stats.seconds and out.stats.seconds["sampling"] >= seconds["sampling"]

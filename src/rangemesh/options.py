@@ -147,8 +147,8 @@ def choice(choices: tuple) -> Callable:
     return check
 
 
-
 def boolean_or_none(name, value):
+    """True, False (as `rangemesh.checks.flag` takes them) or None."""
     return None if value is None else flag(name, value)
 
 

@@ -317,4 +317,4 @@ OPTIONS_BY_NAME = {o.name: o for o in OPTION_TABLE}
 OPTION_METHOD = {o.name: o.methods[0] for o in OPTION_TABLE if len(o.methods) == 1}
 if MeshParams.__doc__:  # (None under python -OO)
     MeshParams.__doc__ = MeshParams.__doc__.replace(
-        "{options}", option_docs(OPTION_TABLE, style="params"))
+        "    {options}", option_docs(OPTION_TABLE, style="params"))

@@ -445,4 +445,4 @@ def triangulate(image, params: MeshParams | None = None, *,
 
 
 if triangulate.__doc__:  # (None under python -OO)
-    triangulate.__doc__ = triangulate.__doc__.replace("{options}", option_docs(OPTION_TABLE))
+    triangulate.__doc__ = triangulate.__doc__.replace("    {options}", option_docs(OPTION_TABLE))

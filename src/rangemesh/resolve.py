@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import functools
 import math
+import operator
 import warnings
 
 from .checks import real_number, whole_number
@@ -21,6 +22,7 @@ __all__ = ["resolve_call", "resolve_params", "call_options", "keyword_options", 
 
 # The keyword options of `triangulate`, `mesh_stream` and `mesh_many` besides the targets.
 OPTIONS = tuple(o.name for o in OPTION_TABLE)
+_read_options = operator.itemgetter(*OPTIONS)
 # The name "refine" had before (greedy insertion); still accepted, with a warning.
 ALIASES = {"greedy": "refine"}
 # The MeshParams fields the deprecated spellings let method="refine" take (history: the options
@@ -57,7 +59,7 @@ def keyword_options(scope: dict) -> dict:
     `triangulate` names every option as a keyword (a test holds its signature
     to the table); this reads them back in one place.
     """
-    return {name: scope[name] for name in OPTIONS}
+    return dict(zip(OPTIONS, _read_options(scope), strict=True))
 
 
 def call_keywords(given: dict) -> tuple[dict, dict]:
@@ -166,6 +168,7 @@ def _deprecated_workers(overrides: dict, given: dict, stacklevel: int) -> None:
 
 
 _UNSET = {o.name: o.unset for o in OPTION_TABLE}
+_NOT_GIVEN = dict(_UNSET)  # the options of a call that gives none
 
 
 def _unset(name: str, value) -> bool:
@@ -210,6 +213,13 @@ def resolve_call(params, method, vertices, max_error, options: dict, overrides: 
         An unknown keyword, or `params` not a `MeshParams`.
     """
     method = _method_name(method, stacklevel)
+    if params is None and not overrides and len(options) == len(_NOT_GIVEN) \
+            and all(map(operator.is_, options.values(), _NOT_GIVEN.values())):
+        # no option given (most calls): the defaults, built once (by identity: an array
+        # option must not be compared with ==)
+        base = defaults()
+        _targets_given(base, vertices, max_error, {})
+        return base, method, False
     given = {k: v for k, v in options.items() if not _unset(k, v)}
     if overrides:
         _deprecated_workers(overrides, given, stacklevel)

@@ -9,7 +9,9 @@ and prints the medians of its rounds. With ``--base SRC`` (the ``src`` folder of
 ``git archive BASE src | tar -x -C /tmp/base``, with this build's ``_core/_ext*.so`` copied into
 it) the runs alternate between that tree and this checkout, so both see the same load. Prints,
 per tree, the median over the runs of rangemesh's and pydelatin's microseconds and of their
-ratio. Nothing here asserts on time.
+ratio. With ``--callgrind`` it counts instructions instead (valgrind's callgrind, the
+difference between runs of 2000 and 0 calls after 200 warm-up calls): a figure the machine's
+load does not change. Nothing here asserts on time.
 """
 
 import argparse
@@ -51,15 +53,43 @@ print(statistics.median(times["ours"]), statistics.median(times["theirs"]),
 '''
 
 
+COUNT = CHILD.split("times = {")[0] + r'''
+f = {"ours": ours, "theirs": theirs}[sys.argv[3]]
+for _ in range(200):
+    f()
+for _ in range(int(sys.argv[2])):
+    f()
+'''
+
+
+def instructions(arg: str, which: str, calls: int = 2000) -> float:
+    """Instructions a call of `which` ('ours' or 'theirs') in the tree `arg`, by callgrind."""
+    counts = []
+    for n in (0, calls):
+        out = subprocess.run(["valgrind", "--tool=callgrind", "--callgrind-out-file=/dev/null",
+                              sys.executable, "-c", COUNT, arg, str(n), which],
+                             capture_output=True, text=True, cwd="/")
+        line = next(x for x in out.stderr.splitlines() if "Collected" in x)
+        counts.append(int(line.split()[-1]))
+    return (counts[1] - counts[0]) / calls
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--base", help="src folder of another tree to compare with")
     ap.add_argument("--runs", type=int, default=5, help="processes per tree (default 5)")
     ap.add_argument("--rounds", type=int, default=7, help="rounds of 1000 calls a process")
+    ap.add_argument("--callgrind", action="store_true", help="count instructions (valgrind)")
     args = ap.parse_args(argv)
     trees = {"this checkout": "installed"}
     if args.base:
         trees = {"base": os.path.abspath(args.base), **trees}
+    if args.callgrind:
+        for name, arg in trees.items():
+            ours, theirs = instructions(arg, "ours"), instructions(arg, "theirs")
+            print(f"{name}: rangemesh {ours / 1000:.0f}K instructions a call, pydelatin "
+                  f"{theirs / 1000:.0f}K, ratio {ours / theirs:.2f}")
+        return
     res = {name: [] for name in trees}
     for _ in range(args.runs):
         for name, arg in trees.items():

@@ -18,7 +18,7 @@ from rangemesh import MeshParams, Target, mesh_stream, triangulate
 from rangemesh.cleanup import ZeroMarkerWarning
 from rangemesh.cli import main
 from rangemesh.io import read_mesh
-from rangemesh.params import OPTION_METHOD
+from rangemesh.params import OPTION_METHOD, OPTION_TABLE
 
 from .helpers import assert_valid_mesh
 
@@ -282,14 +282,50 @@ def test_four_entry_points_give_the_same_mesh(tmp_path, capsys):
         np.testing.assert_allclose(m.vertices, one.vertices, rtol=1e-6)  # PLY keeps float32
 
 
-def test_stream_and_many_take_every_option_of_triangulate():
+def test_triangulates_keywords_are_the_option_table():
+    # triangulate names each option (for editors and help()); it must be the table's, in order,
+    # with the table's "not given" default, so the keywords and the table cannot drift apart
     tri = inspect.signature(triangulate).parameters
-    keywords = [n for n, p in tri.items() if p.kind == p.KEYWORD_ONLY and n != "color"]
-    for fn in (mesh_stream, rangemesh.mesh_many):
-        params = inspect.signature(fn).parameters
-        for name in keywords:
-            assert name in params, (fn.__name__, name)
-            assert params[name].default == tri[name].default, (fn.__name__, name)
+    fixed = ["method", "vertices", "max_error", "background", "camera", "color"]
+    keywords = [n for n, p in tri.items() if p.kind == p.KEYWORD_ONLY]
+    assert keywords == fixed + [o.name for o in OPTION_TABLE]
+    for o in OPTION_TABLE:
+        # None is "not given" (the method's default), except where None is a setting: flips
+        expected = "disparity" if o.name == "flips" else None
+        assert tri[o.name].default == expected, o.name
+
+
+def test_triangulates_docstring_documents_each_option_from_the_table():
+    doc = inspect.getdoc(triangulate)
+    for o in OPTION_TABLE:
+        head = f"\n{o.name} : {o.type}, "
+        assert doc.count(head) == 1, o.name
+        entry = doc.split(head)[1].split("\n\n")[0]
+        body = " ".join(entry.split("\n", 1)[1].split())
+        # the method it goes with, then its own paragraph, as the table words them
+        note = "Both methods." if len(o.methods) == 2 else f"``{o.methods[0]!r}`` only."
+        assert body.startswith(f"{note} {' '.join(o.doc.split())}"), o.name
+
+
+@pytest.mark.parametrize("option", sorted(OPTION_METHOD))
+def test_stream_forwards_each_option_as_triangulate_takes_it(option):
+    owner = OPTION_METHOD[option]
+    kw = {option: VALUES[option]}
+    if option == "jump":
+        kw["walls"] = False
+    (m,) = mesh_stream([crease()], method=owner, **kw)
+    same_mesh(m, triangulate(crease(), method=owner, **kw))
+
+
+@pytest.mark.parametrize("fn", ["mesh_stream", "mesh_many"])
+def test_stream_and_many_refuse_what_is_no_option(fn, tmp_path):
+    call = getattr(rangemesh, fn)
+    args = ([crease()],) if fn == "mesh_stream" else ([], tmp_path / "out")
+    with pytest.raises(TypeError, match=r"^unknown option\(s\) \['delat'\]; the options are"):
+        call(*args, delat=20.0)
+    with pytest.raises(ValueError, match="delta is an option of method='paper'"):
+        call(*args, delta=20.0)
+    assert not (tmp_path / "out").exists()  # refused before any work
 
 
 def test_stream_checks_at_the_call_and_takes_vertices():

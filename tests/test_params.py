@@ -1,10 +1,13 @@
 import dataclasses
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 import rangemesh
 from rangemesh import MeshParams, Orthographic, Pinhole, backproject, to_depth_and_mask
+from rangemesh.options import markdown_table
+from rangemesh.params import OPTION_METHOD, OPTION_TABLE
 
 
 def test_defaults_are_the_papers():
@@ -24,6 +27,34 @@ def test_params_are_frozen_and_checked():
         MeshParams(tiles="4x4")
     with pytest.raises(ValueError, match="levels"):
         MeshParams(levels=0)
+
+
+def test_every_field_is_an_option_of_the_table():
+    # one declaration: each MeshParams field carries its option's record, with the field's default
+    fields = dataclasses.fields(MeshParams)
+    assert [o.field for o in OPTION_TABLE] == [f.name for f in fields]
+    for o, f in zip(OPTION_TABLE, fields, strict=True):
+        assert o.default == f.default and o.methods in (("refine",), ("paper",), ("refine", "paper"))
+    assert OPTION_METHOD["threads"] == "paper" and OPTION_METHOD["heights"] == "refine"
+    assert "fill_gaps" not in OPTION_METHOD and "wrap" not in OPTION_METHOD  # both methods'
+
+
+@pytest.mark.parametrize("field, bad, error, message", [
+    ("workers", 0, ValueError, "^workers must be a whole number >= 1"),
+    ("samples", 1, ValueError, r"^samples must be >= 2 in both directions \(a tile's first"),
+    ("jump", 0.0, ValueError, "^jump must be a positive share of the depth"),
+    ("heights", "fitted", ValueError, r"^heights must be one of \(None, 'fit', 'pixel'\)"),
+    ("walls", "no", TypeError, "^walls must be True or False"),
+    ("delta", 190.0, ValueError, r"^delta must be in \(0, 180\] degrees, got 190.0"),
+])
+def test_params_check_each_field_by_its_options_rule(field, bad, error, message):
+    with pytest.raises(error, match=message):
+        MeshParams(**{field: bad})
+
+
+def test_the_docs_option_table_is_the_codes():
+    doc = (Path(__file__).parents[1] / "docs" / "options.md").read_text()
+    assert markdown_table(OPTION_TABLE) in doc, "paste `python -m rangemesh.options` into docs/options.md"
 
 
 def test_cameras():

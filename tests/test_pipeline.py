@@ -333,3 +333,24 @@ def test_an_error_bound_stops_where_memory_runs_out_and_says_so(monkeypatch, tmp
     assert main(["mesh", str(path), "--max-error", "0.1", "-o", str(tmp_path / "c.ply")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "needs more than 200 vertices" in err[0]
+
+
+def test_run_leaves_a_methods_stats_as_it_made_them(monkeypatch):
+    # issue 43: run added stage one's weights and the seam's time into the paper's Stats.seconds
+    # in place (a frozen Stats); the method's mesh must keep the figures it was made with
+    from rangemesh import pipeline
+
+    made = []
+    real = pipeline.mesh_grid
+
+    def spy(*args, **kwargs):
+        mesh = real(*args, **kwargs)
+        made.append((mesh, dict(mesh.stats.seconds)))
+        return mesh
+
+    monkeypatch.setattr(pipeline, "mesh_grid", spy)
+    r, c = np.mgrid[0:24, 0:32]
+    out = triangulate(100.0 + r + 0.5 * c, method="paper", tiles=2, samples=5, wrap=True)
+    ((mesh, seconds),) = made
+    assert mesh.stats.seconds == seconds and "seam" not in mesh.stats.seconds
+    assert "seam" in out.stats.seconds and out.stats.seconds["sampling"] >= seconds["sampling"]

@@ -45,8 +45,9 @@ from .io import (
 from .mesh import Mesh
 from .metrics import evaluate
 from .params import MeshParams
-from .pipeline import Workspace, call_options, keyword_options, resolve_call, run
+from .pipeline import Workspace, run
 from .prepare import NONPOSITIVE, check_image
+from .resolve import call_keywords, call_options, resolve_call
 
 __all__ = ["mesh_stream", "mesh_many", "expand_inputs", "BatchResult", "summarize"]
 
@@ -54,18 +55,7 @@ __all__ = ["mesh_stream", "mesh_many", "expand_inputs", "BatchResult", "summariz
 def mesh_stream(frames: Iterable, params: MeshParams | None = None, *,
                 method: str = "refine", vertices: int | None = None,
                 max_error: float | None = None, background="auto", camera=None,
-                fill_gaps: bool | None = None, wrap: bool | None = None,
-                heights: str | None = None, diagonals: str | None = None,
-                walls: bool | None = None, jump: float | None = None,
-                tiles: int | tuple[int, int] | None = None,
-                samples: int | tuple[int, int] | None = None, sampling: str | None = None,
-                flips: str | None = "disparity", levels: int | None = None,
-                curvature_floor: float | None = None, delta: float | None = None,
-                epsilon: float | None = None, max_angle: float | None = None,
-                min_bend: float | None = None, gain_threshold: float | None = None,
-                max_edge: float | None = None, threads: int | None = None,
-                depth_limits: tuple[float, float] | None = None, min_region: int | None = None,
-                **overrides) -> Iterator[Mesh]:
+                **options) -> Iterator[Mesh]:
     """Mesh a stream of range images, one `Mesh` per frame, in order.
 
     Parameters
@@ -75,7 +65,7 @@ def mesh_stream(frames: Iterable, params: MeshParams | None = None, *,
     params, method, vertices, max_error, background, camera, **options
         As for `rangemesh.triangulate` (every option it takes, the same
         defaults: ``method='refine'``, ``background='auto'``), checked once,
-        before the first frame.
+        before the first frame. An unknown keyword is a TypeError.
 
     Yields
     ------
@@ -88,7 +78,7 @@ def mesh_stream(frames: Iterable, params: MeshParams | None = None, *,
     buffers are reused instead of allocated per frame, and the options are
     checked once for the whole stream.
     """
-    options = keyword_options(locals())
+    options, overrides = call_keywords(options)
     # checked at the call, not at the first next(): a generator would defer the errors
     params, method, tiles_given = resolve_call(params, method, vertices, max_error, options,
                                                overrides)
@@ -404,20 +394,9 @@ def dask_client(scheduler: str | None, workers: int | None, connect_timeout: flo
 def mesh_many(paths, out_dir, params: MeshParams | None = None, *,
               method: str = "refine", vertices: int | None = None,
               max_error: float | None = None, background="auto", camera=None,
-              fill_gaps: bool | None = None, wrap: bool | None = None,
-              heights: str | None = None, diagonals: str | None = None,
-              walls: bool | None = None, jump: float | None = None,
-              tiles: int | tuple[int, int] | None = None,
-              samples: int | tuple[int, int] | None = None, sampling: str | None = None,
-              flips: str | None = "disparity", levels: int | None = None,
-              curvature_floor: float | None = None, delta: float | None = None,
-              epsilon: float | None = None, max_angle: float | None = None,
-              min_bend: float | None = None, gain_threshold: float | None = None,
-              max_edge: float | None = None, threads: int | None = None,
-              depth_limits: tuple[float, float] | None = None, min_region: int | None = None,
               scheduler: str | None = None, workers: int | None = None, overwrite: bool = False,
               fmt: str = ".ply", progress: bool = False, connect_timeout: float = 10.0,
-              beams: str | os.PathLike | None = None, **overrides) -> list[BatchResult]:
+              beams: str | os.PathLike | None = None, **options) -> list[BatchResult]:
     """Mesh many range images into `out_dir`, in parallel through Dask, or in this process.
 
     Parameters
@@ -430,7 +409,8 @@ def mesh_many(paths, out_dir, params: MeshParams | None = None, *,
     params, method, vertices, max_error, background, camera, **options
         As for `rangemesh.triangulate` (every option it takes, the same
         defaults: ``method='refine'``, ``background='auto'``, resolved image
-        by image), the same for every image, checked before any work.
+        by image), the same for every image, checked before any work. An
+        unknown keyword is a TypeError.
     scheduler : str, optional
         Address of a running Dask scheduler (``tcp://head:8786``). Default: a
         local cluster of `workers` processes started for this batch.
@@ -487,7 +467,7 @@ def mesh_many(paths, out_dir, params: MeshParams | None = None, *,
     if isinstance(background, str) and background not in ("auto", NONPOSITIVE):
         raise ValueError(f"background must be a number, None, 'auto' or '{NONPOSITIVE}', "
                          f"got {background!r}")
-    options = keyword_options(locals())
+    options, overrides = call_keywords(options)
     params, method, _ = resolve_call(params, method, vertices, max_error, options, overrides)
     camera = as_camera(camera)
     # the workers call triangulate with the resolved method and every field of params: the

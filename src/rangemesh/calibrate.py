@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .pipeline import call_options, resolve_params, triangulate
+from .pipeline import triangulate
+from .resolve import call_options, resolve_params
 
 __all__ = ["calibrate_delta", "triangle_disparities"]
 

@@ -34,16 +34,19 @@ from .io import (
     read_scan,
     write_mesh,
 )
+from .memory import check_memory
 from .metrics import evaluate
+from .options import BOTH
 from .paper.sampling import sampling_weights
-from .params import MeshParams, misplaced_option
-from .pipeline import OPTIONS, call_options, check_memory, prepare, resolve_call, run
+from .params import OPTION_TABLE, OPTIONS_BY_NAME, MeshParams, misplaced_option
+from .pipeline import prepare, run
 from .prepare import NONPOSITIVE, guess_background, to_depth_and_mask
+from .resolve import call_options, resolve_call
 
 __all__ = ["main", "build_parser"]
 
 _DEFAULTS = MeshParams()
-_UNSET = object()  # --flips none means None, so 'not given' needs its own marker
+_UNSET = object()  # an option flag not given (--flips none means None: not given needs a marker)
 
 
 class UserError(Exception):
@@ -137,13 +140,8 @@ def _limits(text: str):
 
 
 def _add_cleanup_options(p):
-    p.add_argument("--depth-limits", type=_limits, default=None, metavar="NEAR,FAR",
-                   help="pixels whose depth is outside are missing depth: metres with "
-                        "--intrinsics/--camera/--beams (depth scale applied), stored units "
-                        "otherwise; one side may be empty (both methods)")
-    p.add_argument("--min-region", type=int, default=None, metavar="K",
-                   help="drop connected regions of fewer than K valid pixels, split where depth "
-                        "jumps by more than 5 %% a pixel: specks (both methods; default off)")
+    """--depth-limits and --min-region for `info` and `eval`, as the table declares them."""
+    _add_option_flags({BOTH: p}, only=("depth_limits", "min_region"), unset=None)
 
 
 def _add_cloud_options(c):
@@ -188,16 +186,42 @@ def _default(name):
     return str(value).lower() if value is None else str(value)
 
 
+# How the command line reads an option's text (`rangemesh.options.Flag.parse`).
+_PARSE = {"int": int, "float": float, "pair": _pair, "limits": _limits, "flips": _flips}
+
+
+def _add_option_flags(groups: dict, only=None, unset=_UNSET) -> None:
+    """The flags of every option of the table (`rangemesh.params.OPTION_TABLE`), into `groups`.
+
+    `groups` maps an option's methods to the argument group its flag goes in;
+    `only` names the options to add (default all). A flag's destination is
+    the option's name; not given, it holds `unset`.
+    """
+    for o in OPTION_TABLE:
+        f = o.flag
+        if f is None or (only is not None and o.name not in only):
+            continue
+        g = groups[o.methods]
+        dashed = o.name.replace("_", "-")
+        text = f.help.replace("{default}", _default(o.field)).replace("%", "%%")
+        if f.parse == "off":
+            g.add_argument(f"--no-{dashed}", dest=o.name, action="store_const", const=False,
+                           default=unset, help=text)
+        elif f.parse == "on_off":
+            both = g.add_mutually_exclusive_group()
+            both.add_argument(f"--{dashed}", dest=o.name, action="store_const", const=True,
+                              default=unset, help=text)
+            both.add_argument(f"--no-{dashed}", dest=o.name, action="store_const", const=False,
+                              help=f"the opposite of --{dashed}")
+        else:
+            kwargs = {"choices": list(o.choices)} if f.parse == "choice" else \
+                {"type": _PARSE[f.parse]}
+            if f.metavar is not None:
+                kwargs["metavar"] = f.metavar
+            g.add_argument(f"--{dashed}", dest=o.name, default=unset, help=text, **kwargs)
+
+
 def _add_mesh_options(p):
-    d = _default
-    g = p.add_argument_group("--method paper's options (defaults: rangemesh.MeshParams)")
-    r = p.add_argument_group("--method refine's options")
-    g.add_argument("--tiles", type=_pair, default=None, metavar="VxH",
-                   help=f"tiles, rows x columns; neighbours share one line of pixels (default "
-                        f"{d('tiles')}; chosen for the image with --vertices/--max-error)")
-    g.add_argument("--samples", type=_pair, default=None, metavar="RxZ",
-                   help=f"samples per tile; the grid is ((R-1)V+1) x ((Z-1)H+1) points "
-                        f"(default {d('samples')})")
     p.add_argument("--method", choices=["refine", "paper", "greedy"], default="refine",
                    help="refine (the default): refine a coarse mesh at its worst pixels until "
                         "--vertices or --max-error is met, or without either the default "
@@ -205,67 +229,15 @@ def _add_mesh_options(p):
                         "vertices; paper: Garcia & Sappa's pipeline with its options below; "
                         "greedy: deprecated name of refine. An option of the other method is "
                         "an error")
-    r.add_argument("--heights", choices=["fit", "pixel"], default=None,
-                   help="vertex depths: least squares over the pixels, jumps left out (fit, "
-                        "the default) or copied from the vertex's pixel (pixel)")
-    r.add_argument("--diagonals", choices=["error", "delaunay"], default=None,
-                   help="each quad's diagonal is the one that fits its pixels better (error, "
-                        "the default) or the Delaunay one (delaunay: a little faster, "
-                        "higher error)")
-    r.add_argument("--no-walls", action="store_true",
-                   help="drop the triangles across depth jumps, so separate surfaces stay "
-                        "separate")
-    r.add_argument("--jump", type=float, default=None,
-                   help=f"with --no-walls: a depth change above this share of the local depth "
-                        f"per pixel is a jump (default {d('jump')})")
-    w = p.add_mutually_exclusive_group()
-    w.add_argument("--wrap", dest="wrap", action="store_const", const=True, default=None,
-                   help="column W-1 is beside column 0 (360 degrees): close the seam "
-                        "(default: on for a --beams camera that goes once round)")
-    w.add_argument("--no-wrap", dest="wrap", action="store_const", const=False,
-                   help="leave the seam of a 360-degree scan open")
     t = p.add_argument_group("targets (both methods; --method paper: instead of --samples)")
     t.add_argument("--vertices", type=int, default=None,
                    help="this many vertices (refine: exactly; paper: within 2 %%, tiles and "
                         "samples chosen)")
     t.add_argument("--max-error", type=float, default=None,
                    help="smallest mesh whose relative error is at most this, percent")
-    g.add_argument("--max-edge", type=float, default=None,
-                   help="no triangle edge longer than this in the image, pixels")
-    g.add_argument("--sampling", choices=["adaptive", "uniform"], default=None,
-                   help=f"place samples by log-curvature (paper) or evenly (baseline) "
-                        f"(default {d('sampling')})")
-    g.add_argument("--flips", type=_flips, default=_UNSET, metavar="{disparity,error,none}",
-                   help=f"edge flips: disparity tests (paper), error gain > 0, or none "
-                        f"(default {d('flips')})")
-    g.add_argument("--delta", type=float, default=None,
-                   help=f"upper disparity threshold Delta: above it a triangle is off its "
-                        f"surroundings, degrees (default {d('delta')})")
-    g.add_argument("--epsilon", type=float, default=None,
-                   help=f"test 2: smallest disparity change worth a flip, degrees "
-                        f"(default {d('epsilon')})")
-    g.add_argument("--max-angle", type=float, default=None,
-                   help=f"test 3: a triangle with an angle above this is degenerate, degrees "
-                        f"(default {d('max_angle')})")
-    g.add_argument("--min-bend", type=float, default=None,
-                   help=f"test 4: new triangles must bend more than this, degrees "
-                        f"(default {d('min_bend')})")
-    g.add_argument("--gain-threshold", type=float, default=None,
-                   help="stop flipping when the best gain left is below this (default: none, "
-                        "every edge with a finite gain is tried)")
-    g.add_argument("--curvature-floor", type=float, default=None,
-                   help=f"curvature floor on a 0..255 depth scale; flat areas still get points "
-                        f"(default {d('curvature_floor')})")
-    g.add_argument("--levels", type=int, default=None,
-                   help=f"resolutions summed into the curvature image (default {d('levels')}: "
-                        f"full + half)")
-    p.add_argument("--no-fill-gaps", action="store_true",
-                   help="keep single-pixel holes instead of filling them with the 8-neighbour "
-                        "mean (both methods)")
-    _add_cleanup_options(p)
-    g.add_argument("--threads", type=int, default=None,
-                   help=f"threads sharing stage one's tiles; the mesh is the same for any number "
-                        f"(default {d('workers')})")
+    _add_option_flags({BOTH: p, ("refine",): p.add_argument_group("--method refine's options"),
+                       ("paper",): p.add_argument_group(
+                           "--method paper's options (defaults: rangemesh.MeshParams)")})
     _add_camera_options(p)
 
 
@@ -286,31 +258,22 @@ def _add_output_options(p):
     p.add_argument("--json", action="store_true", help="print the figures as JSON on stdout")
 
 
-# option -> how the command line reads it from its arguments (None: not given)
-_READ = {
-    "fill_gaps": lambda a: False if a.no_fill_gaps else None,
-    "wrap": lambda a: getattr(a, "wrap", None),
-    "walls": lambda a: False if getattr(a, "no_walls", False) else None,
-    "flips": lambda a: "disparity" if a.flips is _UNSET else a.flips,
-}
-
-
 def _options(args) -> dict:
     """The options given on the command line, by their `triangulate` names.
 
-    None where not given (``flips``: ``'disparity'``, its default, as `triangulate` takes it).
+    An option not given holds what `triangulate` takes for "not given" (None;
+    ``flips``: ``'disparity'``).
     """
-    return {name: _READ[name](args) if name in _READ else getattr(args, name, None)
-            for name in OPTIONS}
+    return {o.name: o.unset if getattr(args, o.name, _UNSET) is _UNSET else getattr(args, o.name)
+            for o in OPTION_TABLE}
 
 
 def _flag(name: str) -> str:
-    return {"walls": "--no-walls", "fill_gaps": "--no-fill-gaps"}.get(
-        name, "--" + name.replace("_", "-"))
+    return OPTIONS_BY_NAME[name].cli
 
 
 def _resolve(args):
-    """``params, method, tiles_given`` of the options given, by `rangemesh.pipeline.resolve_call`.
+    """``params, method, tiles_given`` of the options given, by `rangemesh.resolve.resolve_call`.
 
     One rule with Python: an option of the other method is refused, named as a flag.
     """
@@ -319,16 +282,16 @@ def _resolve(args):
               "in the next release", file=sys.stderr)
         args.method = "refine"
     options = _options(args)
-    given = [k for k, v in options.items()
-             if v is not None and not (k == "flips" and args.flips is _UNSET)]
+    given = [o.name for o in OPTION_TABLE if getattr(args, o.name, _UNSET) is not _UNSET]
     message = misplaced_option(args.method, given,
                                spell=lambda name, m: (_flag(name), f"--method {m}"))
     if message:
         raise UserError(message)
-    if args.samples is not None and (args.vertices is not None or args.max_error is not None
-                                     or args.max_edge is not None):
-        given = next(k for k in ("vertices", "max_error", "max_edge") if getattr(args, k) is not None)
-        raise UserError(f"--samples and --{given.replace('_', '-')} exclude each other: "
+    targets = {"vertices": args.vertices, "max_error": args.max_error,
+               "max_edge": options["max_edge"]}
+    if "samples" in given and any(v is not None for v in targets.values()):
+        target = next(k for k, v in targets.items() if v is not None)
+        raise UserError(f"--samples and --{target.replace('_', '-')} exclude each other: "
                         "the target chooses the samples")
     try:
         return resolve_call(None, args.method, args.vertices, args.max_error, options, {})

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, field
+from dataclasses import MISSING, asdict, dataclass, field
 
 import numpy as np
 
@@ -90,14 +90,16 @@ class Target:
         if not rec.keys() <= _RECORD_KEYS:
             raise TypeError(f"target record keys {sorted(rec.keys() - _RECORD_KEYS)} have no "
                             f"Target field")
-        get = rec.get
-        tiles, samples = get("tiles"), get("samples")
-        # positional, in field order: this runs on every call, and keywords cost more
-        return cls(rec["target"], rec["requested"], rec["achieved"], rec["met"],
-                   get("meshings", 1), get("vertices", vertices), default, get("max_vertices"),
-                   None if tiles is None else tuple(tiles),
-                   None if samples is None else tuple(samples), get("added_samples"),
-                   get("walls_dropped"), get("note", ""))
+        # the instance dict filled directly, as `with_fields` does: this runs on every call,
+        # and the frozen __init__ sets each field through object.__setattr__
+        values = {**_TARGET_DEFAULTS, "vertices": vertices, "default": default, **rec}
+        values["kind"] = values.pop("target")
+        for k in ("tiles", "samples"):
+            if values[k] is not None:
+                values[k] = tuple(values[k])
+        new = object.__new__(cls)
+        new.__dict__.update(values)
+        return new
 
     def to_dict(self) -> dict:
         """Plain-Python dictionary (JSON-ready); fields that do not apply are left out."""
@@ -134,6 +136,9 @@ class Target:
         return d.get(key, default) if key != "note" or self.note else default
 
 
+# A Target's optional fields at their defaults (`Target.from_record` starts from them).
+_TARGET_DEFAULTS = {k: f.default for k, f in Target.__dataclass_fields__.items()
+                    if f.default is not MISSING}
 _RECORD_KEYS = {"target", "requested", "achieved", "met", "meshings", "vertices", "max_vertices",
                 "tiles", "samples", "added_samples", "walls_dropped", "note"}
 

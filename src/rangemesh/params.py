@@ -7,25 +7,32 @@ radians only when they are handed to the kernels.
 from __future__ import annotations
 
 import dataclasses
-import math
 from dataclasses import dataclass
 
-from .checks import flag, real_number, whole_number, whole_pair
+from .checks import flag
+from .options import (
+    BOTH,
+    Flag,
+    above,
+    boolean_or_none,
+    choice,
+    degrees,
+    edge_or_none,
+    limits_or_none,
+    number_or_none,
+    option,
+    option_docs,
+    options_of,
+    pair,
+    whole,
+    whole_or_none,
+)
 
 __all__ = ["MeshParams", "SAMPLING_CHOICES", "FLIP_CHOICES", "METHODS", "OPTION_METHOD",
-           "DEFAULT_TARGET", "DefaultTarget", "misplaced_option", "default_vertex_cap"]
+           "OPTION_TABLE", "DEFAULT_TARGET", "DefaultTarget", "misplaced_option", "default_vertex_cap"]
 
 METHODS = ("refine", "paper")
-
-# Which method reads each option; options of both methods (vertices, max_error, fill_gaps,
-# wrap) are not listed. The one rule for Python and the command line (`misplaced_option`).
-OPTION_METHOD = {
-    "heights": "refine", "diagonals": "refine", "walls": "refine", "jump": "refine",
-    "tiles": "paper", "samples": "paper", "sampling": "paper", "flips": "paper",
-    "levels": "paper", "curvature_floor": "paper", "delta": "paper", "epsilon": "paper",
-    "max_angle": "paper", "min_bend": "paper", "gain_threshold": "paper",
-    "max_edge": "paper", "threads": "paper",
-}
+REFINE, PAPER = ("refine",), ("paper",)
 
 
 def misplaced_option(method: str, given, spell=None) -> str | None:
@@ -55,8 +62,9 @@ def misplaced_option(method: str, given, spell=None) -> str | None:
 
     spell = python if spell is None else spell
     for name in given:
-        owner = OPTION_METHOD.get(name)
-        if owner is not None and owner != method:
+        opt = OPTIONS_BY_NAME.get(name)
+        if opt is not None and method not in opt.methods:
+            owner = opt.methods[0]
             opt, own = spell(name, owner)
             _, this = spell(name, method)
             return f"{opt} is an option of {own}; {this} does not take it"
@@ -93,143 +101,26 @@ def default_vertex_cap(n_valid: int, rule: DefaultTarget = DEFAULT_TARGET) -> in
     """
     return max(int(rule.max_share * n_valid), rule.min_vertices)
 
-def check_depth_limits(value) -> tuple[float, float] | None:
-    """`depth_limits` checked: None, or ``(near, far)`` with near < far (None: no limit that side).
-
-    Raises
-    ------
-    TypeError, ValueError
-        Naming ``depth_limits``.
-
-    Examples
-    --------
-    >>> check_depth_limits((0.5, None))
-    (0.5, inf)
-    """
-    if value is None:
-        return None
-    if isinstance(value, (str, bytes)) or not hasattr(value, "__len__") or len(value) != 2:
-        raise TypeError(f"depth_limits must be (near, far), two numbers (None: no limit), "
-                        f"got {value!r}")
-    near = -math.inf if value[0] is None else real_number("depth_limits", value[0], finite=False)
-    far = math.inf if value[1] is None else real_number("depth_limits", value[1], finite=False)
-    if math.isnan(near) or math.isnan(far) or not near < far:
-        raise ValueError(f"depth_limits must be (near, far) with near < far, got {value!r}")
-    return float(near), float(far)
-
-
 SAMPLING_CHOICES = ("adaptive", "uniform")
 FLIP_CHOICES = ("disparity", "error", None)
-
-
 HEIGHT_CHOICES = (None, "fit", "pixel")
 DIAGONAL_CHOICES = (None, "error", "delaunay")
 
 
 @dataclass(frozen=True)
 class MeshParams:
-    """Parameters of the Garcia & Sappa pipeline, with the paper's defaults.
+    """Every meshing option, with the paper's defaults: the one declaration of each.
 
     The settings the stages take (`rangemesh.sample_grid`, `flip_edges`, ...).
     `rangemesh.triangulate` takes them as keywords (``method='paper'``,
-    ``tiles=4``); passing a `MeshParams` to it is deprecated.
+    ``tiles=4``); passing a `MeshParams` to it is deprecated. Each field is
+    declared with `rangemesh.options.option`: its record says which method
+    reads it, how it is checked, its documentation and its command-line flag
+    (``docs/options.md``).
 
     Parameters
     ----------
-    tiles : int or (int, int), default (4, 4)
-        Tiles ``(V, H)``: vertical stripes (along rows) by horizontal stripes
-        (along columns). Neighbouring tiles share one row or column of pixels.
-    samples : int or (int, int), default (10, 10)
-        Samples per tile ``(Rs, Z)``, rows by columns (the paper's R and zeta).
-        Each must be at least 2: the first and last samples of a tile are its
-        borders. The sample grid has ``((Rs-1)*V + 1) x ((Z-1)*H + 1)`` entries.
-    sampling : {'adaptive', 'uniform'}, default 'adaptive'
-        ``'adaptive'`` places samples by the log-curvature weight of the paper;
-        ``'uniform'`` gives every pixel the same weight (the paper's baseline,
-        same grid size).
-    flips : {'disparity', 'error', None}, default 'disparity'
-        ``'disparity'`` runs the paper's tests 1-5 and its final test;
-        ``'error'`` flips every edge whose approximation gain is positive
-        (the paper's comparison variant); ``None`` keeps the plain Delaunay mesh.
-    levels : int, default 2
-        Resolutions added into the curvature image (the paper uses 2: full and half).
-    curvature_floor : float, default 20
-        Curvature floor on a 0..255 depth scale (the paper's "e.g., 20"). The
-        curvature is normalised by the valid depth range, so the floor means
-        the same thing in any depth unit. Must be greater than 1 so that every
-        log weight is positive.
-    fill_gaps : bool, default True
-        Fill single-pixel holes (a background pixel with 8 valid neighbours)
-        with the mean of the neighbours, as the paper's first step does.
-    delta : float, default 20
-        Upper disparity threshold, degrees (the paper's Delta).
-    epsilon : float, default 0.3
-        Lower disparity threshold of test 2, degrees.
-    max_angle : float, default 160
-        Internal 3-D angle above which test 3 calls a triangle degenerate, degrees.
-    min_bend : float, default 5
-        Test 4: the two new triangles' normals must differ by more than this, degrees.
-    gain_threshold : float or None, default None
-        Stop flipping when the head of the queue has a gain below this. ``None``
-        means minus infinity: every edge with a finite gain is considered, which
-        the paper found works best. Ignored by ``flips='error'``, which always
-        stops at the first non-positive gain.
-    max_edge : float or None, default None
-        Longest triangle edge allowed in the image plane, pixels (at least 1.5,
-        a pixel's diagonal is 1.41). ``None``: no bound. Given without a vertex
-        or error target, it also chooses the samples per tile (see
-        `rangemesh.paper.targets.fit_edge`).
-    workers : int, default 1
-        Threads sharing stage one's tiles (the paper's parallel stage);
-        ``threads=`` of `rangemesh.triangulate` (in calls, workers are
-        processes: `rangemesh.mesh_many`). The mesh is the same for any
-        number. ``method='refine'`` does not read it: on images of 60,000
-        valid pixels or more, from 2000 vertices or under an error bound, it
-        meshes two strips of the image on two threads where the process may
-        use two cores, and shares its fit's pass over the pixels between them
-        (`rangemesh.refine.threads`; ``RANGEMESH_THREADS=1`` keeps one); its
-        mesh too is the same either way.
-    heights : {'fit', 'pixel'} or None, default None
-        Where vertex depths come from. ``'pixel'``: each vertex copies the
-        depth of its pixel (the paper's eq. 4; the only choice of
-        ``method='paper'``). ``'fit'``: least squares over the pixels each
-        vertex's triangles cover, pixels across a jump left out
-        (`rangemesh.refine.heights.fit_heights`); ``method='refine'`` only.
-        ``None``: the method's default, ``'pixel'`` for the paper,
-        ``'fit'`` for ``method='refine'``.
-    diagonals : {'error', 'delaunay'} or None, default None
-        How each quad of ``method='refine'``'s mesh picks its diagonal.
-        ``'error'``: by the data, flipping an edge when the two triangles
-        fit their pixels with a smaller summed error the other way
-        (data-dependent triangulation, `rangemesh.refine.diagonals`).
-        ``'delaunay'``: greedy insertion's Delaunay mesh as it is (in the
-        sensor's units, `rangemesh.refine.insertion.delaunay_scales`).
-        ``None``: ``'error'`` for ``method='refine'``; the paper's
-        method chooses its diagonals with `flips`. ``'error'`` lowers the
-        mean error and the error near jumps at some cost in time
-        (``benchmarks/diagonals.py``, docs/benchmarks.md).
-    walls : bool, default True
-        Keep the triangles that bridge a depth jump ("walls"). ``False``
-        drops them, so separate surfaces stay separate (`method='refine'`
-        only; see `rangemesh.refine.walls` for how a jump is decided).
-    jump : float, default 0.05
-        With ``walls=False``: an edge is a jump when depth changes along it
-        by more than this share of the local depth per pixel.
-    wrap : bool or None, default None
-        Column W-1 is the neighbour of column 0 (a 360-degree scan): the seam
-        between them is closed with a strip of triangles
-        (`rangemesh.geometry.seam`). ``None``: on when the camera is a
-        `rangemesh.Spherical` whose columns go once round.
-    depth_limits : (float, float) or None, default None
-        ``(near, far)``: pixels whose depth lies outside are missing depth
-        (both methods; None on one side: no limit there). In metres with a
-        metric camera (a `rangemesh.Pinhole`'s ``depth_scale`` or a ray
-        camera's ``range_scale`` applied), in stored depth units with
-        `rangemesh.Orthographic` (`rangemesh.cleanup`).
-    min_region : int or None, default None
-        Drop connected regions of valid pixels smaller than this many
-        pixels, regions split where depth jumps (both methods; specks and
-        flying pixels; `rangemesh.regions`). None: keep every region.
+    {options}
 
     Raises
     ------
@@ -246,91 +137,174 @@ class MeshParams:
     ((4, 4), (10, 8), (37, 29))
     """
 
-    tiles: tuple[int, int] = (4, 4)
-    samples: tuple[int, int] = (10, 10)
-    sampling: str = "adaptive"
-    flips: str | None = "disparity"
-    levels: int = 2
-    curvature_floor: float = 20.0
-    fill_gaps: bool = True
-    delta: float = 20.0
-    epsilon: float = 0.3
-    max_angle: float = 160.0
-    min_bend: float = 5.0
-    gain_threshold: float | None = None
-    max_edge: float | None = None
-    workers: int = 1
-    heights: str | None = None
-    diagonals: str | None = None
-    walls: bool = True
-    jump: float = 0.05
-    wrap: bool | None = None
-    depth_limits: tuple[float, float] | None = None
-    min_region: int | None = None
+    tiles: tuple[int, int] = option(
+        (4, 4), methods=PAPER, type="int or (int, int)", check=pair(1),
+        doc="Tiles ``(V, H)`` of stage one: vertical stripes (along rows) by horizontal "
+            "stripes (along columns); neighbouring tiles share one row or column of pixels. "
+            "With a target, chosen for the image unless given.",
+        flag=Flag("tiles, rows x columns; neighbours share one line of pixels (default "
+                  "{default}; chosen for the image with --vertices/--max-error)", "pair", "VxH"))
+    samples: tuple[int, int] = option(
+        (10, 10), methods=PAPER, type="int or (int, int)",
+        check=pair(2, "a tile's first and last samples are its borders"),
+        doc="Samples per tile ``(Rs, Z)``, rows by columns (the paper's R and zeta), each at "
+            "least 2: the first and last samples of a tile are its borders. The sample grid "
+            "has ``((Rs-1)*V + 1) x ((Z-1)*H + 1)`` entries. Not with a target, which "
+            "chooses them.",
+        flag=Flag("samples per tile; the grid is ((R-1)V+1) x ((Z-1)H+1) points "
+                  "(default {default})", "pair", "RxZ"))
+    sampling: str = option(
+        "adaptive", methods=PAPER, type="{'adaptive', 'uniform'}",
+        check=choice(SAMPLING_CHOICES), choices=SAMPLING_CHOICES,
+        doc="``'adaptive'`` places samples by the log-curvature weight of the paper; "
+            "``'uniform'`` gives every pixel the same weight (the paper's baseline, same "
+            "grid size).",
+        flag=Flag("place samples by log-curvature (paper) or evenly (baseline) "
+                  "(default {default})", "choice"))
+    flips: str | None = option(
+        "disparity", methods=PAPER, type="{'disparity', 'error', None}",
+        check=choice(FLIP_CHOICES), none_is_value=True,
+        doc="``'disparity'`` runs the paper's tests 1-5 and its final test; ``'error'`` "
+            "flips every edge whose approximation gain is positive (the paper's comparison "
+            "variant); None (or ``'none'``) keeps the plain Delaunay mesh.",
+        flag=Flag("edge flips: disparity tests (paper), error gain > 0, or none "
+                  "(default {default})", "flips", "{disparity,error,none}"))
+    levels: int = option(
+        2, methods=PAPER, type="int", check=whole(1),
+        doc="Resolutions added into the curvature image (the paper uses 2: full and half).",
+        flag=Flag("resolutions summed into the curvature image (default {default}: "
+                  "full + half)", "int"))
+    curvature_floor: float = option(
+        20.0, methods=PAPER, type="float",
+        check=above(1.0, "> 1 so that log weights stay positive"),
+        doc="Curvature floor on a 0..255 depth scale (the paper's \"e.g., 20\"). The "
+            "curvature is normalised by the valid depth range, so the floor means the same "
+            "thing in any depth unit. Must be greater than 1 so that every log weight is "
+            "positive.",
+        flag=Flag("curvature floor on a 0..255 depth scale; flat areas still get points "
+                  "(default {default})"))
+    fill_gaps: bool = option(
+        True, methods=BOTH, type="bool", check=flag,
+        doc="Fill single-pixel holes (a background pixel with 8 valid neighbours) with the "
+            "mean of the neighbours first, as the paper's first step does.",
+        flag=Flag("keep single-pixel holes instead of filling them with the 8-neighbour "
+                  "mean (both methods)", "off"))
+    delta: float = option(
+        20.0, methods=PAPER, type="float", check=degrees(low_open=True),
+        doc="Upper disparity threshold, degrees (the paper's Delta): above it a triangle is "
+            "off its surroundings.",
+        flag=Flag("upper disparity threshold Delta: above it a triangle is off its "
+                  "surroundings, degrees (default {default})"))
+    epsilon: float = option(
+        0.3, methods=PAPER, type="float", check=degrees(low_open=False),
+        doc="Lower disparity threshold of test 2, degrees: the smallest disparity change "
+            "worth a flip.",
+        flag=Flag("test 2: smallest disparity change worth a flip, degrees "
+                  "(default {default})"))
+    max_angle: float = option(
+        160.0, methods=PAPER, type="float", check=degrees(low_open=True),
+        doc="Internal 3-D angle above which test 3 calls a triangle degenerate, degrees.",
+        flag=Flag("test 3: a triangle with an angle above this is degenerate, degrees "
+                  "(default {default})"))
+    min_bend: float = option(
+        5.0, methods=PAPER, type="float", check=degrees(low_open=False),
+        doc="Test 4: the two new triangles' normals must differ by more than this, degrees.",
+        flag=Flag("test 4: new triangles must bend more than this, degrees "
+                  "(default {default})"))
+    gain_threshold: float | None = option(
+        None, methods=PAPER, type="float or None", check=number_or_none,
+        doc="Stop flipping when the head of the queue has a gain below this. None means "
+            "minus infinity: every edge with a finite gain is considered, which the paper "
+            "found works best. Ignored by ``flips='error'``, which always stops at the first "
+            "non-positive gain.",
+        flag=Flag("stop flipping when the best gain left is below this (default: none, "
+                  "every edge with a finite gain is tried)"))
+    max_edge: float | None = option(
+        None, methods=PAPER, type="float or None", check=edge_or_none,
+        doc="Longest triangle edge allowed in the image plane, pixels (at least 1.5, a "
+            "pixel's diagonal is 1.41); None: no bound. Given without a vertex or error "
+            "target, it also chooses the samples per tile "
+            "(`rangemesh.paper.targets.fit_edge`).",
+        flag=Flag("no triangle edge longer than this in the image, pixels"))
+    workers: int = option(
+        1, name="threads", methods=PAPER, type="int", check=whole(1),
+        doc="Threads sharing stage one's tiles (the paper's parallel stage); the mesh is the "
+            "same for any number (`MeshParams` names it ``workers``; in calls, workers are "
+            "processes: `rangemesh.mesh_many`). ``method='refine'`` decides itself: on images "
+            "of 60,000 valid pixels or more, from 2000 vertices or under an error bound, it "
+            "meshes two strips of the image on two threads where the process may use two "
+            "cores (`rangemesh.refine.threads`; ``RANGEMESH_THREADS=1`` keeps one); its mesh "
+            "too is the same either way.",
+        flag=Flag("threads sharing stage one's tiles; the mesh is the same for any number "
+                  "(default {default})", "int"))
+    heights: str | None = option(
+        None, methods=REFINE, type="{'fit', 'pixel'} or None", check=choice(HEIGHT_CHOICES),
+        choices=("fit", "pixel"),
+        doc="Where vertex depths come from. ``'fit'`` (None: the default): least squares "
+            "over the pixels each vertex's triangles cover, pixels across a jump left out "
+            "(`rangemesh.refine.heights.fit_heights`); ``'pixel'``: each vertex copies the "
+            "depth of its pixel (the paper's eq. 4, its method's only choice).",
+        flag=Flag("vertex depths: least squares over the pixels, jumps left out (fit, the "
+                  "default) or copied from the vertex's pixel (pixel)", "choice"))
+    diagonals: str | None = option(
+        None, methods=REFINE, type="{'error', 'delaunay'} or None",
+        check=choice(DIAGONAL_CHOICES), choices=("error", "delaunay"),
+        doc="How each quad picks its diagonal. ``'error'`` (None: the default): by the "
+            "data, flipping an edge when the two triangles fit their pixels with a smaller "
+            "summed error the other way (`rangemesh.refine.diagonals`); ``'delaunay'``: "
+            "greedy insertion's Delaunay mesh as it is (in the sensor's units), a little "
+            "faster, higher error (``benchmarks/diagonals.py``). The paper's method chooses "
+            "its diagonals with `flips`.",
+        flag=Flag("each quad's diagonal is the one that fits its pixels better (error, the "
+                  "default) or the Delaunay one (delaunay: a little faster, higher error)",
+                  "choice"))
+    walls: bool = option(
+        True, methods=REFINE, type="bool", check=flag,
+        doc="Keep the triangles that bridge a depth jump (\"walls\"). False drops them, so "
+            "separate surfaces stay separate (see `rangemesh.refine.walls` for how a jump is "
+            "decided).",
+        flag=Flag("drop the triangles across depth jumps, so separate surfaces stay "
+                  "separate", "off"))
+    jump: float = option(
+        0.05, methods=REFINE, type="float", check=above(0.0, "a positive share of the depth"),
+        doc="With ``walls=False``: an edge is a jump when depth changes along it by more "
+            "than this share of the local depth per pixel.",
+        flag=Flag("with --no-walls: a depth change above this share of the local depth per "
+                  "pixel is a jump (default {default})"))
+    wrap: bool | None = option(
+        None, methods=BOTH, type="bool or None", check=boolean_or_none,
+        doc="Column W-1 is the neighbour of column 0 (a 360-degree scan): the seam between "
+            "them is closed with a strip of triangles (`rangemesh.geometry.seam`). None: on "
+            "when the camera is a `rangemesh.Spherical` whose columns go once round.",
+        flag=Flag("column W-1 is beside column 0 (360 degrees): close the seam (default: on "
+                  "for a --beams camera that goes once round); --no-wrap leaves it open",
+                  "on_off"))
+
+    depth_limits: tuple[float, float] | None = option(
+        None, methods=BOTH, type="(float, float) or None", check=limits_or_none,
+        doc="``(near, far)``: pixels whose depth lies outside are missing depth (None on a "
+            "side: no limit there). In metres with a metric camera (a `rangemesh.Pinhole`'s "
+            "``depth_scale`` or a ray camera's ``range_scale`` applied), in stored depth units "
+            "with `rangemesh.Orthographic` (`rangemesh.cleanup`).",
+        flag=Flag("pixels whose depth is outside are missing depth: metres with "
+                  "--intrinsics/--camera/--beams (depth scale applied), stored units "
+                  "otherwise; one side may be empty", "limits", "NEAR,FAR"))
+    min_region: int | None = option(
+        None, methods=BOTH, type="int or None", check=whole_or_none(1),
+        doc="Drop connected regions of valid pixels smaller than this many pixels, regions "
+            "split where depth jumps by more than 5 % of the depth a pixel (specks and flying "
+            "pixels; `rangemesh.regions`; 20 suits depth cameras, docs/decisions.md). None: "
+            "keep every region.",
+        flag=Flag("drop connected regions of fewer than K valid pixels, split where depth "
+                  "jumps by more than 5 % a pixel: specks (default off; 20 suits depth "
+                  "cameras)", "int", "K"))
 
     def __post_init__(self):
-        tiles = whole_pair("tiles", self.tiles, minimum=1)
-        samples = whole_pair("samples", self.samples)
-        object.__setattr__(self, "tiles", tiles)
-        object.__setattr__(self, "samples", samples)
-        if min(samples) < 2:
-            raise ValueError(
-                f"samples must be >= 2 in both directions (a tile's first and last "
-                f"samples are its borders), got {samples}"
-            )
-        if not isinstance(self.sampling, str) or self.sampling not in SAMPLING_CHOICES:
-            raise ValueError(
-                f"sampling must be one of {SAMPLING_CHOICES}, got {self.sampling!r}"
-            )
-        if not (self.flips is None or isinstance(self.flips, str)) \
-                or self.flips not in FLIP_CHOICES:
-            raise ValueError(f"flips must be one of {FLIP_CHOICES}, got {self.flips!r}")
-        object.__setattr__(self, "levels", whole_number("levels", self.levels, minimum=1))
-        for name in ("curvature_floor", "delta", "epsilon", "max_angle", "min_bend"):
-            object.__setattr__(self, name, real_number(name, getattr(self, name)))
-        if self.curvature_floor <= 1.0:
-            raise ValueError(
-                f"curvature_floor must be > 1 so that log weights stay positive, "
-                f"got {self.curvature_floor}"
-            )
-        for name in ("delta", "max_angle"):
-            if not 0.0 < getattr(self, name) <= 180.0:
-                raise ValueError(f"{name} must be in (0, 180] degrees, got {getattr(self, name)}")
-        for name in ("epsilon", "min_bend"):
-            if not 0.0 <= getattr(self, name) <= 180.0:
-                raise ValueError(f"{name} must be in [0, 180] degrees, got {getattr(self, name)}")
-        if self.gain_threshold is not None:
-            g = real_number("gain_threshold", self.gain_threshold, finite=False)
-            if math.isnan(g):
-                raise ValueError("gain_threshold must be a number or None, got nan")
-            object.__setattr__(self, "gain_threshold", g)
-        object.__setattr__(self, "fill_gaps", flag("fill_gaps", self.fill_gaps))
-        if self.max_edge is not None:
-            e = real_number("max_edge", self.max_edge, finite=False)
-            if not math.isfinite(e) or e < 1.5:
-                raise ValueError(
-                    f"max_edge must be at least 1.5 pixels (a pixel's diagonal is 1.41), "
-                    f"got {self.max_edge!r}"
-                )
-            object.__setattr__(self, "max_edge", e)
-        object.__setattr__(self, "workers", whole_number("workers", self.workers, minimum=1))
-        if not (self.heights is None or isinstance(self.heights, str)) \
-                or self.heights not in HEIGHT_CHOICES:
-            raise ValueError(f"heights must be one of {HEIGHT_CHOICES}, got {self.heights!r}")
-        if not (self.diagonals is None or isinstance(self.diagonals, str)) \
-                or self.diagonals not in DIAGONAL_CHOICES:
-            raise ValueError(f"diagonals must be one of {DIAGONAL_CHOICES}, got {self.diagonals!r}")
-        object.__setattr__(self, "walls", flag("walls", self.walls))
-        jump = real_number("jump", self.jump)
-        if not jump > 0:
-            raise ValueError(f"jump must be a positive share of the depth, got {self.jump!r}")
-        object.__setattr__(self, "jump", jump)
-        if self.wrap is not None:
-            object.__setattr__(self, "wrap", flag("wrap", self.wrap))
-        object.__setattr__(self, "depth_limits", check_depth_limits(self.depth_limits))
-        if self.min_region is not None:
-            object.__setattr__(self, "min_region",
-                               whole_number("min_region", self.min_region, minimum=1))
+        for opt in OPTIONS_BY_FIELD.values():
+            value = getattr(self, opt.field)
+            checked = opt.check(opt.field, value)
+            if checked is not value:
+                object.__setattr__(self, opt.field, checked)
 
     @property
     def grid_shape(self) -> tuple[int, int]:
@@ -353,3 +327,15 @@ class MeshParams:
                 f"{[f.name for f in dataclasses.fields(self)]}"
             )
         return dataclasses.replace(self, **changes)
+
+
+# The table of options, from MeshParams' fields (`rangemesh.options`), in field order.
+OPTION_TABLE = options_of(MeshParams)
+OPTIONS_BY_FIELD = {o.field: o for o in OPTION_TABLE}
+OPTIONS_BY_NAME = {o.name: o for o in OPTION_TABLE}
+# Which method reads each option; options of both methods (fill_gaps, wrap) are not listed.
+# The one rule for Python and the command line (`misplaced_option`).
+OPTION_METHOD = {o.name: o.methods[0] for o in OPTION_TABLE if len(o.methods) == 1}
+if MeshParams.__doc__:  # (None under python -OO)
+    MeshParams.__doc__ = MeshParams.__doc__.replace(
+        "    {options}", option_docs(OPTION_TABLE, style="params"))

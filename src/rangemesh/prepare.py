@@ -12,11 +12,13 @@ from decimal import Decimal
 
 import numpy as np
 
+from . import _core
 from ._core import mask_image, valid_range
 from .camera import Pinhole, Rays, Spherical
 from .checks import kernel_array
 
-__all__ = ["to_depth_and_mask", "check_image", "mask_into", "guess_background", "NONPOSITIVE"]
+__all__ = ["to_depth_and_mask", "check_image", "mask_into", "guess_background", "fill_gaps",
+           "fill_gaps_inplace", "NONPOSITIVE"]
 
 # `background` for "0 and below mark missing depth": what 'auto' means before a camera that
 # measures distance (REP 118: depth is a distance in front of the camera).
@@ -203,3 +205,38 @@ def guess_background(image: np.ndarray, camera=None):
     if isinstance(camera, (Pinhole, Spherical, Rays)):
         return NONPOSITIVE
     return 0 if image.dtype.kind in "iu" else None  # the kind, not np.issubdtype: every call
+
+
+def fill_gaps(depth: np.ndarray, valid: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Fill single-pixel holes: one pass, paper II.A.1, SPEC 1.1.
+
+    A background pixel whose 8 neighbours all exist and are valid becomes valid
+    with the mean of those 8 depths. Pixels on the image border have fewer
+    than 8 neighbours and are never filled. Larger holes stay holes.
+
+    Parameters
+    ----------
+    depth : (H, W) ndarray of float64
+    valid : (H, W) ndarray of bool
+
+    Returns
+    -------
+    depth_filled : (H, W) ndarray of float64
+        A new array; background pixels that stay background hold 0.
+    valid_filled : (H, W) ndarray of bool
+
+    Examples
+    --------
+    >>> d = np.arange(9.0).reshape(3, 3); v = np.ones((3, 3), bool); v[1, 1] = False
+    >>> float(fill_gaps(d, v)[0][1, 1])
+    4.0
+    """
+    out_d = np.where(valid, depth, 0.0).astype(np.float64, order="C", copy=False)
+    out_v = np.array(valid, dtype=np.bool_, order="C", copy=True)
+    _core.fill_gaps_inplace(out_d, out_v)
+    return out_d, out_v
+
+
+def fill_gaps_inplace(depth: np.ndarray, valid: np.ndarray) -> None:
+    """`fill_gaps` on our own C-contiguous float64/bool buffers, in place (no copies)."""
+    _core.fill_gaps_inplace(depth, valid)

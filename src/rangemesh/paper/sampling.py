@@ -17,6 +17,7 @@ from .. import _core
 from .._core import valid_range
 from ..blocks import blocks
 from ..params import MeshParams
+from ..prepare import fill_gaps, fill_gaps_inplace  # noqa: F401 - shared steps, re-exported
 
 __all__ = [
     "fill_gaps",
@@ -32,34 +33,6 @@ __all__ = [
 _PAPER_SCALE = 255.0
 
 
-def fill_gaps(depth: np.ndarray, valid: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Fill single-pixel holes: one pass, paper II.A.1, SPEC 1.1.
-
-    A background pixel whose 8 neighbours all exist and are valid becomes valid
-    with the mean of those 8 depths. Pixels on the image border have fewer
-    than 8 neighbours and are never filled. Larger holes stay holes.
-
-    Parameters
-    ----------
-    depth : (H, W) ndarray of float64
-    valid : (H, W) ndarray of bool
-
-    Returns
-    -------
-    depth_filled : (H, W) ndarray of float64
-        A new array; background pixels that stay background hold 0.
-    valid_filled : (H, W) ndarray of bool
-
-    Examples
-    --------
-    >>> d = np.arange(9.0).reshape(3, 3); v = np.ones((3, 3), bool); v[1, 1] = False
-    >>> float(fill_gaps(d, v)[0][1, 1])
-    4.0
-    """
-    out_d = np.where(valid, depth, 0.0).astype(np.float64, order="C", copy=False)
-    out_v = np.array(valid, dtype=np.bool_, order="C", copy=True)
-    _core.fill_gaps_inplace(out_d, out_v)
-    return out_d, out_v
 def valid_span(depth: np.ndarray, valid: np.ndarray) -> float:
     """Max - min of the valid depths (0 when there is none)."""
     lo, hi, n = valid_range(np.ascontiguousarray(depth, dtype=np.float64),
@@ -160,11 +133,6 @@ def sampling_weights(depth: np.ndarray, valid: np.ndarray, params: MeshParams, *
         np.maximum(o, params.curvature_floor, out=o)
         np.log(o, out=o)
     return out
-
-
-def fill_gaps_inplace(depth: np.ndarray, valid: np.ndarray) -> None:
-    """`fill_gaps` on our own C-contiguous float64/bool buffers, in place (no copies)."""
-    _core.fill_gaps_inplace(depth, valid)
 
 
 def _tile_threads(workers: int) -> int:

@@ -28,10 +28,12 @@ from ..batch import (
     write_report,
 )
 from ..io import MESH_SUFFIXES, write_mesh
+from ..memory import check_memory
 from ..mesh import Mesh
 from ..metrics import evaluate
-from ..pipeline import OPTIONS, call_options, check_memory, resolve_call, triangulate
+from ..pipeline import triangulate
 from ..prepare import NONPOSITIVE
+from ..resolve import call_keywords, call_options, resolve_call
 from .decode import color_image, depth_image, depth_shape
 from .reading import Frame, Recording, stamp_text
 from .writing import MarkerBag, marker_bytes
@@ -50,17 +52,15 @@ class MeshFrame(NamedTuple):
 
 
 def resolve(method: str, vertices, max_error, options: dict) -> dict:
-    """`triangulate`'s keywords for every frame, checked once (`rangemesh.pipeline.resolve_call`).
+    """`triangulate`'s keywords for every frame, checked once (`rangemesh.resolve.resolve_call`).
 
     Raises
     ------
     ValueError, TypeError
         A bad option or target; an unknown keyword.
     """
-    given = {k: options.pop(k) for k in OPTIONS if k in options}
-    given.setdefault("flips", "disparity")
-    params, method, _ = resolve_call(None, method, vertices, max_error,
-                                     {k: given.get(k) for k in OPTIONS}, options, stacklevel=4)
+    given, rest = call_keywords(options)
+    params, method, _ = resolve_call(None, method, vertices, max_error, given, rest, stacklevel=4)
     return {"method": method, "vertices": vertices, "max_error": max_error,
             **call_options(params, method)}
 
@@ -80,7 +80,7 @@ def mesh_frame(frame: Frame, call: dict, how: str = "pixel") -> tuple[Mesh, obje
         The frame cannot be meshed: the reason in one line, naming the frame.
     MemoryError
         Its size, read from its header, needs more memory than is available
-        (`rangemesh.pipeline.check_memory`): nothing was decoded.
+        (`rangemesh.memory.check_memory`): nothing was decoded.
     """
     if frame.error:
         raise ValueError(f"{frame.name}: {frame.error}")

@@ -18,6 +18,8 @@ image, so the fitted mesh is rendered exactly as it was fitted.
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from .. import _core
@@ -81,13 +83,18 @@ def height_rule(n_valid: int) -> _core.HeightRule:
     FIT_SPLIT_MIN_FACES faces (at most two a vertex, a vertex a valid pixel),
     else 1, as `fit_heights` chooses them.
     """
+    threads = 1 if 2 * n_valid < _core.FIT_SPLIT_MIN_FACES else _default_threads()
+    return _rule((OUTLIER_MADS, OUTLIER_FLOOR, RIDGE, CG_RTOL, RESIDUAL_STRIDE, RESIDUAL_MIN,
+                  RESIDUAL_SAMPLE, ORDER_TILE, ORDER_MIN_PIXELS, threads))
+
+
+@functools.lru_cache(maxsize=8)
+def _rule(values: tuple) -> _core.HeightRule:
+    """The `height_rule` of these values, made once (the native call copies it, never writes it)."""
     rule = _core.HeightRule()
-    rule.outlier_mads, rule.outlier_floor, rule.ridge, rule.rtol = (OUTLIER_MADS, OUTLIER_FLOOR,
-                                                                    RIDGE, CG_RTOL)
-    rule.residual_stride, rule.residual_min = RESIDUAL_STRIDE, RESIDUAL_MIN
-    rule.residual_sample, rule.order_tile = RESIDUAL_SAMPLE, ORDER_TILE
-    rule.order_min_pixels = ORDER_MIN_PIXELS
-    rule.threads = 1 if 2 * n_valid < _core.FIT_SPLIT_MIN_FACES else _default_threads()
+    (rule.outlier_mads, rule.outlier_floor, rule.ridge, rule.rtol, rule.residual_stride,
+     rule.residual_min, rule.residual_sample, rule.order_tile, rule.order_min_pixels,
+     rule.threads) = values
     return rule
 
 

@@ -20,7 +20,7 @@ from .._core import (
     valid_faces,
     valid_range,
 )
-from ..camera import Orthographic, backproject, pixel_aspect
+from ..camera import _UNIT, Orthographic, backproject, pixel_aspect
 from ..mesh import Mesh, Stats, empty_mesh, with_fields
 from ..render import relative_error
 from . import threads as _threads
@@ -356,6 +356,8 @@ def _count_record(got, asked, runs, n_valid, n_pixels, no_walls_dropped,
 
 # What `_native`'s stats and meshes start from (`with_fields`).
 _NATIVE_STATS = Stats(method="refine", grid_shape=None, strips=1)
+_UNIT_ARRAY = _UNIT.as_array()  # the default camera's, made once (read-only)
+_UNIT_ARRAY.flags.writeable = False
 _NATIVE_MESH = Mesh(np.zeros((0, 3)), np.zeros((0, 3), np.int32), np.zeros((0, 2), np.int32),
                     Orthographic(), (0, 0), _NATIVE_STATS)
 
@@ -386,7 +388,8 @@ def _native(depth, valid, camera, ref, extent, exponent, vertices, max_error, ma
     req.heights = height_rule(n_valid)
     if max_error is not None:
         req.max_error = float(max_error)
-    res = _core.refine_mesh(depth, valid, camera.as_array(), req, *(() if ref is None else ref))
+    cam = _UNIT_ARRAY if camera is _UNIT else camera.as_array()
+    res = _core.refine_mesh(depth, valid, cam, req, *(() if ref is None else ref))
     if not res.done:
         return None, None
     got = res.vertex_count

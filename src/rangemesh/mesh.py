@@ -34,13 +34,15 @@ class Target:
 
     Attributes
     ----------
-    kind : {'vertices', 'max_error', 'max_edge'}
+    kind : {'vertices', 'max_error', 'max_deviation', 'mean_deviation', 'max_edge'}
         The target.
     requested : int or float
         The value asked for (with the default target, ``DEFAULT_TARGET.max_error``).
     achieved : int or float
         The same quantity measured on the mesh: vertices, relative error
-        (percent) or longest edge (pixels).
+        (percent), largest or mean deviation of a covered valid pixel
+        (metres with a metric camera, depth units with `Orthographic`) or
+        longest edge (pixels).
     met : bool
         Whether `achieved` meets `requested`.
     meshings : int
@@ -58,6 +60,14 @@ class Target:
         Samples ``max_edge`` added to the grid (``method='paper'``).
     walls_dropped : int or None
         Triangles dropped across jumps (``walls=False``).
+    max_edge : float or None
+        The longest edge asked for beside the target (``method='refine'``),
+        pixels in the image plane.
+    longest_edge : float or None
+        The mesh's longest edge in the image plane, pixels (with `max_edge`).
+    uncovered : int or None
+        Valid pixels no triangle covers, which a deviation target does not
+        measure (dropped walls, lone pixels); None when not measured.
     note : str
         Why the target was not met, when it was not.
 
@@ -80,6 +90,9 @@ class Target:
     added_samples: int | None = None
     walls_dropped: int | None = None
     note: str = ""
+    max_edge: float | None = None
+    longest_edge: float | None = None
+    uncovered: int | None = None
 
     @classmethod
     def from_record(cls, rec: dict, *, vertices: int, default: bool = False) -> Target:
@@ -97,7 +110,8 @@ class Target:
                    get("meshings", 1), get("vertices", vertices), default, get("max_vertices"),
                    None if tiles is None else tuple(tiles),
                    None if samples is None else tuple(samples), get("added_samples"),
-                   get("walls_dropped"), get("note", ""))
+                   get("walls_dropped"), get("note", ""), get("max_edge"), get("longest_edge"),
+                   get("uncovered"))
 
     def to_dict(self) -> dict:
         """Plain-Python dictionary (JSON-ready); fields that do not apply are left out."""
@@ -135,7 +149,8 @@ class Target:
 
 
 _RECORD_KEYS = {"target", "requested", "achieved", "met", "meshings", "vertices", "max_vertices",
-                "tiles", "samples", "added_samples", "walls_dropped", "note"}
+                "tiles", "samples", "added_samples", "walls_dropped", "note", "max_edge", "longest_edge",
+                "uncovered"}
 
 
 @dataclass(frozen=True)

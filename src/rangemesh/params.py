@@ -18,13 +18,14 @@ __all__ = ["MeshParams", "SAMPLING_CHOICES", "FLIP_CHOICES", "METHODS", "OPTION_
 METHODS = ("refine", "paper")
 
 # Which method reads each option; options of both methods (vertices, max_error, fill_gaps,
-# wrap) are not listed. The one rule for Python and the command line (`misplaced_option`).
+# wrap) are not listed, or listed as None (max_edge, listed for `OPTIONS`). The one rule for
+# Python and the command line (`misplaced_option`).
 OPTION_METHOD = {
     "heights": "refine", "diagonals": "refine", "walls": "refine", "jump": "refine",
     "tiles": "paper", "samples": "paper", "sampling": "paper", "flips": "paper",
     "levels": "paper", "curvature_floor": "paper", "delta": "paper", "epsilon": "paper",
     "max_angle": "paper", "min_bend": "paper", "gain_threshold": "paper",
-    "max_edge": "paper", "threads": "paper",
+    "max_edge": None, "threads": "paper",
 }
 
 
@@ -151,9 +152,11 @@ class MeshParams:
         stops at the first non-positive gain.
     max_edge : float or None, default None
         Longest triangle edge allowed in the image plane, pixels (at least 1.5,
-        a pixel's diagonal is 1.41). ``None``: no bound. Given without a vertex
-        or error target, it also chooses the samples per tile (see
-        `rangemesh.paper.targets.fit_edge`).
+        a pixel's diagonal is 1.41). ``None``: no bound. Both methods: the
+        paper's adds samples (given without a vertex or error target, it also
+        chooses the samples per tile, see `rangemesh.paper.targets.fit_edge`);
+        refine inserts pixels after its target is met
+        (`rangemesh.refine.insertion.greedy_mesh`).
     workers : int, default 1
         Threads sharing stage one's tiles (the paper's parallel stage);
         ``threads=`` of `rangemesh.triangulate` (in calls, workers are

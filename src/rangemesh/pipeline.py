@@ -253,9 +253,11 @@ def _legacy_method(params: MeshParams, vertices, max_error, overrides) -> str:
     return "refine"
 
 
-def _targets_given(params: MeshParams, vertices, max_error, overrides) -> list[str]:
+def _targets_given(params: MeshParams, vertices, max_error, overrides,
+                   deviations=(None, None), method: str = "refine") -> list[str]:
     if vertices is not None and max_error is not None:
         raise ValueError("vertices and max_error exclude each other: give one target")
+    check_deviations(deviations, vertices, max_error, method)
     given = [k for k, v in (("vertices", vertices), ("max_error", max_error),
                             ("max_edge", params.max_edge)) if v is not None]
     if given and "samples" in overrides:
@@ -271,6 +273,34 @@ def _targets_given(params: MeshParams, vertices, max_error, overrides) -> list[s
         if real_number("max_error", max_error, finite=False) <= 0 or not np.isfinite(max_error):
             raise ValueError(f"max_error must be a positive number of percent, got {max_error!r}")
     return given
+
+
+def check_deviations(deviations, vertices, max_error, method: str) -> None:
+    """Refuse a bad ``(max_deviation, mean_deviation)``: each a number >= 0, one target at most.
+
+    Raises
+    ------
+    ValueError
+        A negative, NaN or infinite bound, two targets given, or the paper's method.
+    TypeError
+        A bound that is not a real number.
+    """
+    given = [(k, v) for k, v in zip(("max_deviation", "mean_deviation"), deviations)
+             if v is not None]
+    if not given:
+        return
+    others = [k for k, v in (("vertices", vertices), ("max_error", max_error)) if v is not None]
+    names = [k for k, _ in given] + others
+    if len(names) > 1:
+        raise ValueError(f"{' and '.join(names)} exclude each other: give one target")
+    name, value = given[0]
+    if method != "refine":
+        raise ValueError(f"{name} is a target of method='refine'; method={method!r} does not "
+                         f"take it")
+    x = real_number(name, value, finite=False)
+    if not (math.isfinite(x) and x >= 0.0):
+        raise ValueError(f"{name} must be a finite number of 0 or more (metres with a metric "
+                         f"camera, depth units with Orthographic), got {value!r}")
 
 
 # The name "refine" had before (greedy insertion); still accepted, with a warning.
@@ -306,7 +336,7 @@ def call_options(params: MeshParams, method: str) -> dict:
     for name in OPTIONS:
         field = _FIELD_OF.get(name, name)
         value = getattr(params, field)
-        if value != getattr(defaults, field) and OPTION_METHOD.get(name, method) == method:
+        if value != getattr(defaults, field) and OPTION_METHOD.get(name, method) in (None, method):
             out[name] = "none" if name == "flips" and value is None else value
     return out
 
@@ -337,7 +367,7 @@ def _method_name(method, stacklevel: int) -> str:
 
 
 def resolve_call(params, method, vertices, max_error, options: dict, overrides: dict, *,
-                 stacklevel: int = 3) -> tuple[MeshParams, str, bool]:
+                 stacklevel: int = 3, deviations=(None, None)) -> tuple[MeshParams, str, bool]:
     """The settings of a `triangulate` (or `mesh_stream`, `mesh_many`) call, checked.
 
     Parameters
@@ -353,6 +383,8 @@ def resolve_call(params, method, vertices, max_error, options: dict, overrides: 
         Deprecated ``**overrides`` (``workers``: the old name of ``threads``).
     stacklevel : int
         Where a deprecation warning points: the user's call.
+    deviations : (float or None, float or None)
+        ``(max_deviation, mean_deviation)`` as `triangulate` takes them.
 
     Returns
     -------
@@ -405,7 +437,7 @@ def resolve_call(params, method, vertices, max_error, options: dict, overrides: 
         params = params.replace(**fields) if fields else params
         if method == "refine":
             method = _legacy_method(params, vertices, max_error, fields)
-        _targets_given(params, vertices, max_error, fields)
+        _targets_given(params, vertices, max_error, fields, deviations, method)
         changed = [k for k, f in _FIELD_OF.items() if getattr(params, f) != getattr(_defaults(), f)
                    and not (k == "threads" and method == "refine")  # refine ignored it
                    and not (k == "heights" and params.heights == "pixel" and method == "paper")]
@@ -418,7 +450,7 @@ def resolve_call(params, method, vertices, max_error, options: dict, overrides: 
         if message:
             raise ValueError(f"{message} (method is chosen by method= alone)")
     params = _params_of(fields)
-    _targets_given(params, vertices, max_error, fields)
+    _targets_given(params, vertices, max_error, fields, deviations, method)
     return params, method, "tiles" in fields
 
 
@@ -463,7 +495,7 @@ def close_seam(mesh: Mesh, depth: np.ndarray, params: MeshParams) -> Mesh:
 
 def run(image, params: MeshParams, *, background="auto", camera=None, vertices=None,
         max_error=None, tiles_given: bool = True, workspace: Workspace | None = None,
-        method: str = "refine") -> Mesh:
+        method: str = "refine", max_deviation=None, mean_deviation=None) -> Mesh:
     """Prepare `image`, mesh it with `method` (for a target, or the default one), assemble stats.
 
     The arguments are those of `triangulate`, already resolved
@@ -493,7 +525,9 @@ def run(image, params: MeshParams, *, background="auto", camera=None, vertices=N
         raise ValueError(f"the paper's method needs an image of at least 2x2 pixels (its "
                          f"tiles are at least 2 pixels thick), got {image.shape[0]}x"
                          f"{image.shape[1]}")
-    default_target = method == "refine" and vertices is None and max_error is None
+    deviation = max_deviation is not None or mean_deviation is not None
+    default_target = method == "refine" and vertices is None and max_error is None \
+        and not deviation
     # refine's need grows with its vertices: those asked, or the default target's cap at most
     budget = default_vertex_cap(image.size) if default_target else vertices
     depth, valid = _prepare_checked(image, params, background, workspace, (method, budget))
@@ -523,17 +557,20 @@ def run(image, params: MeshParams, *, background="auto", camera=None, vertices=N
         if default_target:
             max_error, cap = DEFAULT_TARGET.max_error, default_vertex_cap(n_valid)
         asked_cap = cap
-        if vertices is None and workspace is None:
+        if vertices is None and workspace is None and not deviation:
             # an error bound's count is known only at the end: stop where memory runs out
             ceiling = vertex_ceiling(depth.shape)
             if ceiling is not None and ceiling < min(cap or n_valid, n_valid):
                 cap = memory_cap = max(ceiling, 3)
-        ref = to_depth_and_mask(image, background) if max_error is not None else None
+        ref = to_depth_and_mask(image, background) \
+            if max_error is not None or deviation or params.max_edge is not None else None
         mesh, target = greedy_mesh(depth, valid, camera, vertices=vertices, max_error=max_error,
                                    reference=ref, fit=params.heights != "pixel",
                                    diagonals=params.diagonals or "error",
                                    walls=params.walls, jump=params.jump,
-                                   extent=(lo, hi, n_valid), max_vertices=cap)
+                                   extent=(lo, hi, n_valid), max_vertices=cap,
+                                   max_deviation=max_deviation, mean_deviation=mean_deviation,
+                                   max_edge=params.max_edge)
         if memory_cap is not None and target and not target["met"] \
                 and target.get("note", "").startswith("stopped at max_vertices"):
             raise MemoryError(
@@ -592,6 +629,7 @@ def triangulate(image, params: MeshParams | None = None, *,
                 epsilon: float | None = None, max_angle: float | None = None,
                 min_bend: float | None = None, gain_threshold: float | None = None,
                 max_edge: float | None = None, threads: int | None = None,
+                max_deviation: float | None = None, mean_deviation: float | None = None,
                 **overrides) -> Mesh:
     """Mesh a range image: refined at its worst pixels (default), or Garcia & Sappa's pipeline.
 
@@ -624,6 +662,22 @@ def triangulate(image, params: MeshParams | None = None, *,
         ``'refine'`` takes the default target `rangemesh.params.DEFAULT_TARGET`:
         ``max_error=0.5`` with at most 2 % of the valid pixels as vertices
         (at least 50); ``'paper'`` meshes its grid of `tiles` x `samples`.
+    max_deviation : float, optional
+        ``'refine'`` only. Every valid pixel the mesh covers within this of
+        the mesh (the largest deviation, L-infinity, as delatin's
+        ``max_error``), fitted depths included. A pixel's deviation is
+        ``|predicted - measured|`` along its ray: z-depth in metres with a
+        `Pinhole` (times ``depth_scale``), range in metres with `Spherical`
+        and `Rays` (times ``range_scale``; z-depth with ``z_depth=True``),
+        depth units with `Orthographic`; the prediction is `render_depth`'s.
+        Met in one call: an insertion, then rounds inserting the worst pixel
+        of each triangle still beyond it, with each fitted depth kept within
+        it of its own pixel (`rangemesh.refine.insertion.greedy_mesh`). 0
+        gives every pixel exactly. Excludes the other targets.
+    mean_deviation : float, optional
+        ``'refine'`` only. The mean deviation of the covered valid pixels
+        (as `max_deviation` defines it) at most this. Excludes the other
+        targets.
     background : float, 'auto', 'nonpositive' or None, default 'auto'
         What marks missing depth. ``'auto'``: with a `Pinhole`, `Spherical`
         or `Rays` camera every value of 0 or below (a depth or range is a
@@ -680,9 +734,12 @@ def triangulate(image, params: MeshParams | None = None, *,
     gain_threshold : float, optional
         ``'paper'`` only. Stop flipping below this gain (default: none).
     max_edge : float, optional
-        ``'paper'`` only. No triangle edge longer than this in the image
-        plane, pixels; alone, it also chooses the samples per tile
-        (`rangemesh.paper.targets.fit_edge`).
+        Both methods. No triangle edge longer than this in the image plane,
+        pixels (at least 1.5). ``'paper'``: adds samples; alone, it also
+        chooses the samples per tile (`rangemesh.paper.targets.fit_edge`).
+        ``'refine'``: with any target, the worst pixel of every triangle with
+        a longer edge is inserted, in rounds, until none is left (so the
+        vertex count may exceed `vertices`; ``stats.target`` says so).
     threads : int, optional
         ``'paper'`` only. Threads sharing stage one's tiles; the mesh is the
         same for any number (default 1). (``'refine'`` decides itself:
@@ -745,12 +802,14 @@ def triangulate(image, params: MeshParams | None = None, *,
     """
     options = keyword_options(locals())
     params, method, tiles_given = resolve_call(params, method, vertices, max_error, options,
-                                               overrides)
+                                               overrides,
+                                               deviations=(max_deviation, mean_deviation))
     if color is not None:
         shape, cshape = np.shape(image)[:2], np.shape(color)[:2]
         if shape != cshape:
             raise ValueError(f"color is {cshape[0]}x{cshape[1]} and the image "
                              f"{shape[0]}x{shape[1]}: they must be registered pixel to pixel")
     mesh = run(image, params, background=background, camera=camera, vertices=vertices,
-               max_error=max_error, tiles_given=tiles_given, method=method)
+               max_error=max_error, tiles_given=tiles_given, method=method,
+               max_deviation=max_deviation, mean_deviation=mean_deviation)
     return mesh if color is None or mesh.is_empty else mesh.with_colors(color)

@@ -70,6 +70,7 @@ class alignas(64) Insertion {
     // is then stale: do not advance again).
     Span<index_t> vertex_rows() { return {vr_.data(), n_vertices()}; }
     Span<index_t> vertex_cols() { return {vc_.data(), n_vertices()}; }
+    Span<const double> vertex_depths() const { return {vz_.data(), n_vertices()}; }
     Span<index_t> triangles() { return {tv_.data(), 3 * n_t_}; }
     Span<index_t> halfedges() { return {he_.data(), 3 * n_t_}; }
     std::vector<double> sums() const;

@@ -18,6 +18,7 @@
 #include "../heights/order.hpp"
 #include "../heights/pass.hpp"
 #include "../interrupt.hpp"
+#include "deviation.hpp"
 #include "diagonals.hpp"
 #include "halves.hpp"
 #include "insertion.hpp"
@@ -141,6 +142,9 @@ struct Meshing {
     ValidFaces mesh;
     index_t insertions = 0, flips = 0, n_walls = 0;
     bool error_left = false;  // the insertion's summed error (before any flip) is above 0
+    // with rounds to come (`needs_rounds`): every vertex of the insertion, its corners first
+    std::vector<index_t> vr, vc;
+    std::vector<double> vz;
 
     index_t n_vertices() const { return static_cast<index_t>(mesh.pixels.size() / 2); }
 };
@@ -156,6 +160,11 @@ ValidFaces assemble(const Image& image, Span<const double> camera, Span<const in
     return f;
 }
 
+// Whether the search's mesh goes on to rounds of insertion (a deviation target, max_edge).
+bool needs_rounds(const MeshRequest& req) {
+    return req.max_deviation >= 0.0 || req.mean_deviation >= 0.0 || req.max_edge > 0.0;
+}
+
 // Insertion until `asked` valid vertices or, when `max_sum` is not negative, a summed error of
 // at most `max_sum` (insertion.py's `_refine`), then assembled.
 Meshing mesh_once(const Image& image, Span<const double> camera, const FirstMesh& first, index_t asked, double max_sum,
@@ -165,6 +174,12 @@ Meshing mesh_once(const Image& image, Span<const double> camera, const FirstMesh
     Meshing out;
     out.insertions = ins.n_vertices();
     out.error_left = ins.total() > 0.0;
+    if (needs_rounds(req)) {
+        out.vr.assign(ins.vertex_rows().begin(), ins.vertex_rows().end());
+        out.vc.assign(ins.vertex_cols().begin(), ins.vertex_cols().end());
+        const Span<const double> vz = ins.vertex_depths();
+        out.vz.assign(vz.data, vz.data + vz.size);
+    }
     if (req.flip) {
         std::vector<double> sums = ins.sums();
         out.error_left = std::any_of(sums.begin(), sums.end(), [](double x) { return x > 0.0; });
@@ -481,15 +496,21 @@ struct Candidate {
 class Refiner {
   public:
     Refiner(const Image& image, Span<const double> camera, const Reference& ref, const MeshRequest& req)
-        : image_(image), camera_(camera), req_(req), measure_(camera, ref), strips_(req.strips) {}
+        : image_(image), camera_(camera), req_(req), ref_(ref), measure_(camera, ref),
+          strips_(req.strips && !needs_rounds(req)) {}
 
     // The search; when it leaves no face (every triangle keeps a background image corner), once
     // more from the valid pixels' hull (insertion.py's restart), unless walls were dropped.
     MeshResult run();
 
   private:
+    MeshResult search();
     MeshResult by_count();
     MeshResult by_error();
+    MeshResult by_deviation();
+    void rounds(Candidate& c);
+    std::vector<double> depths(const ValidFaces& f, bool fit, bool& fitted);
+    Meshing with_pixels(const Meshing& m, const std::vector<index_t>& pixels);
     Meshing mesh(index_t asked, double max_sum);
     bool lift(const ValidFaces& f, bool fit, std::vector<double>& vertices);
     bool bounded(Candidate& c);
@@ -503,6 +524,7 @@ class Refiner {
     const Image& image_;
     Span<const double> camera_;
     const MeshRequest& req_;
+    Reference ref_;
     ErrorMeasure measure_;
     std::optional<StartArrays> first_;  // one strip's first mesh, made when first needed
     bool strips_;                       // the next meshing is on two strips
@@ -510,10 +532,22 @@ class Refiner {
     index_t insertions_ = 0, flips_ = 0;  // of the last meshing
     bool empty_ = false;                  // the search declined: no face left
     index_t empty_walls_ = 0;             // ... and the walls its mesh dropped
+    bool rounded_ = false;                // the rounds ran (`finish` runs them otherwise)
 };
 
+// How each target is met; the searches below are the rules' one place.
+//   vertices=N:         `by_count` (CountSearch): meshings at N, then nearer N, until N vertices.
+//   max_error=E:        `by_error`: the insertion's summed error stops it, the render decides.
+//   max_deviation=D,
+//   mean_deviation=D:   `by_deviation`: one insertion stopped by an estimate, then `rounds`.
+//   max_edge=L:         `rounds` after any of them (`finish`).
+MeshResult Refiner::search() {
+    if (req_.max_deviation >= 0.0 || req_.mean_deviation >= 0.0) return by_deviation();
+    return req_.max_error < 0.0 ? by_count() : by_error();
+}
+
 MeshResult Refiner::run() {
-    MeshResult out = req_.max_error < 0.0 ? by_count() : by_error();
+    MeshResult out = search();
     if (!empty_ || (!req_.walls && empty_walls_ > 0)) return out;
     std::optional<StartArrays> hull = hull_mesh(image_, req_.vertices, req_.sr, req_.sc);
     if (!hull) return out;  // declined: no triangle of valid pixels (Python names the reason)
@@ -521,7 +555,8 @@ MeshResult Refiner::run() {
     strips_ = false;
     out_ = MeshResult{};
     empty_ = false;
-    out = req_.max_error < 0.0 ? by_count() : by_error();
+    rounded_ = false;
+    out = search();
     return empty_ ? MeshResult{} : out;  // still no face: declined (Python names the reason)
 }
 
@@ -567,6 +602,10 @@ bool Refiner::bounded(Candidate& c) {
 }
 
 MeshResult Refiner::finish(Candidate&& c) {
+    if (needs_rounds(req_) && !rounded_) {  // max_edge after a count or an error bound
+        rounds(c);
+        if (req_.max_error >= 0.0) c.achieved = measure_(c.meshing.mesh, c.vertices);
+    }
     ValidFaces& mesh = c.meshing.mesh;
     const index_t n_f = static_cast<index_t>(mesh.faces.size() / 3);
     out_.edges = count_edges(Grid<const std::int32_t>{mesh.faces.data(), n_f, 3}, c.meshing.n_vertices());
@@ -591,6 +630,7 @@ MeshResult Refiner::by_count() {
     }
     Candidate c{std::move(search.best()), {}, 0.0};
     if (c.meshing.mesh.faces.empty()) return no_face(c.meshing);
+    if (needs_rounds(req_)) return finish(std::move(c));  // (the rounds lift the vertices)
     const auto t = std::chrono::steady_clock::now();
     if (!lift(c.meshing.mesh, req_.fit, c.vertices)) return MeshResult{};
     if (req_.fit) out_.fit_seconds = seconds_since(t);
@@ -640,6 +680,108 @@ MeshResult Refiner::by_error() {
         most = want;
         max_sum = -1.0;
         asked = runs == req_.max_runs - 1 ? want : (got + want) / 2;
+    }
+}
+
+// A deviation bound: one insertion, stopped once its summed error (in depth units, the
+// insertion's plane per triangle) is at most the mean bound, or `max_deviation_share` of the
+// largest, times the valid pixels; then `rounds` until the render meets the bound.
+MeshResult Refiner::by_deviation() {
+    const bool largest = req_.max_deviation >= 0.0;
+    const double bound = largest ? req_.max_deviation * req_.max_deviation_share : req_.mean_deviation;
+    const double max_sum = bound / req_.deviation_scale * static_cast<double>(req_.n_valid);
+    Candidate c{mesh(req_.vertices, std::isnan(max_sum) ? 0.0 : max_sum), {}, 0.0};
+    if (c.meshing.mesh.faces.empty()) return no_face(c.meshing);
+    rounds(c);
+    c.achieved = largest ? out_.deviation_max : out_.deviation_mean;
+    return finish(std::move(c));
+}
+
+// The vertices' stored depths: copied, or fitted (copied where the fit declines: `fitted` false),
+// and under `max_deviation` each kept within the bound of its own pixel, so every vertex pixel
+// meets it and the rounds only ever insert pixels that are no vertex.
+std::vector<double> Refiner::depths(const ValidFaces& f, bool fit, bool& fitted) {
+    const index_t n_v = static_cast<index_t>(f.pixels.size() / 2);
+    std::vector<double> z(n_v);
+    for (index_t i = 0; i < n_v; ++i) z[i] = image_.depth(f.pixels[2 * i], f.pixels[2 * i + 1]);
+    fitted = false;
+    if (!fit) return z;
+    const auto t = std::chrono::steady_clock::now();
+    std::vector<double> copied = z;
+    fitted = fitted_depths(image_, camera_[0] == PINHOLE, f, req_, z);
+    if (!fitted) z = copied;
+    if (fitted && req_.max_deviation >= 0.0) {
+        // (a hair inside the bound: the prediction at a vertex rounds through the scale)
+        const double reach = req_.max_deviation / req_.deviation_scale * (1.0 - 1e-9);
+        for (index_t i = 0; i < n_v; ++i) z[i] = std::min(std::max(z[i], copied[i] - reach), copied[i] + reach);
+    }
+    out_.fit_seconds += seconds_since(t);
+    return z;
+}
+
+// Meshing `m`'s insertion vertices and `pixels` (r * W + c, valid, none a vertex yet): their
+// Delaunay mesh in units sr x sc as a first mesh, its diagonals flipped and assembled as any.
+Meshing Refiner::with_pixels(const Meshing& m, const std::vector<index_t>& pixels) {
+    StartArrays s;
+    s.vr = m.vr;
+    s.vc = m.vc;
+    s.vz = m.vz;
+    const index_t w = image_.cols();
+    for (const index_t p : pixels) {
+        s.vr.push_back(p / w);
+        s.vc.push_back(p % w);
+        s.vz.push_back(image_.depth(p / w, p % w));
+    }
+    const index_t n = static_cast<index_t>(s.vr.size());
+    std::vector<index_t> r(n), c(n);
+    index_t n_valid = 0;
+    for (index_t i = 0; i < n; ++i) {
+        r[i] = s.vr[i] * req_.sr;
+        c[i] = s.vc[i] * req_.sc;
+        n_valid += image_.valid(s.vr[i], s.vc[i]);
+    }
+    Triangulation t = delaunay_sweep(PointSet{view(r), view(c)});
+    require(!t.triangles.empty(), "rounds: a mesh's vertices cannot be collinear");
+    s.triangles = std::move(t.triangles);
+    s.halfedges = std::move(t.halfedges);
+    Meshing out = mesh_once(image_, camera_, s.view(), n_valid, -1.0, req_);
+    insertions_ = out.insertions;
+    flips_ = out.flips;
+    return out;
+}
+
+// Rounds of insertion until the bounds are met: the mesh's depths (fitted, or copied), its
+// render's deviation, and the worst pixel of each face still beyond a bound inserted (the
+// mesh rebuilt), again. Under `max_deviation` the copied depths meet the bound first (a fit costs
+// about a meshing), then the fitted ones (kept within it at their own pixels). Ends when no
+// pixel is left to insert; every round inserts one at least.
+void Refiner::rounds(Candidate& c) {
+    rounded_ = true;
+    const RoundBounds bounds{req_.max_deviation, req_.mean_deviation, req_.max_edge};
+    const DeviationRule rule{req_.deviation_scale, req_.deviation_inverse};
+    bool fit = req_.fit && req_.max_deviation < 0.0;
+    for (;;) {
+        poll_interrupt();
+        bool fitted = false;
+        std::vector<double> z = depths(c.meshing.mesh, fit, fitted);
+        const Deviation d = measure_deviation(image_, ref_, rule, c.meshing.mesh, z);
+        const std::vector<index_t> adds = round_additions(image_, c.meshing.mesh, d, bounds);
+        if (adds.empty()) {
+            if (req_.fit && !fit) {  // copied depths meet max_deviation: now the fitted ones
+                fit = true;
+                continue;
+            }
+            c.vertices = lifted(camera_, c.meshing.mesh, z);
+            out_.deviation_max = d.max;
+            out_.deviation_mean = d.mean();
+            out_.uncovered = d.uncovered;
+            out_.longest_edge = d.longest_edge;
+            out_.fitted = fitted;
+            return;
+        }
+        c.meshing = with_pixels(c.meshing, adds);
+        require(!c.meshing.mesh.faces.empty(), "rounds: inserting pixels left no face");
+        ++out_.rounds;
     }
 }
 

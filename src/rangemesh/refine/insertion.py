@@ -20,9 +20,9 @@ from .._core import (
     valid_faces,
     valid_range,
 )
-from ..camera import Orthographic, Pinhole, backproject, pixel_aspect
+from ..camera import Orthographic, backproject, pixel_aspect
 from ..mesh import Mesh, Stats, empty_mesh, with_fields
-from ..render import relative_error
+from ..render import deviation_scale, relative_error
 from .heights import fit_heights, height_rule
 from .start import corner_depths, first_mesh, hull_mesh, valid_hull
 from .strips import SEAM_DENSITY, SEAM_ERROR_SHARE, strip_insert, use_strips
@@ -42,6 +42,9 @@ MAX_RUNS = 8
 # ... and once a request gave more than `vertices` (walls dropped), at most this many: the
 # count then lands within a few vertices of N, with a note, rather than costing 8 meshings.
 MAX_BISECT_RUNS = 5
+# max_deviation=D: the first insertion stops at a summed error of this share of D a valid pixel
+# (the rounds insert the rest: a smaller share over-inserts, a larger one costs more rounds).
+MAX_DEVIATION_SHARE = 0.25
 GRID_MAX = 256
 GRID_ERROR_BOUND = 64
 # Rows (or columns) count an integer times more in the Delaunay test once the sensor's rows lie
@@ -381,28 +384,6 @@ def _plan(shape, camera, n_valid, vertices, max_error, max_vertices):
     return want, delaunay_scales(camera, shape), n_grid, use_strips(shape, want, max_error, n_valid)
 
 
-def deviation_scale(camera) -> tuple[float, bool]:
-    """``(scale, inverse)``: metres of one stored depth unit, and whether the render interpolates its inverse.
-
-    A pixel's deviation is ``|predicted - measured| * scale``, its prediction
-    that of `rangemesh.render.render_depth`: z-depth before a `Pinhole`
-    (``depth_scale``, inverse depth interpolated), range along the ray before
-    `Spherical` and `Rays` (``range_scale``; z-depth, inverse interpolated,
-    with ``z_depth=True``), depth units with `Orthographic` (scale 1).
-
-    Examples
-    --------
-    >>> from rangemesh.camera import Pinhole
-    >>> deviation_scale(Pinhole(500.0, 500.0, 320.0, 240.0, depth_scale=0.001))
-    (0.001, True)
-    """
-    if isinstance(camera, Orthographic):
-        return 1.0, False
-    if isinstance(camera, Pinhole):
-        return float(camera.depth_scale), True
-    return float(camera.range_scale), bool(getattr(camera, "z_depth", False))
-
-
 def _round_record(target: dict, res, bounds, exponent) -> dict:
     """`target` with what the rounds of `bounds` (max_deviation, mean_deviation, max_edge) reached."""
     max_deviation, mean_deviation, max_edge = bounds
@@ -471,11 +452,13 @@ def _native(depth, valid, camera, ref, extent, exponent, vertices, max_error, ma
     max_deviation, mean_deviation, max_edge = bounds
     if bounds != (None, None, None):  # (rounds rebuild one mesh: no strips)
         strips = False
+        if max_deviation is not None or mean_deviation is not None:
+            n_grid = 0  # the image rectangle first: a plane keeps its four corners only
         req.deviation_scale, req.deviation_inverse = deviation_scale(camera)
         # the depths were divided by 2**exponent: so is a metre's worth of them
         req.deviation_scale = math.ldexp(req.deviation_scale, exponent)
     if max_deviation is not None:
-        req.max_deviation = float(max_deviation)
+        req.max_deviation, req.max_deviation_share = float(max_deviation), MAX_DEVIATION_SHARE
     if mean_deviation is not None:
         req.mean_deviation = float(mean_deviation)
     if max_edge is not None:

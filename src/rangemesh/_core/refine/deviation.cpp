@@ -52,8 +52,8 @@ Deviation measure_deviation(const Image& image, const Reference& ref, DeviationR
     const index_t n_kept = static_cast<index_t>(kept.size());
     rasterize({{fr.data(), n_kept, 3}, {fc.data(), n_kept, 3}, {fv.data(), n_kept, 3}},
               {{pred.data(), h, w}, {face.data(), h, w}});
-    std::vector<unsigned char> vertex(static_cast<std::size_t>(n), 0);
-    for (index_t i = 0; i < n_v; ++i) vertex[f.pixels[2 * i] * w + f.pixels[2 * i + 1]] = 1;
+    std::vector<index_t> vertex(static_cast<std::size_t>(n), -1);  // the vertex on each pixel
+    for (index_t i = 0; i < n_v; ++i) vertex[f.pixels[2 * i] * w + f.pixels[2 * i + 1]] = i;
     std::vector<double> near(n_f, std::numeric_limits<double>::infinity());  // the pick's distance to the centroid
     for (index_t r = 0; r < h; ++r) {
         poll_interrupt();
@@ -68,7 +68,8 @@ Deviation measure_deviation(const Image& image, const Reference& ref, DeviationR
             const index_t t = kept[k];
             double dev = 0.0;
             if (measured) {
-                const double predicted = rule.inverse ? 1.0 / pred[p] : pred[p];
+                // at a vertex the mesh is the vertex's own depth (the inverse's rounding aside)
+                const double predicted = vertex[p] >= 0 ? z[vertex[p]] : rule.inverse ? 1.0 / pred[p] : pred[p];
                 dev = std::abs(predicted - ref.depth(r, c)) * rule.scale;
                 if (std::isnan(dev)) dev = std::numeric_limits<double>::infinity();
                 d.max = std::max(d.max, dev);
@@ -76,7 +77,7 @@ Deviation measure_deviation(const Image& image, const Reference& ref, DeviationR
                 ++d.covered;
                 d.face_sum[t] += dev;
             }
-            if (!image.valid(r, c) || vertex[p]) continue;
+            if (!image.valid(r, c) || vertex[p] >= 0) continue;
             const double dr = static_cast<double>(r) - cr[t], dc = static_cast<double>(c) - cc[t];
             const double dist = dr * dr + dc * dc;
             if (dev > d.worst[t] || (dev == d.worst[t] && dist < near[t])) {

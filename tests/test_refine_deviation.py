@@ -291,3 +291,21 @@ def test_lidar_scan_meets_two_centimetres(shared_data):
     assert t.met and t.kind == "max_deviation"
     assert t.uncovered == int((valid & np.isnan(dev)).sum())
     assert mesh.stats.vertices < valid.sum()
+
+
+# --- every entry point ----------------------------------------------------------------------
+
+
+def test_mesh_stream_meets_the_bound_as_triangulate_does():
+    frames = [smooth_image(s, 20, 30) for s in range(3)]
+    for frame, mesh in zip(frames, rangemesh.mesh_stream(frames, max_deviation=0.05), strict=True):
+        want = triangulate(frame, max_deviation=0.05)
+        np.testing.assert_array_equal(mesh.faces, want.faces)
+        assert_meets(mesh, frame, np.ones(frame.shape, bool), 0.05)
+
+
+def test_max_deviation_on_too_few_valid_pixels_names_why():
+    depth = np.zeros((6, 6))
+    depth[2, 2] = depth[3, 4] = 5.0
+    mesh = triangulate(depth, camera=Pinhole(10, 10, 3, 3), max_deviation=0.01)
+    assert mesh.is_empty and "only 2 valid pixels" in mesh.stats.reason

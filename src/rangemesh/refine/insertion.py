@@ -318,14 +318,19 @@ def greedy_mesh(depth: np.ndarray, valid: np.ndarray, camera, *, vertices: int |
                            max_vertices, fit=fit, diagonals=diagonals, walls=walls, jump=jump,
                            bounds=bounds)
     if mesh is None and bounds != (None, None, None):
-        # declined with rounds asked: only for want of a triangle, which `_greedy` names
-        mesh, target = _greedy(depth, valid, camera, ref, extent, exponent,
-                               vertices=vertices or extent[2], max_error=None, fit=False,
-                               diagonals=diagonals, walls=walls, jump=jump, max_vertices=None,
-                               first=None)
-        if len(mesh.faces):
-            raise RuntimeError("refine: the compiled call declined a mesh with faces under "
-                               "max_deviation, mean_deviation or max_edge")
+        # The Python steps take no rounds: a fit the call declined (it must raise or solve
+        # directly) gives way to copied depths; no triangle left is named by `_greedy`.
+        if fit:
+            mesh, target = _native(depth, valid, camera, ref, extent, exponent, vertices,
+                                   max_error, max_vertices, fit=False, diagonals=diagonals,
+                                   walls=walls, jump=jump, bounds=bounds)
+        if mesh is None:
+            mesh, target = _greedy(depth, valid, camera, ref, extent, exponent,
+                                   vertices=extent[2], max_error=None, fit=False,
+                                   diagonals=diagonals, walls=walls, jump=jump,
+                                   max_vertices=None, first=None)
+            if len(mesh.faces):  # (the call declines only when no triangle is left)
+                raise RuntimeError("refine: the compiled call declined a mesh with triangles")
     elif mesh is None:  # declined
         mesh, target = _greedy(depth, valid, camera, ref, extent, exponent, vertices=vertices,
                                max_error=max_error, fit=fit, diagonals=diagonals, walls=walls,

@@ -259,8 +259,8 @@ def greedy_mesh(depth: np.ndarray, valid: np.ndarray, camera, *, vertices: int |
         bound a pixel, then rounds: the mesh's depths are set (copied first,
         until they meet the bound, then fitted, each fitted depth kept within
         the bound of its own pixel), its render measured, and the worst pixel
-        of every triangle still beyond the bound inserted (the mesh rebuilt,
-        its diagonals chosen again), until no pixel is beyond. Every round
+        of every triangle still beyond the bound inserted into the insertion
+        (its diagonals then chosen again), until no pixel is beyond. Every round
         inserts a pixel at least, so the bound is met unless a pixel beyond it
         cannot be inserted (the render's rounding at a vertex, a pixel
         valid only in `reference`).

@@ -57,6 +57,11 @@ class alignas(64) Insertion {
     // Insert worst pixels until `stop` says so, or no pixel is left to insert.
     void advance(const Stop& stop);
 
+    // Insert pixel (r, c), valid and no vertex, into the triangle holding it (found by a walk),
+    // as `advance` inserts its worst pixels; false when no triangle holds it or it is a corner.
+    // The deviation targets' rounds (deviation.hpp) insert the pixels they pick this way.
+    bool insert_at(index_t r, index_t c);
+
     // The key of the triangle `advance` would split next (-1 when none is left).
     double top_key() const { return n_heap_ > 0 ? keyed_[heap_[0]].key : -1.0; }
 
@@ -86,6 +91,7 @@ class alignas(64) Insertion {
     void legalize(index_t e0, const Plane* guard);
     bool flat_cavity(index_t t, index_t old_t, const Plane& plane) const;
     void rekey(index_t t, const TriangleKey& k);
+    index_t locate(index_t r, index_t c);
 
     Image image_;
     index_t sr_, sc_;
@@ -105,6 +111,7 @@ class alignas(64) Insertion {
     index_t n_valid_v_ = 0;
     index_t step_ = 0;
     double total_ = 0.0;
+    index_t hint_ = 0;  // where `locate` starts walking: the last triangle it found
     // per step: the triangles it changed (with repeats), the flips still to test
     std::vector<index_t> changed_, stack_;
 };

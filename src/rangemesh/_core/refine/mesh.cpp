@@ -142,9 +142,8 @@ struct Meshing {
     ValidFaces mesh;
     index_t insertions = 0, flips = 0, n_walls = 0;
     bool error_left = false;  // the insertion's summed error (before any flip) is above 0
-    // with rounds to come (`needs_rounds`): every vertex of the insertion, its corners first
-    std::vector<index_t> vr, vc;
-    std::vector<double> vz;
+    // with rounds to come (`needs_rounds`): the insertion, unflipped, to go on inserting into
+    std::shared_ptr<Insertion> ins;
 
     index_t n_vertices() const { return static_cast<index_t>(mesh.pixels.size() / 2); }
 };
@@ -165,30 +164,46 @@ bool needs_rounds(const MeshRequest& req) {
     return req.max_deviation >= 0.0 || req.mean_deviation >= 0.0 || req.max_edge > 0.0;
 }
 
-// Insertion until `asked` valid vertices or, when `max_sum` is not negative, a summed error of
-// at most `max_sum` (insertion.py's `_refine`), then assembled.
-Meshing mesh_once(const Image& image, Span<const double> camera, const FirstMesh& first, index_t asked, double max_sum,
-                  const MeshRequest& req) {
-    Insertion ins(image, first, max_sum < 0.0 ? asked : 0, req.sr, req.sc);
-    ins.advance(Stop{asked, max_sum});
+// The meshing of insertion `ins` as it stands: its diagonals flipped by the error when asked,
+// assembled. With `keep` the flips work on copies of its triangles, so that it can go on
+// inserting (the rounds).
+Meshing meshing_of(const Image& image, Span<const double> camera, Insertion& ins, const MeshRequest& req, bool keep) {
     Meshing out;
     out.insertions = ins.n_vertices();
     out.error_left = ins.total() > 0.0;
-    if (needs_rounds(req)) {
-        out.vr.assign(ins.vertex_rows().begin(), ins.vertex_rows().end());
-        out.vc.assign(ins.vertex_cols().begin(), ins.vertex_cols().end());
-        const Span<const double> vz = ins.vertex_depths();
-        out.vz.assign(vz.data, vz.data + vz.size);
+    std::vector<index_t> tv_copy, he_copy;
+    Span<index_t> tv = ins.triangles(), he = ins.halfedges();
+    if (keep) {
+        tv_copy.assign(tv.begin(), tv.end());
+        he_copy.assign(he.begin(), he.end());
+        tv = {tv_copy.data(), tv.size};
+        he = {he_copy.data(), he.size};
     }
     if (req.flip) {
         std::vector<double> sums = ins.sums();
         out.error_left = std::any_of(sums.begin(), sums.end(), [](double x) { return x > 0.0; });
-        const FlipMesh mesh{view(ins.vertex_rows()), view(ins.vertex_cols()), ins.triangles(), ins.halfedges(),
+        const FlipMesh mesh{view(ins.vertex_rows()), view(ins.vertex_cols()), tv, he,
                             {sums.data(), static_cast<index_t>(sums.size())}};
         out.flips = flip_by_error(image, mesh).flips;
     }
-    out.mesh = assemble(image, camera, view(ins.vertex_rows()), view(ins.vertex_cols()), view(ins.triangles()), req, out.n_walls);
+    out.mesh = assemble(image, camera, view(ins.vertex_rows()), view(ins.vertex_cols()), view(tv), req, out.n_walls);
     return out;
+}
+
+// Insertion until `asked` valid vertices or, when `max_sum` is not negative, a summed error of
+// at most `max_sum` (insertion.py's `_refine`), then assembled.
+Meshing mesh_once(const Image& image, Span<const double> camera, const FirstMesh& first, index_t asked, double max_sum,
+                  const MeshRequest& req) {
+    if (needs_rounds(req)) {  // the insertion kept for the rounds
+        auto ins = std::make_shared<Insertion>(image, first, max_sum < 0.0 ? asked : 0, req.sr, req.sc);
+        ins->advance(Stop{asked, max_sum});
+        Meshing out = meshing_of(image, camera, *ins, req, true);
+        out.ins = std::move(ins);
+        return out;
+    }
+    Insertion ins(image, first, max_sum < 0.0 ? asked : 0, req.sr, req.sc);
+    ins.advance(Stop{asked, max_sum});
+    return meshing_of(image, camera, ins, req, false);
 }
 
 // The same on two strips (`insert_halves`).
@@ -510,7 +525,7 @@ class Refiner {
     MeshResult by_deviation();
     void rounds(Candidate& c);
     std::vector<double> depths(const ValidFaces& f, bool fit, bool& fitted);
-    Meshing with_pixels(const Meshing& m, const std::vector<index_t>& pixels);
+    Meshing with_pixels(const Meshing& m, const std::vector<index_t>& pixels, index_t& inserted);
     Meshing mesh(index_t asked, double max_sum);
     bool lift(const ValidFaces& f, bool fit, std::vector<double>& vertices);
     bool bounded(Candidate& c);
@@ -719,42 +734,30 @@ std::vector<double> Refiner::depths(const ValidFaces& f, bool fit, bool& fitted)
     return z;
 }
 
-// Meshing `m`'s insertion vertices and `pixels` (r * W + c, valid, none a vertex yet): their
-// Delaunay mesh in units sr x sc as a first mesh, its diagonals flipped and assembled as any.
-Meshing Refiner::with_pixels(const Meshing& m, const std::vector<index_t>& pixels) {
-    StartArrays s;
-    s.vr = m.vr;
-    s.vc = m.vc;
-    s.vz = m.vz;
+// `m` with `pixels` (r * W + c, valid, none a vertex) inserted into its insertion, meshed
+// again; `inserted` counts those that went in.
+Meshing Refiner::with_pixels(const Meshing& m, const std::vector<index_t>& pixels, index_t& inserted) {
+    const std::shared_ptr<Insertion> ins = m.ins;
+    require(ins != nullptr, "rounds: the meshing keeps no insertion");
     const index_t w = image_.cols();
+    inserted = 0;
     for (const index_t p : pixels) {
-        s.vr.push_back(p / w);
-        s.vc.push_back(p % w);
-        s.vz.push_back(image_.depth(p / w, p % w));
+        poll_every(inserted);
+        inserted += ins->insert_at(p / w, p % w);
     }
-    const index_t n = static_cast<index_t>(s.vr.size());
-    std::vector<index_t> r(n), c(n);
-    index_t n_valid = 0;
-    for (index_t i = 0; i < n; ++i) {
-        r[i] = s.vr[i] * req_.sr;
-        c[i] = s.vc[i] * req_.sc;
-        n_valid += image_.valid(s.vr[i], s.vc[i]);
-    }
-    Triangulation t = delaunay_sweep(PointSet{view(r), view(c)});
-    require(!t.triangles.empty(), "rounds: a mesh's vertices cannot be collinear");
-    s.triangles = std::move(t.triangles);
-    s.halfedges = std::move(t.halfedges);
-    Meshing out = mesh_once(image_, camera_, s.view(), n_valid, -1.0, req_);
+    Meshing out = meshing_of(image_, camera_, *ins, req_, true);
+    out.ins = ins;
     insertions_ = out.insertions;
     flips_ = out.flips;
     return out;
 }
 
 // Rounds of insertion until the bounds are met: the mesh's depths (fitted, or copied), its
-// render's deviation, and the worst pixel of each face still beyond a bound inserted (the
-// mesh rebuilt), again. Under `max_deviation` the copied depths meet the bound first (a fit costs
-// about a meshing), then the fitted ones (kept within it at their own pixels). Ends when no
-// pixel is left to insert; every round inserts one at least.
+// render's deviation, and the worst pixel of each face still beyond a bound inserted into the
+// insertion (its diagonals chosen and the mesh assembled again), again. Under `max_deviation`
+// the copied depths meet the bound first (a fit costs about a meshing), then the fitted ones
+// (kept within it at their own pixels). Ends when no pixel is left to insert (or none of those
+// picked goes in); every other round inserts one at least.
 void Refiner::rounds(Candidate& c) {
     rounded_ = true;
     const RoundBounds bounds{req_.max_deviation, req_.mean_deviation, req_.max_edge};
@@ -766,7 +769,10 @@ void Refiner::rounds(Candidate& c) {
         std::vector<double> z = depths(c.meshing.mesh, fit, fitted);
         const Deviation d = measure_deviation(image_, ref_, rule, c.meshing.mesh, z);
         const std::vector<index_t> adds = round_additions(image_, c.meshing.mesh, d, bounds);
-        if (adds.empty()) {
+        index_t inserted = 0;
+        Meshing next;
+        if (!adds.empty()) next = with_pixels(c.meshing, adds, inserted);
+        if (inserted == 0) {
             if (req_.fit && !fit) {  // copied depths meet max_deviation: now the fitted ones
                 fit = true;
                 continue;
@@ -779,7 +785,7 @@ void Refiner::rounds(Candidate& c) {
             out_.fitted = fitted;
             return;
         }
-        c.meshing = with_pixels(c.meshing, adds);
+        c.meshing = std::move(next);
         require(!c.meshing.mesh.faces.empty(), "rounds: inserting pixels left no face");
         ++out_.rounds;
     }

@@ -185,6 +185,18 @@ def test_max_deviation_zero_gives_every_pixel_exactly(kind, jumps):
     assert mesh.stats.target.met
 
 
+@pytest.mark.parametrize("kind", ["orthographic", "pinhole", "spherical"])
+def test_mean_deviation_zero_gives_every_pixel_exactly_with_fitted_heights(kind):
+    # fitted depths miss 0 at their own pixels once every pixel is a vertex: copied ones go on
+    depth = smooth_image(11, 7, 9)
+    cam = camera_for(kind, 7, 9)
+    mesh = triangulate(depth, camera=cam, mean_deviation=0.0)
+    t = mesh.stats.target
+    assert t.met and t.achieved == 0.0
+    dev = reference_deviation(mesh, depth, np.ones(depth.shape, bool))
+    assert np.nanmax(dev) <= 1e-15 * float(depth.max()) * scale_of(cam)
+
+
 def test_max_deviation_with_holes_and_walls_dropped():
     depth = jump_image(3, 30, 40)
     depth[5:9, 10:14] = 0.0  # background (no return)

@@ -756,13 +756,15 @@ Meshing Refiner::with_pixels(const Meshing& m, const std::vector<index_t>& pixel
 // render's deviation, and the worst pixel of each face still beyond a bound inserted into the
 // insertion (its diagonals chosen and the mesh assembled again), again. Under `max_deviation`
 // the copied depths meet the bound first (a fit costs about a meshing), then the fitted ones
-// (kept within it at their own pixels). Ends when no pixel is left to insert (or none of those
-// picked goes in); every other round inserts one at least.
+// (kept within it at their own pixels). When fitted depths miss a bound with no pixel left to
+// insert (the mean's deviation on the vertices' own pixels), copied ones go on. Ends when no
+// pixel is left to insert (or none of those picked goes in); every other round inserts one.
 void Refiner::rounds(Candidate& c) {
     rounded_ = true;
     const RoundBounds bounds{req_.max_deviation, req_.mean_deviation, req_.max_edge};
     const DeviationRule rule{req_.deviation_scale, req_.deviation_inverse};
     bool fit = req_.fit && req_.max_deviation < 0.0;
+    bool copied_only = false;  // fitted depths missed a bound with no pixel left to insert
     for (;;) {
         poll_interrupt();
         bool fitted = false;
@@ -773,8 +775,13 @@ void Refiner::rounds(Candidate& c) {
         Meshing next;
         if (!adds.empty()) next = with_pixels(c.meshing, adds, inserted);
         if (inserted == 0) {
-            if (req_.fit && !fit) {  // copied depths meet max_deviation: now the fitted ones
+            if (req_.fit && !fit && !copied_only) {  // copied depths meet max_deviation: now the fitted ones
                 fit = true;
+                continue;
+            }
+            if (fit && !deviation_met(d, bounds)) {  // the vertices' own pixels miss it: copied depths
+                fit = false;
+                copied_only = true;
                 continue;
             }
             c.vertices = lifted(camera_, c.meshing.mesh, z);

@@ -18,7 +18,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import rangemesh
-from rangemesh import Orthographic, Pinhole, Spherical, evaluate, triangulate
+from rangemesh import Orthographic, Pinhole, Rays, Spherical, evaluate, triangulate
 
 from .helpers import assert_valid_mesh
 
@@ -39,6 +39,8 @@ def reference_deviation(mesh, depth, valid):
         val, measured, inverse = v[:, 2] / cam.kz, depth.astype(np.float64), False
     elif isinstance(cam, Pinhole):
         val, measured, inverse = 1.0 / v[:, 2], depth * cam.depth_scale, True
+    elif getattr(cam, "z_depth", False):  # depths along the axis, as a pinhole's
+        val, measured, inverse = 1.0 / v[:, 2], depth * cam.range_scale, True
     else:
         val, measured, inverse = np.linalg.norm(v, axis=1), depth * cam.range_scale, False
     pr = mesh.pixels[:, 0].astype(np.float64)
@@ -118,17 +120,24 @@ def camera_for(kind, h, w):
         return Orthographic(1.0, 1.0, 1.0)
     if kind == "pinhole":
         return Pinhole(60.0, 60.0, (w - 1) / 2, (h - 1) / 2, depth_scale=0.5)
+    if kind.startswith("rays"):  # a lens's rays, bent off a pinhole's by a radial term
+        r, c = np.mgrid[0:h, 0:w]
+        x, y = (c - (w - 1) / 2) / 50.0, (r - (h - 1) / 2) / 50.0
+        bend = 1.0 + 0.2 * (x * x + y * y)
+        rays = np.stack([x * bend, y * bend, np.ones((h, w))], axis=2)
+        return Rays(rays, range_scale=0.25, z_depth=kind == "rays_z")
     return Spherical(np.linspace(10.0, -10.0, h), np.linspace(0.0, 0.4 * w, w), range_scale=2.0)
 
 
 def scale_of(cam):
-    return {Orthographic: 1.0, Pinhole: getattr(cam, "depth_scale", 1.0)}.get(
-        type(cam), getattr(cam, "range_scale", 1.0))
+    return 1.0 if isinstance(cam, Orthographic) else \
+        cam.depth_scale if isinstance(cam, Pinhole) else cam.range_scale
 
 
-@settings(max_examples=30)
+@settings(max_examples=50)
 @given(seed=st.integers(0, 2**31), h=st.integers(3, 24), w=st.integers(3, 24),
-       share=st.floats(0.0, 0.3), kind=st.sampled_from(["orthographic", "pinhole", "spherical"]),
+       share=st.floats(0.0, 0.3),
+       kind=st.sampled_from(["orthographic", "pinhole", "spherical", "rays", "rays_z"]),
        jumps=st.booleans(), heights=st.sampled_from(["fit", "pixel"]))
 def test_max_deviation_bounds_every_valid_pixel(seed, h, w, share, kind, jumps, heights):
     depth = (jump_image if jumps else smooth_image)(seed, h, w)
@@ -145,7 +154,8 @@ def test_max_deviation_bounds_every_valid_pixel(seed, h, w, share, kind, jumps, 
 
 @settings(max_examples=20)
 @given(seed=st.integers(0, 2**31), h=st.integers(3, 24), w=st.integers(3, 24),
-       share=st.floats(0.0, 0.2), kind=st.sampled_from(["orthographic", "pinhole", "spherical"]),
+       share=st.floats(0.0, 0.2),
+       kind=st.sampled_from(["orthographic", "pinhole", "spherical", "rays", "rays_z"]),
        jumps=st.booleans())
 def test_mean_deviation_bounds_the_mean(seed, h, w, share, kind, jumps):
     depth = (jump_image if jumps else smooth_image)(seed, h, w)

@@ -331,3 +331,16 @@ def test_max_deviation_on_too_few_valid_pixels_names_why():
     depth[2, 2] = depth[3, 4] = 5.0
     mesh = triangulate(depth, camera=Pinhole(10, 10, 3, 3), max_deviation=0.01)
     assert mesh.is_empty and "only 2 valid pixels" in mesh.stats.reason
+
+
+def test_a_deviation_bound_stops_where_memory_runs_out_and_says_so(monkeypatch):
+    import rangemesh.pipeline as pl
+
+    depth = smooth_image(2, 40, 50)  # noisy: 0 needs every pixel as a vertex
+    # the image's own bytes and room for 200 vertices (as max_error's test in test_reliability_2)
+    monkeypatch.setattr(pl, "available_memory",
+                        lambda: 40 * 50 * pl.REFINE_BYTES_PER_PIXEL + 200 * pl.REFINE_BYTES_PER_VERTEX)
+    with pytest.raises(MemoryError, match=r"max_deviation=0 needs more than 200 vertices"):
+        triangulate(depth, max_deviation=0.0)
+    mesh = triangulate(depth, max_deviation=1.0)  # a handful of vertices: they fit
+    assert mesh.stats.target.met and mesh.stats.target.max_vertices is None

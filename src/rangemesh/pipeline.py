@@ -557,7 +557,7 @@ def run(image, params: MeshParams, *, background="auto", camera=None, vertices=N
         if default_target:
             max_error, cap = DEFAULT_TARGET.max_error, default_vertex_cap(n_valid)
         asked_cap = cap
-        if vertices is None and workspace is None and not deviation:
+        if vertices is None and workspace is None:
             # an error bound's count is known only at the end: stop where memory runs out
             ceiling = vertex_ceiling(depth.shape)
             if ceiling is not None and ceiling < min(cap or n_valid, n_valid):
@@ -573,10 +573,14 @@ def run(image, params: MeshParams, *, background="auto", camera=None, vertices=N
                                    max_edge=params.max_edge)
         if memory_cap is not None and target and not target["met"] \
                 and target.get("note", "").startswith("stopped at max_vertices"):
+            bound = (f"the error bound {max_error:g} %" if max_error is not None else
+                     f"max_deviation={max_deviation:g}" if max_deviation is not None else
+                     f"mean_deviation={mean_deviation:g}")
             raise MemoryError(
-                f"the error bound {max_error:g} % needs more than {memory_cap} vertices, which "
+                f"{bound} needs more than {memory_cap} vertices, which "
                 f"is what the {_size(available_memory() or 0)} of memory available hold "
-                f"({REFINE_BYTES_PER_VERTEX} bytes a vertex); give a larger max_error or a "
+                f"({REFINE_BYTES_PER_VERTEX} bytes a vertex); give a larger "
+                f"{'max_error' if max_error is not None else 'bound'} or a "
                 f"vertex count, or mesh on a larger machine")
         if memory_cap is not None and target:  # the record keeps the cap that was asked for
             target.pop("max_vertices", None)

@@ -250,8 +250,10 @@ def greedy_mesh(depth: np.ndarray, valid: np.ndarray, camera, *, vertices: int |
     extent : (float, float, int), optional
         ``valid_range(depth, valid)`` when the caller has it.
     max_vertices : int, optional
-        With `max_error`: stop at this many vertices even if the bound is not
-        met (noisy images would otherwise take a large share of their pixels).
+        With `max_error`, `max_deviation` or `mean_deviation`: stop at this
+        many vertices even if the bound is not met (noisy images would
+        otherwise take a large share of their pixels; `run` gives the
+        vertices the memory available holds).
     max_deviation : float, optional
         Insert until every valid pixel of `reference` the mesh covers lies
         within this of the mesh (L-infinity, `deviation_scale`). One
@@ -389,8 +391,11 @@ def _plan(shape, camera, n_valid, vertices, max_error, max_vertices):
     return want, delaunay_scales(camera, shape), n_grid, use_strips(shape, want, max_error, n_valid)
 
 
-def _round_record(target: dict, res, bounds, exponent) -> dict:
-    """`target` with what the rounds of `bounds` (max_deviation, mean_deviation, max_edge) reached."""
+def _round_record(target: dict, res, bounds, exponent, cap=None) -> dict:
+    """`target` with what the rounds of `bounds` (max_deviation, mean_deviation, max_edge) reached.
+
+    `cap`: the vertex cap of a deviation target (None: none).
+    """
     max_deviation, mean_deviation, max_edge = bounds
     if max_deviation is not None or mean_deviation is not None:
         kind = "max_deviation" if max_deviation is not None else "mean_deviation"
@@ -402,8 +407,12 @@ def _round_record(target: dict, res, bounds, exponent) -> dict:
                   "met": got <= asked, "meshings": res.meshings + res.rounds,
                   "vertices": res.vertex_count,
                   **({"walls_dropped": target["walls_dropped"]} if "walls_dropped" in target else {})}
+        if cap is not None:
+            target["max_vertices"] = cap
         if not target["met"]:
-            target["note"] = ("no pixel beyond the bound is left to insert: it rounds at a "
+            target["note"] = (f"stopped at max_vertices={cap}"
+                              if cap is not None and res.vertex_count >= cap else
+                              "no pixel beyond the bound is left to insert: it rounds at a "
                               "vertex or is valid only before gap filling")
     else:
         target = dict(target, meshings=target.get("meshings", 1) + res.rounds)
@@ -504,7 +513,8 @@ def _native(depth, valid, camera, ref, extent, exponent, vertices, max_error, ma
     else:
         target = {} if walls else {"walls_dropped": dropped}
     if bounds != (None, None, None):
-        target = _round_record(target, res, bounds, exponent)
+        cap = want if max_vertices is not None else None
+        target = _round_record(target, res, bounds, exponent, cap)
     return mesh, target
 
 

@@ -46,7 +46,8 @@ void bind_request(nb::module_& m) {
     nb::class_<MeshRequest>(m, "RefineRequest",
                             "What one ``refine_mesh`` call asks for (rangemesh/refine/insertion.py fills it).")
         .def(nb::init<>())
-        .def_rw("vertices", &MeshRequest::vertices, "Valid vertices wanted (at most n_valid); with max_error, the cap.")
+        .def_rw("vertices", &MeshRequest::vertices,
+                "Valid vertices wanted (at most n_valid); with max_error or a deviation target, the cap.")
         .def_rw("max_error", &MeshRequest::max_error,
                 "The relative error bound, percent of the reference's valid range (negative: none).")
         .def_rw("n_valid", &MeshRequest::n_valid, "The image's valid pixels.")
@@ -176,9 +177,8 @@ void bind_refine_mesh(nb::module_& m) {
             check_input(req.max_error < 0.0 || (req.max_error > 0.0 && std::isfinite(req.max_error)),
                         "refine_mesh: max_error negative (none) or a finite positive percentage");
             check_input((req.max_deviation < 0.0 && req.mean_deviation < 0.0) ||
-                            (req.max_error < 0.0 && req.vertices == req.n_valid &&
-                             (req.max_deviation < 0.0 || req.mean_deviation < 0.0)),
-                        "refine_mesh: max_deviation or mean_deviation alone, with vertices n_valid and no max_error");
+                            (req.max_error < 0.0 && (req.max_deviation < 0.0 || req.mean_deviation < 0.0)),
+                        "refine_mesh: max_deviation or mean_deviation alone, with no max_error");
             check_input(!(req.max_deviation > std::numeric_limits<double>::max()) &&
                             !(req.mean_deviation > std::numeric_limits<double>::max()) &&
                             !std::isnan(req.max_deviation) && !std::isnan(req.mean_deviation),

@@ -26,7 +26,7 @@ struct HeightRule {
 
 // What one call asks for; the caller resolves the library's defaults into it.
 struct MeshRequest {
-    index_t vertices = 0;  // valid vertices wanted (at most n_valid); with max_error, the cap
+    index_t vertices = 0;  // valid vertices wanted (at most n_valid); with an error bound, the cap
     double max_error = -1.0;  // percent of the reference's valid range, mean; < 0: none
     index_t n_valid = 0;   // the image's valid pixels
     double lo = 0.0, hi = 0.0;  // their smallest and largest depth
@@ -43,7 +43,7 @@ struct MeshRequest {
     index_t max_runs = 8, max_bisect_runs = 5;  // meshings at most, and once past the count
     HeightRule heights;
     // The deviation targets (deviation.hpp), each negative for none; with either, `vertices` is
-    // n_valid and `max_error` none. A pixel's deviation is |predicted - measured| depth times
+    // the cap (n_valid: none) and `max_error` none. A pixel's deviation is |predicted - measured| depth times
     // `deviation_scale`, the prediction interpolating inverse depth when `deviation_inverse`.
     double max_deviation = -1.0, mean_deviation = -1.0;
     double max_edge = 0.0;  // longest face edge in the image plane, pixels, with any target (0: none)

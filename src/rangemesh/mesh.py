@@ -53,7 +53,8 @@ class Target:
         True when no target was given and the documented default target
         (`rangemesh.params.DEFAULT_TARGET`) was used.
     max_vertices : int or None
-        The vertex cap that went with `max_error` (the default target's).
+        The vertex cap that went with `max_error` (the default target's), or
+        with a deviation target (the memory's, when it stopped there).
     tiles, samples : (int, int) or None
         The paper's grid the search chose (``method='paper'`` only).
     added_samples : int or None

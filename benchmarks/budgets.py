@@ -23,6 +23,16 @@ against pydelatin (target <= 1.0). Times are medians of ``--repeat`` calls in
 one process, measured side by side (the peers' hole filling, grid building
 and count search are not timed, as in ``benchmarks/peers.py``).
 
+The default's time is measured on one thread and on two (`thread_times`): its
+calls and pydelatin's alternate, pinned to one core and timed in CPU seconds
+(``time.process_time``: what another process's load takes from the wall clock
+is not charged); then one-thread and two-thread calls, free on the process's
+cores, timed on the wall clock. The other variants are timed as the one-thread
+calls are. "time / pydelatin" is the one-thread ratio; a
+third table gives two threads against one (target <= 0.6 on 640 x 480 frames).
+The report starts with the commit and the machine's load: a two-thread time
+is only meaningful when a second core is free.
+
 With ``--diagonals delaunay`` rangemesh's meshes keep greedy insertion's Delaunay diagonals
 instead of the default's error-chosen ones (`rangemesh.refine.diagonals`), in both variants
 and in the bound checks.
@@ -35,8 +45,11 @@ count it landed on (target <= 2).
 from __future__ import annotations
 
 import argparse
+import os
 import statistics
+import subprocess
 import sys
+import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -45,6 +58,7 @@ import peers  # noqa: E402  (the sibling script: images, peers and timing)
 
 from rangemesh.camera import Spherical  # noqa: E402
 from rangemesh.pipeline import triangulate  # noqa: E402
+from rangemesh.refine.threads import THREADS_VARIABLE  # noqa: E402
 
 FRACTIONS = (0.01, 0.03, 0.10)
 MIN_VERTICES = 50
@@ -86,30 +100,137 @@ def budget_cases(images, data):
             yield image, camera, masked, valid, frac, n
 
 
+def _on_threads(n, fn, pin=False):
+    """`fn()` with ``RANGEMESH_THREADS=n``; `pin`: this thread (and those it starts) on one core."""
+    cores = sorted(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else None
+    before = os.environ.get(THREADS_VARIABLE)
+    os.environ[THREADS_VARIABLE] = str(n)
+    try:
+        if cores is not None and pin:
+            os.sched_setaffinity(0, cores[:1])
+        return fn()
+    finally:
+        if cores is not None and pin:
+            os.sched_setaffinity(0, cores)
+        if before is None:
+            del os.environ[THREADS_VARIABLE]
+        else:
+            os.environ[THREADS_VARIABLE] = before
+
+
+def thread_times(call, delatin, repeat):
+    """One thread against pydelatin, two threads against one: medians of alternating calls.
+
+    Returns ``(mesh, {"cpu1": ms, "delatin": ms, "wall1": ms, "wall2": ms})``: `call`
+    on one thread and pydelatin's `delatin`, each pinned to one core, in CPU time; `call`
+    on one thread and on two, free on the process's cores alike, in wall time. The
+    mesh is the one-thread call's (the two-thread mesh is the same: the golden tests).
+    """
+    two = _cores() >= 2
+    times = {"cpu1": [], "delatin": [], "wall1": [], "wall2": []}
+    mesh = _on_threads(1, call, pin=True)  # warm-up
+    _on_threads(1, delatin, pin=True)
+    for _ in range(repeat):
+        c = time.process_time()
+        mesh = _on_threads(1, call, pin=True)
+        times["cpu1"].append(time.process_time() - c)
+        c = time.process_time()
+        _on_threads(1, delatin, pin=True)
+        times["delatin"].append(time.process_time() - c)
+        w = time.perf_counter()
+        _on_threads(1, call)
+        times["wall1"].append(time.perf_counter() - w)
+        if two:
+            w = time.perf_counter()
+            _on_threads(2, call)
+            times["wall2"].append(time.perf_counter() - w)
+    return mesh, {k: 1000.0 * statistics.median(v) if v else float("nan") for k, v in times.items()}
+
+
+def one_thread_ms(call, repeat):
+    """``(mesh, ms)``: `call` on one thread pinned to one core, median CPU ms after a warm-up."""
+    mesh = _on_threads(1, call, pin=True)
+    times = []
+    for _ in range(repeat):
+        c = time.process_time()
+        mesh = _on_threads(1, call, pin=True)
+        times.append(time.process_time() - c)
+    return mesh, 1000.0 * statistics.median(times)
+
+
+def _cores():
+    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+
+
 def run(images, repeat, data=None, log=print, extra=None):
     """One row of figures per image and budget; `extra` goes to every rangemesh call."""
     extra = extra or {}
     rows = []
     for image, camera, masked, valid, frac, n in budget_cases(images, data):
         got = {}
+        calls = {}
         for label, opts in VARIANTS:
-            mesh, ms = peers._timed(lambda opts=opts, image=image, n=n, camera=camera: triangulate(
+            calls[label] = (lambda opts=opts, image=image, n=n, camera=camera: triangulate(
                 image.depth, background=image.background, vertices=n, method="refine",
-                camera=camera, **opts, **extra), repeat)
+                camera=camera, **opts, **extra))
+            if label == MINE:
+                continue  # timed below, against pydelatin and on two threads
+            mesh, ms = one_thread_ms(calls[label], repeat)
             got[label] = peers._record(image, f"{frac:.0%}", label, mesh, ms, valid)
-        n_mine = max(got[MINE]["vertices"], 4)
-        for label, fn in (("pydelatin", peers.peer_delatin),
-                          ("quadric decimation", peers.peer_quadric)):
-            mesh, ms = fn(masked, valid, n_mine, repeat)
-            got[label] = peers._record(image, f"{frac:.0%}", label, mesh, ms, valid)
+        mesh = calls[MINE]()
+        n_mine = max(peers._valid_vertex_count(mesh, valid), 4)
+        from pydelatin import Delatin
+
+        arr, ask = peers.delatin_request(masked, valid, n_mine)
+        mesh, t = thread_times(calls[MINE],
+                               lambda arr=arr, ask=ask: Delatin(arr, max_error=0.0, max_points=ask),
+                               repeat)
+        got[MINE] = peers._record(image, f"{frac:.0%}", MINE, mesh, t["cpu1"], valid)
+        got[MINE].update(wall1=t["wall1"], wall2=t["wall2"], shape=image.depth.shape[:2])
+        tin = Delatin(arr, max_error=0.0, max_points=ask)
+        got["pydelatin"] = peers._record(image, f"{frac:.0%}", "pydelatin",
+                                         peers.delatin_mesh(tin, masked.shape), t["delatin"], valid)
+        mesh, ms = peers.peer_quadric(masked, valid, n_mine, repeat)
+        got["quadric decimation"] = peers._record(image, f"{frac:.0%}", "quadric decimation", mesh,
+                                                  ms, valid)
         rows.append(got)
         m, d, q = got[MINE], got["pydelatin"], got["quadric decimation"]
         log(f"{image.name[:30]:30s} {frac:4.0%} {n_mine:7d} | err {m['relative_error']:.4f} "
             f"pix {got['refine, pixel depths']['relative_error']:.4f} "
             f"quadric {q['relative_error']:.4f} delatin {d['relative_error']:.4f} | band "
             f"{m['edge_band_error']:.3f} delatin {d['edge_band_error']:.3f} | ms "
-            f"{m['ms']:.1f} delatin {d['ms']:.1f} | uncovered {m['uncovered']:.2f} %")
+            f"{m['ms']:.1f} delatin {d['ms']:.1f} | 2 threads / 1 {_ratio_text(m['wall2'], m['wall1'])} "
+            f"| uncovered {m['uncovered']:.2f} %")
     return rows
+
+
+def _ratio_text(a, b):
+    return f"{a / b:.2f}" if a == a else "n/a"  # (NaN: one core, no two-thread call)
+
+
+def thread_summary(rows):
+    """Per budget, on 640 x 480 frames and on all images: median and max of two threads / one."""
+    out = []
+    for frac in (None, *FRACTIONS):
+        sel = [g[MINE] for g in rows if frac is None or g[MINE]["budget"] == f"{frac:.0%}"]
+        for which, pick in (("640 x 480", [m for m in sel if tuple(m["shape"]) == (480, 640)]),
+                            ("every image", sel)):
+            ratios = [m["wall2"] / m["wall1"] for m in pick]
+            if ratios:
+                out.append((frac, which, len(ratios), statistics.median(ratios), max(ratios)))
+    return out
+
+
+def header():
+    """The commit measured and the machine's load, the first line of a report."""
+    try:
+        commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True,
+                                text=True, cwd=Path(__file__).resolve().parent).stdout.strip()
+    except OSError:
+        commit = ""
+    load = " ".join(f"{x:.2f}" for x in os.getloadavg()) if hasattr(os, "getloadavg") else "?"
+    return (f"commit {commit or '?'}, load average {load} on {os.cpu_count()} cores, "
+            f"{_cores()} for this process")
 
 
 # Errors below a millionth of the depth range (in percent: 1e-4) count as exact: ratios
@@ -187,6 +308,7 @@ def main(argv=None) -> int:
     images, missing = peers.load_images(data, args.quick, args.only)
     for m in missing:
         print(f"skipped: {m}", file=sys.stderr)
+    print(header())
     rows = run(images, args.repeat, data, extra=extra)
     print("\n| budget | cases | error / quadric | fitted / pixel depths | edge band / pydelatin "
           "| time / pydelatin | worst uncovered % |")
@@ -203,6 +325,13 @@ def main(argv=None) -> int:
         name = "all" if frac is None else f"{frac:.0%} of valid pixels"
         print(f"| {name} | {n} | {mine_err:.2f} | {ms:.2f} ({ms_max:.2f}) | {fast_err:.2f} "
               f"| {fast_ms:.2f} ({fast_max:.2f}) |")
+    # two threads against one (wall clock; "n/a": this process has one core)
+    print("\n| budget | images | 2 threads / 1 thread: median | max |")
+    print("|---|---|---:|---:|")
+    for frac, which, n, med, worst in thread_summary(rows):
+        name = "all budgets" if frac is None else f"{frac:.0%} of valid pixels"
+        fig = (f"{med:.2f} | {worst:.2f}" if med == med else "n/a | n/a")
+        print(f"| {name} | {which} ({n}) | {fig} |")
     bounds = error_bounds(images, args.repeat, data, extra=extra)
     held = sum(err <= bound for _, bound, _, err, *_ in bounds)
     times = [ms / ms_n for *_, ms, ms_n in bounds]

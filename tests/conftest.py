@@ -1,10 +1,13 @@
 import os
+import shutil
 import signal
 from pathlib import Path
 
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, Phase, settings
+
+from .images import lidar_scan
 
 # No "explain" phase: it traces every line the failing example runs, and with Numba
 # dispatchers in the trace it took 15.7 GB before reporting one failure of tests/test_hostile.py.
@@ -72,3 +75,39 @@ def open3d():
 @pytest.fixture
 def rng():
     return np.random.default_rng(12345)
+
+
+# The inputs of the hostile-input reports' tests, in several modules: the chair crop and a
+# synthetic OS1-64 scan.
+CROPS = Path(__file__).parent / "data" / "crops.npz"
+
+
+@pytest.fixture(scope="module")
+def chair():
+    """A 96x96 uint8 crop of the Odetics chair (background 0)."""
+    return np.load(CROPS)["chair"]
+
+
+@pytest.fixture
+def chair_file(tmp_path, chair):
+    p = tmp_path / "chair.npy"
+    np.save(p, chair)
+    return p
+
+
+@pytest.fixture(scope="module")
+def os1(tmp_path_factory):
+    """A scan laid out as the shared OS1-64 scan (64 x 2048, the same files): tests/images.py."""
+    return lidar_scan(tmp_path_factory.mktemp("os1"))
+
+
+@pytest.fixture(scope="module")
+def beams_file(os1):
+    return os1["beams"]
+
+
+@pytest.fixture
+def scan_file(os1, tmp_path):
+    dst = tmp_path / "scan.npy"
+    shutil.copy(os1["range"], dst)
+    return dst

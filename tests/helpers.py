@@ -1,4 +1,4 @@
-"""assert_valid_mesh: SPEC P4, checked independently of the code under test."""
+"""assert_valid_mesh: SPEC P4, checked independently of the code under test; the tests' shared helpers."""
 
 import signal
 import subprocess
@@ -177,3 +177,23 @@ def interrupt(proc: subprocess.Popen, timeout: float = 60) -> str:
         proc.communicate()
         pytest.fail(f"the process went on {timeout} s after SIGINT")
     return err
+
+
+def one_error_line(capsys, code, expected_code=2, match=None):
+    """The CLI ended with `expected_code` and said exactly one line on stderr."""
+    err = capsys.readouterr().err
+    assert code == expected_code, err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, err
+    assert lines[0].startswith("rangemesh: error: "), err
+    assert "Traceback" not in err
+    if match:
+        assert match in lines[0], lines[0]
+    return lines[0]
+
+
+def chair_depths():
+    """The committed 96 x 96 crop of odetics/chair-range (depths 7 .. 254)."""
+    from .golden import crops
+
+    return crops()["chair"][0].astype(np.float64)

@@ -85,13 +85,6 @@ def test_paper_reports_its_grid_and_flips():
     assert r.heights == "fit"
 
 
-def test_target_record_is_frozen_and_typed():
-    t = triangulate(crease(), vertices=20).stats.target
-    with pytest.raises(dataclasses.FrozenInstanceError):
-        t.achieved = 3
-    assert t.to_dict()["kind"] == "vertices"
-
-
 # ------------------------------------------------------------ one rule: method= alone
 
 
@@ -165,14 +158,6 @@ def test_workers_and_greedy_warn_and_give_the_same_mesh():
     with pytest.warns(DeprecationWarning, match="greedy"):
         old = triangulate(crease(), method="greedy", vertices=20)
     same_mesh(old, triangulate(crease(), method="refine", vertices=20))
-
-
-def test_target_read_as_a_dict_warns():
-    t = triangulate(crease(), vertices=20).stats.target
-    with pytest.warns(DeprecationWarning, match="Target record"):
-        assert t["achieved"] == 20 and t["target"] == "vertices"
-    with pytest.warns(DeprecationWarning):
-        assert "tiles" not in t and t.get("note", "none") == "none"
 
 
 def test_unknown_keyword_is_a_type_error():
@@ -397,19 +382,116 @@ def test_mesh_many_runs_from_a_plain_script(tmp_path):
     assert run.stdout.count("STATUS meshed") == 1  # the workers did not run the script
 
 
-def test_with_fields_is_dataclasses_replace():
-    from rangemesh.mesh import with_fields
-
-    mesh = triangulate(crease(), vertices=12)
-    for obj, change in ((mesh.stats, {"method": "paper", "seconds": {"total": 1.0}}),
-                        (mesh, {"stats": mesh.stats})):
-        fast, slow = with_fields(obj, **change), dataclasses.replace(obj, **change)
-        assert type(fast) is type(slow)
-        assert fast.__dict__.keys() == slow.__dict__.keys()
-        assert all(fast.__dict__[k] is slow.__dict__[k] for k in fast.__dict__)
+# ---------------------------------------------------------------- from the hostile-input reports
 
 
-def test_target_record_refuses_unknown_keys():
-    with pytest.raises(TypeError, match="extra"):
-        Target.from_record({"target": "vertices", "requested": 3, "achieved": 3, "met": True,
-                            "extra": 1}, vertices=3)
+# D1 of the 2026-11-21 hostile-input report
+@pytest.mark.parametrize("dtype, reference", [
+    (np.float16, np.float32),     # float16 holds these integers exactly
+    (np.longdouble, np.float64),
+    (">f4", np.float32),
+    (">u2", np.uint16),
+    (">f8", np.float64),
+    ("<i8", np.int64),
+])
+def test_every_real_dtype_meshes_like_its_native_twin(chair, dtype, reference):
+    got = rangemesh.triangulate(chair.astype(dtype), background=0, method="paper")
+    same_mesh(got, rangemesh.triangulate(chair.astype(reference), background=0, method="paper"))
+
+
+# D1 of the 2026-11-21 hostile-input report
+def test_mesh_stream_and_the_cli_take_big_endian_images(chair, tmp_path, capsys):
+    frames = [chair.astype(">f4"), chair.astype(np.float16)]
+    got = list(rangemesh.mesh_stream(frames, background=0, method="paper"))
+    want = rangemesh.triangulate(chair.astype(np.float32), background=0, method="paper")
+    for m in got:
+        same_mesh(m, want)
+    np.save(tmp_path / "be.npy", chair.astype(">f4"))
+    assert main(["mesh", str(tmp_path / "be.npy"), "-o", str(tmp_path / "be.ply"), "--quiet",
+                 "--background", "0"]) == 0
+    assert main(["info", str(tmp_path / "be.npy")]) == 0
+
+
+# F15 (found after the 2026-11-21 hostile-input report)
+def test_longdouble_depths_beyond_float64_are_refused_with_their_range():
+    # F15: they became infinite in float64, i.e. missing depth, and an image of them meshed
+    # to nothing ("no valid pixel") without a word
+    if np.finfo(np.longdouble).max <= np.finfo(np.float64).max:
+        pytest.skip("longdouble is float64 on this platform")
+    with pytest.raises(ValueError, match=r"^depths 1e\+400 \.\. 1e\+400: their range exceeds the "
+                                         r"float range"):
+        rangemesh.triangulate(np.full((20, 20), np.longdouble("1e400")), vertices=50)
+    d = np.full((20, 20), 5.0, np.longdouble)
+    d[3, 4] = np.longdouble(np.finfo(np.float64).max) * 4
+    for method in ("refine", "paper"):
+        with pytest.raises(ValueError, match=r"^depths 5 \.\. 7\.19077e\+308: their range"):
+            rangemesh.triangulate(d, method=method)
+    d[3, 4] = np.inf  # infinite is missing depth in any dtype
+    masked = np.ma.masked_array(np.full((20, 20), np.longdouble("1e400")), mask=True)
+    masked[5:15, 5:15] = 5.0  # a masked pixel is missing, whatever its value
+    for image in (d, masked):
+        m = rangemesh.triangulate(image, vertices=30)
+        assert len(m.vertices) == 30 and np.isfinite(m.vertices).all()
+
+
+# D2 of the 2026-11-21 hostile-input report
+def test_masked_pixels_are_missing_depth(chair):
+    z = chair.astype(np.float64)
+    mask = z > 120
+    got = rangemesh.triangulate(np.ma.masked_array(z, mask=mask), background=0, method="paper")
+    want = rangemesh.triangulate(np.where(mask, np.nan, z), background=0, method="paper")
+    same_mesh(got, want)
+    assert not mask[got.pixels[:, 0], got.pixels[:, 1]].any()
+    # integer masked arrays too, and evaluate honours the mask as well
+    got_int = rangemesh.triangulate(np.ma.masked_array(chair, mask=mask), background=0, method="paper")
+    same_mesh(got_int, want)
+    ev = rangemesh.evaluate(got, np.ma.masked_array(z, mask=mask), background=0)
+    assert ev.valid_pixels == int(((z != 0) & ~mask).sum())
+
+
+# D7 of the 2026-11-21 hostile-input report
+def test_a_ragged_list_names_the_image():
+    with pytest.raises(ValueError, match="image"):
+        rangemesh.triangulate([[1, 2, 3], [4, 5]], method="paper")
+
+
+# E17 of the 2026-11-25 hostile-input report
+@pytest.mark.parametrize("option", [{"walls": False}, {"jump": 0.1}, {"diagonals": "error"},
+                                    {"heights": "fit"}])
+def test_mesh_stream_refuses_what_triangulate_refuses(option):
+    z = np.add.outer(np.arange(20.0), np.arange(30.0))
+    with pytest.raises(ValueError) as want:
+        rangemesh.triangulate(z, method="paper", **option)
+    with pytest.raises(ValueError) as got:
+        rangemesh.mesh_stream([z], method="paper", **option)  # at the call, before any frame
+    assert str(got.value) == str(want.value)
+
+
+# E17 of the 2026-11-25 hostile-input report
+def test_mesh_stream_gives_triangulates_mesh_with_a_target():
+    from tests.golden import fingerprint
+
+    frames = [np.add.outer(np.arange(20.0), np.arange(30.0)) ** 1.5, np.ones((10, 12))]
+    for kw in ({"vertices": 40}, {"max_error": 0.5}, {"vertices": 40, "method": "paper"}):
+        got = list(rangemesh.mesh_stream(frames, **kw))
+        want = [rangemesh.triangulate(f, **kw) for f in frames]
+        assert [fingerprint(m) for m in got] == [fingerprint(m) for m in want]
+
+
+# E11 of the 2026-11-25 hostile-input report
+@pytest.mark.parametrize("method", ["refine", "paper"])
+def test_depths_beyond_the_kernels_reach_are_one_valueerror(method):
+    z = np.full((30, 30), 1e308)
+    z[10:20] = -1e307
+    if method == "paper":
+        with pytest.raises(ValueError, match="reach beyond 1e\\+150"):
+            rangemesh.triangulate(z, vertices=30, method=method)
+    else:  # refine scales depths by a power of two first (E9): a finite range meshes
+        mesh = rangemesh.triangulate(z, vertices=30, method=method)
+        assert len(mesh.vertices) == 30 and np.isfinite(mesh.vertices).all()
+        assert np.isfinite(rangemesh.evaluate(mesh, z).relative_error)
+    big = np.finfo(float).max
+    z = np.full((40, 40), big)
+    z[5:10, 5:10] = -big
+    with pytest.raises(ValueError, match="reach beyond|exceeds the float range"):
+        rangemesh.triangulate(z, vertices=30, method=method)

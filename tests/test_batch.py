@@ -2,6 +2,7 @@
 
 import json
 import os
+import shutil
 from pathlib import Path
 
 import numpy as np
@@ -11,8 +12,10 @@ import rangemesh
 from rangemesh import scenes
 from rangemesh.batch import expand_inputs, mesh_many, mesh_stream
 from rangemesh.cli import main
+from rangemesh.io import read_mesh
 
 from .golden import crops
+from .helpers import one_error_line
 
 
 def test_stream_equals_triangulate_frame_by_frame():
@@ -271,3 +274,218 @@ def test_a_rerun_with_other_options_refuses_and_the_report_keeps_earlier_rows(tm
     assert sorted((Path(r["input"]).name, r["status"], r["vertices"]) for r in rows) == [
         ("chair.npy", "meshed", "200"), ("venus.npy", "meshed", "100")]
     assert rangemesh.read_mesh(mesh).vertices.shape == (200, 3)
+
+
+def test_a_batch_keeps_each_vertex_pixel_when_the_camera_needs_it(tmp_path):
+    # a distorted camera's rays (z_depth) cannot be projected back to pixels: the mesh file must
+    # carry them, as `rangemesh mesh` writes them, or `rangemesh eval` cannot place its vertices
+    from rangemesh import Rays, read_mesh, triangulate
+
+    r, c = np.mgrid[0:24, 0:32].astype(np.float64)
+    img = (1000 + 3 * r + 2 * c).astype(np.uint16)
+    rays = np.stack([(c - 16.0) / 30.0, (r - 12.0) / 30.0, np.ones_like(r)], axis=-1)
+    cam = Rays(rays, 0.001, z_depth=True)
+    np.save(tmp_path / "a.npy", img)
+    [res] = rangemesh.mesh_many([tmp_path / "a.npy"], tmp_path / "out", camera=cam,
+                                vertices=20, workers=1)
+    assert res.status == "meshed", res.error
+    written = read_mesh(res.output, camera=cam)
+    want = triangulate(img, camera=cam, vertices=20)
+    assert written.pixels is not None
+    assert np.array_equal(written.pixels, want.pixels)
+
+
+# ---------------------------------------------------------------- from the hostile-input reports
+
+
+# D20 of the 2026-11-21 hostile-input report
+def test_too_many_workers_are_refused_at_once(chair_file, tmp_path, capsys):
+    pytest.importorskip("dask.distributed")
+    cores = len(os.sched_getaffinity(0))
+    code = main(["batch", str(chair_file), "-o", str(tmp_path / "o"), "--workers",
+                 str(cores + 1)])
+    one_error_line(capsys, code, match="cores")
+
+
+# D21 of the 2026-11-21 hostile-input report
+def test_a_server_that_is_not_dask_fails_fast(chair_file, tmp_path, capsys):
+    """A listener that accepts and never answers (the report's hang), then one that sends garbage."""
+    import socket
+    import threading
+    import time
+
+    pytest.importorskip("dask.distributed")
+    for garbage in (False, True):
+        srv = socket.socket()
+        srv.bind(("127.0.0.1", 0))
+        srv.listen()
+        port = srv.getsockname()[1]
+        held = []
+
+        def serve(srv=srv, garbage=garbage, held=held):
+            try:
+                conn, _ = srv.accept()
+            except OSError:
+                return
+            held.append(conn)
+            if garbage:
+                conn.sendall(b"\xff" * 64 + bytes(range(256)) * 8)
+
+        threading.Thread(target=serve, daemon=True).start()
+        t0 = time.perf_counter()
+        from rangemesh.batch import mesh_many
+
+        with pytest.raises(ValueError, match="Dask scheduler"):
+            mesh_many([chair_file], tmp_path / "o", scheduler=f"tcp://127.0.0.1:{port}",
+                      connect_timeout=2.0, method="paper")
+        assert time.perf_counter() - t0 < 20
+        srv.close()
+        for c in held:
+            c.close()
+
+
+# D22 of the 2026-11-21 hostile-input report
+def test_inputs_sharing_a_stem_are_all_meshed(tmp_path, chair, capsys):
+    pytest.importorskip("dask.distributed")
+    import imageio.v3 as iio
+
+    src = tmp_path / "in"
+    src.mkdir()
+    np.save(src / "x.npy", chair)
+    iio.imwrite(src / "x.png", chair)
+    np.save(src / "y.npy", chair)
+    code = main(["batch", str(src), "-o", str(tmp_path / "out"), "--workers", "1", "--quiet"])
+    assert code == 0
+    names = sorted(p.name for p in (tmp_path / "out").glob("*.ply"))
+    assert names == ["x.npy.ply", "x.png.ply", "y.ply"]
+
+
+# D22 of the 2026-11-21 hostile-input report
+def test_the_same_file_name_in_two_folders_fails_those_only(tmp_path, chair):
+    pytest.importorskip("dask.distributed")
+    from rangemesh.batch import mesh_many
+
+    for d in ("a", "b"):
+        (tmp_path / d).mkdir()
+        np.save(tmp_path / d / "x.npy", chair)
+    np.save(tmp_path / "a" / "z.npy", chair)
+    res = mesh_many([tmp_path / "a", tmp_path / "b"], tmp_path / "out", workers=1, method="paper")
+    status = {Path(r.input).relative_to(tmp_path).as_posix(): r.status for r in res}
+    assert status == {"a/x.npy": "failed", "a/z.npy": "meshed", "b/x.npy": "failed"}
+
+
+# E1 of the 2026-11-25 hostile-input report
+@pytest.mark.slow
+def test_batch_with_beams_takes_zero_as_no_return(scan_file, beams_file, tmp_path):
+    out = tmp_path / "out"
+    assert main(["batch", str(scan_file), "-o", str(out), "--beams", str(beams_file),
+                 "--vertices", "1500", "--quiet", "--workers", "1"]) == 0
+    mesh = read_mesh(out / "scan.ply")
+    # a no-return pixel as a vertex sits at the sensor origin
+    assert (np.linalg.norm(mesh.vertices, axis=1) > 0).all()
+    # and each vertex is one of the scan's returns: its pixel's range times its ray
+    rng = np.load(scan_file)
+    assert len(mesh.vertices) == 1500 and (rng > 0).sum() > len(mesh.vertices)
+
+
+# the 2026-11-25 hostile-input report
+@pytest.mark.slow
+def test_batch_runs_when_another_program_holds_the_dashboard_port(tmp_path):
+    import socket
+
+    img = tmp_path / "a.npy"
+    np.save(img, np.add.outer(np.arange(20.0), np.arange(30.0)))
+    with socket.socket() as held:
+        try:
+            held.bind(("127.0.0.1", 8787))  # Dask's default dashboard port
+        except OSError:
+            pass  # already held by another program: the case under test
+        held.listen()
+        results = rangemesh.mesh_many([img], tmp_path / "out", workers=1, method="refine",
+                                      vertices=20)
+    assert [r.status for r in results] == ["meshed"]
+
+
+# E15 of the 2026-11-25 hostile-input report
+@pytest.mark.slow
+def test_a_glob_over_the_output_folder_gives_the_same_inputs_every_run(tmp_path, capsys):
+    g = tmp_path / "g"
+    g.mkdir()
+    img = np.add.outer(np.arange(20.0), np.arange(30.0))
+    np.save(g / "c0.npy", img)
+    np.save(g / "c1.npy", img + 1)
+    for _ in range(2):
+        assert main(["batch", str(g / "*"), "-o", str(g), "--vertices", "30", "--workers", "1",
+                     "--quiet"]) == 0
+    names = sorted(p.name for p in g.iterdir())
+    assert names == ["c0.npy", "c0.ply", "c1.npy", "c1.ply", "rangemesh-batch.csv",
+                     "rangemesh-batch.json"]
+    report = json.loads((g / "rangemesh-batch.json").read_text())
+    assert report["summary"]["skipped"] == 2  # a re-run skips, and keeps the rows of the meshes
+    assert [r["status"] for r in report["results"]] == ["meshed", "meshed"]
+
+
+# E16 of the 2026-11-25 hostile-input report
+def test_a_running_batchs_temp_files_are_left_alone(tmp_path):
+    import os
+    import subprocess
+    import sys
+
+    from rangemesh.batch import _clean_stale_parts, write_report
+    from rangemesh.io import atomic_path, part_owner
+
+    # a temp file of this (running) process, one of a process that is gone, one of another host
+    with atomic_path(tmp_path / "m.ply") as mine:
+        mine.write_text("x")
+        gone = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"],
+                              capture_output=True, text=True, check=True).stdout.strip()
+        host = part_owner().rsplit(".", 1)[0]
+        dead = tmp_path / f".n.ply.{host}.{gone}.abc.part.ply"
+        dead.write_text("x")
+        other = tmp_path / ".o.ply.otherhost.1.abc.part.ply"
+        other.write_text("x")
+        old = tmp_path / ".p.ply.otherhost.2.abc.part.ply"
+        old.write_text("x")
+        os.utime(old, (0, 0))
+        _clean_stale_parts(tmp_path)
+        assert mine.exists() and other.exists()
+        assert not dead.exists() and not old.exists()
+    # the reports go through unique temporary names, not fixed ones
+    write_report([], tmp_path, 0.0)
+    assert sorted(p.name for p in tmp_path.iterdir()) == [
+        ".o.ply.otherhost.1.abc.part.ply", "m.ply", "rangemesh-batch.csv", "rangemesh-batch.json"]
+
+
+# E27 of the 2026-11-25 hostile-input report
+def test_the_same_file_by_two_paths_is_meshed_once(tmp_path, monkeypatch):
+    from rangemesh.batch import expand_inputs
+
+    (tmp_path / "in").mkdir()
+    np.save(tmp_path / "in" / "c.npy", np.ones((4, 4)))
+    monkeypatch.chdir(tmp_path)
+    assert expand_inputs(["in/c.npy", str(tmp_path / "in" / "c.npy")]) == [Path("in/c.npy")]
+
+
+# E28 of the 2026-11-25 hostile-input report
+@pytest.mark.slow
+def test_batch_reads_the_bin_scans_that_mesh_reads(os1, beams_file, tmp_path, capsys):
+    folder = tmp_path / "in"
+    folder.mkdir()
+    shutil.copy(os1["bin"], folder / "s.bin")
+    shutil.copy(os1["range"], folder / "r.npy")
+    made = tmp_path / "m.ply"
+    assert main(["mesh", str(folder / "s.bin"), "--beams", str(beams_file), "--vertices", "1500",
+                 "-o", str(made), "--pixels", "--quiet"]) == 0
+    want = read_mesh(made)
+    for name, inputs in (("file", [str(folder / "s.bin")]), ("folder", [str(folder)])):
+        out = tmp_path / name
+        assert main(["batch", *inputs, "-o", str(out), "--beams", str(beams_file), "--vertices",
+                     "1500", "--workers", "1", "--quiet"]) == 0, capsys.readouterr().err
+        got = read_mesh(out / "s.ply")  # before: "unknown image type '.bin'", or left out
+        assert np.array_equal(got.faces, want.faces)
+        np.testing.assert_allclose(got.vertices, want.vertices, rtol=1e-6)
+    assert (tmp_path / "folder" / "r.ply").exists()
+    # without --beams a named .bin fails in one line, as `rangemesh mesh` does
+    assert main(["batch", str(folder / "s.bin"), "-o", str(tmp_path / "x"), "--vertices", "1500",
+                 "--workers", "1"]) == 1
+    assert "needs --beams" in capsys.readouterr().err

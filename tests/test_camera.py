@@ -1,4 +1,4 @@
-"""Calibration files (issue 41): `rangemesh.read_camera` and ``--camera FILE``."""
+"""The cameras (rangemesh.camera) and calibration files (issue 41): `read_camera`, ``--camera FILE``."""
 
 import math
 
@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import rangemesh
-from rangemesh import Pinhole, Rays, read_camera, read_mesh, triangulate
+from rangemesh import Pinhole, Rays, Spherical, read_camera, read_mesh, triangulate
 from rangemesh.cli import main
 
 K = (52.09, 52.1, 32.51, 24.97)  # fx, fy, cx, cy: slambook2's Kinect at a tenth of its size
@@ -224,3 +224,59 @@ def test_depth_rays_lift_a_stored_depth_to_that_z(shared_data):
     # and the rendering the error is measured on predicts stored depths, not ranges
     depth, _ = rangemesh.render_depth(mesh)
     np.testing.assert_allclose(depth[p[:, 0], p[:, 1]], img[p[:, 0], p[:, 1]], rtol=1e-9)
+
+
+# ---------------------------------------------------------------- from the hostile-input reports
+
+
+# D11 of the 2026-11-21 hostile-input report
+def test_an_overflowing_camera_is_refused(chair):
+    with pytest.raises(ValueError, match="camera"):
+        rangemesh.triangulate(chair, background=0,
+                              camera=rangemesh.Pinhole(1e-300, 1e-300, 0, 0, 1e300), method="paper")
+    with pytest.raises(ValueError, match="camera"):
+        rangemesh.triangulate(np.full((20, 20), 1e300), camera=(1, 1, 1e10), method="paper")
+
+
+# E5 of the 2026-11-25 hostile-input report
+@pytest.mark.parametrize("scale", [1e155, 1e300, 1e-160, 1e-300])
+def test_long_and_short_rays_keep_their_direction(scale):
+    d = np.zeros((4, 5, 3))
+    d[..., 0] = 1
+    d[..., 1] = np.arange(5) * 0.1
+    d[..., 2] = np.arange(4)[:, None] * 0.1
+    # by hand: ray (1, 0.1 c, 0.1 r) over its length
+    expected = d / np.sqrt(1 + (0.1 * np.arange(5)) ** 2 + (0.1 * np.arange(4)[:, None]) ** 2)[..., None]
+    with np.errstate(all="raise"):
+        cam = Rays(d * scale)
+    np.testing.assert_allclose(cam.directions, expected, rtol=1e-15, atol=0)
+    m = rangemesh.triangulate(np.full((4, 5), 10.0), camera=cam, method="refine", vertices=10)
+    assert not (m.vertices == 0).all(axis=1).any()
+
+
+# E29 of the 2026-11-25 hostile-input report
+@pytest.mark.parametrize("el, az, what", [
+    ([0.0, -1.0], np.zeros(8), "azimuth must change strictly"),
+    ([0.0, 0.0], np.arange(8.0), "elevation must change strictly"),
+    ([1e300, 0.0], np.arange(8.0), "within -90 .. 90"),
+    ([0.0, -1.0], np.arange(0, 720, 10.0), "more than once"),
+])
+def test_degenerate_spherical_cameras_are_refused(el, az, what):
+    with pytest.raises(ValueError, match=what):
+        Spherical(el, az)
+
+
+# E20 of the 2026-11-25 hostile-input report
+def test_depth_zero_before_a_pinhole_says_what_to_do():
+    zz = np.full((20, 20), 1000.0)
+    zz[10, 10] = 0.0  # a float image: 0 is depth unless background says otherwise
+    cam = rangemesh.Pinhole(525, 525, 10, 10, 0.001)
+    with pytest.raises(ValueError, match=r"depth 0 at pixel \(10, 10\).*background=0"):
+        rangemesh.triangulate(zz, camera=cam, vertices=50, background=None)
+    assert len(rangemesh.triangulate(zz, camera=cam, vertices=50, background=0).vertices) == 50
+
+
+# E23 of the 2026-11-25 hostile-input report
+def test_complex_rays_are_refused():
+    with pytest.raises(TypeError, match="not complex"):
+        Rays(np.ones((2, 3, 3), complex))

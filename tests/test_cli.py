@@ -17,6 +17,7 @@ from rangemesh.cli import main
 from rangemesh.io import read_range_image
 
 from .golden import crops
+from .helpers import one_error_line
 from .images import REAL_IMAGES, load, rgbd_frame
 from .pngs import png_header
 
@@ -478,6 +479,52 @@ def test_an_undecodable_png_is_said_to_be_no_png_not_pillow_s_uri(tmp_path, caps
         assert rc == 2 and err.startswith(f"rangemesh: error: {f}: {said}") and err.count("\n") == 1
     rc, _, err = run(["mesh", good, "-o", tmp_path / "x.ply", "--color", text], capsys)
     assert rc == 2 and err == f"rangemesh: error: {good}: --color: {text}: {no_png}\n"
+
+
+# ---------------------------------------------------------------- from the hostile-input reports
+
+
+# D19 of the 2026-11-21 hostile-input report
+def test_unicode_names_in_previews_are_quiet(tmp_path, chair, capsys):
+    src = tmp_path / "ünïcödé-深度.npy"
+    np.save(src, chair)
+    assert main(["mesh", str(src), "--preview", str(tmp_path / "p.png"), "--quiet"]) == 0
+    assert capsys.readouterr().err == ""
+
+
+# D26 of the 2026-11-21 hostile-input report
+def test_eval_refuses_a_mesh_of_another_image_size(chair_file, tmp_path, capsys):
+    assert main(["mesh", str(chair_file), "-o", str(tmp_path / "good.ply"), "--quiet"]) == 0
+    other = tmp_path / "other.npy"
+    np.save(other, np.ones((50, 70), np.uint8))
+    line = one_error_line(capsys, main(["eval", str(other), str(tmp_path / "good.ply")]))
+    assert "96x96" in line and "50x70" in line
+
+
+# the second run of the 2026-11-21 hostile-input report
+def test_eval_uses_the_camera_the_file_records(chair_file, tmp_path, capsys):
+    ply = tmp_path / "p.ply"
+    assert main(["mesh", str(chair_file), "-o", str(ply), "--intrinsics", "500,500,48,48",
+                 "--depth-scale", "0.001", "--quiet", "--json"]) == 0
+    made = capsys.readouterr().out
+    import json
+
+    want = json.loads(made)["evaluation"]["relative_error"]
+    assert main(["eval", str(chair_file), str(ply), "--json"]) == 0  # no camera flags needed
+    assert json.loads(capsys.readouterr().out)["relative_error"] == pytest.approx(want, rel=1e-6)
+    # another camera than the recorded one is refused instead of giving 75 % uncovered
+    one_error_line(capsys, main(["eval", str(chair_file), str(ply), "--scale", "1,1,1"]),
+                   match="was made with")
+    m = rangemesh.read_mesh(ply)
+    assert m.camera == rangemesh.Pinhole(500, 500, 48, 48, 0.001)
+
+
+# the second run of the 2026-11-21 hostile-input report
+def test_a_closed_stdout_ends_quietly(chair_file):
+    # `rangemesh mesh ... --json | head`: here the reader leaves before the JSON is written
+    cmd = f"{sys.executable} -m rangemesh mesh {chair_file} --json --background 0 | true"
+    proc = subprocess.run(["bash", "-c", cmd], capture_output=True, text=True, timeout=120)
+    assert proc.stderr == "", proc.stderr
 
 
 # ---------------------------------------------------------------- deviation targets (issue 44)

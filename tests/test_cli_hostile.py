@@ -13,7 +13,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+import rangemesh
 from rangemesh.cli import build_parser, main
+from rangemesh.io import write_mesh
+
+from .helpers import one_error_line
 
 CROPS = Path(__file__).parent / "data" / "crops.npz"
 
@@ -97,3 +101,90 @@ def test_hostile_paths(files, capsys, path, monkeypatch):
                  ["mesh", path], ["info", path], ["eval", src, path], ["eval", path, "chair.ply"]):
         _run(capsys, argv)
     assert (files / "chair.npy").is_file() and np.load(files / "chair.npy").shape == (48, 48)
+
+
+# ---------------------------------------------------------------- from the hostile-input reports
+
+
+# D6 of the 2026-11-21 hostile-input report
+def test_a_huge_sample_grid_is_refused_at_once(chair_file, capsys):
+    code = main(["mesh", str(chair_file), "--samples", "10000"])
+    one_error_line(capsys, code, match="samples")
+
+
+# D12 of the 2026-11-21 hostile-input report
+def test_a_preview_may_not_replace_the_input(tmp_path, chair, capsys):
+    import imageio.v3 as iio
+
+    src = tmp_path / "teddy.png"
+    iio.imwrite(src, chair)
+    before = src.read_bytes()
+    code = main(["mesh", str(src), "-o", str(tmp_path / "t.ply"), "--preview", str(src)])
+    one_error_line(capsys, code, match="input")
+    assert src.read_bytes() == before
+    assert not (tmp_path / "t.ply").exists()
+
+
+# D12 of the 2026-11-21 hostile-input report
+def test_a_symlink_to_the_input_is_the_input(tmp_path, chair, capsys):
+    import imageio.v3 as iio
+
+    src = tmp_path / "teddy.png"
+    iio.imwrite(src, chair)
+    (tmp_path / "link.png").symlink_to(src)
+    code = main(["mesh", str(src), "--preview", str(tmp_path / "link.png")])
+    one_error_line(capsys, code, match="input")
+
+
+# D13 of the 2026-11-21 hostile-input report
+@pytest.mark.parametrize("option", [
+    ["--delta", "nan"], ["--delta", "-1"], ["--epsilon", "-1"], ["--max-angle", "-1"],
+    ["--min-bend", "-1"], ["--levels", "0"], ["--curvature-floor", "0"],
+    ["--intrinsics", "0,525,64,64"], ["--intrinsics", "nan,525,64,64"],
+    ["--intrinsics", "525,525,64,64", "--depth-scale", "-1"], ["--scale", "0,1,1"],
+])
+def test_out_of_range_options_give_one_line(chair_file, capsys, option):
+    one_error_line(capsys, main(["mesh", str(chair_file), *option]))
+
+
+# D13 of the 2026-11-21 hostile-input report
+def test_out_of_range_batch_options_give_one_line(chair_file, tmp_path, capsys):
+    one_error_line(capsys, main(["batch", str(chair_file), "-o", str(tmp_path / "o"),
+                                 "--delta", "nan"]))
+
+
+# E4 of the 2026-11-25 hostile-input report
+def test_eval_of_a_crafted_ply_header_is_one_line(tmp_path, capsys):
+    img = np.full((4, 5), 10.0)
+    np.save(tmp_path / "img.npy", img)
+    mesh = rangemesh.triangulate(img, method="refine", vertices=6)
+    path = tmp_path / "m.ply"
+    write_mesh(mesh, path)
+    data = path.read_bytes().replace(b"element vertex 6\n", b"element vertex 900000000\n")
+    path.write_bytes(data)
+    assert main(["eval", str(tmp_path / "img.npy"), str(path)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "claims 900000000 vertex elements" in err[0]
+
+
+# E6 of the 2026-11-25 hostile-input report
+def test_beams_dev_zero_is_one_line(scan_file, tmp_path, capsys):
+    assert main(["mesh", str(scan_file), "--beams", "/dev/zero", "--vertices", "200",
+                 "-o", str(tmp_path / "o.ply")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "not a regular file" in err[0]
+
+
+# E8 of the 2026-11-25 hostile-input report
+def test_outputs_that_are_the_same_file_are_refused(tmp_path, capsys):
+    img = tmp_path / "d.npy"
+    np.save(img, np.add.outer(np.arange(20.0), np.arange(30.0)))
+    col = tmp_path / "c.npy"
+    np.save(col, np.zeros((20, 30, 3), np.uint8))
+    obj = tmp_path / "m.obj"
+    # the OBJ's texture is m.texture.png: a preview of that name would overwrite it
+    assert main(["mesh", str(img), "--color", str(col), "--vertices", "30", "-o", str(obj),
+                 "--preview", str(tmp_path / "m.texture.png")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "two outputs would be the same file" in err[0]
+    assert not obj.exists()

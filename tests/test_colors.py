@@ -275,3 +275,28 @@ def test_preview_shows_the_colours(tmp_path, frame):
     plain = iio.imread(tmp_path / "g.png")[:, -400:, :3].astype(int)
     spread = lambda a: np.abs(a[..., 0] - a[..., 2]).mean()  # noqa: E731
     assert spread(third) > 5 * max(spread(plain), 0.1)  # colour where the grey one has none
+
+
+# ---------------------------------------------------------------- from the hostile-input reports
+
+
+# E24 of the 2026-11-25 hostile-input report
+@pytest.mark.parametrize("shape", [(4, 4, 2), (4, 4, 5)])
+def test_colour_images_of_2_or_5_channels_are_refused_naming_the_shape(shape):
+    from rangemesh.attributes import as_rgb8
+
+    with pytest.raises(ValueError, match=rf"shape \({shape[0]}, {shape[1]}, {shape[2]}\)"):
+        as_rgb8(np.zeros(shape))
+
+
+# E23 of the 2026-11-25 hostile-input report
+def test_huge_intensities_and_complex_colours_make_no_warning():
+    from rangemesh.attributes import as_rgb8
+
+    with np.errstate(all="raise"):
+        out = as_rgb8(np.array([[0, 2**64 - 1], [2**63, 7]], np.uint64))
+        assert out[0, 1, 0] == 255 and out[0, 0, 0] == 0
+        out = as_rgb8(np.array([[-1e308, 1e308], [0.0, 0.0]]))
+        assert out[..., 0].tolist() == [[0, 255], [128, 128]]  # by hand: the middle of the range
+    with pytest.raises(ValueError, match="real numbers"):
+        as_rgb8(np.ones((3, 3, 3), complex))

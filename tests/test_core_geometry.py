@@ -1,5 +1,9 @@
 """The compiled half-edge kernels against plain-Python references written from their definitions."""
 
+import os
+import subprocess
+import sys
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -347,3 +351,34 @@ def test_int32_faces_give_what_int64_faces_give(mesh):
     for a, b in zip(_core.build_halfedges(faces, n), _core.build_halfedges(faces32, n), strict=True):
         assert np.array_equal(a, b)
     assert _core.count_edges(faces32, n) == _core.count_edges(faces, n)
+
+
+# ---------------------------------------------------------------- from the hostile-input reports
+
+
+E19_CHILD = """
+import resource
+import numpy as np
+from rangemesh import _core
+faces = np.zeros((4_000_000, 3), np.int64)  # 96 MB, allocated before the limit
+with open("/proc/self/status") as f:
+    vm = next(int(line.split()[1]) for line in f if line.startswith("VmSize:")) * 1024
+# 48 MB more address space: the kernel's 96 MB of half-edge ids cannot be had
+resource.setrlimit(resource.RLIMIT_AS, (vm + (48 << 20), resource.RLIM_INFINITY))
+try:
+    _core.build_halfedges(faces, 1)
+except MemoryError as e:
+    print(e)
+"""
+
+
+# E19 of the 2026-11-25 hostile-input report
+@pytest.mark.skipif("libasan" in os.environ.get("LD_PRELOAD", ""),
+                    reason="ASan maps terabytes of shadow memory: no address-space limit fits it")
+def test_an_allocation_failure_in_the_core_says_not_enough_memory():
+    # A real allocation failure, in a child held to a little more address space than it has.
+    # (Raw counts beyond the image no longer reach an allocation: greedy_insert's room for
+    # 2**61 vertices, the trigger this test had, is clamped to the pixels; issue 40, F6.)
+    done = subprocess.run([sys.executable, "-c", E19_CHILD], capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert done.stdout.startswith("not enough memory: the compiled core could not"), done.stdout

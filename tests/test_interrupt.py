@@ -1,12 +1,15 @@
 """Ctrl-C inside the compiled kernels: the call stops, raises KeyboardInterrupt, and the process lives on."""
 
 import re
+import signal
 import subprocess
 import sys
 import textwrap
 from pathlib import Path
 
 import pytest
+
+from .helpers import interrupt
 
 CHILD = textwrap.dedent("""
     import os, signal, sys, threading, time
@@ -165,3 +168,61 @@ def test_every_kernel_thread_is_started_by_polled_thread():
             if re.search(r"std::thread\s*[({]|std::thread\s+\w+\s*[({]|std::(async|jthread)\b", code):
                 direct.append(f"{path.relative_to(core)}:{k}: {line.strip()}")
     assert direct == [], "\n".join(direct)
+
+
+# ---------------------------------------------------------------- from the hostile-input reports
+
+
+_DELAUNAY_LOOP = textwrap.dedent("""
+    import numpy as np, sys
+    from rangemesh.paper.triangulation import triangulate_points
+    pts = np.unique(np.random.default_rng(0).integers(0, 1500, (250_000, 2)), axis=0)
+    triangulate_points(pts[:100])
+    print("ready", flush=True)
+    while True:
+        triangulate_points(pts)
+""")
+
+
+# D16 of the 2026-11-21 hostile-input report
+def test_sigint_during_the_delaunay_never_crashes(tmp_path):
+    """Ctrl-C lands inside the Delaunay kernel most of the time; before the fix some of
+    these runs ended in a segmentation fault (exit -11) or SystemError."""
+    script = tmp_path / "loop.py"
+    script.write_text(_DELAUNAY_LOOP)
+    for delay in (0.05, 0.2, 0.45, 0.7, 1.1):
+        proc = subprocess.Popen([sys.executable, str(script)], stdout=subprocess.PIPE,
+                                stderr=subprocess.PIPE, text=True)
+        assert proc.stdout.readline().strip() == "ready"
+        import time
+
+        time.sleep(delay)
+        err = interrupt(proc)
+        # an uncaught KeyboardInterrupt ends Python by SIGINT itself (returncode -2)
+        assert proc.returncode == -signal.SIGINT, err
+        assert err.rstrip().endswith("KeyboardInterrupt"), err
+        assert "SystemError" not in err and "Fatal Python error" not in err
+
+
+# the 2026-11-25 hostile-input report
+@pytest.mark.slow
+def test_ctrl_c_while_the_command_line_loads_is_130_and_one_line():
+    import subprocess
+    import sys
+    import textwrap
+
+    # a Ctrl-C that lands while `rangemesh.cli` (NumPy, the kernels) is being imported
+    code = textwrap.dedent("""
+        import sys
+        class Interrupting:
+            def find_spec(self, name, path=None, target=None):
+                if name == "rangemesh.cli":
+                    raise KeyboardInterrupt
+        sys.meta_path.insert(0, Interrupting())
+        from rangemesh._launch import main
+        sys.exit(main())
+    """)
+    p = subprocess.run([sys.executable, "-c", code, "demo", "-o", "x.ply"], capture_output=True,
+                       text=True, timeout=120)
+    assert p.returncode == 130
+    assert p.stderr.strip().splitlines() == ["rangemesh: interrupted (SIGINT) while starting"]

@@ -8,6 +8,7 @@ import pytest
 
 import rangemesh
 from rangemesh import Orthographic, Rays, Spherical, backproject, triangulate
+from rangemesh.cli import main
 from rangemesh.geometry.seam import is_seam, seam_strip
 from rangemesh.io import read_lidar_bin, read_mesh, write_mesh
 from rangemesh.refine.walls import wall_faces
@@ -363,3 +364,131 @@ def test_preview_of_the_scan_is_legible(tmp_path, synthetic_scan):
     img = iio.imread(tmp_path / "p.png")
     assert img.shape[1] >= 1500  # each panel the full width: 1 shown pixel for 2 columns at most
     assert img.shape[0] > 0.3 * img.shape[1]  # three panels of legible height, not 3 slivers
+
+
+# ---------------------------------------------------------------- from the hostile-input reports
+
+
+# E6 of the 2026-11-25 hostile-input report
+def test_beams_cols_for_another_image_are_refused_before_rays(beams_file, tmp_path):
+    beams = json.loads(beams_file.read_text())
+    beams["cols"] = 200_000_000
+    with pytest.raises(ValueError, match="64x200000000 image, not this 64x2048 one"):
+        Spherical.from_beams(beams, image_shape=(64, 2048))
+    with pytest.raises(ValueError, match="more than the"):  # no image to compare with: a bound
+        Spherical.from_beams(beams)
+
+
+# E6 of the 2026-11-25 hostile-input report
+def test_a_bin_size_is_checked_against_the_beams_file(tmp_path):
+    big = tmp_path / "big.bin"
+    with open(big, "wb") as f:
+        f.truncate(16 * 64 * 500_000)  # 512 MB of zeros: 500,000 steps, not 2,048
+    with pytest.raises(ValueError, match="500000 steps of 64 beams, not the 2048"):
+        read_lidar_bin(big, 64, steps=2048)
+
+
+# E6 of the 2026-11-25 hostile-input report
+def test_a_beams_file_must_be_a_small_regular_file(tmp_path):
+    with pytest.raises(ValueError, match="not a regular file"):
+        Spherical.from_beams("/dev/zero")
+    huge = tmp_path / "huge.json"
+    with open(huge, "wb") as f:
+        f.truncate((1 << 24) + 1)
+    with pytest.raises(ValueError, match="a beams file has at most"):
+        Spherical.from_beams(huge)
+
+
+# E7 of the 2026-11-25 hostile-input report
+def test_eval_with_beams_uses_the_beams_camera_and_zero_as_no_return(scan_file, beams_file,
+                                                                    tmp_path, capsys):
+    out = tmp_path / "g.glb"
+    pytest.importorskip("trimesh")
+    assert main(["mesh", str(scan_file), "--beams", str(beams_file), "--vertices", "2000",
+                 "-o", str(out), "--json"]) == 0
+    made = json.loads(capsys.readouterr().out)
+    assert main(["eval", str(scan_file), str(out), "--beams", str(beams_file), "--json"]) == 0
+    got = json.loads(capsys.readouterr().out)
+    # eval of the file mesh wrote prints the figures mesh printed (GLB keeps float32 vertices)
+    assert got["uncovered"] == pytest.approx(made["evaluation"]["uncovered"], abs=0.05)
+    assert got["relative_error"] == pytest.approx(made["evaluation"]["relative_error"], rel=0.02)
+
+
+# E12 of the 2026-11-25 hostile-input report
+@pytest.mark.parametrize("mutation", [
+    {"column_shift": [9223372036854775808] * 64},
+    {"column_shift": [1e30] * 64},
+    {"rows": float("inf")},
+    {"cols": 1e400},
+])
+def test_overflowing_beams_values_are_one_line(os1, beams_file, tmp_path, capsys, mutation):
+    beams = json.loads(beams_file.read_text())
+    beams.update(mutation)
+    bad = tmp_path / "bad.json"
+    bad.write_text(json.dumps(beams))
+    assert main(["mesh", str(os1["bin"]), "--beams", str(bad), "--vertices", "200",
+                 "-o", str(tmp_path / "x.ply")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1, err
+
+
+# E12 of the 2026-11-25 hostile-input report
+def test_deeply_nested_beams_json_is_one_line(scan_file, tmp_path, capsys):
+    bad = tmp_path / "deep.json"
+    bad.write_text("[" * 100_000 + "]" * 100_000)
+    assert main(["mesh", str(scan_file), "--beams", str(bad), "--vertices", "200",
+                 "-o", str(tmp_path / "x.ply")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "cannot read it as a beams file" in err[0]
+
+
+# E25 of the 2026-11-25 hostile-input report
+@pytest.mark.parametrize("mutation, key", [
+    ({"cols": "2048"}, "cols"),
+    ({"cols": 2048.9}, "cols"),
+    ({"azimuth_step_deg": "-0.17578125"}, "azimuth_step_deg"),
+    ({"elevation_deg": ["1.0"] * 64}, "elevation_deg"),
+    ({"rows": True}, "rows"),
+    ({"rows": 63}, "rows"),
+])
+def test_beams_values_are_read_strictly(beams_file, mutation, key):
+    beams = json.loads(beams_file.read_text())
+    beams.update(mutation)
+    with pytest.raises(ValueError, match=key):
+        Spherical.from_beams(beams)
+
+
+# E25 of the 2026-11-25 hostile-input report
+@pytest.mark.parametrize("shift", [[1.5] * 64, [float("nan")] * 64, ["3"] * 64])
+def test_column_shifts_are_whole_numbers(os1, beams_file, tmp_path, capsys, shift):
+    beams = json.loads(beams_file.read_text())
+    beams["column_shift"] = shift
+    bad = tmp_path / "bad.json"
+    bad.write_text(json.dumps(beams))
+    assert main(["mesh", str(os1["bin"]), "--beams", str(bad), "--vertices", "200",
+                 "-o", str(tmp_path / "x.ply")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "column_shift" in err[0]
+
+
+# E28 of the 2026-11-25 hostile-input report
+def test_eval_reads_the_bin_scan_that_mesh_reads(os1, beams_file, tmp_path, capsys):
+    scan = os1["bin"]
+    out = tmp_path / "s.ply"
+    assert main(["mesh", str(scan), "--beams", str(beams_file), "--vertices", "1000", "-o", str(out),
+                 "--json"]) == 0
+    made = json.loads(capsys.readouterr().out)
+    assert main(["eval", str(scan), str(out), "--beams", str(beams_file), "--json"]) == 0
+    got = json.loads(capsys.readouterr().out)
+    assert got["relative_error"] == pytest.approx(made["evaluation"]["relative_error"], rel=1e-3)
+    assert got["uncovered"] == pytest.approx(made["evaluation"]["uncovered"], abs=1e-6)
+
+
+# E23 of the 2026-11-25 hostile-input report
+def test_a_bin_of_huge_values_reads_quietly_as_no_return(tmp_path):
+    path = tmp_path / "huge.bin"
+    pts = np.full((2 * 64, 4), 3e38, "<f4")  # x, y, z at float32's top: the range overflows
+    pts.tofile(path)
+    with np.errstate(all="raise"):
+        rng, _ = read_lidar_bin(path, 64, steps=2)
+    assert rng.shape == (64, 2) and np.isinf(rng).all()

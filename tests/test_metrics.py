@@ -3,10 +3,12 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
+import rangemesh
 from rangemesh import Pinhole, evaluate, render_depth, scenes, triangulate
 from rangemesh.mesh import Mesh, Stats
 
 from . import reference as ref
+from .helpers import chair_depths
 
 
 def test_relative_error_by_hand():
@@ -79,3 +81,34 @@ def test_dilate_square_is_scipys_binary_dilation(h, w, radius, seed):
     want = mask if radius == 0 else ndimage.binary_dilation(mask, structure=np.ones((3, 3), bool),
                                                             iterations=radius)
     assert np.array_equal(dilate_square(mask, radius), want)
+
+
+# ---------------------------------------------------------------- from the hostile-input reports
+
+
+# D24, D25 of the 2026-11-21 hostile-input report
+def test_evaluate_checks_a_hand_made_meshs_indices(chair):
+    m = rangemesh.triangulate(chair, background=0, method="paper")
+    import dataclasses
+
+    for bad in (-1, len(m.vertices)):
+        f = m.faces.copy()
+        f[3, 1] = bad
+        with pytest.raises(ValueError, match="out of range"):
+            rangemesh.evaluate(dataclasses.replace(m, faces=f), chair, background=0)
+
+
+# E23 of the 2026-11-25 hostile-input report
+def test_a_subnormal_depth_scale_evaluates_quietly_and_right():
+    import warnings
+
+    chair = chair_depths()
+    errors = []
+    for scale in (0.001, 1e-310):  # 1e-310: the 3-D depths are subnormal and 1/z overflows
+        cam = rangemesh.Pinhole(525, 525, 64, 64, scale)
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            mesh = rangemesh.triangulate(chair, background=0, camera=cam, vertices=500)
+            errors.append(rangemesh.evaluate(mesh, chair, background=0).relative_error)
+    # the prediction in stored units does not depend on the depth scale (before: 56.6 %)
+    assert errors[1] == pytest.approx(errors[0], rel=1e-9)

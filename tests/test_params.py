@@ -3,6 +3,7 @@ import dataclasses
 import numpy as np
 import pytest
 
+import rangemesh
 from rangemesh import MeshParams, Orthographic, Pinhole, backproject, to_depth_and_mask
 
 
@@ -40,3 +41,51 @@ def test_mask_from_markers():
     assert v.tolist() == [[True, True], [False, True]] and d[1, 0] == 0.0
     d, v = to_depth_and_mask(np.array([[np.nan, 1.0], [np.inf, -np.inf]]))
     assert v.tolist() == [[False, True], [False, False]]
+
+
+# ---------------------------------------------------------------- from the hostile-input reports
+
+
+# D7, D8 of the 2026-11-21 hostile-input report
+@pytest.mark.parametrize("kwargs, name", [
+    ({"vertices": "100"}, "vertices"),
+    ({"max_error": "1"}, "max_error"),
+    ({"max_edge": "5"}, "max_edge"),
+    ({"levels": "1"}, "levels"),
+    ({"tiles": "44"}, "tiles"),          # D8: not (4, 4)
+    ({"samples": "10"}, "samples"),      # D8: not (1, 0)
+    ({"fill_gaps": "no"}, "fill_gaps"),  # D8: not True
+    ({"fill_gaps": "False"}, "fill_gaps"),
+    ({"delta": "20"}, "delta"),
+    ({"threads": "2"}, "threads"),
+])
+def test_wrong_types_name_the_parameter(kwargs, name):
+    with pytest.raises(TypeError, match=name):
+        rangemesh.triangulate(np.ones((30, 30)), method="paper", **kwargs)
+
+
+# D8 of the 2026-11-21 hostile-input report
+def test_none_is_the_default_in_calls_and_refused_in_meshparams():
+    # a keyword left at None takes the method's default; MeshParams has no "not given"
+    a = rangemesh.triangulate(np.add.outer(np.arange(30.0), np.arange(30.0)), method="paper",
+                              levels=None)
+    b = rangemesh.triangulate(np.add.outer(np.arange(30.0), np.arange(30.0)), method="paper",
+                              levels=2)
+    assert np.array_equal(a.faces, b.faces)
+    with pytest.raises(TypeError, match="levels"):
+        rangemesh.MeshParams(levels=None)
+
+
+# D9 of the 2026-11-21 hostile-input report
+@pytest.mark.parametrize("value, pair", [
+    (np.int64(3), (3, 3)), (np.int32(3), (3, 3)), (np.float64(3.0), (3, 3)), (3.0, (3, 3)),
+    ((np.int16(2), np.uint8(3)), (2, 3)), ([2, 3], (2, 3)),
+])
+def test_numpy_whole_numbers_are_accepted(value, pair):
+    assert MeshParams(tiles=value).tiles == pair
+    assert isinstance(MeshParams(tiles=value).tiles[0], int)
+
+
+# D9 of the 2026-11-21 hostile-input report
+def test_flags_take_numpy_bools():
+    assert MeshParams(fill_gaps=np.bool_(False)).fill_gaps is False

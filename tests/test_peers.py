@@ -64,6 +64,13 @@ def test_budgets_benchmark_runs_on_one_scene():
     figures = [float(x) for cell in fastest[2:] for x in cell.replace("(", " ").replace(")", " ").split()]
     assert len(figures) == 6 and all(math.isfinite(x) and x >= 0 for x in figures)
     assert f"the bound held on {2 * scenes} of {2 * scenes} cases" in p.stdout
+    # two threads against one: a figure on every image, or n/a where the process has one core
+    threads = [line.strip("|").split("|") for line in p.stdout.splitlines()
+               if line.startswith("| all budgets |")]
+    assert len(threads) == 1 and threads[0][1].strip() == f"every image ({3 * scenes})", p.stdout[-2000:]
+    figures = [cell.strip() for cell in threads[0][2:4]]
+    assert figures == ["n/a", "n/a"] or all(math.isfinite(float(x)) and float(x) > 0 for x in figures)
+    assert p.stdout.startswith("commit ") and "load average" in p.stdout.splitlines()[0]
 
 
 def test_heights_benchmark_runs_on_one_scene():

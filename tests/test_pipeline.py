@@ -1,5 +1,8 @@
 """SPEC section 5, P1-P7, on synthetic scenes and on the real images of ../shared/data."""
 
+import math
+import os
+
 import numpy as np
 import pytest
 from hypothesis import given
@@ -16,10 +19,11 @@ from rangemesh import (
     scenes,
     triangulate,
 )
+from rangemesh.cli import main
 from rangemesh.pipeline import call_options
 from rangemesh.prepare import to_depth_and_mask
 
-from .helpers import assert_valid_mesh, canonical_faces
+from .helpers import assert_valid_mesh, canonical_faces, chair_depths, one_error_line
 from .images import REAL_IMAGES, load_or_crop
 
 FLIPS = ["disparity", "error", None]
@@ -248,3 +252,84 @@ def test_a_bad_error_bound_is_refused_naming_it(value, error):
 @pytest.mark.parametrize("value", [10, np.int64(10), 10.0])
 def test_a_vertex_count_of_any_integer_kind_is_taken(value):
     assert triangulate(np.add.outer(np.arange(8.0), np.arange(8.0) ** 2), vertices=value).stats.vertices == 10
+
+
+# ---------------------------------------------------------------- from the hostile-input reports
+
+
+# the memory rule (the 2026-11-21 hostile-input report)
+def test_an_image_larger_than_free_memory_is_refused_before_work(monkeypatch, chair, chair_file,
+                                                                  capsys):
+    import rangemesh.pipeline as pl
+
+    # 96 x 96 pixels x 20 bytes = 184,320 bytes: refuse with less available, mesh with more
+    monkeypatch.setattr(pl, "available_memory", lambda: 184_319)
+    with pytest.raises(MemoryError, match="96x96 image needs"):
+        rangemesh.triangulate(chair, background=0, method="paper")
+    one_error_line(capsys, main(["mesh", str(chair_file)]), match="memory")
+    monkeypatch.setattr(pl, "available_memory", lambda: 184_320)
+    assert not rangemesh.triangulate(chair, background=0, method="paper").is_empty
+
+
+# the memory rule (the 2026-11-21 hostile-input report)
+def test_free_memory_is_read_at_most_once_a_second(monkeypatch):
+    import builtins
+    import time
+
+    import rangemesh.pipeline as pl
+
+    if not os.path.exists("/proc/meminfo"):
+        pytest.skip("no /proc/meminfo on this system")
+    reads = []
+    real_open = builtins.open
+
+    def counting_open(path, *args, **kwargs):
+        if path == "/proc/meminfo":
+            reads.append(path)
+        return real_open(path, *args, **kwargs)
+
+    now = [1000.0]
+    monkeypatch.setattr(builtins, "open", counting_open)
+    monkeypatch.setattr(time, "monotonic", lambda: now[0])
+    monkeypatch.setattr(pl, "_meminfo", [-math.inf, None])
+    first = pl.available_memory()
+    assert first is not None and first > 0
+    now[0] += 0.5  # within MEMINFO_SECONDS: the value read before
+    assert pl.available_memory() == first and len(reads) == 1
+    now[0] += 0.6  # 1.1 s after the read: read again
+    pl.available_memory()
+    assert len(reads) == 2
+
+
+# E19 of the 2026-11-25 hostile-input report
+def test_refine_checks_the_memory_of_its_vertices_before_work(monkeypatch, capsys):
+    import rangemesh.pipeline as pl
+
+    chair = chair_depths()
+    # 96 x 96 pixels x 32 bytes + 500 vertices x 700 bytes = 294,912 + 350,000 = 644,912
+    monkeypatch.setattr(pl, "available_memory", lambda: 644_911)
+    with pytest.raises(MemoryError, match="96x96 image needs about .* with 500 vertices"):
+        rangemesh.triangulate(chair, background=0, vertices=500)
+    monkeypatch.setattr(pl, "available_memory", lambda: 644_912)
+    assert len(rangemesh.triangulate(chair, background=0, vertices=500).vertices) == 500
+    # the paper's method keeps its 20 bytes a pixel: 184,320 bytes
+    monkeypatch.setattr(pl, "available_memory", lambda: 184_320)
+    assert not rangemesh.triangulate(chair, background=0, method="paper").is_empty
+
+
+# E19 of the 2026-11-25 hostile-input report
+def test_an_error_bound_stops_where_memory_runs_out_and_says_so(monkeypatch, tmp_path, capsys):
+    import rangemesh.pipeline as pl
+
+    chair = chair_depths()
+    # room for 200 vertices beyond the 294,912 bytes of the pixels
+    monkeypatch.setattr(pl, "available_memory", lambda: 294_912 + 200 * 700)
+    with pytest.raises(MemoryError, match="needs more than 200 vertices"):
+        rangemesh.triangulate(chair, background=0, max_error=0.1)  # 2407 vertices with room
+    mesh = rangemesh.triangulate(chair, background=0, max_error=5.0)  # 68 vertices: they fit
+    assert mesh.stats.target.met and len(mesh.vertices) < 200
+    path = tmp_path / "chair.npy"
+    np.save(path, chair.astype(np.uint8))
+    assert main(["mesh", str(path), "--max-error", "0.1", "-o", str(tmp_path / "c.ply")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "needs more than 200 vertices" in err[0]

@@ -1,4 +1,4 @@
-"""Every example of README.md runs as written and prints the figures the README quotes.
+"""Every example of README.md and the user's pages of docs/ runs as written and prints what it says.
 
 - A ```python block runs as a script. Each ``print(...)  # text`` line states what it prints:
   the script's output lines must be those texts, in order.
@@ -18,7 +18,10 @@ from pathlib import Path
 
 import pytest
 
-README = Path(__file__).resolve().parents[1] / "README.md"
+ROOT = Path(__file__).resolve().parents[1]
+README = ROOT / "README.md"
+# the pages whose examples a user copies: the README and the guides of the documentation site
+PAGES = [README] + [ROOT / "docs" / name for name in ("index.md", "getting-started.md", "sensors.md")]
 
 FENCE = re.compile(r"^```(\w*)\n(.*?)^```", re.S | re.M)
 PRINT = re.compile(r"^\s*print\(.*\)\s*#\s?(?P<out>.*?)\s*$")
@@ -49,8 +52,9 @@ def quoted(line):
 
 
 EXAMPLES = blocks(README.read_text(encoding="utf-8"))
-PYTHON = [code for lang, code in EXAMPLES if lang == "python"]
-SHELL = [code for lang, code in EXAMPLES if lang == "bash" and shell_lines(code)]
+EVERY = [(page.stem, lang, code) for page in PAGES for lang, code in blocks(page.read_text(encoding="utf-8"))]
+PYTHON = [(page, code) for page, lang, code in EVERY if lang == "python"]
+SHELL = [(page, code) for page, lang, code in EVERY if lang == "bash" and shell_lines(code)]
 
 
 @pytest.fixture(scope="module")
@@ -80,9 +84,10 @@ def workdir(root, name):
 
 def test_readme_has_examples():
     assert len(PYTHON) >= 3
-    assert sum(len(shell_lines(code)) for code in SHELL) >= 10
+    assert sum(len(shell_lines(code)) for _, code in SHELL) >= 10
+    assert {page for page, _ in PYTHON} >= {"README", "index", "getting-started", "sensors"}
     # every printed line states what it prints
-    for code in PYTHON:
+    for _, code in PYTHON:
         prints = [line for line in code.splitlines() if line.lstrip().startswith("print(")]
         assert len(prints) == len(expected_prints(code)), prints
 
@@ -97,9 +102,9 @@ def test_readme_and_docstrings_state_the_orthographic_axes_the_code_uses():
 
     from .golden import crops
 
-    text = README.read_text(encoding="utf-8")
+    text = (ROOT / "docs" / "getting-started.md").read_text(encoding="utf-8")
     said = re.search(r"`Orthographic\(kx, ky, kz\)`[^)]*?x = (row|column), y = (row|column)", text)
-    assert said, "the README states Orthographic's axes"
+    assert said, "the guide states Orthographic's axes"
     # by hand: pixel row 4, column 1, depth 7 with kx = 1, ky = 10, kz = 1
     by_axis = {"row": 4.0, "column": 10.0}
     want = [by_axis[said[1]], by_axis[said[2]], 7.0]
@@ -127,9 +132,9 @@ def test_ci_runs_the_quick_start():
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("index", range(len(PYTHON)), ids=lambda i: f"python-{i + 1}")
+@pytest.mark.parametrize("index", range(len(PYTHON)), ids=lambda i: f"{PYTHON[i][0]}-python-{i + 1}")
 def test_python_block(index, beside_data):
-    code = PYTHON[index]
+    code = PYTHON[index][1]
     cwd = workdir(beside_data, f"python-{index + 1}")
     (cwd / "example.py").write_text(code, encoding="utf-8")
     p = subprocess.run([sys.executable, "example.py"], cwd=cwd, env=env(),
@@ -140,10 +145,10 @@ def test_python_block(index, beside_data):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("index", range(len(SHELL)), ids=lambda i: f"shell-{i + 1}")
+@pytest.mark.parametrize("index", range(len(SHELL)), ids=lambda i: f"{SHELL[i][0]}-shell-{i + 1}")
 def test_shell_block(index, beside_data):
     cwd = workdir(beside_data, f"shell-{index + 1}")
-    for line in shell_lines(SHELL[index]):
+    for line in shell_lines(SHELL[index][1]):
         p = subprocess.run(["bash", "-c", line], cwd=cwd, env=env(),
                            capture_output=True, text=True, timeout=300)
         assert p.returncode == 0, f"{line}\n{p.stderr}"

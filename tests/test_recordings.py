@@ -5,6 +5,7 @@ or are the real RealSense bag, and the markers we write are read back by `rosbag
 come from the arrays the fixtures wrote and from `rangemesh.triangulate` on them.
 """
 
+import csv
 import json
 import struct
 import subprocess
@@ -584,6 +585,41 @@ def test_a_damaged_compressed_frame_fails_alone_and_the_others_mesh(tmp_path, da
         np.testing.assert_array_equal(pts, want.vertices[want.faces].reshape(-1, 3))
 
 
+def test_mesh_bag_skips_a_damaged_frame_when_asked_and_stops_at_it_by_default(tmp_path):
+    # a generator that raised cannot go on: errors='skip' warns, names the frame and meshes the rest
+    from rangemesh.recordings import SkippedFrame
+
+    d = smooth()
+    _, good = compressed_depth(d, "16UC1")
+    path = compressed_bag(tmp_path / "b.bag", [good, good[:40], good])
+    (want,) = expected([d], 0.001)
+    with pytest.warns(SkippedFrame, match=rf"{DEPTH_TOPIC}@{stamp_of(1)}.*cannot be decoded.*skipped"):
+        got = list(mesh_bag(path, vertices=N, errors="skip"))
+    assert [stamp for stamp, _, _ in got] == [T0, T0 + 2 * PERIOD]
+    for _, _, mesh in got:
+        np.testing.assert_array_equal(mesh.vertices, want.vertices)
+    frames = mesh_bag(path, vertices=N)
+    assert next(frames).stamp == T0
+    with pytest.raises(ValueError, match=rf"{DEPTH_TOPIC}@{stamp_of(1)}"):
+        next(frames)
+    with pytest.raises(ValueError, match="errors must be 'raise' or 'skip'"):
+        mesh_bag(path, vertices=N, errors="ignore")
+
+
+def test_mesh_bag_leaves_the_callers_warnings_alone_between_frames(tmp_path):
+    import warnings
+
+    _, good = compressed_depth(smooth(), "16UC1")
+    path = compressed_bag(tmp_path / "b.bag", [good, good])
+    before = list(warnings.filters)
+    frames = mesh_bag(path, vertices=N)
+    next(frames)
+    silence = ("ignore", None, UserWarning, None, 0)  # what the generator silences frames with
+    # (imported libraries may add filters of their own on the first frame: those are not ours)
+    assert warnings.filters.count(silence) == before.count(silence)
+    frames.close()
+
+
 def test_the_cli_names_the_damaged_compressed_frame_and_meshes_the_rest(tmp_path, capsys):
     # F3: through the command, with and without --topic, and what info says of the topic
     _, good = compressed_depth(smooth(), "16UC1")
@@ -647,12 +683,19 @@ def test_folder_output_one_file_per_frame_named_by_stamp(bags, frames, tmp_path,
         np.testing.assert_allclose(np.asarray(o3.vertices), w.vertices, rtol=1e-6, atol=1e-9)
         rgb = w.with_colors(frames[1]).colors
         np.testing.assert_allclose(np.asarray(o3.vertex_colors) * 255, rgb, atol=1e-6)
-    # a second run skips what is there and loses nothing
+    # a second run skips what is there and loses nothing: the rows keep each mesh's figures
     code, _, err = _cli(["batch", bags["ros1"]["16UC1"], "-o", out, "--vertices", N,
-                         "--workers", 1], capsys)
+                         "--workers", 1, "--color-topic", COLOR_TOPIC], capsys)
     assert code == 0 and "skipped 3 (already there)" in err, err
-    rows = (out / "rangemesh-batch.csv").read_text().splitlines()
-    assert len(rows) == 4 and all(",skipped," in r for r in rows[1:])
+    with open(out / "rangemesh-batch.csv", newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    assert [r["status"] for r in rows] == ["meshed"] * 3
+    assert [int(r["vertices"]) for r in rows] == [len(w.vertices) for w in want]
+    # a run with other options is refused in one line that names --overwrite (exit status 2)
+    code, _, err = _cli(["batch", bags["ros1"]["16UC1"], "-o", out, "--vertices", 2 * N,
+                         "--workers", 1, "--color-topic", COLOR_TOPIC], capsys)
+    assert code == 2 and "other options" in err and "--overwrite" in err, err
+    assert sorted(p.name for p in out.glob("*.ply")) == names
 
 
 def test_info_lists_the_depth_topics(odd_bags, bags, capsys):

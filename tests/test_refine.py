@@ -19,7 +19,7 @@ import rangemesh
 from rangemesh import evaluate, scenes, triangulate
 from rangemesh.render import render_depth
 
-from .helpers import assert_valid_mesh
+from .helpers import assert_valid_mesh, chair_depths
 from .images import REAL_IMAGES, load_or_crop
 
 CROPS = Path(__file__).parent / "data" / "crops.npz"
@@ -733,3 +733,169 @@ def test_the_native_call_reads_the_fit_rules_at_each_call(monkeypatch):
     monkeypatch.setattr(heights, "OUTLIER_FLOOR", 1e9)
     copied = triangulate(depth, vertices=60)
     np.testing.assert_array_equal(copied.vertices[:, 2], own(copied))
+
+
+# ---------------------------------------------------------------- from the hostile-input reports
+
+
+def _collinear(points) -> bool:
+    p = np.asarray(points, np.int64)
+    d = p[1:] - p[0]
+    return bool((d[:, 0] * d[-1, 1] - d[:, 1] * d[-1, 0] == 0).all()) if len(p) > 2 else True
+
+
+E9_TARGETS = [{"vertices": 300}, {"max_error": 1.0}, {}, {"vertices": 2000, "walls": False}]
+
+
+# E3 of the 2026-11-25 hostile-input report
+def test_a_sparse_image_gives_each_vertex_one_fan():
+    from .helpers import assert_valid_mesh
+
+    z = np.array([[50., 0., 50.6, 50.9], [50.5, 0., 0., 0.], [0., 0., 0., 0.], [0., 0., 52.1, 0.],
+                  [0., 52.3, 52.6, 0.]])
+    mesh = rangemesh.triangulate(z, background=0, max_error=0.1)
+    assert len(mesh.faces)  # (0,0)-(1,0)-(0,3) and its neighbour: valid pixels, kept
+    assert_valid_mesh(mesh)  # before the fix: vertex (3, 2) joined two triangles by a point
+
+
+# E3 of the 2026-11-25 hostile-input report
+def test_random_sparse_images_give_each_vertex_one_fan():
+    from hypothesis import given, settings
+    from hypothesis import strategies as st
+
+    from .helpers import assert_valid_mesh
+
+    @settings(max_examples=2000, deadline=None)
+    @given(st.integers(3, 16), st.integers(3, 16), st.floats(0.05, 0.4), st.integers(0, 2**32 - 1),
+           st.sampled_from(["constant", "planar", "random"]), st.booleans())
+    def check(h, w, share, seed, kind, by_error):
+        rng = np.random.default_rng(seed)
+        r, c = np.mgrid[0:h, 0:w]
+        z = {"constant": np.full((h, w), 50.0), "planar": 50.0 + 0.3 * r + 0.2 * c,
+             "random": rng.uniform(40.0, 60.0, (h, w))}[kind]
+        z = np.where(rng.random((h, w)) < share, z, 0.0)
+        if (z > 0).sum() < 3:
+            return
+        kw = {"max_error": 1.0} if by_error else {"vertices": int((z > 0).sum())}
+        assert_valid_mesh(rangemesh.triangulate(z, background=0, **kw))
+
+    check()
+
+
+# E21 of the 2026-11-25 hostile-input report
+@pytest.mark.parametrize("shape, target", [((3, 100), {"vertices": 10}), ((2, 2), {"max_error": 1})])
+def test_all_background_small_images_give_the_empty_mesh(shape, target):
+    mesh = rangemesh.triangulate(np.zeros(shape), background=0, **target)
+    assert len(mesh.faces) == 0 and "no valid pixel" in mesh.stats.reason
+
+
+# E18 of the 2026-11-25 hostile-input report
+@pytest.mark.parametrize("target", [{"vertices": 3}, {"vertices": 100}, {"max_error": 0.1}, {}])
+def test_three_valid_corners_give_their_triangle(target):
+    from .helpers import assert_valid_mesh
+
+    z = np.zeros((20, 20))
+    z[0, 0], z[0, 19], z[19, 0] = 10, 11, 12  # three valid image corners, the fourth background
+    mesh = rangemesh.triangulate(z, background=0, **target)
+    assert_valid_mesh(mesh, z > 0)
+    assert sorted(map(tuple, mesh.pixels.tolist())) == [(0, 0), (0, 19), (19, 0)]
+    # the corners' own depths: a plane through three points fits them exactly
+    assert sorted(mesh.vertices[:, 2]) == [10.0, 11.0, 12.0]
+
+
+# E18 of the 2026-11-25 hostile-input report
+def test_three_pixels_of_a_2x2_image_and_three_blobs_give_a_mesh():
+    mesh = rangemesh.triangulate(np.array([[10., 10.], [200., 0.]]), background=0, max_error=0.5,
+                                 fill_gaps=False)
+    assert len(mesh.faces) == 1 and mesh.stats.target.met  # a triangle of its three pixels: exact
+    z = np.zeros((100, 100))
+    z[:2, :2], z[-2:, :2], z[:2, -2:] = 10.0, 11.0, 12.0
+    mesh = rangemesh.triangulate(z, background=0, vertices=3)
+    assert len(mesh.vertices) == 3 and len(mesh.faces) == 1
+
+
+# E18 of the 2026-11-25 hostile-input report
+def test_an_empty_mesh_only_when_no_triangle_of_valid_pixels_exists():
+    from hypothesis import given, settings
+    from hypothesis import strategies as st
+
+    from .helpers import assert_valid_mesh
+
+    @settings(max_examples=300, deadline=None)
+    @given(st.integers(2, 30), st.integers(2, 30), st.integers(0, 8), st.integers(0, 2**32 - 1),
+           st.booleans(), st.sampled_from([{"vertices": 3}, {"vertices": 4}, {"vertices": 50},
+                                          {"max_error": 0.1}, {"max_error": 5.0}, {}]))
+    def check(h, w, k, seed, fill_gaps, target):
+        rng = np.random.default_rng(seed)
+        z = np.zeros((h, w))
+        if rng.random() < 0.3:  # all on one line: a row, a column or a diagonal
+            t = np.unique(rng.integers(0, min(h, w), k))
+            line = [(t, t), (t, np.zeros_like(t)), (np.zeros_like(t), t)][int(rng.integers(3))]
+            z[line] = rng.uniform(5.0, 50.0, len(t))
+        else:
+            z[rng.integers(0, h, k), rng.integers(0, w, k)] = rng.uniform(5.0, 50.0, k)
+        mesh = rangemesh.triangulate(z, background=0, fill_gaps=fill_gaps, **target)
+        pts = np.argwhere(z > 0)  # gap filling needs 8 valid neighbours: never on a line
+        if len(pts) >= 3 and not _collinear(pts):
+            assert len(mesh.faces), mesh.stats.reason
+            assert_valid_mesh(mesh, z > 0)
+        else:
+            assert len(mesh.faces) == 0
+            reason = mesh.stats.reason
+            if len(pts) == 0:
+                assert "no valid pixel" in reason
+            elif len(pts) < 3:
+                assert f"only {len(pts)} valid pixel" in reason
+            else:
+                assert f"the {len(pts)} valid pixels lie on one line" in reason
+
+    check()
+
+
+# E9 of the 2026-11-25 hostile-input report
+@pytest.mark.parametrize("target", E9_TARGETS)
+def test_refine_is_the_same_for_depths_times_any_power_of_two(target):
+    from .helpers import canonical_faces
+
+    chair = chair_depths()
+    base = rangemesh.triangulate(chair, background=0, **target)
+    base_error = rangemesh.evaluate(base, chair, background=0).relative_error
+    for k in (-1000, -600, -540, -65, -1, 1, 65, 200, 500, 1000):
+        z = np.ldexp(chair, k)  # exact: chair's depths are 7 .. 254
+        cam = rangemesh.Orthographic(1, 1, 2.0**-k)  # the same 3-D points in every unit
+        mesh = rangemesh.triangulate(z, background=0, camera=cam, **target)
+        assert np.array_equal(canonical_faces(mesh), canonical_faces(base)), k
+        assert np.array_equal(mesh.vertices, base.vertices), k  # fitted depths too, bit for bit
+        assert mesh.stats.target.achieved == base.stats.target.achieved
+        assert rangemesh.evaluate(mesh, z, background=0).relative_error == \
+            pytest.approx(base_error, rel=1e-12)
+
+
+# E9 of the 2026-11-25 hostile-input report
+def test_a_pinhole_mesh_is_the_same_in_any_depth_unit():
+    chair = chair_depths()
+    base = rangemesh.triangulate(chair, background=0, vertices=300,
+                                 camera=rangemesh.Pinhole(100, 100, 64, 64, 0.01))
+    for k in (-700, 600):
+        cam = rangemesh.Pinhole(100, 100, 64, 64, 0.01 * 2.0**-k)
+        mesh = rangemesh.triangulate(np.ldexp(chair, k), background=0, vertices=300, camera=cam)
+        assert np.array_equal(mesh.faces, base.faces) and np.array_equal(mesh.pixels, base.pixels)
+        assert np.array_equal(mesh.vertices, base.vertices)
+
+
+# E9 of the 2026-11-25 hostile-input report
+@pytest.mark.parametrize("target", E9_TARGETS[:3])
+@pytest.mark.parametrize("scale", [1e154, 1e-200])
+def test_decimal_depth_scales_give_the_same_triangles(target, scale):
+    # (with walls=False an edge whose step is exactly the jump rule's threshold, 1 against
+    # 0.05 x 20, falls either way with the last-place rounding of chair * 1e-200: not compared)
+    from .helpers import canonical_faces
+
+    chair = chair_depths()
+    base = rangemesh.triangulate(chair, background=0, **target)
+    z = chair * scale
+    mesh = rangemesh.triangulate(z, background=0, camera=rangemesh.Orthographic(1, 1, 1 / scale),
+                                 **target)
+    assert np.array_equal(canonical_faces(mesh), canonical_faces(base))
+    assert rangemesh.evaluate(mesh, z, background=0).relative_error == pytest.approx(
+        rangemesh.evaluate(base, chair, background=0).relative_error, rel=1e-9)

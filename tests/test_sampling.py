@@ -5,6 +5,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
+import rangemesh
 from rangemesh import MeshParams, _core, curvature, fill_gaps, sample_grid, sampling_weights
 from rangemesh.paper.sampling import tile_bounds
 
@@ -171,3 +172,35 @@ def test_weights_into_a_strided_buffer_are_the_same():
     got = sampling_weights(d, v, p, out=buffer[:, ::2])
     assert got.base is buffer  # written where asked
     assert np.array_equal(got, sampling_weights(d, v, p))
+
+
+# ---------------------------------------------------------------- from the hostile-input reports
+
+
+# D3 of the 2026-11-21 hostile-input report
+def test_subnormal_depths_give_the_same_samples(chair):
+    z = chair.astype(np.float64)
+    tiny = z * 2.0**-1030  # subnormal, and exact: chair values are integers below 256
+    assert 0 < tiny[tiny > 0].max() < np.finfo(np.float64).tiny
+    a = rangemesh.triangulate(z, background=0, flips=None, method="paper")
+    b = rangemesh.triangulate(tiny, background=0, flips=None, method="paper")  # warnings are errors here
+    assert np.array_equal(a.pixels, b.pixels) and np.array_equal(a.faces, b.faces)
+    ev = rangemesh.evaluate(b, tiny, background=0)
+    assert np.isfinite(ev.relative_error)
+    assert ev.relative_error == pytest.approx(rangemesh.evaluate(a, z, background=0).relative_error)
+
+
+# D6 of the 2026-11-21 hostile-input report
+@pytest.mark.parametrize("samples", [10_000, 10**6, 10**9])
+def test_huge_sample_grids_are_refused_before_allocating(chair, samples):
+    with pytest.raises(ValueError, match="samples"):
+        rangemesh.triangulate(chair, samples=samples, method="paper")
+
+
+# D6 of the 2026-11-21 hostile-input report
+def test_small_images_keep_sample_grids_up_to_65536(chair):
+    # 4 tiles of 24 px with 60 samples each: a 237x237 grid (56,169 entries) on 9,216 px
+    m = rangemesh.triangulate(chair, background=0, samples=60, method="paper")
+    assert m.stats.grid_shape == (237, 237)
+    with pytest.raises(ValueError, match="at most 65536"):
+        rangemesh.triangulate(chair, background=0, samples=66, method="paper")  # 261 x 261 = 68,121

@@ -149,3 +149,66 @@ def test_cli_targets(tmp_path, capsys):
     assert main(["mesh", src, "--method", "paper", "--max-edge", "10", "--samples", "4x4",
                  "-o", str(tmp_path / "p.ply")]) == 2
     assert "exclude" in capsys.readouterr().err
+
+
+# ---------------------------------------------------------------- from the hostile-input reports
+
+
+def _near_constant(seed, shape=(13, 15)):
+    # 50 with steps of 1e-13: the depth range is about 30 units in the last place of 50
+    return 50.0 + np.random.default_rng(seed).integers(-1, 2, shape) * 1e-13
+
+
+# D10 of the 2026-11-21 hostile-input report
+@pytest.mark.parametrize("target", [{"vertices": 500}, {"max_error": 1.0}, {"vertices": 2000}])
+def test_max_edge_with_a_target_covers_the_image(target):
+    z = scenes.crease((120, 120)).depth  # every pixel valid
+    m = rangemesh.triangulate(z, background=0, max_edge=5, method="paper", **target)
+    assert rangemesh.evaluate(m, z, background=0).uncovered == 0.0
+    p = m.pixels[m.faces].astype(float)
+    assert np.sqrt(((p - np.roll(p, 1, axis=1)) ** 2).sum(-1)).max() <= 5.0
+    assert_valid_mesh(m)
+
+
+# D10 of the 2026-11-21 hostile-input report
+def test_a_vertex_target_unreachable_under_max_edge_says_why():
+    z = scenes.crease((120, 120)).depth
+    m = rangemesh.triangulate(z, background=0, vertices=500, max_edge=5, method="paper")
+    # a 120x120 image with edges <= 5 px needs at least (119/5)^2 ~ 566 points
+    assert m.stats.vertices > 566
+    assert not m.stats.target.met
+    assert "max_edge" in m.stats.target.note
+
+
+# E31 of the 2026-11-25 hostile-input report
+def test_three_vertices_on_a_full_image_names_the_corners():
+    z = np.add.outer(np.arange(20.0), np.arange(30.0)) ** 1.3
+    mesh = rangemesh.triangulate(z, vertices=3)
+    assert len(mesh.vertices) == 4  # the image rectangle cut in two: its four corners
+    note = mesh.stats.target.note
+    assert "corners are always vertices" in note and "background" not in note
+
+
+# E22 of the 2026-11-25 hostile-input report
+@pytest.mark.parametrize("bound", [1e-9, 0.001, 0.01])
+@pytest.mark.parametrize("seed", [0, 3])
+def test_a_reachable_bound_is_met_on_a_near_constant_image(seed, bound):
+    z = _near_constant(seed)
+    mesh = rangemesh.triangulate(z, max_error=bound)
+    target = mesh.stats.target
+    assert target.met and target.achieved <= bound, target  # before: 8 meshings, "not reached"
+    assert rangemesh.evaluate(mesh, z).relative_error <= bound
+    assert len(mesh.vertices) <= z.size
+
+
+# E22 of the 2026-11-25 hostile-input report
+@pytest.mark.parametrize("seed", range(6))
+def test_every_valid_pixel_a_vertex_renders_exactly(seed):
+    # a vertex's own pixel is predicted by its own depth, whatever its triangles' areas (those
+    # across holes are larger than half a pixel: (s * z) / s rounds for s = 3, 6, 7, ...)
+    z = _near_constant(seed, (9, 11))
+    z[np.random.default_rng(seed + 100).random(z.shape) < 0.5] = 0.0
+    n = int((z > 0).sum())
+    mesh = rangemesh.triangulate(z, background=0, vertices=n, heights="pixel", fill_gaps=False)
+    assert len(mesh.vertices) == n
+    assert rangemesh.evaluate(mesh, z, background=0).max_error == 0.0

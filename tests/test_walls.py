@@ -1,12 +1,15 @@
 """walls=False: greedy insertion drops the triangles that bridge depth jumps."""
 
+import json
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import rangemesh
-from rangemesh import evaluate, scenes, triangulate
+from rangemesh import Spherical, evaluate, scenes, triangulate
+from rangemesh.io import read_lidar_bin
 from rangemesh.refine.walls import wall_faces
 
 from .helpers import assert_valid_mesh
@@ -175,3 +178,74 @@ def test_greedy_meshes_are_the_same_bit_for_bit_run_after_run(kw):
     b = triangulate(sc.depth.copy(), vertices=300, **kw)
     assert np.array_equal(a.faces, b.faces) and np.array_equal(a.pixels, b.pixels)
     assert a.vertices.tobytes() == b.vertices.tobytes()
+
+
+# ---------------------------------------------------------------- from the hostile-input reports
+
+
+SCAN = "lidar/rellis3d_os1-64_000000"
+
+
+def _os1_scan(shared_data):
+    beams = shared_data / f"{SCAN}.beams.json"
+    shift = json.loads(beams.read_text())["column_shift"]
+    img, _ = read_lidar_bin(shared_data / f"{SCAN}.bin", 64, column_shift=shift)
+    return img, Spherical.from_beams(beams)
+
+
+# E23 of the 2026-11-25 hostile-input report
+def test_a_huge_jump_is_quiet_and_drops_no_wall():
+    z = np.ones((20, 30)) * 1e10
+    z[:, 15:] = 2e10  # a jump of 1e10: a wall for any sensible jump rule
+    with np.errstate(all="raise"):
+        m = rangemesh.triangulate(z, vertices=60, walls=False, jump=1e308)
+    assert m.stats.target.walls_dropped == 0
+
+
+# E2 of the 2026-11-25 hostile-input report
+@pytest.mark.parametrize("jump, vertices", [(0.01, 4000), (0.005, 800), (0.01, 800),
+                                            (0.02, 800), (0.02, 4000), (0.02, 15000),
+                                            (0.05, 4000)])
+def test_walls_dropped_on_a_360_degree_scan_give_each_vertex_one_fan(shared_data, jump,
+                                                                         vertices):
+    from .helpers import assert_valid_mesh, canonical_faces
+
+    img, cam = _os1_scan(shared_data)
+    kw = {"background": 0, "camera": cam, "vertices": vertices, "walls": False, "jump": jump}
+    mesh = rangemesh.triangulate(img, **kw)
+    # before the fix (0.01, 4000): the vertex at pixel (63, 0) had two fans
+    assert_valid_mesh(mesh, wrap=True, check_overlap=vertices <= 800)
+    # the seam only adds faces: the open mesh's vertices and faces all stay
+    open_ = rangemesh.triangulate(img, wrap=False, **kw)
+    assert np.array_equal(mesh.pixels, open_.pixels)
+    both = {tuple(t) for t in canonical_faces(mesh).tolist()}
+    assert {tuple(t) for t in canonical_faces(open_).tolist()} <= both
+
+
+# E2 of the 2026-11-25 hostile-input report
+def test_seam_strips_keep_every_mesh_a_surface():
+    from hypothesis import given, settings
+    from hypothesis import strategies as st
+
+    from .helpers import assert_valid_mesh
+
+    # narrow images: faces across the whole width are common, and walls and holes at the seam
+    @settings(max_examples=400, deadline=None)
+    @given(st.integers(3, 14), st.integers(3, 12), st.integers(0, 2**32 - 1), st.booleans(),
+           st.floats(0.0, 0.4), st.sampled_from([0.005, 0.01, 0.05, 0.2]),
+           st.one_of(st.integers(3, 200).map(lambda n: {"vertices": n}),
+                     st.sampled_from([0.1, 1.0, 5.0]).map(lambda e: {"max_error": e})))
+    def check(h, w, seed, walls, holes, jump, target):
+        rng = np.random.default_rng(seed)
+        z = rng.uniform(10.0, 12.0, (h, w))
+        for _ in range(rng.integers(0, 4)):  # blocks nearer or farther: walls at their edges
+            r0, c0 = rng.integers(0, h), rng.integers(0, w)
+            z[r0:r0 + rng.integers(1, h), c0:c0 + rng.integers(1, w)] *= rng.choice([0.5, 2.0])
+        z[rng.random((h, w)) < holes] = 0.0
+        if (z > 0).sum() < 3:
+            return
+        opts = {} if walls else {"walls": False, "jump": jump}
+        mesh = rangemesh.triangulate(z, background=0, wrap=True, **opts, **target)
+        assert_valid_mesh(mesh, wrap=True)
+
+    check()

@@ -50,6 +50,7 @@ _LAZY = {
     "mesh_many": "batch",
     "mesh_stream": "batch",
     "mesh_bag": "recordings",
+    "live": "live",
     "calibrate_delta": "calibrate",
     "triangle_disparities": "calibrate",
 }
@@ -73,6 +74,7 @@ __all__ = [
     "evaluate",
     "fill_gaps",
     "flip_edges",
+    "live",
     "mesh_bag",
     "mesh_many",
     "mesh_stream",

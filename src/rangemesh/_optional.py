@@ -15,6 +15,9 @@ EXTRAS = {
     "distributed": "dask",
     "open3d": "open3d",
     "rosbags": "ros",
+    "foxglove": "live",
+    "pyrealsense2": "realsense",
+    "ouster": "ouster",
 }
 
 

@@ -266,7 +266,7 @@ def _one(path: str, out: str, call: dict, background, camera, overwrite: bool,
         if mesh.is_empty:
             raise ValueError(f"nothing to mesh: {mesh.stats.reason}")
         ev = evaluate(mesh, img, background=background)
-        write_mesh(mesh, out)
+        write_mesh(mesh, out, pixels=getattr(camera, "z_depth", False))  # as `rangemesh mesh`
     except Exception as exc:  # one bad file must not stop the batch: report it in one line
         msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         return BatchResult(path, out, "failed", error=f"{type(exc).__name__}: {msg}",

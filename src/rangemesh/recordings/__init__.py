@@ -9,7 +9,7 @@
   in this process or on Dask workers).
 """
 
-from .meshing import MeshFrame, mesh_bag, mesh_recording
+from .meshing import MeshFrame, SkippedFrame, mesh_bag, mesh_recording
 from .reading import Recording, is_recording
 
-__all__ = ["mesh_bag", "mesh_recording", "MeshFrame", "Recording", "is_recording"]
+__all__ = ["mesh_bag", "mesh_recording", "MeshFrame", "SkippedFrame", "Recording", "is_recording"]

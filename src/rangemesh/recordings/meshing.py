@@ -16,7 +16,17 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import NamedTuple
 
-from ..batch import BatchResult, _clean_stale_parts, dask_client, progress_bar, write_report
+from ..batch import (
+    BatchResult,
+    _clean_stale_parts,
+    _earlier_report,
+    _options_record,
+    _other_options,
+    _report_rows,
+    dask_client,
+    progress_bar,
+    write_report,
+)
 from ..io import MESH_SUFFIXES, write_mesh
 from ..mesh import Mesh
 from ..metrics import evaluate
@@ -91,8 +101,8 @@ def mesh_frame(frame: Frame, call: dict, how: str = "pixel") -> tuple[Mesh, obje
 
 def mesh_bag(path: str | os.PathLike, topic: str | None = None, *, color_topic: str | None = None,
              camera=None, camera_info_topic: str | None = None, color_how: str = "pixel",
-             method: str = "refine", vertices: int | None = None, max_error: float | None = None,
-             **options) -> Iterator[MeshFrame]:
+             errors: str = "raise", method: str = "refine", vertices: int | None = None,
+             max_error: float | None = None, **options) -> Iterator[MeshFrame]:
     """Mesh every depth message of a recording, in its order: ``(stamp, frame_id, mesh)``.
 
     Parameters
@@ -115,6 +125,11 @@ def mesh_bag(path: str | os.PathLike, topic: str | None = None, *, color_topic: 
         Take the CameraInfo from this topic.
     color_how : {'pixel', 'mean'}, default 'pixel'
         As `Mesh.with_colors`'s ``how``.
+    errors : {'raise', 'skip'}, default 'raise'
+        A frame that cannot be meshed (damaged data, an encoding refused, too
+        large): ``'raise'`` ends the iteration with its error; ``'skip'``
+        warns (`SkippedFrame`, naming the frame and why) and goes on with the
+        next frame, as ``rangemesh batch`` does.
     method, vertices, max_error, **options
         As for `rangemesh.triangulate`, checked once, before the first frame.
 
@@ -130,8 +145,9 @@ def mesh_bag(path: str | os.PathLike, topic: str | None = None, *, color_topic: 
     ------
     FileNotFoundError, ValueError
         At the call: no recording there, no such depth topic, no CameraInfo
-        and no `camera`, bad options. While iterating: a frame that cannot be
-        meshed (its encoding, damaged data), naming the frame.
+        and no `camera`, bad options. While iterating, with ``errors='raise'``:
+        a frame that cannot be meshed (its encoding, damaged data), naming the
+        frame.
     ImportError
         `rosbags` is missing (``pip install "rangemesh[ros]"``).
 
@@ -140,21 +156,42 @@ def mesh_bag(path: str | os.PathLike, topic: str | None = None, *, color_topic: 
     ``for stamp, frame_id, mesh in rangemesh.mesh_bag("run.bag", vertices=2000): ...`` (the
     README's "Recordings" runs it on the shared RealSense bag).
     """
+    if errors not in ("raise", "skip"):
+        raise ValueError(f"errors must be 'raise' or 'skip', got {errors!r}")
     call = resolve(method, vertices, max_error, dict(options))
     with Recording(path) as rec:  # checked at the call, not at the first next()
         rec.frames(topic, color_topic=color_topic, camera=camera,
                    camera_info_topic=camera_info_topic)
-    return _meshes(path, topic, color_topic, camera, camera_info_topic, call, color_how)
+    return _meshes(path, topic, color_topic, camera, camera_info_topic, call, color_how, errors)
 
 
-def _meshes(path, topic, color_topic, camera, camera_info_topic, call, how):
+class SkippedFrame(UserWarning):
+    """`mesh_bag(..., errors='skip')` skipped a frame that cannot be meshed; the message says why."""
+
+
+def _meshes(path, topic, color_topic, camera, camera_info_topic, call, how, errors):
     import warnings
 
-    with Recording(path) as rec, warnings.catch_warnings():
-        warnings.simplefilter("ignore", UserWarning)  # said once, at the call
-        for frame in rec.frames(topic, color_topic=color_topic, camera=camera,
-                                camera_info_topic=camera_info_topic):
-            mesh, _ = mesh_frame(frame, call, how)
+    with Recording(path) as rec:
+        frames = rec.frames(topic, color_topic=color_topic, camera=camera,
+                            camera_info_topic=camera_info_topic)
+        while True:
+            # silenced only while a frame is read and meshed: what they warn was said at the
+            # call, and the caller's own code between frames keeps its warnings
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", UserWarning)
+                frame = next(frames, None)
+                if frame is None:
+                    return
+                try:
+                    mesh, _ = mesh_frame(frame, call, how)
+                except (ValueError, MemoryError) as exc:
+                    if errors == "raise":
+                        raise
+                    mesh = exc
+            if isinstance(mesh, Exception):
+                warnings.warn(f"{mesh}; skipped", SkippedFrame, stacklevel=2)
+                continue
             yield MeshFrame(frame.stamp, frame.frame_id, mesh)
 
 
@@ -216,8 +253,10 @@ def mesh_recording(path: str | os.PathLike, output: str | os.PathLike, topic: st
         As for `rangemesh.mesh_many`. ``workers=1`` (and no scheduler) meshes
         in this process, without Dask.
     overwrite : bool, default False
-        A folder: mesh again frames whose file is there (else skipped). An
-        MCAP file: replace it (else an existing file is an error).
+        A folder: mesh again frames whose file is there (else skipped, their
+        earlier rows kept in the report); without it, a folder whose meshes
+        were made with other options is an error. An MCAP file: replace it
+        (else an existing file is an error).
     fmt : str, default '.ply'
         The mesh files' format, one of ``MESH_SUFFIXES`` (folder output).
     write_options : dict, optional
@@ -261,6 +300,13 @@ def mesh_recording(path: str | os.PathLike, output: str | os.PathLike, topic: st
                 _clean_stale_parts(report_dir, name)
             sink = _BagSink(output, marker_topic or dt.topic.rstrip("/") + "/mesh")
         else:
+            # a folder keeps its record: the options its meshes were made with, and every row
+            record = {**_options_record(call, BACKGROUND, camera, fmt, None), "topic": dt.topic,
+                      "color_topic": color_topic, "camera_info_topic": camera_info_topic,
+                      "color_how": color_how, "write": write_options or {}}
+            earlier = _earlier_report(output)
+            if earlier.get("options") not in (None, record) and not overwrite:
+                raise ValueError(_other_options(output, earlier["options"], record))
             output.mkdir(parents=True, exist_ok=True)
             _clean_stale_parts(output)
             report_dir, names = output, None
@@ -276,7 +322,8 @@ def mesh_recording(path: str | os.PathLike, output: str | os.PathLike, topic: st
                 bar.close()
     wall = time.perf_counter() - t0
     if names is None:
-        write_report(results, report_dir, wall)
+        write_report(_report_rows(earlier.get("results", ()), results), report_dir, wall,
+                     counted=results, options=record)
     else:
         write_report(results, report_dir, wall, names)
     return results

@@ -23,11 +23,11 @@ from .._core import (
 from ..camera import Orthographic, backproject, pixel_aspect
 from ..mesh import Mesh, Stats, empty_mesh, with_fields
 from ..render import deviation_scale, relative_error
+from . import threads as _threads
 from .heights import fit_heights, height_rule
 from .start import corner_depths, first_mesh, hull_mesh, valid_hull
 from .strips import SEAM_DENSITY, SEAM_ERROR_SHARE, strip_insert, use_strips
-from . import threads as _threads
-from .walls import pixel_angle, drop_walls
+from .walls import drop_walls, pixel_angle
 
 __all__ = ["greedy_mesh", "corner_depths", "first_mesh", "delaunay_scales"]
 

@@ -18,7 +18,6 @@ namespace rangemesh::bind {
 
 namespace {
 
-using refine::EdgeOwnership;
 using refine::FirstMesh;
 using refine::FlipCount;
 using refine::FlipMesh;

@@ -66,6 +66,16 @@ struct HeapView {
         slot[x] = i;
     }
 
+    // Add id `x` with the key `key` to the heap of `n` entries, which then holds one more:
+    // O(log n). The arrays must have room for position n.
+    void push(index_t x, double key, index_t& n) const {
+        keys[n] = key;
+        heap[n] = x;
+        slot[x] = n;
+        sift_up(n);
+        ++n;
+    }
+
     // Give id `x` the key `key` and restore the heap of `n` entries: O(log n).
     void rekey(index_t x, double key, index_t n) const {
         index_t i = slot[x];

@@ -2,15 +2,14 @@
 
 #include <algorithm>
 #include <cmath>
-#include <exception>
 #include <stdexcept>
-#include <thread>
 #include <utility>
 
 #include "../geometry/predicates.hpp"
 #include "../geometry/raster.hpp"
 #include "../interrupt.hpp"
-#include "../refine/ownership.hpp"
+#include "../parallel.hpp"
+#include "../geometry/ownership.hpp"
 
 namespace rangemesh::heights {
 
@@ -62,18 +61,13 @@ index_t visit_pixels(const FitMesh& mesh, const FitImage& image, Corners v, inde
     if (area == 0) return 0;
     const double az = mesh.values[v.a], bz = mesh.values[v.b], cz = mesh.values[v.c];
     const double inv = 1.0 / static_cast<double>(area);
-    const bool own_ab = refine::owns(ar, ac, br, bc);
-    const bool own_bc = refine::owns(br, bc, cr, cc);
-    const bool own_ca = refine::owns(cr, cc, ar, ac);
+    const EdgeOwnership own{owns(ar, ac, br, bc), owns(br, bc, cr, cc), owns(cr, cc, ar, ac)};
     TriangleRows walk(ar, ac, br, bc, cr, cc, first, row_stride);
     // the edge functions grow by these a column (integers, held exactly as float64 too: the
     // floats the weights are made of, without keeping six of them in registers)
     const index_t d0 = br - ar, d1 = cr - br, d2 = ar - cr;
     index_t count = 0;
-    for (index_t r = first; r <= bottom; r += row_stride) {
-        if (r > first) walk.next_row();
-        const RowSpan span = walk.columns(own_ab, own_bc, own_ca);
-        if (span.first > span.last) continue;
+    owned_rows(walk, first, bottom, row_stride, own, [&](index_t r, const RowSpan& span) {
         const bool* valid = image.valid.row(r);
         const double* values = image.values.row(r);
         index_t w0 = span.w0, w1 = span.w1, w2 = span.w2;
@@ -89,7 +83,8 @@ index_t visit_pixels(const FitMesh& mesh, const FitImage& image, Corners v, inde
             w1 += d1;
             w2 += d2;
         }
-    }
+        return true;
+    });
     return count;
 }
 
@@ -155,27 +150,12 @@ index_t fit_blocks(const FitMesh& mesh, const FitImage& image, Span<const index_
     require(blocks.size == order.size, "fit: one block a visited face");
     const index_t n = order.size;
     if (threads < 2 || n < SPLIT_MIN_FACES) return accumulate(mesh, image, order, threshold, blocks, 0, n);
-    // the first half on a worker thread, the second here; each face writes its own block
-    const index_t half = n / 2;
-    index_t used_first = 0;
-    std::exception_ptr failed;
-    std::thread worker = polled_thread([&] {
-        try {
-            used_first = accumulate(mesh, image, order, threshold, blocks, 0, half);
-        } catch (...) {
-            failed = std::current_exception();
-        }
+    // two halves, each on a thread; each face writes its own block
+    index_t used[2] = {0, 0};
+    split_run(2, n, [&](index_t k, index_t begin, index_t end) {
+        used[k] = accumulate(mesh, image, order, threshold, blocks, begin, end);
     });
-    index_t used_second = 0;
-    try {
-        used_second = accumulate(mesh, image, order, threshold, blocks, half, n);
-    } catch (...) {
-        worker.join();
-        throw;
-    }
-    worker.join();
-    if (failed) std::rethrow_exception(failed);
-    return used_first + used_second;
+    return used[0] + used[1];
 }
 
 }  // namespace rangemesh::heights

@@ -1,8 +1,8 @@
 // The fit's passes over the pixels: each valid pixel visited once, by the face that owns it.
 //
-// An interior pixel belongs to its face; a pixel on a shared edge to one side only
-// (`refine::owns`); a pixel on the mesh's border to its face when that rule says so (else the
-// fit does not use it). Rows are walked over their exact integer spans (`TriangleRows`).
+// An interior pixel belongs to its face; a pixel on a shared edge to one side only (`owns`,
+// geometry/ownership.hpp); a pixel on the mesh's border to its face when that rule says so (else
+// the fit does not use it). Rows are walked over their exact integer spans (`owned_rows`).
 #pragma once
 
 #include "../views.hpp"

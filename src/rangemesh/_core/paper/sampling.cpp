@@ -3,12 +3,11 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
-#include <exception>
-#include <thread>
 #include <vector>
 
 #include "../geometry/predicates.hpp"
 #include "../interrupt.hpp"
+#include "../parallel.hpp"
 
 namespace rangemesh::paper {
 
@@ -204,33 +203,10 @@ void sample_tiles(Grid<const double> f, const Tiling& tiling, const SampleGrid& 
                 "sample_tiles: column borders must increase inside the image");
     const index_t n_tiles = tiling.n_rows() * tiling.n_cols();
     const index_t n_threads = std::clamp<index_t>(workers, 1, n_tiles);
-    if (n_threads == 1) {
-        sample_tile_range(f, tiling, grid, 0, n_tiles);
-        return;
-    }
     // a fixed split: thread k takes tiles [k T / n, (k + 1) T / n); each sample has one writer
-    std::vector<std::exception_ptr> failed(n_threads);
-    std::vector<std::thread> threads;
-    struct JoinAll {
-        std::vector<std::thread>& threads;
-        ~JoinAll() {
-            for (std::thread& t : threads) t.join();
-        }
-    } join_all{threads};  // joined even when starting a thread throws
-    auto work = [&](index_t k) {
-        try {
-            sample_tile_range(f, tiling, grid, k * n_tiles / n_threads, (k + 1) * n_tiles / n_threads);
-        } catch (...) {
-            failed[k] = std::current_exception();
-        }
-    };
-    threads.reserve(static_cast<std::size_t>(n_threads - 1));  // push_back then never drops a running thread
-    for (index_t k = 1; k < n_threads; ++k) threads.push_back(polled_thread(work, k));
-    work(0);
-    for (std::thread& thread : threads) thread.join();
-    threads.clear();
-    for (const std::exception_ptr& e : failed)
-        if (e) std::rethrow_exception(e);
+    split_run(n_threads, n_tiles, [&](index_t, index_t begin, index_t end) {
+        sample_tile_range(f, tiling, grid, begin, end);
+    });
 }
 
 }  // namespace rangemesh::paper

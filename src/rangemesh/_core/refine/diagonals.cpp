@@ -3,10 +3,11 @@
 #include <vector>
 
 #include "../geometry/halfedges.hpp"
+#include "../geometry/ownership.hpp"
 #include "../geometry/predicates.hpp"
 #include "../geometry/raster.hpp"
 #include "../interrupt.hpp"
-#include "ownership.hpp"
+#include "keys.hpp"
 
 namespace rangemesh::refine {
 
@@ -137,7 +138,7 @@ class Flipper {
             // ABC + BAD -> DCA + CDB: both counter-clockwise only when the quad is convex
             if (orient(d.r, d.c, c.r, c.c, a.r, a.c) <= 0 || orient(c.r, c.c, d.r, d.c, b.r, b.c) <= 0) continue;
             ++count.tests;
-            const bool own_dc = refine::owns(d.r, d.c, c.r, c.c);
+            const bool own_dc = rangemesh::owns(d.r, d.c, c.r, c.c);
             // each scan stops once the other diagonal is known to be no better
             const double s0 = triangle_error(image_, d, c, a, {own_dc, owns(q.c0, c, a), owns(q.b1, a, d)}, 0.0, old);
             if (quantize(s0, span) >= old) continue;

@@ -6,10 +6,11 @@
 #include <stdexcept>
 
 #include "../geometry/halfedges.hpp"
+#include "../geometry/ownership.hpp"
 #include "../geometry/heap.hpp"
 #include "../geometry/predicates.hpp"
 #include "../interrupt.hpp"
-#include "ownership.hpp"
+#include "keys.hpp"
 
 namespace rangemesh::refine {
 
@@ -74,16 +75,12 @@ Insertion::Insertion(const Image& image, const FirstMesh& first, index_t reserve
     tv_.assign(first.triangles.begin(), first.triangles.end());
     he_.assign(first.halfedges.begin(), first.halfedges.end());
     resize_triangles(cap_t);
-    const HeapView heap{{keys_.data(), cap_t}, {heap_.data(), cap_t}, {slot_.data(), cap_t}};
+    const HeapView heap = this->heap();
     for (index_t t = 0; t < n_t_; ++t) {
         poll_interrupt();
         keyed_[t] = scan(t);
         total_ += keyed_[t].sum;
-        heap_[n_heap_] = t;
-        keys_[n_heap_] = keyed_[t].key;
-        slot_[t] = n_heap_;
-        heap.sift_up(n_heap_);
-        ++n_heap_;
+        heap.push(t, keyed_[t].key, n_heap_);
     }
 }
 
@@ -280,9 +277,8 @@ bool Insertion::flat_cavity(index_t t, index_t old_t, const Plane& plane) const 
 }
 
 void Insertion::rekey(index_t t, const TriangleKey& k) {
-    const index_t cap_t = static_cast<index_t>(keyed_.size());
     keyed_[t] = k;
-    HeapView{{keys_.data(), cap_t}, {heap_.data(), cap_t}, {slot_.data(), cap_t}}.rekey(t, k.key, n_heap_);
+    heap().rekey(t, k.key, n_heap_);
 }
 
 void Insertion::advance(const Stop& stop) {
@@ -319,13 +315,12 @@ void Insertion::advance(const Stop& stop) {
         // ... and so does every triangle the flips made, when each triangle they replaced
         // fitted exactly and every corner lies on the split triangle's plane
         const bool flat = split_fit && flat_cavity(t, old_t, plane);
-        for (index_t s = old_t; s < n_t_; ++s) {  // new triangles join the heap, last
+        // new triangles join the heap, last: no key is below -1, and ties go to the smaller id
+        const HeapView h = heap();
+        for (index_t s = old_t; s < n_t_; ++s) {
             keyed_[s].key = -1.0;
             keyed_[s].sum = 0.0;
-            heap_[n_heap_] = s;
-            keys_[n_heap_] = -1.0;
-            slot_[s] = n_heap_;
-            ++n_heap_;
+            h.push(s, -1.0, n_heap_);
         }
         ++step_;
         const index_t n_changed = static_cast<index_t>(changed_.size());

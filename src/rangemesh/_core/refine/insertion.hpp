@@ -10,6 +10,7 @@
 #include <limits>
 #include <vector>
 
+#include "../geometry/heap.hpp"
 #include "image.hpp"
 #include "scan.hpp"
 
@@ -92,6 +93,11 @@ class alignas(64) Insertion {
     bool flat_cavity(index_t t, index_t old_t, const Plane& plane) const;
     void rekey(index_t t, const TriangleKey& k);
     index_t locate(index_t r, index_t c);
+    // the heap over the arrays as they are now (they move when the triangles' room grows)
+    HeapView heap() {
+        const index_t cap_t = static_cast<index_t>(keyed_.size());
+        return {{keys_.data(), cap_t}, {heap_.data(), cap_t}, {slot_.data(), cap_t}};
+    }
 
     Image image_;
     index_t sr_, sc_;

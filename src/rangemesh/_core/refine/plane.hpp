@@ -6,6 +6,7 @@
 
 #include <cmath>
 
+#include "../geometry/ownership.hpp"
 #include "../geometry/predicates.hpp"
 #include "../geometry/raster.hpp"
 #include "image.hpp"
@@ -16,11 +17,6 @@ namespace rangemesh::refine {
 struct Point {
     index_t r, c;
     double z;
-};
-
-// Which of a triangle's edges AB, BC, CA own the pixels on them (`own_edge`).
-struct EdgeOwnership {
-    bool ab, bc, ca;
 };
 
 // Calls visit(r, c, err) for each valid pixel of ABC (counter-clockwise, area > 0) that `own`
@@ -40,10 +36,7 @@ void plane_errors(const Image& image, const Point& a, const Point& b, const Poin
     const double f1 = static_cast<double>(c.r - b.r);
     const double f2 = static_cast<double>(a.r - c.r);
     TriangleRows rows(a.r, a.c, b.r, b.c, c.r, c.c);
-    for (index_t r = rows.r0; r <= rows.r1; ++r) {
-        if (r > rows.r0) rows.next_row();
-        const RowSpan span = rows.columns(own.ab, own.bc, own.ca);
-        if (span.first > span.last) continue;
+    owned_rows(rows, own, [&](index_t r, const RowSpan& span) {
         const double* drow = image.depth.row(r);
         const bool* vrow = image.valid.row(r);
         double w0 = static_cast<double>(span.w0), w1 = static_cast<double>(span.w1),
@@ -54,8 +47,8 @@ void plane_errors(const Image& image, const Point& a, const Point& b, const Poin
             w1 += f1;
             w2 += f2;
         }
-        if (!row_done()) return;
-    }
+        return row_done();
+    });
 }
 
 }  // namespace rangemesh::refine

@@ -4,9 +4,10 @@
 #include <cmath>
 #include <limits>
 
+#include "../geometry/ownership.hpp"
 #include "../geometry/predicates.hpp"
 #include "../geometry/raster.hpp"
-#include "ownership.hpp"
+#include "keys.hpp"
 
 namespace rangemesh::refine {
 
@@ -61,17 +62,14 @@ Cover cover_pixel(const Corner& a, const Corner& b, const Corner& cn, EdgeOwners
     };
     Cover best;
     TriangleRows rows(a.r, a.c, b.r, b.c, cn.r, cn.c);
-    for (index_t r = rows.r0; r <= rows.r1; ++r) {
-        if (r > rows.r0) rows.next_row();
-        const RowSpan span = rows.columns(own.ab, own.bc, own.ca);
-        if (span.first > span.last) continue;
+    owned_rows(rows, own, [&](index_t r, const RowSpan& span) {
         // the weights are linear along the row: no pixel of it can beat `best` when neither
         // end of the span does (once valid pixels were seen)
         if (best.seen && best.weight >= 0) {
             const index_t n = span.last - span.first;
             const index_t bound = std::max(weight(span.w0, span.w1, span.w2),
                                            weight(span.w0 + s0 * n, span.w1 + s1 * n, span.w2 + s2 * n));
-            if (bound < best.weight) continue;
+            if (bound < best.weight) return true;
         }
         for (index_t c = span.first; c <= span.last; ++c) {
             if (!valid(r, c)) continue;
@@ -87,7 +85,8 @@ Cover cover_pixel(const Corner& a, const Corner& b, const Corner& cn, EdgeOwners
                 best.c = c;
             }
         }
-    }
+        return true;
+    });
     return best;
 }
 

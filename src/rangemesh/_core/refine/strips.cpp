@@ -2,18 +2,14 @@
 
 #include <algorithm>
 #include <cmath>
-#include <condition_variable>
-#include <exception>
-#include <functional>
-#include <mutex>
 #include <optional>
-#include <thread>
 #include <tuple>
 
 #include "../geometry/predicates.hpp"
 #include "../interrupt.hpp"
+#include "../parallel.hpp"
 #include "diagonals.hpp"
-#include "ownership.hpp"
+#include "keys.hpp"
 
 namespace rangemesh::refine {
 
@@ -113,87 +109,6 @@ constexpr int MAX_ROUNDS = 16;
 // its bounds: a small exponent predicts a large step in key and overshoots.
 constexpr double EXPONENT = 1.0;
 constexpr double EXPONENT_MIN = 0.75, EXPONENT_MAX = 4.0;
-
-// The strips' second thread, started once a call: runs the half of each phase (the first
-// scans, each round, the flips) that `both` hands it while the calling thread runs the other.
-class Worker {
-  public:
-    Worker() : thread_(polled_thread([this] { loop(); })) {}
-
-    ~Worker() {
-        {
-            std::lock_guard<std::mutex> lock(mutex_);
-            stop_ = true;
-        }
-        wake_.notify_all();
-        thread_.join();
-    }
-
-    Worker(const Worker&) = delete;
-    Worker& operator=(const Worker&) = delete;
-
-    // Run `fa` on the worker and `fb` here; once both are done, rethrow what either threw.
-    template <class A, class B>
-    void both(A&& fa, B&& fb) {
-        {
-            std::lock_guard<std::mutex> lock(mutex_);
-            task_ = std::forward<A>(fa);
-            done_ = false;
-            failed_ = nullptr;
-        }
-        wake_.notify_all();
-        std::exception_ptr mine;
-        try {
-            fb();
-        } catch (...) {
-            mine = std::current_exception();
-        }
-        std::unique_lock<std::mutex> lock(mutex_);
-        wake_.wait(lock, [this] { return done_; });
-        if (mine) std::rethrow_exception(mine);
-        if (failed_) std::rethrow_exception(failed_);
-    }
-
-  private:
-    void loop() {
-        std::unique_lock<std::mutex> lock(mutex_);
-        for (;;) {
-            wake_.wait(lock, [this] { return stop_ || task_; });
-            if (!task_) return;  // stopped, nothing left to run
-            std::function<void()> task = std::move(task_);
-            task_ = nullptr;
-            lock.unlock();
-            std::exception_ptr failed;
-            try {
-                task();
-            } catch (...) {
-                failed = std::current_exception();
-            }
-            lock.lock();
-            failed_ = failed;
-            done_ = true;
-            wake_.notify_all();
-        }
-    }
-
-    std::mutex mutex_;
-    std::condition_variable wake_;
-    std::function<void()> task_;
-    bool done_ = true, stop_ = false;
-    std::exception_ptr failed_;
-    std::thread thread_;  // last: it starts once the members it uses exist
-};
-
-// Run `fa` and `fb`: on the worker and here when there is one, else one after the other.
-template <class A, class B>
-void run_both(Worker* worker, A&& fa, B&& fb) {
-    if (worker) {
-        worker->both(std::forward<A>(fa), std::forward<B>(fb));
-        return;
-    }
-    fa();
-    fb();
-}
 
 }  // namespace
 

@@ -1,0 +1,375 @@
+"""Frame sources: a RealSense camera or recording, an Ouster LiDAR or recording, a ROS recording.
+
+Every source yields `LiveFrame` objects (a depth image, its camera, a stamp)
+and says whether it is a `device` (frames arrive by themselves, at the
+sensor's rate) or a recording (the playback clock of `rangemesh.live.pacing`
+releases them). Everything after the frame is shared: a device path differs
+from its recording's only in how the SDK is opened.
+
+* ``realsense`` / ``realsense:SERIAL`` / a RealSense SDK ``.bag``: `pyrealsense2`
+  (``rangemesh[realsense]``); the depth scale, intrinsics and distortion come
+  from the SDK.
+* an Ouster hostname, or a ``.pcap``/``.osf`` with ``meta=FILE.json``:
+  `ouster-sdk` (``rangemesh[ouster]``); each pixel's ray and beam-origin offset
+  come from the SDK's XYZ lookup table.
+* a ROS recording (``.bag``, ``.db3``, ``.mcap``, ROS 2 bag folder), read as
+  ``rangemesh batch`` reads it (`rangemesh.recordings`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+from pathlib import Path
+from typing import NamedTuple
+
+import numpy as np
+
+from .._optional import require
+from ..camera import Pinhole, Rays
+
+__all__ = ["LiveFrame", "open_source", "source_kind", "is_realsense_bag", "SOURCE_KINDS"]
+
+SOURCE_KINDS = ("realsense", "ouster", "ros")
+OUSTER_SUFFIXES = (".pcap", ".osf")
+# a RealSense SDK recording starts with these topics (librealsense's rosbag format)
+_REALSENSE_TOPICS = ("/file_version", "/device_0/")
+_WAIT_MS = 5000  # no frame from the SDK for this long: a device's error, a recording's end
+_POLL_MS = 50  # how long one wait for a RealSense frame lasts before the playback's state is read
+
+
+class LiveFrame(NamedTuple):
+    """One depth frame of a source.
+
+    Attributes
+    ----------
+    stamp : int
+        The sensor's or the recording's stamp, nanoseconds.
+    frame_id : str
+        The frame the mesh's vertices are in.
+    depth : ndarray
+        The depth (or range) image as stored; 0 and below is no return.
+    camera : Pinhole or Rays
+        Lifts the stored values to metres.
+    offsets : (H, W, 3) ndarray or None
+        Per-pixel beam-origin offsets added to the lifted points (Ouster), metres.
+    """
+
+    stamp: int
+    frame_id: str
+    depth: np.ndarray
+    camera: object
+    offsets: np.ndarray | None = None
+
+
+def is_realsense_bag(path: Path) -> bool:
+    """Whether a ``.bag`` file is a RealSense SDK recording (its topics, read with `rosbags`).
+
+    Without `rosbags` only the SDK can say: a ``.bag`` is then taken as RealSense.
+    """
+    try:
+        highlevel = require("rosbags.highlevel", "reading ROS recordings")
+    except ImportError:
+        return True
+    try:
+        with highlevel.AnyReader([path]) as reader:
+            topics = {c.topic for c in reader.connections}
+    except Exception:  # not a bag rosbags reads: let the ROS reader say why in one line
+        return False
+    return "/file_version" in topics and any(t.startswith("/device_0/") for t in topics)
+
+
+def source_kind(source: str, kind: str | None = None) -> str:
+    """Which reader takes `source`: ``'realsense'``, ``'ouster'`` or ``'ros'``.
+
+    ``realsense`` and ``realsense:SERIAL`` are a device; a ``.pcap``/``.osf`` is
+    Ouster; a ``.bag`` of the RealSense SDK's topics goes to `pyrealsense2`
+    when it is installed, any other recording to the ROS reader; a name that
+    is no file and has no recording's suffix is an Ouster sensor's hostname. `kind` overrides.
+
+    Raises
+    ------
+    ValueError
+        An unknown `kind`.
+    """
+    if kind is not None:
+        if kind not in SOURCE_KINDS:
+            raise ValueError(f"source kind must be one of {', '.join(SOURCE_KINDS)}, got {kind!r}")
+        return kind
+    if source == "realsense" or source.startswith("realsense:"):
+        return "realsense"
+    p = Path(source)
+    if p.suffix.lower() in OUSTER_SUFFIXES:
+        return "ouster"
+    if p.suffix.lower() == ".bag" and p.is_file():
+        try:
+            import pyrealsense2  # noqa: F401
+        except ImportError:
+            return "ros"
+        return "realsense" if is_realsense_bag(p) else "ros"
+    from ..recordings.reading import RECORDING_SUFFIXES
+
+    if p.exists() or p.suffix.lower() in RECORDING_SUFFIXES:
+        return "ros"
+    return "ouster"  # a hostname (os-122201000998.local) or an address
+
+
+def open_source(source: str | os.PathLike, *, kind: str | None = None, meta=None,
+                topic: str | None = None, loop: bool = False):
+    """The source of `source`: an object with ``device`` (bool), ``frames()`` and ``close()``.
+
+    Parameters
+    ----------
+    source : str or os.PathLike
+        See `source_kind`.
+    kind : {'realsense', 'ouster', 'ros'}, optional
+        Overrides the choice by name.
+    meta : str or os.PathLike, optional
+        An Ouster recording's metadata JSON (``--meta``).
+    topic : str, optional
+        A ROS recording's depth topic.
+    loop : bool, default False
+        Replay a recording without end.
+
+    Raises
+    ------
+    FileNotFoundError, ValueError
+        No such recording, no device, a recording the SDK cannot read.
+    ImportError
+        The SDK is missing (``pip install "rangemesh[realsense]"`` / ``[ouster]`` / ``[ros]``).
+    """
+    source = os.fspath(source)
+    which = source_kind(source, kind)
+    if meta is not None and which != "ouster":
+        raise ValueError("meta (--meta) goes with an Ouster recording (.pcap or .osf)")
+    if topic is not None and which != "ros":
+        raise ValueError("topic (--topic) goes with a ROS recording")
+    if which == "realsense":
+        return RealSenseSource(source, loop=loop)
+    if which == "ouster":
+        return OusterSource(source, meta=meta, loop=loop)
+    return RosSource(source, topic=topic, loop=loop)
+
+
+# ------------------------------------------------------------------------- RealSense
+
+
+def realsense_camera(intrinsics, depth_scale: float):
+    """The camera of a `pyrealsense2.intrinsics`: `Pinhole`, or `Rays` for Brown-Conrady distortion.
+
+    Raises
+    ------
+    ValueError
+        A distortion model other than Brown-Conrady with non-zero coefficients.
+    """
+    from ..camera_files import distortion_rays
+
+    k = (intrinsics.fx, 0.0, intrinsics.ppx, 0.0, intrinsics.fy, intrinsics.ppy, 0.0, 0.0, 1.0)
+    d = tuple(float(v) for v in intrinsics.coeffs)
+    model = str(intrinsics.model).rsplit(".", 1)[-1]
+    if not any(d):
+        return Pinhole(intrinsics.fx, intrinsics.fy, intrinsics.ppx, intrinsics.ppy,
+                       depth_scale=depth_scale)
+    if model != "brown_conrady":  # librealsense's other models are not OpenCV's plumb_bob
+        raise ValueError(f"RealSense distortion model {model} with coefficients {list(d)} is not "
+                         f"supported (brown_conrady is)")
+    return distortion_rays(k, d, "brown_conrady", (intrinsics.height, intrinsics.width),
+                           depth_scale=depth_scale, where="RealSense depth stream")
+
+
+class RealSenseSource:
+    """A RealSense device (``realsense``, ``realsense:SERIAL``) or a RealSense SDK ``.bag``."""
+
+    frame_id = "realsense_depth_optical_frame"
+
+    def __init__(self, source: str, *, loop: bool = False):
+        rs = require("pyrealsense2", "a RealSense camera or .bag")
+        self.device = source == "realsense" or source.startswith("realsense:")
+        self._rs, self._loop = rs, loop
+        cfg = rs.config()
+        if self.device:
+            serial = source.partition(":")[2]
+            found = [d.get_info(rs.camera_info.serial_number) for d in rs.context().query_devices()]
+            if not found:
+                raise ValueError(f"{source}: no RealSense device is connected")
+            if serial and serial not in found:
+                raise ValueError(f"{source}: no RealSense device of serial {serial}; connected: "
+                                 f"{', '.join(found)}")
+            if serial:
+                cfg.enable_device(serial)
+        else:
+            if not Path(source).is_file():
+                raise FileNotFoundError(f"{source}: no such file")
+            cfg.enable_device_from_file(source, repeat_playback=loop)
+        cfg.enable_stream(rs.stream.depth)
+        self._pipe = rs.pipeline()
+        try:
+            profile = self._pipe.start(cfg)
+        except RuntimeError as exc:
+            raise ValueError(f"{source}: the RealSense SDK cannot play it ({exc})") from None
+        dev = profile.get_device()
+        self._playback = None if self.device else dev.as_playback()
+        if self._playback is not None:
+            self._playback.set_real_time(False)  # the playback clock paces it, not the SDK
+        # the SDK keeps it as a float32 (0.0010000000474974513): the decimal it stands for
+        self.depth_scale = float(str(np.float32(dev.first_depth_sensor().get_depth_scale())))
+        stream = profile.get_stream(rs.stream.depth).as_video_stream_profile()
+        self.intrinsics = stream.get_intrinsics()
+        self.fps = float(stream.fps())
+        self.camera = realsense_camera(self.intrinsics, self.depth_scale)
+        self.name = source
+
+    def frames(self):
+        """The depth frames as they come (a recording: to its end, or without end with `loop`).
+
+        A recording has ended when no frame comes and the SDK's playback has
+        stopped (its position runs ahead of the frames handed out, so it
+        cannot tell); a device that gives no frame for `_WAIT_MS` is an error.
+        """
+        rs, waited, seen = self._rs, 0, False
+        while True:
+            ok, got = self._pipe.try_wait_for_frames(_POLL_MS)
+            if not ok:
+                waited += _POLL_MS
+                stopped = self._playback is not None \
+                    and self._playback.current_status() == rs.playback_status.stopped
+                if stopped and seen:
+                    return
+                if waited >= _WAIT_MS:
+                    if self.device:
+                        raise ValueError(f"{self.name}: no frame from the camera in {_WAIT_MS} ms")
+                    return
+                continue
+            waited = 0
+            depth = got.get_depth_frame()
+            if not depth:
+                continue
+            seen = True
+            image = np.array(depth.get_data(), dtype=np.uint16, copy=True)
+            yield LiveFrame(int(round(depth.get_timestamp() * 1e6)), self.frame_id, image, self.camera)
+
+    def close(self):
+        """Stop the SDK's pipeline."""
+        try:
+            self._pipe.stop()
+        except RuntimeError:
+            pass
+
+
+# ------------------------------------------------------------------------- Ouster
+
+
+def ouster_geometry(info):
+    """Each pixel's unit ray and beam-origin offset (metres) from the SDK's XYZ lookup table, destaggered.
+
+    `ouster.sdk.core.XYZLut` maps a range image (millimetres) to points,
+    ``range * ray + offset`` (a range of 0, no return, to the origin): the
+    points at 1 m and 2 m give both. Both are destaggered, as the range image is.
+    """
+    core = require("ouster.sdk.core", "an Ouster LiDAR or recording")
+    lut = core.XYZLut(info)
+    h, w = info.format.pixels_per_column, info.format.columns_per_frame
+    one = np.asarray(lut(np.full((h, w), 1000, np.uint32)), np.float64)
+    ray = np.asarray(lut(np.full((h, w), 2000, np.uint32)), np.float64) - one
+    offset = one - ray
+    return core.destagger(info, ray), core.destagger(info, offset)
+
+
+class OusterSource:
+    """An Ouster sensor (its hostname) or a ``.pcap``/``.osf`` recording with its metadata."""
+
+    frame_id = "os_lidar"
+
+    def __init__(self, source: str, *, meta=None, loop: bool = False):
+        sdk = require("ouster.sdk", "an Ouster LiDAR or recording")
+        self._core = require("ouster.sdk.core", "an Ouster LiDAR or recording")
+        p = Path(source)
+        self.device = p.suffix.lower() not in OUSTER_SUFFIXES and not p.exists()
+        if not self.device and not p.is_file():
+            raise FileNotFoundError(f"{source}: no such file")
+        if meta is not None and not Path(meta).is_file():
+            raise FileNotFoundError(f"{meta}: no such metadata file")
+        self._open = lambda: sdk.open_source(source, meta=[os.fspath(meta)] if meta else None)
+        try:
+            self._src = self._open()
+        except Exception as exc:  # the SDK's own errors: no metadata, unreachable sensor, bad file
+            text = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+            hint = "" if meta or self.device else " (give its metadata with --meta FILE.json)"
+            raise ValueError(f"{source}: ouster-sdk cannot open it: {text}{hint}") from None
+        self.info = self._src.sensor_info[0]
+        rays, self.offsets = ouster_geometry(self.info)
+        self.camera = Rays(rays, range_scale=0.001)  # RANGE is in millimetres
+        self.fps = float(self.info.format.fps)
+        # every column of the circle is read: column W-1 is beside column 0 (the seam is closed)
+        fmt = self.info.format
+        self.wraps = tuple(fmt.column_window) == (0, fmt.columns_per_frame - 1)
+        self.name, self._loop = source, loop
+
+    def frames(self):
+        """The scans, destaggered (a recording: to its end, or without end with `loop`)."""
+        core = self._core
+        while True:
+            for group in self._src:
+                scan = group if hasattr(group, "timestamp") else group[0]  # a FrameSet of one sensor
+                if scan is None:
+                    continue
+                rng = core.destagger(self.info, scan.field(core.ChanField.RANGE))
+                col = scan.get_first_valid_column()
+                stamp = int(scan.timestamp[col]) if 0 <= col < len(scan.timestamp) else 0
+                yield LiveFrame(stamp, self.frame_id, np.ascontiguousarray(rng), self.camera,
+                                self.offsets)
+            if self.device or not self._loop:
+                return
+            self._src.close()
+            self._src = self._open()
+
+    def close(self):
+        """Close the SDK's source."""
+        self._src.close()
+
+
+# ------------------------------------------------------------------------- ROS
+
+
+class RosSource:
+    """A ROS recording's depth frames, each with its CameraInfo's camera (as ``batch`` reads them)."""
+
+    device = False
+
+    def __init__(self, source: str, *, topic: str | None = None, loop: bool = False):
+        from ..recordings import Recording
+
+        self._rec = Recording(source).__enter__()
+        try:
+            self._rec.frames(topic)  # the topics and the camera checked now, not at the first frame
+            self.fps = None
+        except BaseException:
+            self._rec.__exit__(None, None, None)
+            raise
+        self.name, self._topic, self._loop = source, topic, loop
+
+    def frames(self):
+        """The decoded depth frames; a frame that cannot be meshed raises, naming it."""
+        from ..recordings.decode import depth_image
+
+        while True:
+            for frame in self._rec.frames(self._topic):
+                if frame.error:
+                    raise ValueError(f"{frame.name}: {frame.error}")
+                depth, _ = depth_image(frame.depth, frame.name)
+                yield LiveFrame(frame.stamp, frame.frame_id or "camera_depth_optical_frame", depth,
+                                frame.camera)
+            if not self._loop:
+                return
+
+    def close(self):
+        """Close the recording."""
+        self._rec.__exit__(None, None, None)
+
+
+def with_offsets(mesh, offsets):
+    """The mesh with each vertex moved by its pixel's beam-origin offset (Ouster's exact points)."""
+    if offsets is None or not len(mesh.vertices):
+        return mesh
+    r, c = mesh.pixels[:, 0], mesh.pixels[:, 1]
+    return dataclasses.replace(mesh, vertices=mesh.vertices + offsets[r, c])

@@ -1,0 +1,554 @@
+"""rangemesh live (issue 42): sources through the vendors' SDKs, pacing, dropping, Foxglove, MCAP."""
+
+import base64
+import importlib
+import json
+import os
+import re
+import signal
+import struct
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+
+import rangemesh
+from rangemesh.live import pacing
+from rangemesh.live.messages import SCENE_FIELDS, scene_update_bytes
+from rangemesh.live.pacing import Playback, paced, parse_pace
+from rangemesh.live.sources import LiveFrame, source_kind
+from rangemesh.live.stats import Stats
+
+REALSENSE = "rosbag/librealsense_d435_single_depth_color_640x480.bag"
+PCAP = "lidar/OS-1-128_v2.3.0_1024x10_lb_n3.pcap"
+META = "lidar/OS-1-128_v2.3.0_1024x10.json"
+# the depth stream's K in the bag's CameraInfo (rosbag/README.md)
+FX = FY = 390.43145751953125
+CX, CY = 331.38787841796875, 242.18734741210938
+ENV = {**os.environ, "RANGEMESH_THREADS": "1"}
+
+
+def sdk(module: str):
+    """The SDK, or a skip; a failure when CI lists it in RANGEMESH_REQUIRE_SDKS."""
+    try:
+        return importlib.import_module(module)
+    except ImportError as exc:
+        if module.split(".")[0] in os.environ.get("RANGEMESH_REQUIRE_SDKS", "").split(","):
+            pytest.fail(f"{module} cannot be imported and RANGEMESH_REQUIRE_SDKS lists it ({exc})")
+        pytest.skip(f"{module} is not installed ({exc})")
+
+
+def _cli(*args, **kw):
+    return subprocess.run([sys.executable, "-m", "rangemesh", "live", *map(str, args)],
+                          capture_output=True, text=True, env=ENV, timeout=300, **kw)
+
+
+# ------------------------------------------------------------------ pacing, with a fake clock
+
+
+class FakeClock:
+    """Time moves only when the code sleeps or the fake mesher works."""
+
+    def __init__(self):
+        self.t = 0.0
+
+    def now(self):
+        return self.t
+
+    def sleep(self, seconds):
+        self.t += max(0.0, seconds)
+
+
+def _frames(stamps_s):
+    return [LiveFrame(int(round(s * 1e9)), "f", np.zeros((1, 1)), None) for s in stamps_s]
+
+
+def _run(feed, queue, mesh_seconds, clock):
+    stats = Stats(clock.now())
+    out = []
+    for frame, arrival in paced(feed, queue, stats):
+        out.append((frame.stamp, arrival, clock.now()))
+        clock.t += mesh_seconds  # meshing takes this long
+    return out, stats
+
+
+def test_the_newest_frame_wins_when_meshing_falls_behind():
+    # 10 frames at --pace 10 are released at 0.0, 0.1, ..., 0.9 s; each mesh takes 0.25 s.
+    # By hand: meshed at t=0 frame 0; at 0.25 frames 1, 2 are in, 1 dropped, 2 meshed; at 0.5
+    # 3, 4, 5 in, 5 meshed (2 dropped); at 0.75 7 (6 dropped); at 1.0 9 (8 dropped): 5 dropped.
+    clock = FakeClock()
+    feed = Playback(_frames(np.arange(10) * 7.0), 10, clock)  # the stamps do not matter at a rate
+    out, stats = _run(feed, 1, 0.25, clock)
+    assert [round(s / 7e9) for s, _, _ in out] == [0, 2, 5, 7, 9]
+    assert stats.dropped == 5 and stats.frames_in == 10
+    # each frame was handed out when the mesher was free, after its release
+    assert [(a, t) for _, a, t in out] == [(0.0, 0.0), (0.2, 0.25), (0.5, 0.5), (0.7, 0.75),
+                                           (0.9, 1.0)]
+
+
+def test_a_longer_queue_keeps_more_frames_and_drops_the_oldest():
+    # --queue 2, same run. By hand: t=0: 0; 0.25: queue [1, 2], mesh 1; 0.5: [2, 3, 4, 5] -> drop
+    # 2, 3, mesh 4; 0.75: [5, 6, 7] -> drop 5, mesh 6; 1.0: [7, 8, 9] -> drop 7, mesh 8;
+    # 1.25: mesh 9. Dropped 2 + 1 + 1 = 4.
+    clock = FakeClock()
+    out, stats = _run(Playback(_frames(np.arange(10) * 1.0), 10, clock), 2, 0.25, clock)
+    assert [round(s / 1e9) for s, _, _ in out] == [0, 1, 4, 6, 8, 9]
+    assert stats.dropped == 4
+
+
+def test_pace_fast_waits_for_the_mesher_and_drops_nothing():
+    clock = FakeClock()
+    out, stats = _run(Playback(_frames(np.arange(6) * 0.01), "fast", clock), 1, 0.5, clock)
+    assert len(out) == 6 and stats.dropped == 0
+    assert all(a == t for _, a, t in out)  # released when asked: no wait
+
+
+def test_pace_recorded_releases_frames_at_their_stamps():
+    # stamps 0, 0.3, 0.35, 1.0 s; meshing 0.1 s: 0 at 0; idle until 0.3; 1 at 0.3; 2 came at
+    # 0.35 during it and is meshed at 0.4; idle until 1.0. Nothing dropped.
+    clock = FakeClock()
+    out, stats = _run(Playback(_frames([5.0, 5.3, 5.35, 6.0]), "recorded", clock), 1, 0.1, clock)
+    assert [(round(a, 9), round(t, 9)) for _, a, t in out] == [(0.0, 0.0), (0.3, 0.3),
+                                                                (0.35, 0.4), (1.0, 1.0)]
+    assert stats.dropped == 0
+
+
+def test_a_looped_recording_goes_on_one_frame_gap_after_its_end():
+    # a loop of stamps 0, 0.5 at its recorded pace with fps 2: the second pass starts at 1.0
+    clock = FakeClock()
+    out, _ = _run(Playback(_frames([0.0, 0.5, 0.0, 0.5]), "recorded", clock, fps=2.0), 1, 0.0, clock)
+    assert [a for _, a, _ in out] == [0.0, 0.5, 1.0, 1.5]
+
+
+def test_a_device_s_frames_dropped_before_the_mesher_takes_them_are_counted():
+    # a sensor gave 1100 frames while the mesher was busy: the feed keeps the newest 64, the
+    # queue the newest one; all 1100 arrived, 1099 were dropped, the last one is meshed
+    frames = _frames(np.arange(1100) * 0.01)
+    feed = pacing.DeviceFeed(iter(frames), pacing.Clock())
+    end = time.monotonic() + 30
+    while not feed.ended and time.monotonic() < end:
+        time.sleep(0.01)
+    stats = Stats(0.0)
+    out = [f for f, _ in paced(feed, 1, stats)]
+    assert out == [frames[-1]]
+    assert (stats.frames_in, stats.dropped) == (1100, 1099)
+
+
+@pytest.mark.parametrize("bad", ["slow", "0", "-3", "nan", "inf", None])
+def test_a_bad_pace_is_a_value_error_naming_pace(bad):
+    with pytest.raises(ValueError, match="pace"):
+        parse_pace(bad)
+
+
+def test_pace_words_and_rates():
+    assert parse_pace("fast") == "fast" and parse_pace("Recorded") == "recorded"
+    assert parse_pace("30") == 30.0
+
+
+@pytest.mark.parametrize("bad", [0, -1, 1.5, True])
+def test_a_bad_queue_is_a_value_error_naming_queue(bad):
+    with pytest.raises(ValueError, match="queue"):
+        next(paced(Playback([], "fast", FakeClock()), bad))
+
+
+# ------------------------------------------------------------------ the SceneUpdate message
+
+
+def _scene_class():
+    m = sdk("foxglove.messages")
+    descriptor_pb2 = sdk("google.protobuf.descriptor_pb2")
+    from google.protobuf import descriptor_pool, message_factory
+
+    pool = descriptor_pool.DescriptorPool()
+    for f in descriptor_pb2.FileDescriptorSet.FromString(m.SceneUpdate.get_schema().data).file:
+        pool.Add(f)
+    return message_factory.GetMessageClass(pool.FindMessageTypeByName("foxglove.SceneUpdate")), pool
+
+
+def test_the_field_numbers_are_those_of_the_sdk_schema():
+    _, pool = _scene_class()
+    for (message, field), number in SCENE_FIELDS.items():
+        package = "google.protobuf" if message == "Timestamp" else "foxglove"
+        assert pool.FindMessageTypeByName(f"{package}.{message}").fields_by_name[field].number \
+            == number, (message, field)
+
+
+@pytest.mark.parametrize("colored", [False, True])
+def test_a_scene_update_decodes_to_the_mesh_and_equals_the_sdk_s_own(colored, rng):
+    m = sdk("foxglove.messages")
+    cls, _ = _scene_class()
+    v = rng.normal(size=(7, 3))
+    f = np.array([[0, 1, 2], [2, 3, 4], [4, 5, 6]], np.int32)
+    c = rng.integers(0, 256, (7, 3)).astype(np.uint8) if colored else None
+    data = scene_update_bytes(v, f, 12_000_000_345, "cam", c)
+    got = cls.FromString(data)
+    tri = got.entities[0].triangles[0]
+    assert np.array_equal([[p.x, p.y, p.z] for p in tri.points], v)
+    assert list(tri.indices) == f.ravel().tolist()
+    assert got.entities[0].frame_id == "cam"
+    assert (got.entities[0].timestamp.seconds, got.entities[0].timestamp.nanos) == (12, 345)
+    # the SDK builds the same message from one Python object per vertex
+    colors = [m.Color(r=r / 255, g=g / 255, b=b / 255, a=1.0) for r, g, b in c.tolist()] \
+        if colored else []
+    sdk_msg = m.SceneUpdate(entities=[m.SceneEntity(
+        timestamp=m.Timestamp(sec=12, nsec=345), frame_id="cam", id="mesh",
+        triangles=[m.TriangleListPrimitive(
+            pose=m.Pose(orientation=m.Quaternion(w=1.0)),
+            points=[m.Point3(x=a, y=b, z=z) for a, b, z in v.tolist()], colors=colors,
+            color=None if colored else m.Color(r=0.8, g=0.8, b=0.8, a=1.0),
+            indices=f.ravel().tolist())])]).encode()
+    assert cls.FromString(sdk_msg) == got
+
+
+# ------------------------------------------------------------------ sources
+
+
+def test_sources_are_chosen_by_name(shared_data):
+    assert source_kind("realsense") == source_kind("realsense:728612070259") == "realsense"
+    assert source_kind(str(shared_data / PCAP)) == "ouster"
+    assert source_kind("os-122201000998.local") == "ouster"  # a hostname
+    assert source_kind(str(shared_data / REALSENSE), "ros") == "ros"
+    with pytest.raises(ValueError, match="source kind"):
+        source_kind("x.bag", "kinect")
+
+
+def test_a_realsense_sdk_bag_goes_to_pyrealsense2(shared_data):
+    sdk("pyrealsense2")
+    assert source_kind(str(shared_data / REALSENSE)) == "realsense"
+
+
+def test_the_realsense_bag_through_the_sdk(shared_data):
+    sdk("pyrealsense2")
+    from rangemesh.live.sources import RealSenseSource
+    from rangemesh.recordings import Recording
+    from rangemesh.recordings.decode import depth_image
+
+    src = RealSenseSource(str(shared_data / REALSENSE))
+    try:
+        frames = list(src.frames())
+    finally:
+        src.close()
+    assert len(frames) == 2
+    assert src.depth_scale == 0.001  # the SDK's float32 0.001 read as the decimal it stands for
+    cam = frames[0].camera
+    assert isinstance(cam, rangemesh.Pinhole)  # Brown-Conrady with five zero coefficients
+    assert (cam.fx, cam.fy, cam.cx, cam.cy) == (FX, FY, CX, CY)
+    assert cam.depth_scale == src.depth_scale
+    # the same pixels as the ROS reader decodes from the same file
+    with Recording(shared_data / REALSENSE) as rec:
+        ros = [(f.stamp, depth_image(f.depth, f.name)[0]) for f in rec.frames()]
+    for frame, (stamp, depth) in zip(frames, ros, strict=True):
+        assert frame.depth.shape == (480, 640) and frame.depth.dtype == np.uint16
+        assert frame.stamp == stamp
+        assert np.array_equal(frame.depth, depth)
+
+
+def test_a_realsense_bag_read_late_gives_every_frame(shared_data):
+    # the SDK's playback position runs ahead of the frames handed out: ending the playback when
+    # it reached the end lost the second frame when the reading began late
+    sdk("pyrealsense2")
+    from rangemesh.live.sources import RealSenseSource
+
+    src = RealSenseSource(str(shared_data / REALSENSE))
+    try:
+        time.sleep(0.5)
+        stamps = [frame.stamp for frame in src.frames()]
+    finally:
+        src.close()
+    assert stamps == [360815089000, 360981765000]
+
+
+def test_a_distorted_realsense_stream_meshes_with_exact_rays():
+    from types import SimpleNamespace
+
+    from rangemesh.camera_files import distortion_rays
+    from rangemesh.live.sources import realsense_camera
+
+    intr = SimpleNamespace(fx=FX, fy=FY, ppx=CX, ppy=CY, width=64, height=48,
+                           model="distortion.brown_conrady", coeffs=[0.1, -0.05, 0.001, 0.002, 0.01])
+    cam = realsense_camera(intr, 0.001)
+    want = distortion_rays((FX, 0, CX, 0, FY, CY, 0, 0, 1), (0.1, -0.05, 0.001, 0.002, 0.01),
+                           "plumb_bob", (48, 64), depth_scale=0.001)
+    assert isinstance(cam, rangemesh.Rays) and cam.z_depth
+    assert np.array_equal(cam.directions, want.directions) and cam.range_scale == 0.001
+    intr.model = "distortion.inverse_brown_conrady"
+    with pytest.raises(ValueError, match="inverse_brown_conrady"):
+        realsense_camera(intr, 0.001)
+
+
+def test_no_realsense_device_is_one_line():
+    rs = sdk("pyrealsense2")
+    if rs.context().query_devices().size():
+        pytest.skip("a RealSense device is connected")
+    with pytest.raises(ValueError, match="no RealSense device is connected"):
+        rangemesh.live("realsense")
+
+
+def test_the_sdk_and_the_ros_reader_give_the_same_meshes(shared_data):
+    sdk("pyrealsense2")
+    a = list(rangemesh.live(shared_data / REALSENSE, pace="fast", vertices=300))
+    b = list(rangemesh.live(shared_data / REALSENSE, kind="ros", pace="fast", vertices=300))
+    assert len(a) == len(b) == 2
+    for x, y in zip(a, b, strict=True):
+        assert x.stamp == y.stamp
+        assert np.array_equal(x.mesh.vertices, y.mesh.vertices)
+        assert np.array_equal(x.mesh.faces, y.mesh.faces)
+
+
+def test_the_ouster_pcap_s_three_frames_mesh_at_the_sdk_s_points(shared_data):
+    sdk("ouster.sdk")
+    core = sdk("ouster.sdk.core")
+    from ouster.sdk import open_source
+
+    got = list(rangemesh.live(shared_data / PCAP, meta=shared_data / META, pace="fast",
+                              vertices=800, heights="pixel", fill_gaps=False))
+    assert len(got) == 3
+    src = open_source(str(shared_data / PCAP), meta=[str(shared_data / META)])
+    info = src.sensor_info[0]
+    lut = core.XYZLut(info)
+    scans = [s[0] for s in src]
+    src.close()
+    for (stamp, frame_id, mesh), scan in zip(got, scans, strict=True):
+        assert mesh.image_shape == (128, 1024) and mesh.stats.vertices == 800
+        assert frame_id == "os_lidar" and stamp == scan.timestamp[scan.get_first_valid_column()]
+        # each vertex (its own pixel's range; no gap filled) is the SDK's point of that pixel,
+        # beam-origin offset included
+        xyz = core.destagger(info, lut(scan))
+        r, c = mesh.pixels.T
+        assert np.allclose(mesh.vertices, xyz[r, c], rtol=0, atol=1e-9)
+
+
+def test_an_ouster_scan_of_the_whole_circle_closes_its_seam(shared_data):
+    sdk("ouster.sdk")
+    kw = {"meta": shared_data / META, "pace": "fast", "frames": 1, "vertices": 800}
+    closed = next(iter(rangemesh.live(shared_data / PCAP, **kw))).mesh
+    opened = next(iter(rangemesh.live(shared_data / PCAP, wrap=False, **kw))).mesh
+
+    def seam_faces(mesh):  # faces with corners on both the first and the last column
+        cols = mesh.pixels[mesh.faces, 1]
+        return int(((cols == 0).any(axis=1) & (cols == 1023).any(axis=1)).sum())
+
+    assert seam_faces(closed) > 0 and seam_faces(opened) == 0
+
+
+def test_meta_goes_with_an_ouster_recording(shared_data):
+    with pytest.raises(ValueError, match="--meta"):
+        rangemesh.live(shared_data / REALSENSE, kind="ros", meta=shared_data / META)
+
+
+def test_rangemesh_live_is_the_package_and_the_function():
+    import rangemesh.live as package
+
+    assert callable(package) and callable(rangemesh.live)
+    with pytest.raises(ValueError, match="pace"):
+        package("x.bag", pace="slow")
+
+
+def test_a_missing_sdk_is_named_with_its_pip_install(monkeypatch):
+    from rangemesh.live.sinks import FoxgloveChannels
+
+    monkeypatch.setitem(sys.modules, "foxglove", None)
+    with pytest.raises(ImportError, match=r'pip install "rangemesh\[live\]"'):
+        FoxgloveChannels(mcap="x.mcap")
+
+
+# ------------------------------------------------------------------ sinks
+
+
+def _expected_meshes(shared_data, **options):
+    """The bag's frames meshed by `triangulate` on the ROS reader's depth and camera."""
+    from rangemesh.recordings import Recording
+    from rangemesh.recordings.decode import depth_image
+
+    out = {}
+    with Recording(shared_data / REALSENSE) as rec:
+        for f in rec.frames():
+            depth = depth_image(f.depth, f.name)[0]
+            out[f.stamp] = rangemesh.triangulate(depth, background="nonpositive", camera=f.camera,
+                                                 **options)
+    return out
+
+
+def _decoder():
+    sdk("mcap_protobuf")
+    from mcap.reader import make_reader
+    from mcap_protobuf.decoder import DecoderFactory
+
+    return make_reader, DecoderFactory
+
+
+@pytest.mark.slow
+def test_an_mcap_reads_back_with_mcap_s_protobuf_decoder(shared_data, tmp_path):
+    sdk("foxglove")
+    make_reader, DecoderFactory = _decoder()
+    out = tmp_path / "live.mcap"
+    r = _cli(shared_data / REALSENSE, "--source", "ros", "--pace", "fast", "--vertices", "300",
+             "-o", out, "-o", tmp_path / "meshes", "--quiet")
+    assert r.returncode == 0, r.stderr
+    assert r.stdout == "" and r.stderr == ""
+    want = _expected_meshes(shared_data, vertices=300)
+    with open(out, "rb") as fh:
+        reader = make_reader(fh, decoder_factories=[DecoderFactory()])
+        topics = {c.topic: c for c in reader.get_summary().channels.values()}
+        assert set(topics) == {"/rangemesh/mesh", "/rangemesh/calibration", "/rangemesh/tf",
+                               "/rangemesh/stats"}
+        scenes = [(m.log_time, d) for _, _, m, d in reader.iter_decoded_messages(
+            topics=["/rangemesh/mesh"])]
+        calibs = [d for _, _, _, d in reader.iter_decoded_messages(topics=["/rangemesh/calibration"])]
+    assert len(scenes) == 2 and len(calibs) == 2
+    for _, scene in scenes:
+        e = scene.entities[0]
+        mesh = want[e.timestamp.seconds * 10**9 + e.timestamp.nanos]
+        tri = e.triangles[0]
+        assert len(tri.points) == mesh.stats.vertices == 300
+        assert np.array_equal([[p.x, p.y, p.z] for p in tri.points], mesh.vertices)
+        assert np.array_equal(np.reshape(tri.indices, (-1, 3)), mesh.faces)
+    assert list(calibs[0].K) == [FX, 0.0, CX, 0.0, FY, CY, 0.0, 0.0, 1.0]
+    assert (calibs[0].width, calibs[0].height) == (640, 480)
+    rows = (tmp_path / "live.rangemesh-live.csv").read_text().splitlines()
+    assert len(rows) == 3 and rows[0].startswith("index,stamp,")
+    # the folder: a mesh file per frame, named by its stamp as batch names them
+    files = sorted(p.name for p in (tmp_path / "meshes").iterdir())
+    assert files == ["360.815089000.ply", "360.981765000.ply"]
+    back = rangemesh.read_mesh(tmp_path / "meshes" / "360.815089000.ply")
+    assert np.allclose(back.vertices, want[360815089000].vertices)
+
+
+def _ws_frames(url, want_topic, count, timeout=60.0):
+    """Connect as a Foxglove client, subscribe to `want_topic`, return the channels and payloads."""
+    sync = sdk("websockets.sync.client")
+    with sync.connect(url, subprotocols=["foxglove.sdk.v1"], open_timeout=timeout,
+                      max_size=None) as ws:
+        assert ws.subprotocol == "foxglove.sdk.v1"
+        channels, payloads, end = {}, [], time.monotonic() + timeout
+        while len(payloads) < count:
+            assert time.monotonic() < end, "no message from the server"
+            msg = ws.recv(timeout=timeout)
+            if isinstance(msg, str):
+                op = json.loads(msg)
+                if op.get("op") == "advertise":
+                    for ch in op["channels"]:
+                        channels[ch["topic"]] = ch
+                        if ch["topic"] == want_topic:
+                            ws.send(json.dumps({"op": "subscribe", "subscriptions": [
+                                {"id": 7, "channelId": ch["id"]}]}))
+                continue
+            assert msg[0] == 1  # messageData: opcode, subscription id, log time, payload
+            (sub,) = struct.unpack_from("<I", msg, 1)
+            assert sub == 7
+            payloads.append(msg[13:])
+    return channels, payloads
+
+
+@pytest.mark.slow
+def test_a_websocket_client_receives_scene_updates_as_meshed(shared_data):
+    sdk("foxglove")
+    cls, _ = _scene_class()
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "rangemesh", "live", str(shared_data / REALSENSE), "--source", "ros",
+         "--pace", "5", "--loop", "--vertices", "300", "--foxglove", "127.0.0.1:0", "--quiet"],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=ENV)
+    try:
+        url = proc.stdout.readline().strip()  # printed and flushed before the first frame
+        assert url.startswith("ws://127.0.0.1:") and int(url.rsplit(":", 1)[1]) > 0
+        channels, payloads = _ws_frames(url, "/rangemesh/mesh", 2)
+    finally:
+        proc.send_signal(signal.SIGINT)
+        _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 130, err
+    assert {"/rangemesh/mesh", "/rangemesh/calibration", "/rangemesh/tf",
+            "/rangemesh/stats"} <= set(channels)
+    mesh_ch = channels["/rangemesh/mesh"]
+    assert (mesh_ch["encoding"], mesh_ch["schemaName"]) == ("protobuf", "foxglove.SceneUpdate")
+    base64.b64decode(mesh_ch["schema"])  # a protobuf schema is advertised in base64
+    want = _expected_meshes(shared_data, vertices=300)
+    for data in payloads:
+        e = cls.FromString(data).entities[0]
+        mesh = want[e.timestamp.seconds * 10**9 + e.timestamp.nanos]
+        tri = e.triangles[0]
+        assert len(tri.points) == mesh.stats.vertices
+        assert np.array_equal([[p.x, p.y, p.z] for p in tri.points], mesh.vertices)
+        assert np.array_equal(np.reshape(tri.indices, (-1, 3)), mesh.faces)
+
+
+@pytest.mark.slow
+def test_ctrl_c_leaves_a_readable_mcap(shared_data, tmp_path):
+    sdk("foxglove")
+    make_reader, DecoderFactory = _decoder()
+    out = tmp_path / "run.mcap"
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "rangemesh", "live", str(shared_data / REALSENSE), "--source", "ros",
+         "--pace", "20", "--loop", "--vertices", "300", "--foxglove", "0", "-o", str(out)],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=ENV)
+    try:
+        assert proc.stdout.readline().startswith("ws://127.0.0.1:")
+        csv = tmp_path / "run.rangemesh-live.csv"
+        end = time.monotonic() + 60
+        while time.monotonic() < end and out.stat().st_size < 200_000:  # a few frames written
+            time.sleep(0.1)
+    finally:
+        proc.send_signal(signal.SIGINT)
+        _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 130, err
+    assert "interrupted" in err and "Traceback" not in err
+    with open(out, "rb") as fh:
+        reader = make_reader(fh, decoder_factories=[DecoderFactory()])
+        summary = reader.get_summary()  # written at close: None for a cut file
+        assert summary is not None
+        n = summary.statistics.channel_message_counts
+        counts = {summary.channels[k].topic: v for k, v in n.items()}
+        scenes = list(reader.iter_decoded_messages(topics=["/rangemesh/mesh"]))
+    assert counts["/rangemesh/mesh"] == counts["/rangemesh/stats"] >= 1
+    assert len(scenes) == counts["/rangemesh/mesh"]
+    assert len(csv.read_text().splitlines()) == counts["/rangemesh/mesh"] + 1
+
+
+def test_the_status_line_gives_the_rates_drops_and_latency_unless_quiet(shared_data, tmp_path):
+    import io
+
+    from rangemesh.live import run
+
+    said = io.StringIO()
+    s = run(shared_data / REALSENSE, kind="ros", pace="fast", vertices=300,
+            outputs=[tmp_path / "m"], status_stream=said)
+    line = said.getvalue().splitlines()[-1]  # not a terminal: whole lines, the last one forced
+    assert re.fullmatch(r"in \d+\.\d/s  out \d+\.\d/s  frames 2  dropped 0  "
+                        r"latency \d+ ms \(p95 \d+ ms\)", line), line
+    assert (s["frames_in"], s["frames_out"], s["dropped"]) == (2, 2, 0)
+    assert s["csv"] == str(tmp_path / "m" / "rangemesh-live.csv")
+    quiet = io.StringIO()
+    run(shared_data / REALSENSE, kind="ros", pace="fast", vertices=300, quiet=True,
+        status_stream=quiet)
+    assert quiet.getvalue() == ""
+
+
+def test_the_foxglove_address_is_host_and_port():
+    from rangemesh.live.sinks import parse_address
+
+    assert parse_address("0") == ("127.0.0.1", 0)
+    assert parse_address("0.0.0.0:8765") == ("0.0.0.0", 8765)
+    assert parse_address("[::1]:9000") == ("::1", 9000)
+    for bad in ("x", "70000", "host:", "-1"):
+        with pytest.raises(ValueError, match="foxglove"):
+            parse_address(bad)
+
+
+def test_live_cli_refuses_a_camera_option_in_one_line(shared_data):
+    r = _cli(shared_data / REALSENSE, "--intrinsics", "1,1,1,1")
+    assert r.returncode == 2
+    assert r.stderr.strip() == ("rangemesh: error: --intrinsics does not apply to live: the camera "
+                                "comes from the source (its SDK, or the recording's CameraInfo)")
+
+
+def test_live_cli_takes_the_mesh_options(shared_data):
+    # an option of the other method is refused as `rangemesh mesh` refuses it: the same groups
+    r = _cli(shared_data / REALSENSE, "--tiles", "4x4")
+    assert r.returncode == 2 and "--tiles" in r.stderr and "--method paper" in r.stderr
+
+
+def test_pacing_module_has_the_wall_clock():
+    t0 = pacing.Clock.now()
+    pacing.Clock.sleep(0.01)
+    assert pacing.Clock.now() - t0 >= 0.009

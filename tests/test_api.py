@@ -89,7 +89,7 @@ def test_paper_reports_its_grid_and_flips():
 # ------------------------------------------------------------ one rule: method= alone
 
 
-@pytest.mark.parametrize("option", sorted(OPTION_METHOD))
+@pytest.mark.parametrize("option", sorted(k for k, m in OPTION_METHOD.items() if m is not None))
 def test_an_option_of_the_other_method_is_refused(option):
     owner = OPTION_METHOD[option]
     with pytest.raises(ValueError, match=rf"^{option} is an option of method='{owner}'; "
@@ -105,15 +105,16 @@ def test_a_paper_default_passed_to_refine_is_refused():
 
 def test_the_table_covers_every_setting():
     fields = {f.name for f in dataclasses.fields(MeshParams)}
-    shared = {"fill_gaps", "wrap", "depth_limits", "min_region"}
+    shared = {"fill_gaps", "wrap", "depth_limits", "min_region", "max_edge"}
     # MeshParams' 'workers' is the option 'threads'
     assert set(OPTION_METHOD) | shared == (fields - {"workers"}) | {"threads"}
 
 
 @pytest.mark.filterwarnings("ignore:The TBB threading layer")  # Numba's, on first parallel use
-@pytest.mark.parametrize("option", sorted(OPTION_METHOD))
-def test_each_option_is_taken_by_its_method(option):
-    owner = OPTION_METHOD[option]
+@pytest.mark.parametrize("option, owner", sorted(
+    (k, m) for k, m0 in OPTION_METHOD.items() for m in ((m0,) if m0 else ("refine", "paper"))))
+def test_each_option_is_taken_by_its_method(option, owner):
+    # (an option listed with None, max_edge, is taken by both methods)
     kw = {option: VALUES[option]}
     if option in ("walls", "jump"):
         kw["walls"] = False
@@ -286,7 +287,8 @@ def test_triangulates_keywords_are_the_option_table():
     # triangulate names each option (for editors and help()); it must be the table's, in order,
     # with the table's "not given" default, so the keywords and the table cannot drift apart
     tri = inspect.signature(triangulate).parameters
-    fixed = ["method", "vertices", "max_error", "background", "camera", "color"]
+    fixed = ["method", "vertices", "max_error", "max_deviation", "mean_deviation", "background",
+             "camera", "color"]
     keywords = [n for n, p in tri.items() if p.kind == p.KEYWORD_ONLY]
     assert keywords == fixed + [o.name for o in OPTION_TABLE]
     for o in OPTION_TABLE:

@@ -525,3 +525,42 @@ def test_a_closed_stdout_ends_quietly(chair_file):
     cmd = f"{sys.executable} -m rangemesh mesh {chair_file} --json --background 0 | true"
     proc = subprocess.run(["bash", "-c", cmd], capture_output=True, text=True, timeout=120)
     assert proc.stderr == "", proc.stderr
+
+
+# ---------------------------------------------------------------- deviation targets (issue 44)
+
+
+def test_mesh_max_deviation_in_metres_and_eval_prints_the_deviations(tmp_path, capsys):
+    import imageio.v3 as iio
+
+    src = tmp_path / "frame.png"  # a Kinect-like frame in 1/5000 m, 0 = no depth
+    image = rgbd_frame((120, 160))[0]
+    iio.imwrite(src, image)
+    out = tmp_path / "frame.ply"
+    cam = ["--depth-scale", "0.0002", "--intrinsics", "100,100,79.5,59.5"]
+    rc, _, err = run(["mesh", src, "-o", out, "--max-deviation", "0.01", "--max-edge", "20",
+                      *cam], capsys)
+    assert rc == 0
+    # the same mesh as the Python call
+    want = rangemesh.triangulate(image, camera=rangemesh.Pinhole(100, 100, 79.5, 59.5,
+                                                                 depth_scale=0.0002),
+                                 max_deviation=0.01, max_edge=20.0)
+    assert f"vertices {want.stats.vertices} " in err
+    assert "target max_deviation 0.01: achieved" in err and "not met" not in err
+    assert "max deviation " in err and " m  mean deviation " in err
+    rc, stdout, _ = run(["eval", src, out, *cam, "--json"], capsys)
+    got = json.loads(stdout)
+    # (a PLY stores float32 vertices: their rounding, a micrometre, on top of the bound)
+    assert got["max_deviation"] <= 0.01 + 1e-5
+    rc, stdout, _ = run(["eval", src, out, *cam], capsys)
+    assert "max deviation" in stdout
+
+
+def test_mesh_deviation_targets_exclude_the_others(tmp_path, capsys):
+    src = tmp_path / "c.npy"
+    np.save(src, np.add.outer(np.arange(20.0), np.arange(30.0)))
+    rc, _, err = run(["mesh", src, "-o", tmp_path / "c.ply", "--max-deviation", "0.1",
+                      "--vertices", "10"], capsys)
+    assert rc == 2 and "max_deviation and vertices exclude each other" in err
+    rc, _, err = run(["mesh", src, "-o", tmp_path / "c.ply", "--mean-deviation", "-1"], capsys)
+    assert rc == 2 and "mean_deviation must be a finite number of 0 or more" in err

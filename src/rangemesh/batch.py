@@ -54,7 +54,8 @@ __all__ = ["mesh_stream", "mesh_many", "expand_inputs", "BatchResult", "summariz
 
 def mesh_stream(frames: Iterable, params: MeshParams | None = None, *,
                 method: str = "refine", vertices: int | None = None,
-                max_error: float | None = None, background="auto", camera=None,
+                max_error: float | None = None, max_deviation: float | None = None,
+                mean_deviation: float | None = None, background="auto", camera=None,
                 **options) -> Iterator[Mesh]:
     """Mesh a stream of range images, one `Mesh` per frame, in order.
 
@@ -66,6 +67,8 @@ def mesh_stream(frames: Iterable, params: MeshParams | None = None, *,
         As for `rangemesh.triangulate` (every option it takes, the same
         defaults: ``method='refine'``, ``background='auto'``), checked once,
         before the first frame. An unknown keyword is a TypeError.
+    max_deviation, mean_deviation : float, optional
+        As for `rangemesh.triangulate`.
 
     Yields
     ------
@@ -80,20 +83,23 @@ def mesh_stream(frames: Iterable, params: MeshParams | None = None, *,
     """
     options, overrides = call_keywords(options)
     # checked at the call, not at the first next(): a generator would defer the errors
+    deviations = (max_deviation, mean_deviation)
     params, method, tiles_given = resolve_call(params, method, vertices, max_error, options,
-                                               overrides)
+                                               overrides, deviations=deviations)
     return _stream(frames, params, method, tiles_given, vertices, max_error, background,
-                   as_camera(camera))
+                   as_camera(camera), deviations)
 
 
-def _stream(frames, params, method, tiles_given, vertices, max_error, background, camera):
+def _stream(frames, params, method, tiles_given, vertices, max_error, background, camera,
+            deviations=(None, None)):
     ws = None
     for frame in frames:
         arr, bg = check_image(frame, background, camera=camera)  # every frame: clear errors, no copy
         if ws is None or ws.shape != arr.shape:
             ws = Workspace(arr.shape)
         yield run(arr, params, background=bg, camera=camera, vertices=vertices,
-                  max_error=max_error, tiles_given=tiles_given, workspace=ws, method=method)
+                  max_error=max_error, tiles_given=tiles_given, workspace=ws, method=method,
+                  max_deviation=deviations[0], mean_deviation=deviations[1])
 
 
 # ---------------------------------------------------------------- files
@@ -393,7 +399,8 @@ def dask_client(scheduler: str | None, workers: int | None, connect_timeout: flo
 
 def mesh_many(paths, out_dir, params: MeshParams | None = None, *,
               method: str = "refine", vertices: int | None = None,
-              max_error: float | None = None, background="auto", camera=None,
+              max_error: float | None = None, max_deviation: float | None = None,
+              mean_deviation: float | None = None, background="auto", camera=None,
               scheduler: str | None = None, workers: int | None = None, overwrite: bool = False,
               fmt: str = ".ply", progress: bool = False, connect_timeout: float = 10.0,
               beams: str | os.PathLike | None = None, **options) -> list[BatchResult]:
@@ -411,6 +418,8 @@ def mesh_many(paths, out_dir, params: MeshParams | None = None, *,
         defaults: ``method='refine'``, ``background='auto'``, resolved image
         by image), the same for every image, checked before any work. An
         unknown keyword is a TypeError.
+    max_deviation, mean_deviation : float, optional
+        As for `rangemesh.triangulate`.
     scheduler : str, optional
         Address of a running Dask scheduler (``tcp://head:8786``). Default: a
         local cluster of `workers` processes started for this batch.
@@ -468,12 +477,16 @@ def mesh_many(paths, out_dir, params: MeshParams | None = None, *,
         raise ValueError(f"background must be a number, None, 'auto' or '{NONPOSITIVE}', "
                          f"got {background!r}")
     options, overrides = call_keywords(options)
-    params, method, _ = resolve_call(params, method, vertices, max_error, options, overrides)
+    params, method, _ = resolve_call(params, method, vertices, max_error, options, overrides,
+                                     deviations=(max_deviation, mean_deviation))
     camera = as_camera(camera)
     # the workers call triangulate with the resolved method and every field of params: the
     # deprecated spellings arrive as keywords, so the workers warn nothing
     call = {"method": method, "vertices": vertices, "max_error": max_error,
             **call_options(params, method)}
+    # (only when given: a batch's record of its options stays as it was without them)
+    call.update({k: v for k, v in (("max_deviation", max_deviation),
+                                   ("mean_deviation", mean_deviation)) if v is not None})
     files = expand_inputs([paths] if isinstance(paths, (str, os.PathLike)) else paths,
                           scans=beams is not None)
     layout = None

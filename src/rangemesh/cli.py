@@ -272,6 +272,18 @@ def _flag(name: str) -> str:
     return OPTIONS_BY_NAME[name].cli
 
 
+def _deviations(args) -> tuple:
+    """``(max_deviation, mean_deviation)`` of a command that takes them (`mesh`), else Nones."""
+    return getattr(args, "max_deviation", None), getattr(args, "mean_deviation", None)
+
+
+def _deviation_line(ev, camera) -> str:
+    """Evaluate's deviations, in metres with a metric camera, depth units otherwise."""
+    unit = "depth units" if isinstance(camera, Orthographic) else "m"
+    return (f"max deviation {ev.max_deviation:.6g} {unit}  "
+            f"mean deviation {ev.mean_deviation:.6g} {unit}")
+
+
 def _resolve(args):
     """``params, method, tiles_given`` of the options given, by `rangemesh.resolve.resolve_call`.
 
@@ -294,7 +306,8 @@ def _resolve(args):
         raise UserError(f"--samples and --{target.replace('_', '-')} exclude each other: "
                         "the target chooses the samples")
     try:
-        return resolve_call(None, args.method, args.vertices, args.max_error, options, {})
+        return resolve_call(None, args.method, args.vertices, args.max_error, options, {},
+                            deviations=_deviations(args))
     except (ValueError, TypeError) as exc:
         raise UserError(_one_line(exc)) from None
 
@@ -427,6 +440,7 @@ def _mesh_lines(mesh, ev, outputs):
         lines.append(f"relative error {ev.relative_error:.4f} %  rms {ev.rms_error:.4f} %  "
                      f"max {ev.max_error:.3f} %  edge band {ev.edge_band_error:.4f} %  "
                      f"uncovered {ev.uncovered:.2f} %")
+        lines.append(_deviation_line(ev, mesh.camera))
     lines += [f"wrote {o}" for o in outputs]
     return lines
 
@@ -442,10 +456,12 @@ def _run_mesh(args, image, name, bg, outputs_for):
         from .cleanup import ZeroMarkerWarning
 
         try:
+            max_deviation, mean_deviation = _deviations(args)
             with warnings.catch_warnings(record=True) as said:
                 warnings.simplefilter("always", ZeroMarkerWarning)
                 mesh = run(image, params, background=bg, camera=camera, vertices=args.vertices,
-                           max_error=args.max_error, tiles_given=tiles_given, method=method)
+                           max_error=args.max_error, tiles_given=tiles_given, method=method,
+                           max_deviation=max_deviation, mean_deviation=mean_deviation)
         except (ValueError, TypeError, MemoryError) as exc:
             raise UserError(f"{name}: {_one_line(exc)}") from None
         for w in said:  # (others pass on as they came)
@@ -776,6 +792,7 @@ def _cmd_eval(args):
     print(f"relative error {ev.relative_error:.4f} %  rms {ev.rms_error:.4f} %  "
           f"max {ev.max_error:.3f} %  edge band {ev.edge_band_error:.4f} %  "
           f"uncovered {ev.uncovered:.2f} %")
+    print(_deviation_line(ev, mesh.camera))
     return 0
 
 
@@ -999,6 +1016,14 @@ def build_parser() -> argparse.ArgumentParser:
     _add_overwrite_option(m)
     _add_image_options(m)
     _add_mesh_options(m)
+    dev = m.add_argument_group("deviation targets (--method refine; instead of --vertices or "
+                               "--max-error)")
+    dev.add_argument("--max-deviation", type=float, default=None, metavar="D",
+                     help="every valid pixel within D of the mesh along its ray: metres with "
+                          "--intrinsics, --camera or --beams (z-depth, or range), depth units "
+                          "otherwise; fitted depths included")
+    dev.add_argument("--mean-deviation", type=float, default=None, metavar="D",
+                     help="the mean deviation of the valid pixels (as --max-deviation) at most D")
     _add_output_options(m)
 
     d = sub.add_parser("demo", help="mesh a built-in synthetic scene (no input needed)",

@@ -34,13 +34,15 @@ class Target:
 
     Attributes
     ----------
-    kind : {'vertices', 'max_error', 'max_edge'}
+    kind : {'vertices', 'max_error', 'max_deviation', 'mean_deviation', 'max_edge'}
         The target.
     requested : int or float
         The value asked for (with the default target, ``DEFAULT_TARGET.max_error``).
     achieved : int or float
         The same quantity measured on the mesh: vertices, relative error
-        (percent) or longest edge (pixels).
+        (percent), largest or mean deviation of a covered valid pixel
+        (metres with a metric camera, depth units with `Orthographic`) or
+        longest edge (pixels).
     met : bool
         Whether `achieved` meets `requested`.
     meshings : int
@@ -51,13 +53,22 @@ class Target:
         True when no target was given and the documented default target
         (`rangemesh.params.DEFAULT_TARGET`) was used.
     max_vertices : int or None
-        The vertex cap that went with `max_error` (the default target's).
+        The vertex cap that went with `max_error` (the default target's), or
+        with a deviation target (the memory's, when it stopped there).
     tiles, samples : (int, int) or None
         The paper's grid the search chose (``method='paper'`` only).
     added_samples : int or None
         Samples ``max_edge`` added to the grid (``method='paper'``).
     walls_dropped : int or None
         Triangles dropped across jumps (``walls=False``).
+    max_edge : float or None
+        The longest edge asked for beside the target (``method='refine'``),
+        pixels in the image plane.
+    longest_edge : float or None
+        The mesh's longest edge in the image plane, pixels (with `max_edge`).
+    uncovered : int or None
+        Valid pixels no triangle covers, which a deviation target does not
+        measure (dropped walls, lone pixels); None when not measured.
     note : str
         Why the target was not met, when it was not.
 
@@ -80,6 +91,9 @@ class Target:
     added_samples: int | None = None
     walls_dropped: int | None = None
     note: str = ""
+    max_edge: float | None = None
+    longest_edge: float | None = None
+    uncovered: int | None = None
 
     @classmethod
     def from_record(cls, rec: dict, *, vertices: int, default: bool = False) -> Target:
@@ -140,7 +154,8 @@ class Target:
 _TARGET_DEFAULTS = {k: f.default for k, f in Target.__dataclass_fields__.items()
                     if f.default is not MISSING}
 _RECORD_KEYS = {"target", "requested", "achieved", "met", "meshings", "vertices", "max_vertices",
-                "tiles", "samples", "added_samples", "walls_dropped", "note"}
+                "tiles", "samples", "added_samples", "walls_dropped", "note", "max_edge",
+                "longest_edge", "uncovered"}
 
 
 @dataclass(frozen=True)

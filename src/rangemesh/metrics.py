@@ -11,7 +11,7 @@ from .mesh import Mesh, check_arrays
 from .paper.sampling import curvature, valid_span
 from .params import MeshParams
 from .prepare import to_depth_and_mask
-from .render import per_span, relative_error, render_depth
+from .render import deviation_scale, per_span, relative_error, render_depth
 
 __all__ = ["Evaluation", "evaluate", "render_depth", "discontinuity_mask", "relative_error"]
 
@@ -38,6 +38,12 @@ class Evaluation:
         Pixel counts behind the figures.
     depth_range : float
         The normaliser, in depth units.
+    max_deviation, mean_deviation : float
+        Largest and mean ``|depth - mesh|`` over the same pixels along each
+        pixel's ray, in metres with a `Pinhole` (z-depth), `Spherical` or
+        `Rays` camera (range; z-depth with ``z_depth=True``), in depth units
+        with `Orthographic`: what `triangulate`'s ``max_deviation`` and
+        ``mean_deviation`` bound (`rangemesh.render.deviation_scale`).
     """
 
     relative_error: float
@@ -49,6 +55,8 @@ class Evaluation:
     covered_pixels: int
     edge_band_pixels: int
     depth_range: float
+    max_deviation: float = float("nan")
+    mean_deviation: float = float("nan")
 
     def to_dict(self) -> dict:
         """Plain-Python dictionary (JSON-ready; NaN stays NaN)."""
@@ -186,6 +194,9 @@ def evaluate(mesh: Mesh, depth, *, background="auto", discontinuities: np.ndarra
     err = pred[covered]
     del pred
     np.abs(err, out=err)
+    scale = deviation_scale(mesh.camera)[0]
+    max_deviation = float(err.max()) * scale if n_cov else float("nan")
+    mean_deviation = float(err.mean()) * scale if n_cov else float("nan")
     per_span(err, span, 100.0, out=err)
     in_band = near[covered]
     return Evaluation(
@@ -198,4 +209,6 @@ def evaluate(mesh: Mesh, depth, *, background="auto", discontinuities: np.ndarra
         covered_pixels=n_cov,
         edge_band_pixels=int(in_band.sum()),
         depth_range=span,
+        max_deviation=max_deviation,
+        mean_deviation=mean_deviation,
     )

@@ -220,12 +220,15 @@ class MeshParams:
         flag=Flag("stop flipping when the best gain left is below this (default: none, "
                   "every edge with a finite gain is tried)"))
     max_edge: float | None = option(
-        None, methods=PAPER, type="float or None", check=edge_or_none,
+        None, methods=BOTH, type="float or None", check=edge_or_none,
         doc="Longest triangle edge allowed in the image plane, pixels (at least 1.5, a "
-            "pixel's diagonal is 1.41); None: no bound. Given without a vertex or error "
-            "target, it also chooses the samples per tile "
-            "(`rangemesh.paper.targets.fit_edge`).",
-        flag=Flag("no triangle edge longer than this in the image, pixels"))
+            "pixel's diagonal is 1.41); None: no bound. The paper's method adds samples "
+            "(given without a vertex or error target, it also chooses the samples per tile, "
+            "`rangemesh.paper.targets.fit_edge`); refine inserts pixels after its target is "
+            "met, so a vertex count may be exceeded (`stats.target` says so; "
+            "`rangemesh.refine.insertion.greedy_mesh`).",
+        flag=Flag("no triangle edge longer than this in the image, pixels (both methods; "
+                  "refine may exceed --vertices for it)"))
     workers: int = option(
         1, name="threads", methods=PAPER, type="int", check=whole(1),
         doc="Threads sharing stage one's tiles (the paper's parallel stage); the mesh is the "

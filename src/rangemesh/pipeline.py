@@ -199,7 +199,7 @@ def close_seam(mesh: Mesh, depth: np.ndarray, params: MeshParams) -> Mesh:
 
 def run(image, params: MeshParams, *, background="auto", camera=None, vertices=None,
         max_error=None, tiles_given: bool = True, workspace: Workspace | None = None,
-        method: str = "refine") -> Mesh:
+        method: str = "refine", max_deviation=None, mean_deviation=None) -> Mesh:
     """Prepare `image`, mesh it with `method` (for a target, or the default one), assemble stats.
 
     The arguments are those of `triangulate`, already resolved
@@ -229,7 +229,9 @@ def run(image, params: MeshParams, *, background="auto", camera=None, vertices=N
         raise ValueError(f"the paper's method needs an image of at least 2x2 pixels (its "
                          f"tiles are at least 2 pixels thick), got {image.shape[0]}x"
                          f"{image.shape[1]}")
-    default_target = method == "refine" and vertices is None and max_error is None
+    deviation = max_deviation is not None or mean_deviation is not None
+    default_target = method == "refine" and vertices is None and max_error is None \
+        and not deviation
     # refine's need grows with its vertices: those asked, or the default target's cap at most
     budget = default_vertex_cap(image.size) if default_target else vertices
     cleaned = []
@@ -269,19 +271,26 @@ def run(image, params: MeshParams, *, background="auto", camera=None, vertices=N
             ceiling = memory.vertex_ceiling(depth.shape)
             if ceiling is not None and ceiling < min(cap or n_valid, n_valid):
                 cap = memory_cap = max(ceiling, 3)
-        ref = reference(image, background, cleaned) if max_error is not None else None
+        ref = reference(image, background, cleaned) \
+            if max_error is not None or deviation or params.max_edge is not None else None
         mesh, target = greedy_mesh(depth, valid, camera, vertices=vertices, max_error=max_error,
                                    reference=ref, fit=params.heights != "pixel",
                                    diagonals=params.diagonals or "error",
                                    walls=params.walls, jump=params.jump,
-                                   extent=(lo, hi, n_valid), max_vertices=cap)
+                                   extent=(lo, hi, n_valid), max_vertices=cap,
+                                   max_deviation=max_deviation, mean_deviation=mean_deviation,
+                                   max_edge=params.max_edge)
         if memory_cap is not None and target and not target["met"] \
                 and target.get("note", "").startswith("stopped at max_vertices"):
+            bound = (f"the error bound {max_error:g} %" if max_error is not None else
+                     f"max_deviation={max_deviation:g}" if max_deviation is not None else
+                     f"mean_deviation={mean_deviation:g}")
             raise MemoryError(
-                f"the error bound {max_error:g} % needs more than {memory_cap} vertices, which "
+                f"{bound} needs more than {memory_cap} vertices, which "
                 f"is what the {memory.size_text(memory.available_memory() or 0)} of memory "
                 f"available hold ({memory.REFINE_BYTES_PER_VERTEX} bytes a vertex); give a larger "
-                f"max_error or a vertex count, or mesh on a larger machine")
+                f"{'max_error' if max_error is not None else 'bound'} or a vertex count, or mesh "
+                f"on a larger machine")
         if memory_cap is not None and target:  # the record keeps the cap that was asked for
             target.pop("max_vertices", None)
             if asked_cap is not None:
@@ -335,7 +344,8 @@ def reference(image, background, cleaned=()):
 
 def triangulate(image, params: MeshParams | None = None, *,
                 method: str = "refine", vertices: int | None = None,
-                max_error: float | None = None, background="auto", camera=None, color=None,
+                max_error: float | None = None, max_deviation: float | None = None,
+                mean_deviation: float | None = None, background="auto", camera=None, color=None,
                 # the options, in the order of rangemesh.params.OPTION_TABLE (a test holds
                 # them to it; their documentation comes from it)
                 tiles: int | tuple[int, int] | None = None,
@@ -381,6 +391,22 @@ def triangulate(image, params: MeshParams | None = None, *,
         ``'refine'`` takes the default target `rangemesh.params.DEFAULT_TARGET`:
         ``max_error=0.5`` with at most 2 % of the valid pixels as vertices
         (at least 50); ``'paper'`` meshes its grid of `tiles` x `samples`.
+    max_deviation : float, optional
+        ``'refine'`` only. Every valid pixel the mesh covers within this of
+        the mesh (the largest deviation, L-infinity, as delatin's
+        ``max_error``), fitted depths included. A pixel's deviation is
+        ``|predicted - measured|`` along its ray: z-depth in metres with a
+        `Pinhole` (times ``depth_scale``), range in metres with `Spherical`
+        and `Rays` (times ``range_scale``; z-depth with ``z_depth=True``),
+        depth units with `Orthographic`; the prediction is `render_depth`'s.
+        Met in one call: an insertion, then rounds inserting the worst pixel
+        of each triangle still beyond it, with each fitted depth kept within
+        it of its own pixel (`rangemesh.refine.insertion.greedy_mesh`). 0
+        gives every pixel exactly. Excludes the other targets.
+    mean_deviation : float, optional
+        ``'refine'`` only. The mean deviation of the covered valid pixels
+        (as `max_deviation` defines it) at most this. Excludes the other
+        targets.
     background : float, 'auto', 'nonpositive' or None, default 'auto'
         What marks missing depth. ``'auto'``: with a `Pinhole`, `Spherical`
         or `Rays` camera every value of 0 or below (a depth or range is a
@@ -457,14 +483,16 @@ def triangulate(image, params: MeshParams | None = None, *,
     """
     options = keyword_options(locals())
     params, method, tiles_given = resolve_call(params, method, vertices, max_error, options,
-                                               overrides)
+                                               overrides,
+                                               deviations=(max_deviation, mean_deviation))
     if color is not None:
         shape, cshape = np.shape(image)[:2], np.shape(color)[:2]
         if shape != cshape:
             raise ValueError(f"color is {cshape[0]}x{cshape[1]} and the image "
                              f"{shape[0]}x{shape[1]}: they must be registered pixel to pixel")
     mesh = run(image, params, background=background, camera=camera, vertices=vertices,
-               max_error=max_error, tiles_given=tiles_given, method=method)
+               max_error=max_error, tiles_given=tiles_given, method=method,
+               max_deviation=max_deviation, mean_deviation=mean_deviation)
     return mesh if color is None or mesh.is_empty else mesh.with_colors(color)
 
 

@@ -15,7 +15,7 @@ from .blocks import BLOCK, blocks, filled, take
 from .camera import Orthographic, Pinhole, Rays, Spherical
 from .mesh import Mesh
 
-__all__ = ["render_depth", "relative_error"]
+__all__ = ["render_depth", "relative_error", "deviation_scale"]
 
 
 def _image_coords(mesh: Mesh) -> tuple[np.ndarray, np.ndarray]:
@@ -197,3 +197,25 @@ def per_span(x, span: float, full: float, *, out=None):
     if math.isfinite(factor):
         return np.multiply(x, factor, out=out)
     return np.multiply(np.divide(x, span, out=out), full, out=out)
+
+
+def deviation_scale(camera) -> tuple[float, bool]:
+    """``(scale, inverse)``: metres of one stored depth unit, and whether the render interpolates its inverse.
+
+    A pixel's deviation is ``|predicted - measured| * scale``, its prediction
+    that of `rangemesh.render.render_depth`: z-depth before a `Pinhole`
+    (``depth_scale``, inverse depth interpolated), range along the ray before
+    `Spherical` and `Rays` (``range_scale``; z-depth, inverse interpolated,
+    with ``z_depth=True``), depth units with `Orthographic` (scale 1).
+
+    Examples
+    --------
+    >>> from rangemesh.camera import Pinhole
+    >>> deviation_scale(Pinhole(500.0, 500.0, 320.0, 240.0, depth_scale=0.001))
+    (0.001, True)
+    """
+    if isinstance(camera, Orthographic):
+        return 1.0, False
+    if isinstance(camera, Pinhole):
+        return float(camera.depth_scale), True
+    return float(camera.range_scale), bool(getattr(camera, "z_depth", False))

@@ -133,9 +133,11 @@ def _legacy_method(params: MeshParams, vertices, max_error, overrides) -> str:
     return "refine"
 
 
-def _targets_given(params: MeshParams, vertices, max_error, fields) -> list[str]:
+def _targets_given(params: MeshParams, vertices, max_error, fields,
+                   deviations=(None, None), method: str = "refine") -> list[str]:
     if vertices is not None and max_error is not None:
         raise ValueError("vertices and max_error exclude each other: give one target")
+    check_deviations(deviations, vertices, max_error, method)
     given = [k for k, v in (("vertices", vertices), ("max_error", max_error),
                             ("max_edge", params.max_edge)) if v is not None]
     if given and "samples" in fields:
@@ -178,8 +180,36 @@ def _unset(name: str, value) -> bool:
     return value is None if unset is None else (value is not None and value == unset)
 
 
+def check_deviations(deviations, vertices, max_error, method: str) -> None:
+    """Refuse a bad ``(max_deviation, mean_deviation)``: each a number >= 0, one target at most.
+
+    Raises
+    ------
+    ValueError
+        A negative, NaN or infinite bound, two targets given, or the paper's method.
+    TypeError
+        A bound that is not a real number.
+    """
+    given = [(k, v) for k, v in zip(("max_deviation", "mean_deviation"), deviations, strict=True)
+             if v is not None]
+    if not given:
+        return
+    others = [k for k, v in (("vertices", vertices), ("max_error", max_error)) if v is not None]
+    names = [k for k, _ in given] + others
+    if len(names) > 1:
+        raise ValueError(f"{' and '.join(names)} exclude each other: give one target")
+    name, value = given[0]
+    if method != "refine":
+        raise ValueError(f"{name} is a target of method='refine'; method={method!r} does not "
+                         f"take it")
+    x = real_number(name, value, finite=False)
+    if not (math.isfinite(x) and x >= 0.0):
+        raise ValueError(f"{name} must be a finite number of 0 or more (metres with a metric "
+                         f"camera, depth units with Orthographic), got {value!r}")
+
+
 def resolve_call(params, method, vertices, max_error, options: dict, overrides: dict, *,
-                 stacklevel: int = 3) -> tuple[MeshParams, str, bool]:
+                 stacklevel: int = 3, deviations=(None, None)) -> tuple[MeshParams, str, bool]:
     """The settings of a `triangulate` (or `mesh_stream`, `mesh_many`) call, checked.
 
     Parameters
@@ -196,6 +226,8 @@ def resolve_call(params, method, vertices, max_error, options: dict, overrides: 
         other is a TypeError.
     stacklevel : int
         Where a deprecation warning points: the user's call.
+    deviations : (float or None, float or None)
+        ``(max_deviation, mean_deviation)`` as `triangulate` takes them.
 
     Returns
     -------
@@ -219,7 +251,7 @@ def resolve_call(params, method, vertices, max_error, options: dict, overrides: 
         # no option given (most calls): the defaults, built once (by identity: an array
         # option must not be compared with ==)
         base = defaults()
-        _targets_given(base, vertices, max_error, {})
+        _targets_given(base, vertices, max_error, {}, deviations, method)
         return base, method, False
     given = {k: v for k, v in options.items() if not _unset(k, v)}
     if overrides:
@@ -233,7 +265,7 @@ def resolve_call(params, method, vertices, max_error, options: dict, overrides: 
               for k, v in given.items()}
     if params is None:
         params = _params_of(fields)
-        _targets_given(params, vertices, max_error, fields)
+        _targets_given(params, vertices, max_error, fields, deviations, method)
         return params, method, "tiles" in fields
     # the deprecated spelling keeps the method and the mesh it gave before
     if not isinstance(params, MeshParams):
@@ -245,7 +277,7 @@ def resolve_call(params, method, vertices, max_error, options: dict, overrides: 
     params = params.replace(**fields) if fields else params
     if method == "refine":
         method = _legacy_method(params, vertices, max_error, fields)
-    _targets_given(params, vertices, max_error, fields)
+    _targets_given(params, vertices, max_error, fields, deviations, method)
     base = defaults()
     changed = [o.name for o in OPTION_TABLE
                if getattr(params, o.field) != getattr(base, o.field)

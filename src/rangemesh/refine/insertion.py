@@ -22,7 +22,7 @@ from .._core import (
 )
 from ..camera import _UNIT, Orthographic, backproject, pixel_aspect
 from ..mesh import Mesh, Stats, empty_mesh, with_fields
-from ..render import relative_error
+from ..render import deviation_scale, relative_error
 from . import threads as _threads
 from .heights import fit_heights, height_rule
 from .start import corner_depths, first_mesh, hull_mesh, valid_hull
@@ -42,6 +42,9 @@ MAX_RUNS = 8
 # ... and once a request gave more than `vertices` (walls dropped), at most this many: the
 # count then lands within a few vertices of N, with a note, rather than costing 8 meshings.
 MAX_BISECT_RUNS = 5
+# max_deviation=D: the first insertion stops at a summed error of this share of D a valid pixel
+# (the rounds insert the rest: a smaller share over-inserts, a larger one costs more rounds).
+MAX_DEVIATION_SHARE = 0.25
 GRID_MAX = 256
 GRID_ERROR_BOUND = 64
 # Rows (or columns) count an integer times more in the Delaunay test once the sensor's rows lie
@@ -208,7 +211,9 @@ def _refine(depth, valid, start, strips, asked, max_sum, span, scales, n_grid, d
 def greedy_mesh(depth: np.ndarray, valid: np.ndarray, camera, *, vertices: int | None = None,
                 max_error: float | None = None, reference=None, fit: bool = True,
                 diagonals: str = "error", walls: bool = True, jump: float = 0.05,
-                extent=None, max_vertices: int | None = None) -> tuple[Mesh, dict]:
+                extent=None, max_vertices: int | None = None, max_deviation: float | None = None,
+                mean_deviation: float | None = None,
+                max_edge: float | None = None) -> tuple[Mesh, dict]:
     """Mesh a prepared image by inserting its worst pixel until a target is met.
 
     Parameters
@@ -245,8 +250,33 @@ def greedy_mesh(depth: np.ndarray, valid: np.ndarray, camera, *, vertices: int |
     extent : (float, float, int), optional
         ``valid_range(depth, valid)`` when the caller has it.
     max_vertices : int, optional
-        With `max_error`: stop at this many vertices even if the bound is not
-        met (noisy images would otherwise take a large share of their pixels).
+        With `max_error`, `max_deviation` or `mean_deviation`: stop at this
+        many vertices even if the bound is not met (noisy images would
+        otherwise take a large share of their pixels; `run` gives the
+        vertices the memory available holds).
+    max_deviation : float, optional
+        Insert until every valid pixel of `reference` the mesh covers lies
+        within this of the mesh (L-infinity, `deviation_scale`). One
+        insertion, stopped when its summed error reaches a quarter of the
+        bound a pixel, then rounds: the mesh's depths are set (copied first,
+        until they meet the bound, then fitted, each fitted depth kept within
+        the bound of its own pixel), its render measured, and the worst pixel
+        of every triangle still beyond the bound inserted into the insertion
+        (its diagonals then chosen again), until no pixel is beyond. Every round
+        inserts a pixel at least, so the bound is met unless a pixel beyond it
+        cannot be inserted (the render's rounding at a vertex, a pixel
+        valid only in `reference`).
+    mean_deviation : float, optional
+        Insert until the mean deviation over the covered valid pixels is at
+        most this: one insertion stopped at that summed error, then rounds
+        with fitted depths inserting the worst pixels of the triangles of the
+        largest summed deviation (holding twice the excess) until met.
+    max_edge : float, optional
+        With any target: then insert the worst pixel (the pixel nearest the
+        middle of the longest edge when it covers none) of every triangle
+        with an edge longer than this many pixels in the image plane, in
+        rounds, until none is left; the vertex count may then exceed
+        `vertices`.
 
     Returns
     -------
@@ -261,6 +291,12 @@ def greedy_mesh(depth: np.ndarray, valid: np.ndarray, camera, *, vertices: int |
     covers the valid pixels without spending vertices on the background.
     When that leaves no triangle, insertion starts again from the valid
     pixels' convex hull (`hull_mesh`).
+
+    A pixel's deviation (`deviation_scale`) is ``|predicted - measured|``
+    depth, the prediction `rangemesh.render.render_depth`'s, times the
+    camera's ``depth_scale`` (`Pinhole`: z-depth in metres) or
+    ``range_scale`` (`Spherical`, `Rays`: range along the ray in metres; a
+    ``z_depth=True`` camera's z-depth), or 1 with `Orthographic` (depth units).
 
     Depths far from 1 (beyond ``2**DEPTH_BAND`` or below its inverse) are
     divided by a power of two first (`depth_exponent`) and the vertices
@@ -279,9 +315,25 @@ def greedy_mesh(depth: np.ndarray, valid: np.ndarray, camera, *, vertices: int |
         depth = np.ldexp(depth, -exponent)
         ref = (np.ldexp(ref[0], -exponent), ref[1])
         extent = (math.ldexp(extent[0], -exponent), math.ldexp(extent[1], -exponent), extent[2])
+    bounds = (max_deviation, mean_deviation, max_edge)
     mesh, target = _native(depth, valid, camera, ref, extent, exponent, vertices, max_error,
-                           max_vertices, fit=fit, diagonals=diagonals, walls=walls, jump=jump)
-    if mesh is None:  # declined
+                           max_vertices, fit=fit, diagonals=diagonals, walls=walls, jump=jump,
+                           bounds=bounds)
+    if mesh is None and bounds != (None, None, None):
+        # The Python steps take no rounds: a fit the call declined (it must raise or solve
+        # directly) gives way to copied depths; no triangle left is named by `_greedy`.
+        if fit:
+            mesh, target = _native(depth, valid, camera, ref, extent, exponent, vertices,
+                                   max_error, max_vertices, fit=False, diagonals=diagonals,
+                                   walls=walls, jump=jump, bounds=bounds)
+        if mesh is None:
+            mesh, target = _greedy(depth, valid, camera, ref, extent, exponent,
+                                   vertices=extent[2], max_error=None, fit=False,
+                                   diagonals=diagonals, walls=walls, jump=jump,
+                                   max_vertices=None, first=None)
+            if len(mesh.faces):  # (the call declines only when no triangle is left)
+                raise RuntimeError("refine: the compiled call declined a mesh with triangles")
+    elif mesh is None:  # declined
         mesh, target = _greedy(depth, valid, camera, ref, extent, exponent, vertices=vertices,
                                max_error=max_error, fit=fit, diagonals=diagonals, walls=walls,
                                jump=jump, max_vertices=max_vertices, first=None)
@@ -339,6 +391,43 @@ def _plan(shape, camera, n_valid, vertices, max_error, max_vertices):
     return want, delaunay_scales(camera, shape), n_grid, use_strips(shape, want, max_error, n_valid)
 
 
+def _round_record(target: dict, res, bounds, exponent, cap=None) -> dict:
+    """`target` with what the rounds of `bounds` (max_deviation, mean_deviation, max_edge) reached.
+
+    `cap`: the vertex cap of a deviation target (None: none).
+    """
+    max_deviation, mean_deviation, max_edge = bounds
+    if max_deviation is not None or mean_deviation is not None:
+        kind = "max_deviation" if max_deviation is not None else "mean_deviation"
+        asked = max_deviation if max_deviation is not None else mean_deviation
+        # (the depths were divided by 2**exponent: the deviation comes back in their units)
+        got = math.ldexp(res.deviation_max if max_deviation is not None else res.deviation_mean,
+                         exponent)
+        target = {"target": kind, "requested": float(asked), "achieved": got,
+                  "met": got <= asked, "meshings": res.meshings + res.rounds,
+                  "vertices": res.vertex_count,
+                  **({"walls_dropped": target["walls_dropped"]} if "walls_dropped" in target else {})}
+        if cap is not None:
+            target["max_vertices"] = cap
+        if not target["met"]:
+            target["note"] = (f"stopped at max_vertices={cap}"
+                              if cap is not None and res.vertex_count >= cap else
+                              "no pixel beyond the bound is left to insert: it rounds at a "
+                              "vertex or is valid only before gap filling")
+    else:
+        target = dict(target, meshings=target.get("meshings", 1) + res.rounds)
+    target["uncovered"] = int(res.uncovered)
+    if max_edge is not None:
+        target["max_edge"], target["longest_edge"] = float(max_edge), float(res.longest_edge)
+        if res.longest_edge > max_edge and "note" not in target:
+            target["note"] = "a triangle's long edge had no pixel left to insert"
+        if target["target"] == "vertices" and target["achieved"] > target["requested"]:
+            target["met"] = False
+            target["note"] = (f"{target['achieved']} vertices: max_edge={max_edge:g} inserted "
+                              f"{target['achieved'] - target['requested']} more")
+    return target
+
+
 def _count_record(got, asked, runs, n_valid, n_pixels, no_walls_dropped,
                   walls_dropped=None) -> dict:
     """The target record of ``vertices=asked`` met with `got` vertices in `runs` meshings.
@@ -363,7 +452,7 @@ _NATIVE_MESH = Mesh(np.zeros((0, 3)), np.zeros((0, 3), np.int32), np.zeros((0, 2
 
 
 def _native(depth, valid, camera, ref, extent, exponent, vertices, max_error, max_vertices, *,
-            fit, diagonals, walls=True, jump=0.05):
+            fit, diagonals, walls=True, jump=0.05, bounds=(None, None, None)):
     """`_greedy` on one strip or two, as one native call (`rangemesh._core.refine_mesh`).
 
     Returns ``(mesh, target)``, or ``(None, None)`` when the call declines
@@ -376,6 +465,20 @@ def _native(depth, valid, camera, ref, extent, exponent, vertices, max_error, ma
     want, scales, n_grid, strips = _plan((h, w), camera, n_valid, vertices, max_error,
                                          max_vertices)
     req = _core.RefineRequest()
+    max_deviation, mean_deviation, max_edge = bounds
+    if bounds != (None, None, None):  # (rounds rebuild one mesh: no strips)
+        strips = False
+        if max_deviation is not None or mean_deviation is not None:
+            n_grid = 0  # the image rectangle first: a plane keeps its four corners only
+        req.deviation_scale, req.deviation_inverse = deviation_scale(camera)
+        # the depths were divided by 2**exponent: so is a metre's worth of them
+        req.deviation_scale = math.ldexp(req.deviation_scale, exponent)
+    if max_deviation is not None:
+        req.max_deviation, req.max_deviation_share = float(max_deviation), MAX_DEVIATION_SHARE
+    if mean_deviation is not None:
+        req.mean_deviation = float(mean_deviation)
+    if max_edge is not None:
+        req.max_edge = float(max_edge)
     if strips:
         req.strips, req.seam_density, req.seam_error_share = True, SEAM_DENSITY, SEAM_ERROR_SHARE
         req.threads = _threads.threads()
@@ -401,15 +504,21 @@ def _native(depth, valid, camera, ref, extent, exponent, vertices, max_error, ma
     stats = with_fields(_NATIVE_STATS, vertices=got, triangles=len(faces), edges=res.edges,
                         sampled_points=got, seconds=seconds, flip_tests={}, flipped_edges=res.flips,
                         insertions=res.insertions, strips=res.strips,
-                        heights="fit" if fit else "pixel")
+                        heights="fit" if fit and res.fitted else "pixel")
     mesh = with_fields(_NATIVE_MESH, vertices=res.vertices, faces=faces, pixels=pixels,
                        camera=camera, image_shape=(h, w), stats=stats, attributes={})
     dropped = None if walls else res.walls_dropped
     if vertices is not None:
-        return mesh, _count_record(got, int(vertices), res.meshings, n_valid, h * w, walls,
-                                   dropped)
-    return mesh, _error_record(res.achieved, float(max_error), res.meshings, got, res.asked, want,
+        target = _count_record(got, int(vertices), res.meshings, n_valid, h * w, walls, dropped)
+    elif max_error is not None:
+        target = _error_record(res.achieved, float(max_error), res.meshings, got, res.asked, want,
                                max_vertices, dropped)
+    else:
+        target = {} if walls else {"walls_dropped": dropped}
+    if bounds != (None, None, None):
+        cap = want if max_vertices is not None else None
+        target = _round_record(target, res, bounds, exponent, cap)
+    return mesh, target
 
 
 def _error_record(achieved, asked, runs, got, last, want, max_vertices, walls_dropped=None) -> dict:

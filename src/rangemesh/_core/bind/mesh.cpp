@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <optional>
 #include <vector>
 
@@ -45,7 +46,8 @@ void bind_request(nb::module_& m) {
     nb::class_<MeshRequest>(m, "RefineRequest",
                             "What one ``refine_mesh`` call asks for (rangemesh/refine/insertion.py fills it).")
         .def(nb::init<>())
-        .def_rw("vertices", &MeshRequest::vertices, "Valid vertices wanted (at most n_valid); with max_error, the cap.")
+        .def_rw("vertices", &MeshRequest::vertices,
+                "Valid vertices wanted (at most n_valid); with max_error or a deviation target, the cap.")
         .def_rw("max_error", &MeshRequest::max_error,
                 "The relative error bound, percent of the reference's valid range (negative: none).")
         .def_rw("n_valid", &MeshRequest::n_valid, "The image's valid pixels.")
@@ -65,7 +67,16 @@ void bind_request(nb::module_& m) {
         .def_rw("pixel_angle", &MeshRequest::pixel_angle, "A ray camera's angle of one pixel (walls false).")
         .def_rw("max_runs", &MeshRequest::max_runs, "Meshings at most.")
         .def_rw("max_bisect_runs", &MeshRequest::max_bisect_runs, "... once a request gave more than the count.")
-        .def_rw("heights", &MeshRequest::heights, "The fit's rules (a HeightRule).");
+        .def_rw("heights", &MeshRequest::heights, "The fit's rules (a HeightRule).")
+        .def_rw("max_deviation", &MeshRequest::max_deviation,
+                "Largest deviation of a covered valid pixel, metres or depth units (negative: none).")
+        .def_rw("mean_deviation", &MeshRequest::mean_deviation, "Their mean deviation at most (negative: none).")
+        .def_rw("max_edge", &MeshRequest::max_edge, "Longest face edge in the image plane, pixels (0: none).")
+        .def_rw("deviation_scale", &MeshRequest::deviation_scale, "Metres of one stored depth unit (1: depth units).")
+        .def_rw("deviation_inverse", &MeshRequest::deviation_inverse,
+                "The prediction interpolates inverse depth (a pinhole, z-depth rays).")
+        .def_rw("max_deviation_share", &MeshRequest::max_deviation_share,
+                "The first insertion's summed error: this share of max_deviation a valid pixel.");
 }
 
 void bind_result(nb::module_& m) {
@@ -89,6 +100,12 @@ void bind_result(nb::module_& m) {
         .def_ro("asked", &MeshResult::asked, "The last meshing's vertex request.")
         .def_ro("achieved", &MeshResult::achieved, "With max_error: the relative error reached (NaN: no valid "
                 "pixel covered).")
+        .def_ro("deviation_max", &MeshResult::deviation_max, "After rounds: the largest deviation reached.")
+        .def_ro("deviation_mean", &MeshResult::deviation_mean, "... and the mean one.")
+        .def_ro("longest_edge", &MeshResult::longest_edge, "After rounds: the longest face edge, pixels.")
+        .def_ro("uncovered", &MeshResult::uncovered, "After rounds: valid reference pixels no face covers.")
+        .def_ro("rounds", &MeshResult::rounds, "Rounds of insertion after the search's meshing.")
+        .def_ro("fitted", &MeshResult::fitted, "Heights fitted (false: copied).")
         .def_ro("fit_seconds", &MeshResult::fit_seconds, "Time fitting the heights.")
         .def_ro("seconds", &MeshResult::seconds, "Time of the whole call.");
 }
@@ -159,6 +176,18 @@ void bind_refine_mesh(nb::module_& m) {
                         "refine_mesh: 0 < vertices <= n_valid <= the image's pixels");
             check_input(req.max_error < 0.0 || (req.max_error > 0.0 && std::isfinite(req.max_error)),
                         "refine_mesh: max_error negative (none) or a finite positive percentage");
+            check_input((req.max_deviation < 0.0 && req.mean_deviation < 0.0) ||
+                            (req.max_error < 0.0 && (req.max_deviation < 0.0 || req.mean_deviation < 0.0)),
+                        "refine_mesh: max_deviation or mean_deviation alone, with no max_error");
+            check_input(!(req.max_deviation > std::numeric_limits<double>::max()) &&
+                            !(req.mean_deviation > std::numeric_limits<double>::max()) &&
+                            !std::isnan(req.max_deviation) && !std::isnan(req.mean_deviation),
+                        "refine_mesh: max_deviation and mean_deviation finite (negative: none)");
+            check_input(req.max_edge == 0.0 || (req.max_edge >= 1.0 && std::isfinite(req.max_edge)),
+                        "refine_mesh: max_edge 0 (none) or a finite length of 1 pixel or more");
+            check_input(req.deviation_scale > 0.0 && std::isfinite(req.deviation_scale) &&
+                            req.max_deviation_share > 0.0 && req.max_deviation_share <= 1.0,
+                        "refine_mesh: deviation_scale finite and above 0, max_deviation_share in (0, 1]");
             check_input(req.walls || camera(0) != 2.0 || (req.pixel_angle > 0.0 && std::isfinite(req.pixel_angle)),
                         "refine_mesh: walls dropped with a ray camera need a finite pixel_angle above 0");
             check_input(req.threads >= 1 && (!req.strips || depth.shape(1) >= 4),

@@ -339,6 +339,71 @@ void Insertion::advance(const Stop& stop) {
     }
 }
 
+// The triangle holding pixel (r, c) (on its edge or inside), or -1: a walk across the edge
+// the pixel lies beyond, from the last triangle found; a triangle by triangle search when the
+// walk does not end (the guarded flips leave the mesh not quite Delaunay).
+index_t Insertion::locate(index_t r, index_t c) {
+    const auto holds = [&](index_t t, int& beyond) {
+        beyond = -1;
+        for (int k = 0; k < 3; ++k) {
+            const index_t a = tv_[3 * t + k], b = tv_[3 * t + (k + 1) % 3];
+            if (orient(vr_[a], vc_[a], vr_[b], vc_[b], r, c) < 0) {
+                beyond = k;
+                return false;
+            }
+        }
+        return true;
+    };
+    index_t t = hint_ < n_t_ ? hint_ : 0;
+    int beyond = -1;
+    for (index_t steps = 0; steps < 4 * n_t_ + 8; ++steps) {
+        if (holds(t, beyond)) return hint_ = t;
+        const index_t twin = he_[3 * t + beyond];
+        if (twin < 0) break;
+        t = twin / 3;
+    }
+    for (t = 0; t < n_t_; ++t) {
+        poll_every(t);
+        if (holds(t, beyond)) return hint_ = t;
+    }
+    return -1;
+}
+
+bool Insertion::insert_at(index_t r, index_t c) {
+    const index_t t = locate(r, c);
+    if (t < 0) return false;
+    for (int k = 0; k < 3; ++k)
+        if (vr_[tv_[3 * t + k]] == r && vc_[tv_[3 * t + k]] == c) return false;
+    require(n_vertices() < image_.rows() * image_.cols(), "insertion: more vertices than pixels");
+    // as `advance` inserts a worst pixel, without the shortcuts of an exact split
+    make_room();
+    const index_t p = n_vertices();
+    vr_.push_back(r);
+    vc_.push_back(c);
+    vz_.push_back(image_.depth(r, c));
+    vbg_.push_back(0);
+    ++n_valid_v_;
+    const index_t old_t = n_t_;
+    insert(t, p, nullptr);
+    for (index_t s = old_t; s < n_t_; ++s) {
+        keyed_[s].key = -1.0;
+        keyed_[s].sum = 0.0;
+        heap_[n_heap_] = s;
+        keys_[n_heap_] = -1.0;
+        slot_[s] = n_heap_;
+        ++n_heap_;
+    }
+    ++step_;
+    for (const index_t s : changed_) {
+        if (stamp_[s] == step_) continue;
+        stamp_[s] = step_;
+        const TriangleKey k = scan(s);
+        total_ += k.sum - keyed_[s].sum;
+        rekey(s, k);
+    }
+    return true;
+}
+
 std::vector<double> Insertion::sums() const {
     std::vector<double> out;
     out.reserve(n_t_);

@@ -58,6 +58,11 @@ class alignas(64) Insertion {
     // Insert worst pixels until `stop` says so, or no pixel is left to insert.
     void advance(const Stop& stop);
 
+    // Insert pixel (r, c), valid and no vertex, into the triangle holding it (found by a walk),
+    // as `advance` inserts its worst pixels; false when no triangle holds it or it is a corner.
+    // The deviation targets' rounds (deviation.hpp) insert the pixels they pick this way.
+    bool insert_at(index_t r, index_t c);
+
     // The key of the triangle `advance` would split next (-1 when none is left).
     double top_key() const { return n_heap_ > 0 ? keyed_[heap_[0]].key : -1.0; }
 
@@ -71,6 +76,7 @@ class alignas(64) Insertion {
     // is then stale: do not advance again).
     Span<index_t> vertex_rows() { return {vr_.data(), n_vertices()}; }
     Span<index_t> vertex_cols() { return {vc_.data(), n_vertices()}; }
+    Span<const double> vertex_depths() const { return {vz_.data(), n_vertices()}; }
     Span<index_t> triangles() { return {tv_.data(), 3 * n_t_}; }
     Span<index_t> halfedges() { return {he_.data(), 3 * n_t_}; }
     std::vector<double> sums() const;
@@ -86,6 +92,7 @@ class alignas(64) Insertion {
     void legalize(index_t e0, const Plane* guard);
     bool flat_cavity(index_t t, index_t old_t, const Plane& plane) const;
     void rekey(index_t t, const TriangleKey& k);
+    index_t locate(index_t r, index_t c);
     // the heap over the arrays as they are now (they move when the triangles' room grows)
     HeapView heap() {
         const index_t cap_t = static_cast<index_t>(keyed_.size());
@@ -110,6 +117,7 @@ class alignas(64) Insertion {
     index_t n_valid_v_ = 0;
     index_t step_ = 0;
     double total_ = 0.0;
+    index_t hint_ = 0;  // where `locate` starts walking: the last triangle it found
     // per step: the triangles it changed (with repeats), the flips still to test
     std::vector<index_t> changed_, stack_;
 };

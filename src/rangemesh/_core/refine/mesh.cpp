@@ -18,6 +18,7 @@
 #include "../heights/order.hpp"
 #include "../heights/pass.hpp"
 #include "../interrupt.hpp"
+#include "deviation.hpp"
 #include "diagonals.hpp"
 #include "halves.hpp"
 #include "insertion.hpp"
@@ -141,6 +142,8 @@ struct Meshing {
     ValidFaces mesh;
     index_t insertions = 0, flips = 0, n_walls = 0;
     bool error_left = false;  // the insertion's summed error (before any flip) is above 0
+    // with rounds to come (`needs_rounds`): the insertion, unflipped, to go on inserting into
+    std::shared_ptr<Insertion> ins;
 
     index_t n_vertices() const { return static_cast<index_t>(mesh.pixels.size() / 2); }
 };
@@ -156,24 +159,51 @@ ValidFaces assemble(const Image& image, Span<const double> camera, Span<const in
     return f;
 }
 
+// Whether the search's mesh goes on to rounds of insertion (a deviation target, max_edge).
+bool needs_rounds(const MeshRequest& req) {
+    return req.max_deviation >= 0.0 || req.mean_deviation >= 0.0 || req.max_edge > 0.0;
+}
+
+// The meshing of insertion `ins` as it stands: its diagonals flipped by the error when asked,
+// assembled. With `keep` the flips work on copies of its triangles, so that it can go on
+// inserting (the rounds).
+Meshing meshing_of(const Image& image, Span<const double> camera, Insertion& ins, const MeshRequest& req, bool keep) {
+    Meshing out;
+    out.insertions = ins.n_vertices();
+    out.error_left = ins.total() > 0.0;
+    std::vector<index_t> tv_copy, he_copy;
+    Span<index_t> tv = ins.triangles(), he = ins.halfedges();
+    if (keep) {
+        tv_copy.assign(tv.begin(), tv.end());
+        he_copy.assign(he.begin(), he.end());
+        tv = {tv_copy.data(), tv.size};
+        he = {he_copy.data(), he.size};
+    }
+    if (req.flip) {
+        std::vector<double> sums = ins.sums();
+        out.error_left = std::any_of(sums.begin(), sums.end(), [](double x) { return x > 0.0; });
+        const FlipMesh mesh{view(ins.vertex_rows()), view(ins.vertex_cols()), tv, he,
+                            {sums.data(), static_cast<index_t>(sums.size())}};
+        out.flips = flip_by_error(image, mesh).flips;
+    }
+    out.mesh = assemble(image, camera, view(ins.vertex_rows()), view(ins.vertex_cols()), view(tv), req, out.n_walls);
+    return out;
+}
+
 // Insertion until `asked` valid vertices or, when `max_sum` is not negative, a summed error of
 // at most `max_sum` (insertion.py's `_refine`), then assembled.
 Meshing mesh_once(const Image& image, Span<const double> camera, const FirstMesh& first, index_t asked, double max_sum,
                   const MeshRequest& req) {
+    if (needs_rounds(req)) {  // the insertion kept for the rounds
+        auto ins = std::make_shared<Insertion>(image, first, max_sum < 0.0 ? asked : 0, req.sr, req.sc);
+        ins->advance(Stop{asked, max_sum});
+        Meshing out = meshing_of(image, camera, *ins, req, true);
+        out.ins = std::move(ins);
+        return out;
+    }
     Insertion ins(image, first, max_sum < 0.0 ? asked : 0, req.sr, req.sc);
     ins.advance(Stop{asked, max_sum});
-    Meshing out;
-    out.insertions = ins.n_vertices();
-    out.error_left = ins.total() > 0.0;
-    if (req.flip) {
-        std::vector<double> sums = ins.sums();
-        out.error_left = std::any_of(sums.begin(), sums.end(), [](double x) { return x > 0.0; });
-        const FlipMesh mesh{view(ins.vertex_rows()), view(ins.vertex_cols()), ins.triangles(), ins.halfedges(),
-                            {sums.data(), static_cast<index_t>(sums.size())}};
-        out.flips = flip_by_error(image, mesh).flips;
-    }
-    out.mesh = assemble(image, camera, view(ins.vertex_rows()), view(ins.vertex_cols()), view(ins.triangles()), req, out.n_walls);
-    return out;
+    return meshing_of(image, camera, ins, req, false);
 }
 
 // The same on two strips (`insert_halves`).
@@ -481,15 +511,21 @@ struct Candidate {
 class Refiner {
   public:
     Refiner(const Image& image, Span<const double> camera, const Reference& ref, const MeshRequest& req)
-        : image_(image), camera_(camera), req_(req), measure_(camera, ref), strips_(req.strips) {}
+        : image_(image), camera_(camera), req_(req), ref_(ref), measure_(camera, ref),
+          strips_(req.strips && !needs_rounds(req)) {}
 
     // The search; when it leaves no face (every triangle keeps a background image corner), once
     // more from the valid pixels' hull (insertion.py's restart), unless walls were dropped.
     MeshResult run();
 
   private:
+    MeshResult search();
     MeshResult by_count();
     MeshResult by_error();
+    MeshResult by_deviation();
+    void rounds(Candidate& c);
+    std::vector<double> depths(const ValidFaces& f, bool fit, bool& fitted);
+    Meshing with_pixels(const Meshing& m, const std::vector<index_t>& pixels, index_t& inserted);
     Meshing mesh(index_t asked, double max_sum);
     bool lift(const ValidFaces& f, bool fit, std::vector<double>& vertices);
     bool bounded(Candidate& c);
@@ -503,6 +539,7 @@ class Refiner {
     const Image& image_;
     Span<const double> camera_;
     const MeshRequest& req_;
+    Reference ref_;
     ErrorMeasure measure_;
     std::optional<StartArrays> first_;  // one strip's first mesh, made when first needed
     bool strips_;                       // the next meshing is on two strips
@@ -510,10 +547,22 @@ class Refiner {
     index_t insertions_ = 0, flips_ = 0;  // of the last meshing
     bool empty_ = false;                  // the search declined: no face left
     index_t empty_walls_ = 0;             // ... and the walls its mesh dropped
+    bool rounded_ = false;                // the rounds ran (`finish` runs them otherwise)
 };
 
+// How each target is met; the searches below are the rules' one place.
+//   vertices=N:         `by_count` (CountSearch): meshings at N, then nearer N, until N vertices.
+//   max_error=E:        `by_error`: the insertion's summed error stops it, the render decides.
+//   max_deviation=D,
+//   mean_deviation=D:   `by_deviation`: one insertion stopped by an estimate, then `rounds`.
+//   max_edge=L:         `rounds` after any of them (`finish`).
+MeshResult Refiner::search() {
+    if (req_.max_deviation >= 0.0 || req_.mean_deviation >= 0.0) return by_deviation();
+    return req_.max_error < 0.0 ? by_count() : by_error();
+}
+
 MeshResult Refiner::run() {
-    MeshResult out = req_.max_error < 0.0 ? by_count() : by_error();
+    MeshResult out = search();
     if (!empty_ || (!req_.walls && empty_walls_ > 0)) return out;
     std::optional<StartArrays> hull = hull_mesh(image_, req_.vertices, req_.sr, req_.sc);
     if (!hull) return out;  // declined: no triangle of valid pixels (Python names the reason)
@@ -521,7 +570,8 @@ MeshResult Refiner::run() {
     strips_ = false;
     out_ = MeshResult{};
     empty_ = false;
-    out = req_.max_error < 0.0 ? by_count() : by_error();
+    rounded_ = false;
+    out = search();
     return empty_ ? MeshResult{} : out;  // still no face: declined (Python names the reason)
 }
 
@@ -567,6 +617,10 @@ bool Refiner::bounded(Candidate& c) {
 }
 
 MeshResult Refiner::finish(Candidate&& c) {
+    if (needs_rounds(req_) && !rounded_) {  // max_edge after a count or an error bound
+        rounds(c);
+        if (req_.max_error >= 0.0) c.achieved = measure_(c.meshing.mesh, c.vertices);
+    }
     ValidFaces& mesh = c.meshing.mesh;
     const index_t n_f = static_cast<index_t>(mesh.faces.size() / 3);
     out_.edges = count_edges(Grid<const std::int32_t>{mesh.faces.data(), n_f, 3}, c.meshing.n_vertices());
@@ -591,6 +645,7 @@ MeshResult Refiner::by_count() {
     }
     Candidate c{std::move(search.best()), {}, 0.0};
     if (c.meshing.mesh.faces.empty()) return no_face(c.meshing);
+    if (needs_rounds(req_)) return finish(std::move(c));  // (the rounds lift the vertices)
     const auto t = std::chrono::steady_clock::now();
     if (!lift(c.meshing.mesh, req_.fit, c.vertices)) return MeshResult{};
     if (req_.fit) out_.fit_seconds = seconds_since(t);
@@ -640,6 +695,111 @@ MeshResult Refiner::by_error() {
         most = want;
         max_sum = -1.0;
         asked = runs == req_.max_runs - 1 ? want : (got + want) / 2;
+    }
+}
+
+// A deviation bound: one insertion, stopped once its summed error (in depth units, the
+// insertion's plane per triangle) is at most the mean bound, or `max_deviation_share` of the
+// largest, times the valid pixels; then `rounds` until the render meets the bound.
+MeshResult Refiner::by_deviation() {
+    const bool largest = req_.max_deviation >= 0.0;
+    const double bound = largest ? req_.max_deviation * req_.max_deviation_share : req_.mean_deviation;
+    const double max_sum = bound / req_.deviation_scale * static_cast<double>(req_.n_valid);
+    Candidate c{mesh(req_.vertices, std::isnan(max_sum) ? 0.0 : max_sum), {}, 0.0};
+    if (c.meshing.mesh.faces.empty()) return no_face(c.meshing);
+    rounds(c);
+    c.achieved = largest ? out_.deviation_max : out_.deviation_mean;
+    return finish(std::move(c));
+}
+
+// The vertices' stored depths: copied, or fitted (copied where the fit declines: `fitted` false),
+// and under `max_deviation` each kept within the bound of its own pixel, so every vertex pixel
+// meets it and the rounds only ever insert pixels that are no vertex.
+std::vector<double> Refiner::depths(const ValidFaces& f, bool fit, bool& fitted) {
+    const index_t n_v = static_cast<index_t>(f.pixels.size() / 2);
+    std::vector<double> z(n_v);
+    for (index_t i = 0; i < n_v; ++i) z[i] = image_.depth(f.pixels[2 * i], f.pixels[2 * i + 1]);
+    fitted = false;
+    if (!fit) return z;
+    const auto t = std::chrono::steady_clock::now();
+    std::vector<double> copied = z;
+    fitted = fitted_depths(image_, camera_[0] == PINHOLE, f, req_, z);
+    if (!fitted) z = copied;
+    if (fitted && req_.max_deviation >= 0.0) {
+        // (a hair inside the bound: the prediction at a vertex rounds through the scale)
+        const double reach = req_.max_deviation / req_.deviation_scale * (1.0 - 1e-9);
+        for (index_t i = 0; i < n_v; ++i) z[i] = std::min(std::max(z[i], copied[i] - reach), copied[i] + reach);
+    }
+    out_.fit_seconds += seconds_since(t);
+    return z;
+}
+
+// `m` with `pixels` (r * W + c, valid, none a vertex) inserted into its insertion, meshed
+// again; `inserted` counts those that went in.
+Meshing Refiner::with_pixels(const Meshing& m, const std::vector<index_t>& pixels, index_t& inserted) {
+    const std::shared_ptr<Insertion> ins = m.ins;
+    require(ins != nullptr, "rounds: the meshing keeps no insertion");
+    const index_t w = image_.cols();
+    inserted = 0;
+    for (const index_t p : pixels) {
+        poll_every(inserted);
+        inserted += ins->insert_at(p / w, p % w);
+    }
+    Meshing out = meshing_of(image_, camera_, *ins, req_, true);
+    out.ins = ins;
+    insertions_ = out.insertions;
+    flips_ = out.flips;
+    return out;
+}
+
+// Rounds of insertion until the bounds are met: the mesh's depths (fitted, or copied), its
+// render's deviation, and the worst pixel of each face still beyond a bound inserted into the
+// insertion (its diagonals chosen and the mesh assembled again), again. Under `max_deviation`
+// the copied depths meet the bound first (a fit costs about a meshing), then the fitted ones
+// (kept within it at their own pixels). When fitted depths miss a bound with no pixel left to
+// insert (the mean's deviation on the vertices' own pixels), copied ones go on. Ends when no
+// pixel is left to insert (or none of those picked goes in); every other round inserts one.
+void Refiner::rounds(Candidate& c) {
+    rounded_ = true;
+    const RoundBounds bounds{req_.max_deviation, req_.mean_deviation, req_.max_edge};
+    const DeviationRule rule{req_.deviation_scale, req_.deviation_inverse};
+    bool fit = req_.fit && req_.max_deviation < 0.0;
+    bool copied_only = false;  // fitted depths missed a bound with no pixel left to insert
+    const bool capped = req_.max_deviation >= 0.0 || req_.mean_deviation >= 0.0;
+    for (;;) {
+        poll_interrupt();
+        bool fitted = false;
+        std::vector<double> z = depths(c.meshing.mesh, fit, fitted);
+        const Deviation d = measure_deviation(image_, ref_, rule, c.meshing.mesh, z);
+        std::vector<index_t> adds = round_additions(image_, c.meshing.mesh, d, bounds);
+        if (capped && c.meshing.ins) {  // a deviation target stops at the vertex cap
+            const index_t room = std::max<index_t>(req_.vertices - c.meshing.ins->valid_vertices(), 0);
+            if (static_cast<index_t>(adds.size()) > room) adds.resize(room);
+        }
+        index_t inserted = 0;
+        Meshing next;
+        if (!adds.empty()) next = with_pixels(c.meshing, adds, inserted);
+        if (inserted == 0) {
+            if (req_.fit && !fit && !copied_only) {  // copied depths meet max_deviation: now the fitted ones
+                fit = true;
+                continue;
+            }
+            if (fit && !deviation_met(d, bounds)) {  // the vertices' own pixels miss it: copied depths
+                fit = false;
+                copied_only = true;
+                continue;
+            }
+            c.vertices = lifted(camera_, c.meshing.mesh, z);
+            out_.deviation_max = d.max;
+            out_.deviation_mean = d.mean();
+            out_.uncovered = d.uncovered;
+            out_.longest_edge = d.longest_edge;
+            out_.fitted = fitted;
+            return;
+        }
+        c.meshing = std::move(next);
+        require(!c.meshing.mesh.faces.empty(), "rounds: inserting pixels left no face");
+        ++out_.rounds;
     }
 }
 

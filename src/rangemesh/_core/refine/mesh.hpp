@@ -26,7 +26,7 @@ struct HeightRule {
 
 // What one call asks for; the caller resolves the library's defaults into it.
 struct MeshRequest {
-    index_t vertices = 0;  // valid vertices wanted (at most n_valid); with max_error, the cap
+    index_t vertices = 0;  // valid vertices wanted (at most n_valid); with an error bound, the cap
     double max_error = -1.0;  // percent of the reference's valid range, mean; < 0: none
     index_t n_valid = 0;   // the image's valid pixels
     double lo = 0.0, hi = 0.0;  // their smallest and largest depth
@@ -42,6 +42,16 @@ struct MeshRequest {
     double pixel_angle = 0.0;  // a ray camera's angle of one pixel, the unit of its edge lengths
     index_t max_runs = 8, max_bisect_runs = 5;  // meshings at most, and once past the count
     HeightRule heights;
+    // The deviation targets (deviation.hpp), each negative for none; with either, `vertices` is
+    // the cap (n_valid: none) and `max_error` none. A pixel's deviation is |predicted - measured| depth times
+    // `deviation_scale`, the prediction interpolating inverse depth when `deviation_inverse`.
+    double max_deviation = -1.0, mean_deviation = -1.0;
+    double max_edge = 0.0;  // longest face edge in the image plane, pixels, with any target (0: none)
+    double deviation_scale = 1.0;
+    bool deviation_inverse = false;
+    // Deviation targets: the first insertion stops at a summed error of this share of the largest
+    // deviation a pixel (in depth units) times the valid pixels; the rounds then insert the rest.
+    double max_deviation_share = 0.25;
 };
 
 // The image an error bound is measured against (the one before gap filling).
@@ -68,6 +78,11 @@ struct MeshResult {
     index_t walls_dropped = 0;         // walls dropped from the mesh (walls false)
     index_t asked = 0;                 // the last meshing's request (max_error: its vertex count)
     double achieved = 0.0;             // max_error: the relative error reached (NaN: none covered)
+    // After rounds (a deviation target or max_edge): the deviation reached and what it covers.
+    double deviation_max = 0.0, deviation_mean = 0.0, longest_edge = 0.0;
+    index_t uncovered = 0;             // valid reference pixels no face covers (not measured)
+    index_t rounds = 0;                // rounds of insertion after the search's meshing
+    bool fitted = true;                // heights fitted (false: copied, the request's or the fit's say)
     double fit_seconds = 0.0, seconds = 0.0;
 };
 

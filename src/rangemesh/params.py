@@ -342,3 +342,9 @@ OPTION_METHOD = {o.name: o.methods[0] for o in OPTION_TABLE if len(o.methods) ==
 if MeshParams.__doc__:  # (None under python -OO)
     MeshParams.__doc__ = MeshParams.__doc__.replace(
         "    {options}", option_docs(OPTION_TABLE, style="params"))
+
+
+if __name__ == "__main__":  # python -m rangemesh.params: the table of docs/options.md
+    from rangemesh.options import markdown_table
+
+    print(markdown_table(OPTION_TABLE))

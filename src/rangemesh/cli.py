@@ -178,6 +178,10 @@ def _add_mesh_options(p):
                    help="each quad's diagonal is the one that fits its pixels better (error, "
                         "the default) or the Delaunay one (delaunay: a little faster, "
                         "higher error)")
+    r.add_argument("--effort", choices=["fast", "best"], default=None,
+                   help="fast (the default): greedy insertion's mesh; best: a lower error at "
+                        "the same vertex count for several times the time (insertion to more "
+                        "vertices, then the cheapest collapses down to the count)")
     r.add_argument("--no-walls", action="store_true",
                    help="drop the triangles across depth jumps, so separate surfaces stay "
                         "separate")

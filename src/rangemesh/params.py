@@ -21,6 +21,7 @@ METHODS = ("refine", "paper")
 # wrap) are not listed. The one rule for Python and the command line (`misplaced_option`).
 OPTION_METHOD = {
     "heights": "refine", "diagonals": "refine", "walls": "refine", "jump": "refine",
+    "effort": "refine",
     "tiles": "paper", "samples": "paper", "sampling": "paper", "flips": "paper",
     "levels": "paper", "curvature_floor": "paper", "delta": "paper", "epsilon": "paper",
     "max_angle": "paper", "min_bend": "paper", "gain_threshold": "paper",
@@ -98,6 +99,7 @@ FLIP_CHOICES = ("disparity", "error", None)
 
 
 HEIGHT_CHOICES = (None, "fit", "pixel")
+EFFORT_CHOICES = ("fast", "best")
 DIAGONAL_CHOICES = (None, "error", "delaunay")
 
 
@@ -190,6 +192,15 @@ class MeshParams:
     jump : float, default 0.05
         With ``walls=False``: an edge is a jump when depth changes along it
         by more than this share of the local depth per pixel.
+    effort : {'fast', 'best'}, default 'fast'
+        How hard ``method='refine'`` works for a lower error at the same
+        vertex count. ``'fast'``: greedy insertion's mesh. ``'best'``:
+        insertion to `rangemesh.refine.insertion.COLLAPSE_BEST` (4) times
+        the vertices, then vertices collapsed onto a neighbour, cheapest
+        first by the exact increase of the summed pixel error, down to the
+        count (`rangemesh.refine.insertion.greedy_mesh`): on the cases of
+        docs/benchmarks.md ("effort") 0.1-0.7x ``'fast'``'s error for
+        15-40x its time.
     wrap : bool or None, default None
         Column W-1 is the neighbour of column 0 (a 360-degree scan): the seam
         between them is closed with a strip of triangles
@@ -230,6 +241,7 @@ class MeshParams:
     walls: bool = True
     jump: float = 0.05
     wrap: bool | None = None
+    effort: str = "fast"
 
     def __post_init__(self):
         tiles = whole_pair("tiles", self.tiles, minimum=1)
@@ -288,6 +300,8 @@ class MeshParams:
         if not jump > 0:
             raise ValueError(f"jump must be a positive share of the depth, got {self.jump!r}")
         object.__setattr__(self, "jump", jump)
+        if not isinstance(self.effort, str) or self.effort not in EFFORT_CHOICES:
+            raise ValueError(f"effort must be one of {EFFORT_CHOICES}, got {self.effort!r}")
         if self.wrap is not None:
             object.__setattr__(self, "wrap", flag("wrap", self.wrap))
 

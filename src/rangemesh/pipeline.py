@@ -532,7 +532,7 @@ def run(image, params: MeshParams, *, background="auto", camera=None, vertices=N
         mesh, target = greedy_mesh(depth, valid, camera, vertices=vertices, max_error=max_error,
                                    reference=ref, fit=params.heights != "pixel",
                                    diagonals=params.diagonals or "error",
-                                   walls=params.walls, jump=params.jump,
+                                   walls=params.walls, jump=params.jump, effort=params.effort,
                                    extent=(lo, hi, n_valid), max_vertices=cap)
         if memory_cap is not None and target and not target["met"] \
                 and target.get("note", "").startswith("stopped at max_vertices"):
@@ -585,6 +585,7 @@ def triangulate(image, params: MeshParams | None = None, *,
                 fill_gaps: bool | None = None, wrap: bool | None = None,
                 heights: str | None = None, diagonals: str | None = None,
                 walls: bool | None = None, jump: float | None = None,
+                effort: str | None = None,
                 tiles: int | tuple[int, int] | None = None,
                 samples: int | tuple[int, int] | None = None, sampling: str | None = None,
                 flips: str | None = "disparity", levels: int | None = None,
@@ -659,6 +660,13 @@ def triangulate(image, params: MeshParams | None = None, *,
     jump : float, optional
         ``'refine'`` only, with ``walls=False``: a depth change above this
         share of the local depth per pixel is a jump (default 0.05).
+    effort : {'fast', 'best'}, optional
+        ``'refine'`` only. ``'fast'`` (default): greedy insertion's mesh.
+        ``'best'``: a lower error at the same vertex count for several times
+        the time: insertion to more vertices, then the vertices whose
+        removal raises the summed pixel error least are collapsed onto a
+        neighbour until the count is met (the target is met as with
+        ``'fast'``; see `MeshParams`).
     tiles : int or (int, int), optional
         ``'paper'`` only. Tiles ``(V, H)`` of stage one (default (4, 4); with
         a target, chosen for the image unless given).

@@ -57,6 +57,9 @@ EXACT_SIDE = EXACT_SPAN
 # 2**DEPTH_BAND or below 2**-DEPTH_BAND: the kernels' squares (plane fits, least squares) overflow
 # from about 1e150 and underflow below about 1e-160. Within the band nothing is copied.
 DEPTH_BAND = 64
+# effort="best": insertion to this many times the vertices, then collapses down to the count
+# (`_core` refine/collapse.hpp). The measured choice: docs/benchmarks.md, "effort".
+COLLAPSE_BEST = 4.0
 
 
 def delaunay_scales(camera, shape) -> tuple[int, int]:
@@ -208,7 +211,8 @@ def _refine(depth, valid, start, strips, asked, max_sum, span, scales, n_grid, d
 def greedy_mesh(depth: np.ndarray, valid: np.ndarray, camera, *, vertices: int | None = None,
                 max_error: float | None = None, reference=None, fit: bool = True,
                 diagonals: str = "error", walls: bool = True, jump: float = 0.05,
-                extent=None, max_vertices: int | None = None) -> tuple[Mesh, dict]:
+                extent=None, max_vertices: int | None = None,
+                effort: str = "fast") -> tuple[Mesh, dict]:
     """Mesh a prepared image by inserting its worst pixel until a target is met.
 
     Parameters
@@ -247,6 +251,16 @@ def greedy_mesh(depth: np.ndarray, valid: np.ndarray, camera, *, vertices: int |
     max_vertices : int, optional
         With `max_error`: stop at this many vertices even if the bound is not
         met (noisy images would otherwise take a large share of their pixels).
+    effort : {'fast', 'best'}, default 'fast'
+        ``'best'``: the count is met by insertion to `COLLAPSE_BEST` times
+        as many vertices, then half-edge collapses of interior vertices,
+        cheapest first by the exact increase of the summed error over their
+        star's pixels, each survivor's depth refitted, then data-dependent
+        flips, then the heights as for ``'fast'``. Under an error bound the
+        search finds the count as ``'fast'`` does, and the collapsed mesh of
+        that count is kept when it meets the bound (or errs less). Where
+        the collapses cannot reach the count (too few interior vertices),
+        or the native call declines, the mesh is ``'fast'``'s.
 
     Returns
     -------
@@ -279,8 +293,11 @@ def greedy_mesh(depth: np.ndarray, valid: np.ndarray, camera, *, vertices: int |
         depth = np.ldexp(depth, -exponent)
         ref = (np.ldexp(ref[0], -exponent), ref[1])
         extent = (math.ldexp(extent[0], -exponent), math.ldexp(extent[1], -exponent), extent[2])
+    if effort not in ("fast", "best"):
+        raise ValueError(f"effort must be 'fast' or 'best', got {effort!r}")
     mesh, target = _native(depth, valid, camera, ref, extent, exponent, vertices, max_error,
-                           max_vertices, fit=fit, diagonals=diagonals, walls=walls, jump=jump)
+                           max_vertices, fit=fit, diagonals=diagonals, walls=walls, jump=jump,
+                           effort=effort)
     if mesh is None:  # declined
         mesh, target = _greedy(depth, valid, camera, ref, extent, exponent, vertices=vertices,
                                max_error=max_error, fit=fit, diagonals=diagonals, walls=walls,
@@ -361,7 +378,7 @@ _NATIVE_MESH = Mesh(np.zeros((0, 3)), np.zeros((0, 3), np.int32), np.zeros((0, 2
 
 
 def _native(depth, valid, camera, ref, extent, exponent, vertices, max_error, max_vertices, *,
-            fit, diagonals, walls=True, jump=0.05):
+            fit, diagonals, walls=True, jump=0.05, effort="fast"):
     """`_greedy` on one strip or two, as one native call (`rangemesh._core.refine_mesh`).
 
     Returns ``(mesh, target)``, or ``(None, None)`` when the call declines
@@ -384,6 +401,8 @@ def _native(depth, valid, camera, ref, extent, exponent, vertices, max_error, ma
         req.pixel_angle = pixel_angle(camera)  # (edge lengths are ray angles)
     req.max_runs, req.max_bisect_runs = MAX_RUNS, MAX_BISECT_RUNS
     req.heights = height_rule(n_valid)
+    if effort == "best":
+        req.collapse = COLLAPSE_BEST
     if max_error is not None:
         req.max_error = float(max_error)
     res = _core.refine_mesh(depth, valid, camera.as_array(), req, *(() if ref is None else ref))

@@ -65,7 +65,9 @@ void bind_request(nb::module_& m) {
         .def_rw("pixel_angle", &MeshRequest::pixel_angle, "A ray camera's angle of one pixel (walls false).")
         .def_rw("max_runs", &MeshRequest::max_runs, "Meshings at most.")
         .def_rw("max_bisect_runs", &MeshRequest::max_bisect_runs, "... once a request gave more than the count.")
-        .def_rw("heights", &MeshRequest::heights, "The fit's rules (a HeightRule).");
+        .def_rw("heights", &MeshRequest::heights, "The fit's rules (a HeightRule).")
+        .def_rw("collapse", &MeshRequest::collapse,
+                "effort='best' when above 1: mesh this many times the count, then collapse to it (0: fast).");
 }
 
 void bind_result(nb::module_& m) {
@@ -165,6 +167,8 @@ void bind_refine_mesh(nb::module_& m) {
                         "refine_mesh: threads at least 1, strips on images of 4 columns or more");
             check_input(req.sr >= 1 && req.sc >= 1 && req.max_runs >= 1 && req.max_bisect_runs >= 1,
                         "refine_mesh: sr, sc, max_runs and max_bisect_runs at least 1");
+            check_input(req.collapse == 0.0 || (req.collapse >= 1.0 && req.collapse <= 16.0),
+                        "refine_mesh: collapse 0 (effort='fast') or a factor from 1 to 16");
             check_input(camera.shape(0) >= 6 && (camera(0) == 0.0 || camera(0) == 1.0 ||
                                                   (camera(0) == 2.0 && camera(1) == depth.shape(0) &&
                                                    camera(2) == depth.shape(1) &&

@@ -17,6 +17,8 @@ CHILD = textwrap.dedent("""
     depth = 100.0 + 10.0 * np.sin(r / 37.0) * np.cos(c / 23.0) + (r * c) % 7
     method = sys.argv[1]
     kw = dict(vertices={vertices}) if method == "refine" else dict(tiles=(40, 40), samples=(60, 60))
+    if len(sys.argv) > 2:  # effort="best": the signal comes during the collapses
+        kw["effort"] = sys.argv[2]
     print("ready", flush=True)
     sent = []
     threading.Timer({delay}, lambda: (sent.append(time.perf_counter()),
@@ -45,6 +47,21 @@ def test_ctrl_c_stops_a_long_call_and_the_next_call_works(method):
     assert lines[1].startswith("interrupted after"), p.stdout  # not "finished"
     assert lines[2] == "again 20"
     assert "Traceback" not in p.stderr
+
+
+@pytest.mark.slow
+def test_ctrl_c_stops_the_collapses_of_effort_best():
+    # 20,000 vertices collapsed from 80,000 on a 1200 x 1200 image: the dense mesh takes about
+    # 3 s, the collapses, which poll between each, about 15 more; the signal at 8 s comes
+    # during them
+    code = CHILD.format(n=1200, vertices=20_000, delay=8.0)
+    p = subprocess.run([sys.executable, "-c", code, "refine", "best"], capture_output=True,
+                       text=True, timeout=600)
+    lines = p.stdout.split("\n")
+    assert p.returncode == 0, p.stderr[-2000:]
+    assert lines[1].startswith("interrupted after"), p.stdout  # not "finished"
+    assert float(re.search(r"after ([0-9.]+) s", lines[1]).group(1)) < 0.5
+    assert lines[2] == "again 20"
 
 
 # Two Python threads meshing at once; SIGINT comes while both are in the kernels. Each line of

@@ -783,8 +783,8 @@ def _with_dense_twin(call):
 
 @settings(max_examples=40, deadline=None)
 @given(st.integers(0, 2**31), st.sampled_from(sorted(scenes.SCENES)), st.floats(0, 0.5),
-       st.integers(4, 300), st.booleans())
-def test_best_effort_keeps_the_count_and_the_covered_pixels(seed, name, holes, n, walls):
+       st.integers(4, 300), st.booleans(), st.sampled_from(["fit", "pixel"]))
+def test_best_effort_keeps_the_count_and_the_covered_pixels(seed, name, holes, n, walls, heights):
     # Collapses never move the outline: every face stays counter-clockwise, no pixel is covered
     # twice, and the pixels covered are exactly those of the dense mesh collapsed from (or,
     # where the collapses cannot reach the count, the mesh is effort='fast''s). The count is
@@ -795,8 +795,9 @@ def test_best_effort_keeps_the_count_and_the_covered_pixels(seed, name, holes, n
     depth[rng.random(depth.shape) < holes] = np.nan
     valid = np.isfinite(depth)
     best, dense = _with_dense_twin(lambda: triangulate(depth, vertices=n, fill_gaps=False,
-                                                       walls=walls, effort="best"))
-    fast = triangulate(depth, vertices=n, fill_gaps=False, walls=walls)
+                                                       walls=walls, heights=heights,
+                                                       effort="best"))
+    fast = triangulate(depth, vertices=n, fill_gaps=False, walls=walls, heights=heights)
     assert_valid_mesh(best, valid)
     if best.is_empty:
         return

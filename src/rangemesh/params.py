@@ -201,7 +201,7 @@ class MeshParams:
         count (`rangemesh.refine.insertion.greedy_mesh`): on the cases of
         docs/benchmarks.md ("effort") 0.55-0.75x ``'fast'``'s error on
         smooth or noisy frames, a tenth or less on planar and layered ones,
-        for 15-40x its time.
+        for 10-35x its time.
     wrap : bool or None, default None
         Column W-1 is the neighbour of column 0 (a 360-degree scan): the seam
         between them is closed with a strip of triangles

@@ -496,6 +496,7 @@ class Refiner {
     bool bounded(Candidate& c);
     MeshResult finish(Candidate&& c);
     Meshing counted(index_t want);
+    index_t dense_count(index_t want) const;
     Meshing best_of(index_t want);
     bool collapsed(Meshing& m, index_t target);
     MeshResult finish_bounded(Candidate&& c);
@@ -622,11 +623,17 @@ bool Refiner::collapsed(Meshing& m, index_t target) {
     return true;
 }
 
+// The vertices effort="best" meshes to collapse down to `want`: `req_.collapse` times as many,
+// at most every valid pixel.
+index_t Refiner::dense_count(index_t want) const {
+    const double dense = std::ceil(req_.collapse * static_cast<double>(want));
+    return dense < static_cast<double>(req_.n_valid) ? static_cast<index_t>(dense) : req_.n_valid;
+}
+
 // effort="best": `want` vertices collapsed from `req_.collapse` times as many, or as
 // effort="fast" makes them when the collapses cannot reach the count.
 Meshing Refiner::best_of(index_t want) {
-    const double dense = std::ceil(req_.collapse * static_cast<double>(want));
-    const index_t asked = dense < static_cast<double>(req_.n_valid) ? static_cast<index_t>(dense) : req_.n_valid;
+    const index_t asked = dense_count(want);
     if (asked > want) {
         Meshing m = counted(asked);
         if (collapsed(m, want)) return m;
@@ -637,9 +644,7 @@ Meshing Refiner::best_of(index_t want) {
 // effort="best" under an error bound: the count the search settled on, collapsed from a denser
 // mesh; kept when it meets the bound or errs less than the search's own mesh.
 MeshResult Refiner::finish_bounded(Candidate&& c) {
-    const index_t want = c.meshing.n_vertices(), last_asked = out_.asked;
-    const double dense = std::ceil(req_.collapse * static_cast<double>(want));
-    const index_t asked = dense < static_cast<double>(req_.n_valid) ? static_cast<index_t>(dense) : req_.n_valid;
+    const index_t want = c.meshing.n_vertices(), last_asked = out_.asked, asked = dense_count(want);
     if (req_.collapse <= 1.0 || asked <= want) return finish(std::move(c));
     Candidate b{counted(asked), {}, 0.0};
     out_.asked = last_asked;  // (the record's last request is the search's)

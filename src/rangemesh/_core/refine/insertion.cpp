@@ -223,8 +223,9 @@ void Insertion::insert(index_t t, index_t p, const Plane* guard) {
 //          .   /                      . | /
 //            D                          D
 //
-// Afterwards slot a runs D -> B in triangle DBC, slot b C -> A in CAD, and the new diagonal
-// takes the slots prv(a) (C -> D) and prv(b) (D -> C). With `guard` (the split triangle fits exactly, its corners in the plane), an edge whose
+// The flip is `flip_quad`'s: afterwards slot a runs D -> C in triangle DCA, slot b C -> D in
+// CDB (the new diagonal keeps the old one's slots), prv(a) A -> D and nxt(b) D -> B are the edges
+// now opposite C. With `guard` (the split triangle fits exactly, its corners in the plane), an edge whose
 // far triangle fits exactly or holds no pixel to insert is flipped only when D lies on that
 // plane: flipping it would join two planes in one triangle.
 void Insertion::legalize(index_t e0, const Plane* guard) {
@@ -246,16 +247,11 @@ void Insertion::legalize(index_t e0, const Plane* guard) {
         if (guard && keyed_[b / 3].key < SMALL_KEY && !guard->holds(vr_[pd], vc_[pd], vz_[pd], image_.span))
             continue;
         require(++flips <= n_t_, "insertion: more flips around a new vertex than triangles");
-        const index_t hbp = he_[bp], har = he_[ar];
-        tv_[a] = pd;
-        tv_[b] = pc;
-        link(he, a, hbp);
-        link(he, b, har);
-        link(he, ar, bp);
+        flip_quad({tv_.data(), static_cast<index_t>(tv_.size())}, he, a);
         changed_.push_back(a / 3);
         changed_.push_back(b / 3);
-        stack_.push_back(a);   // (D, B, C): D -> B is opposite C
-        stack_.push_back(bn);  // (C, A, D): A -> D is opposite C, tested first
+        stack_.push_back(bn);  // (C, D, B): D -> B is opposite C
+        stack_.push_back(ar);  // (D, C, A): A -> D is opposite C, tested first
     }
 }
 

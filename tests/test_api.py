@@ -27,7 +27,7 @@ VALUES = {
     "heights": "pixel", "diagonals": "delaunay", "walls": False, "jump": 0.1,
     "tiles": 2, "samples": 5, "sampling": "uniform", "flips": "error", "levels": 1,
     "curvature_floor": 30.0, "delta": 20.0, "epsilon": 0.5, "max_angle": 150.0,
-    "min_bend": 4.0, "gain_threshold": 0.0, "max_edge": 10.0, "threads": 2,
+    "min_bend": 4.0, "gain_threshold": 0.0, "max_edge": 10.0, "threads": 2, "effort": "best",
 }
 OTHER = {"refine": "paper", "paper": "refine"}
 

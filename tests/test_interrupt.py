@@ -50,6 +50,43 @@ def test_ctrl_c_stops_a_long_call_and_the_next_call_works(method):
     assert "Traceback" not in p.stderr
 
 
+# effort="best" on a 1200 x 1200 image: 20,000 vertices collapsed from 80,000. The dense mesh
+# alone is timed first; the signal comes at 1.5 times that (plus 0.5 s) into the call, during
+# the collapses, which take about five times as long as the dense mesh.
+BEST = textwrap.dedent("""
+    import os, signal, threading, time
+    import numpy as np
+    import rangemesh
+
+    r, c = np.mgrid[0:1200, 0:1200]
+    depth = 100.0 + 10.0 * np.sin(r / 37.0) * np.cos(c / 23.0) + (r * c) % 7
+    t = time.perf_counter()
+    rangemesh.triangulate(depth, vertices=80_000)
+    dense = time.perf_counter() - t
+    sent = []
+    threading.Timer(1.5 * dense + 0.5, lambda: (sent.append(time.perf_counter()),
+                                                 os.kill(os.getpid(), signal.SIGINT))).start()
+    t = time.perf_counter()
+    try:
+        rangemesh.triangulate(depth, vertices=20_000, effort="best")
+        print(f"finished in {time.perf_counter() - t:.3f} s (dense {dense:.3f} s)", flush=True)
+    except KeyboardInterrupt:
+        print(f"interrupted after {time.perf_counter() - sent[0]:.3f} s", flush=True)
+    m = rangemesh.triangulate(depth[:50, :50], vertices=20, effort="best")
+    print("again", len(m.vertices), flush=True)
+""")
+
+
+@pytest.mark.slow
+def test_ctrl_c_stops_the_collapses_of_effort_best():
+    p = subprocess.run([sys.executable, "-c", BEST], capture_output=True, text=True, timeout=600)
+    lines = p.stdout.split("\n")
+    assert p.returncode == 0, p.stderr[-2000:]
+    assert lines[0].startswith("interrupted after"), p.stdout  # not "finished"
+    assert float(re.search(r"after ([0-9.]+) s", lines[0]).group(1)) < 0.5
+    assert lines[1] == "again 20"
+
+
 # Two Python threads meshing at once; SIGINT comes while both are in the kernels. Each line of
 # output is one round: what the main thread's call did, what the worker's did, and whether the
 # worker was still meshing when the signal was sent.

@@ -54,7 +54,7 @@ def test_params_check_each_field_by_its_options_rule(field, bad, error, message)
 
 def test_the_docs_option_table_is_the_codes():
     doc = (Path(__file__).parents[1] / "docs" / "options.md").read_text()
-    assert markdown_table(OPTION_TABLE) in doc, "paste `python -m rangemesh.options` into docs/options.md"
+    assert markdown_table(OPTION_TABLE) in doc, "paste `python -m rangemesh.params` into docs/options.md"
 
 
 def test_cameras():

@@ -899,3 +899,154 @@ def test_decimal_depth_scales_give_the_same_triangles(target, scale):
     assert np.array_equal(canonical_faces(mesh), canonical_faces(base))
     assert rangemesh.evaluate(mesh, z, background=0).relative_error == pytest.approx(
         rangemesh.evaluate(base, chair, background=0).relative_error, rel=1e-9)
+
+
+# ---------------------------------------------------------------- effort="best" (issue 44, lever (a))
+
+
+def _covered_pixels(faces, pixels, shape):
+    """Pixel centres inside or on some triangle (a plain box test, independent of the kernels)."""
+    out = np.zeros(shape, bool)
+    r, c = np.mgrid[0:shape[0], 0:shape[1]]
+    for f in faces:
+        p = pixels[f].astype(np.int64)
+        r0, r1 = p[:, 0].min(), p[:, 0].max()
+        c0, c1 = p[:, 1].min(), p[:, 1].max()
+        rr, cc = r[r0:r1 + 1, c0:c1 + 1], c[r0:r1 + 1, c0:c1 + 1]
+        inside = np.ones(rr.shape, bool)
+        for k in range(3):
+            a, b = p[k], p[(k + 1) % 3]
+            inside &= (b[0] - a[0]) * (cc - a[1]) - (b[1] - a[1]) * (rr - a[0]) >= 0
+        out[r0:r1 + 1, c0:c1 + 1] |= inside
+    return out
+
+
+def _with_dense_twin(call):
+    """``call()``'s mesh and the native call's dense mesh it was collapsed from.
+
+    The dense mesh is the native call again with the same request, asking for
+    ``ceil(COLLAPSE_BEST x count)`` vertices with effort='fast'.
+    """
+    from unittest import mock
+
+    from rangemesh import _core
+    from rangemesh.refine import insertion
+
+    seen = []
+    real = _core.refine_mesh
+
+    def spy(*args):
+        seen.append(args)
+        return real(*args)
+
+    with mock.patch.object(_core, "refine_mesh", spy):
+        mesh = call()
+    depth, valid, camera, req, *ref = seen[-1]
+    req.collapse = 0.0
+    req.vertices = min(int(np.ceil(insertion.COLLAPSE_BEST * req.vertices)), req.n_valid)
+    return mesh, real(depth, valid, camera, req, *ref)
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(0, 2**31), st.sampled_from(sorted(scenes.SCENES)), st.floats(0, 0.5),
+       st.integers(4, 300), st.booleans(), st.sampled_from(["fit", "pixel"]))
+def test_best_effort_keeps_the_count_and_the_covered_pixels(seed, name, holes, n, walls, heights):
+    # Collapses never move the outline: every face stays counter-clockwise, no pixel is covered
+    # twice, and the pixels covered are exactly those of the dense mesh collapsed from (or,
+    # where the collapses cannot reach the count, the mesh is effort='fast''s). The count is
+    # exact, also where walls dropped leave effort='fast' a few vertices short.
+    rng = np.random.default_rng(seed)
+    depth = scenes.make(name, (int(rng.integers(12, 60)), int(rng.integers(12, 60))),
+                        noise=0.2).depth
+    depth[rng.random(depth.shape) < holes] = np.nan
+    valid = np.isfinite(depth)
+    best, dense = _with_dense_twin(lambda: triangulate(depth, vertices=n, fill_gaps=False,
+                                                       walls=walls, heights=heights,
+                                                       effort="best"))
+    fast = triangulate(depth, vertices=n, fill_gaps=False, walls=walls, heights=heights)
+    assert_valid_mesh(best, valid)
+    if best.is_empty:
+        return
+    if np.array_equal(best.faces, fast.faces) and np.array_equal(best.pixels, fast.pixels):
+        return  # (the collapses could not reach the count)
+    assert best.stats.vertices == min(n, int(valid.sum()))
+    assert np.array_equal(_covered_pixels(best.faces, best.pixels, depth.shape),
+                          _covered_pixels(dense.faces, dense.pixels, depth.shape))
+
+
+@pytest.mark.parametrize("name, shape, fewest, n", [
+    ("box", (61, 61), 12, 40), ("pyramid", (61, 61), 13, 40), ("stairs", (61, 61), 16, 40),
+    ("box", (12, 97), 12, 20)])
+def test_best_effort_finds_the_exact_mesh_of_a_planar_layered_scene(name, shape, fewest, n):
+    # Planes meeting at creases and jumps along pixel rows and columns (and the pyramid's
+    # diagonals): by hand, `fewest` vertices mesh each exactly (the box: image corners, the
+    # top's corners and the ring of base pixels around it; the pyramid: image corners, apex,
+    # the corners of its last ring and of the plane's first; the stairs: each tread's four
+    # corners), and any more vertices can too. The collapses find an exact mesh; effort='fast'
+    # does not on the box or the stairs. (The 12 x 97 box: most of the dense mesh's vertices
+    # lie on the image's sides, and must collapse along them.)
+    depth = scenes.make(name, shape).depth
+    best = triangulate(depth, vertices=n, effort="best")
+    fast = triangulate(depth, vertices=n)
+    assert best.stats.vertices == n >= fewest
+    error = evaluate(best, depth).relative_error
+    assert error < 1e-9
+    assert error <= evaluate(fast, depth).relative_error + 1e-12
+
+
+def test_best_effort_lowers_the_error_of_real_images(data_or_crops):
+    # the study's cases, cropped: a lower error at the same count on each
+    for rel, background in [("odetics/chair-range.npy", 0), ("middlebury/venus_disp2.npy", None),
+                            ("rgbd/open3d_TUM_depth.png", 0)]:
+        image = load_or_crop(data_or_crops, rel)
+        n = max(50, int(0.01 * _valid(image, background).sum()))
+        best = triangulate(image, background=background, vertices=n, effort="best")
+        fast = triangulate(image, background=background, vertices=n)
+        assert best.stats.vertices == fast.stats.vertices == n
+        assert_valid_mesh(best, _valid(image, background), check_overlap=False)
+        assert (evaluate(best, image, background=background).relative_error
+                < evaluate(fast, image, background=background).relative_error)
+
+
+@pytest.mark.parametrize("bound", [0.3, 1.0])
+def test_best_effort_meets_an_error_bound(bound):
+    name, image, background = crops()[0]
+    m = triangulate(image, background=background, max_error=bound, effort="best")
+    assert m.stats.target.met
+    assert evaluate(m, image, background=background).relative_error <= bound
+
+
+def test_best_effort_does_not_depend_on_the_thread_count(monkeypatch):
+    # 65,000 valid pixels and 2000 vertices: two strips, on two threads or on one
+    depth = scenes.make("box", (250, 260), noise=0.3).depth
+    meshes = []
+    for threads in ("1", "2"):
+        monkeypatch.setenv("RANGEMESH_THREADS", threads)
+        meshes.append(triangulate(depth, vertices=2000, effort="best"))
+    a, b = meshes
+    assert a.stats.strips == 2
+    for field in ("vertices", "faces", "pixels"):
+        assert np.array_equal(getattr(a, field), getattr(b, field))
+
+
+@pytest.mark.parametrize("effort", ["slow", "Best", 3])
+def test_effort_must_be_fast_or_best(effort):
+    with pytest.raises(ValueError, match="effort"):
+        triangulate(np.ones((8, 8)), vertices=5, effort=effort)
+
+
+def test_command_line_effort(tmp_path, capsys):
+    from rangemesh.cli import main
+
+    depth = scenes.make("box", (61, 61)).depth
+    np.save(tmp_path / "box.npy", depth)
+    for effort in ("fast", "best"):
+        assert main(["mesh", str(tmp_path / "box.npy"), "--vertices", "40", "--effort", effort,
+                     "-o", str(tmp_path / f"{effort}.ply"), "--quiet"]) == 0
+    fast, best = (rangemesh.read_mesh(tmp_path / f"{e}.ply") for e in ("fast", "best"))
+    assert len(best.vertices) == len(fast.vertices) == 40
+    # (the PLY file keeps float32 coordinates: exact to about 1e-6 %)
+    assert evaluate(best, depth).relative_error < 1e-4 < evaluate(fast, depth).relative_error
+    with pytest.raises(SystemExit):
+        main(["mesh", str(tmp_path / "box.npy"), "--effort", "slow"])
+    assert "--effort" in capsys.readouterr().err

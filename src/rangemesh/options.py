@@ -308,8 +308,3 @@ def markdown_table(table: tuple[Option, ...]) -> str:
                     f"| {doc} |")
     return "\n".join(rows)
 
-
-if __name__ == "__main__":  # python -m rangemesh.options: the table of docs/options.md
-    from rangemesh.params import OPTION_TABLE
-
-    print(markdown_table(OPTION_TABLE))

@@ -104,7 +104,9 @@ def default_vertex_cap(n_valid: int, rule: DefaultTarget = DEFAULT_TARGET) -> in
 SAMPLING_CHOICES = ("adaptive", "uniform")
 FLIP_CHOICES = ("disparity", "error", None)
 HEIGHT_CHOICES = (None, "fit", "pixel")
+EFFORT_CHOICES = ("fast", "best")
 DIAGONAL_CHOICES = (None, "error", "delaunay")
+EFFORT_CHOICES = ("fast", "best")
 
 
 @dataclass(frozen=True)
@@ -301,6 +303,20 @@ class MeshParams:
         flag=Flag("drop connected regions of fewer than K valid pixels, split where depth "
                   "jumps by more than 5 % a pixel: specks (default off; 20 suits depth "
                   "cameras)", "int", "K"))
+    effort: str = option(
+        "fast", methods=REFINE, type="{'fast', 'best'}", check=choice(EFFORT_CHOICES),
+        choices=EFFORT_CHOICES,
+        doc="How hard refine works for a lower error at the same vertex count. ``'fast'``: "
+            "greedy insertion's mesh. ``'best'``: insertion to "
+            "`rangemesh.refine.insertion.COLLAPSE_BEST` (4) times the vertices, then "
+            "vertices collapsed onto a neighbour, cheapest first by the exact increase of the "
+            "summed pixel error, down to the count; the target is met as with ``'fast'`` "
+            "(`rangemesh.refine.insertion.greedy_mesh`). On the cases of docs/benchmarks.md "
+            "(\"effort\") 0.55-0.75x ``'fast'``'s error on smooth or noisy frames, a tenth or "
+            "less on planar and layered ones, for 10-35x its time.",
+        flag=Flag("fast (the default): greedy insertion's mesh; best: a lower error at the "
+                  "same vertex count for 10-35 times the time (insertion to more vertices, "
+                  "then the cheapest collapses down to the count)", "choice"))
 
     def __post_init__(self):
         for opt in OPTIONS_BY_FIELD.values():
@@ -342,3 +358,9 @@ OPTION_METHOD = {o.name: o.methods[0] for o in OPTION_TABLE if len(o.methods) ==
 if MeshParams.__doc__:  # (None under python -OO)
     MeshParams.__doc__ = MeshParams.__doc__.replace(
         "    {options}", option_docs(OPTION_TABLE, style="params"))
+
+
+if __name__ == "__main__":  # python -m rangemesh.params: the table of docs/options.md
+    from rangemesh.options import markdown_table
+
+    print(markdown_table(OPTION_TABLE))

@@ -276,7 +276,7 @@ def run(image, params: MeshParams, *, background="auto", camera=None, vertices=N
         mesh, target = greedy_mesh(depth, valid, camera, vertices=vertices, max_error=max_error,
                                    reference=ref, fit=params.heights != "pixel",
                                    diagonals=params.diagonals or "error",
-                                   walls=params.walls, jump=params.jump,
+                                   walls=params.walls, jump=params.jump, effort=params.effort,
                                    extent=(lo, hi, n_valid), max_vertices=cap,
                                    max_deviation=max_deviation, mean_deviation=mean_deviation,
                                    max_edge=params.max_edge)
@@ -359,7 +359,7 @@ def triangulate(image, params: MeshParams | None = None, *,
                 diagonals: str | None = None, walls: bool | None = None,
                 jump: float | None = None, wrap: bool | None = None,
                 depth_limits: tuple[float, float] | None = None, min_region: int | None = None,
-                **overrides) -> Mesh:
+                effort: str | None = None, **overrides) -> Mesh:
     """Mesh a range image: refined at its worst pixels (default), or Garcia & Sappa's pipeline.
 
     Parameters

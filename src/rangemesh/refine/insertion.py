@@ -60,6 +60,9 @@ EXACT_SIDE = EXACT_SPAN
 # 2**DEPTH_BAND or below 2**-DEPTH_BAND: the kernels' squares (plane fits, least squares) overflow
 # from about 1e150 and underflow below about 1e-160. Within the band nothing is copied.
 DEPTH_BAND = 64
+# effort="best": insertion to this many times the vertices, then collapses down to the count
+# (`_core` refine/collapse.hpp). The measured choice: docs/benchmarks.md, "effort".
+COLLAPSE_BEST = 4.0
 
 
 def delaunay_scales(camera, shape) -> tuple[int, int]:
@@ -213,7 +216,7 @@ def greedy_mesh(depth: np.ndarray, valid: np.ndarray, camera, *, vertices: int |
                 diagonals: str = "error", walls: bool = True, jump: float = 0.05,
                 extent=None, max_vertices: int | None = None, max_deviation: float | None = None,
                 mean_deviation: float | None = None,
-                max_edge: float | None = None) -> tuple[Mesh, dict]:
+                max_edge: float | None = None, effort: str = "fast") -> tuple[Mesh, dict]:
     """Mesh a prepared image by inserting its worst pixel until a target is met.
 
     Parameters
@@ -277,6 +280,16 @@ def greedy_mesh(depth: np.ndarray, valid: np.ndarray, camera, *, vertices: int |
         with an edge longer than this many pixels in the image plane, in
         rounds, until none is left; the vertex count may then exceed
         `vertices`.
+    effort : {'fast', 'best'}, default 'fast'
+        ``'best'``: the count is met by insertion to `COLLAPSE_BEST` times
+        as many vertices, then half-edge collapses of interior vertices,
+        cheapest first by the exact increase of the summed error over their
+        star's pixels, each survivor's depth refitted, then data-dependent
+        flips, then the heights as for ``'fast'``. Under an error bound the
+        search finds the count as ``'fast'`` does, and the collapsed mesh of
+        that count is kept when it meets the bound (or errs less). Where
+        the collapses cannot reach the count (too few interior vertices),
+        or the native call declines, the mesh is ``'fast'``'s.
 
     Returns
     -------
@@ -315,17 +328,20 @@ def greedy_mesh(depth: np.ndarray, valid: np.ndarray, camera, *, vertices: int |
         depth = np.ldexp(depth, -exponent)
         ref = (np.ldexp(ref[0], -exponent), ref[1])
         extent = (math.ldexp(extent[0], -exponent), math.ldexp(extent[1], -exponent), extent[2])
+    if effort not in ("fast", "best"):
+        raise ValueError(f"effort must be 'fast' or 'best', got {effort!r}")
     bounds = (max_deviation, mean_deviation, max_edge)
     mesh, target = _native(depth, valid, camera, ref, extent, exponent, vertices, max_error,
                            max_vertices, fit=fit, diagonals=diagonals, walls=walls, jump=jump,
-                           bounds=bounds)
+                           bounds=bounds, effort=effort)
     if mesh is None and bounds != (None, None, None):
         # The Python steps take no rounds: a fit the call declined (it must raise or solve
         # directly) gives way to copied depths; no triangle left is named by `_greedy`.
         if fit:
             mesh, target = _native(depth, valid, camera, ref, extent, exponent, vertices,
                                    max_error, max_vertices, fit=False, diagonals=diagonals,
-                                   walls=walls, jump=jump, bounds=bounds)
+                                   walls=walls, jump=jump, bounds=bounds,
+                                   effort=effort)
         if mesh is None:
             mesh, target = _greedy(depth, valid, camera, ref, extent, exponent,
                                    vertices=extent[2], max_error=None, fit=False,
@@ -452,7 +468,8 @@ _NATIVE_MESH = Mesh(np.zeros((0, 3)), np.zeros((0, 3), np.int32), np.zeros((0, 2
 
 
 def _native(depth, valid, camera, ref, extent, exponent, vertices, max_error, max_vertices, *,
-            fit, diagonals, walls=True, jump=0.05, bounds=(None, None, None)):
+            fit, diagonals, walls=True, jump=0.05, bounds=(None, None, None),
+            effort="fast"):
     """`_greedy` on one strip or two, as one native call (`rangemesh._core.refine_mesh`).
 
     Returns ``(mesh, target)``, or ``(None, None)`` when the call declines
@@ -489,6 +506,8 @@ def _native(depth, valid, camera, ref, extent, exponent, vertices, max_error, ma
         req.pixel_angle = pixel_angle(camera)  # (edge lengths are ray angles)
     req.max_runs, req.max_bisect_runs = MAX_RUNS, MAX_BISECT_RUNS
     req.heights = height_rule(n_valid)
+    if effort == "best":
+        req.collapse = COLLAPSE_BEST
     if max_error is not None:
         req.max_error = float(max_error)
     cam = _UNIT_ARRAY if camera is _UNIT else camera.as_array()

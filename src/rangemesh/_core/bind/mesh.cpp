@@ -76,7 +76,9 @@ void bind_request(nb::module_& m) {
         .def_rw("deviation_inverse", &MeshRequest::deviation_inverse,
                 "The prediction interpolates inverse depth (a pinhole, z-depth rays).")
         .def_rw("max_deviation_share", &MeshRequest::max_deviation_share,
-                "The first insertion's summed error: this share of max_deviation a valid pixel.");
+                "The first insertion's summed error: this share of max_deviation a valid pixel.")
+        .def_rw("collapse", &MeshRequest::collapse,
+                "effort='best' when above 1: mesh this many times the count, then collapse to it (0: fast).");
 }
 
 void bind_result(nb::module_& m) {
@@ -194,6 +196,8 @@ void bind_refine_mesh(nb::module_& m) {
                         "refine_mesh: threads at least 1, strips on images of 4 columns or more");
             check_input(req.sr >= 1 && req.sc >= 1 && req.max_runs >= 1 && req.max_bisect_runs >= 1,
                         "refine_mesh: sr, sc, max_runs and max_bisect_runs at least 1");
+            check_input(req.collapse == 0.0 || (req.collapse >= 1.0 && req.collapse <= 16.0),
+                        "refine_mesh: collapse 0 (effort='fast') or a factor from 1 to 16");
             check_input(camera.shape(0) >= 6 && (camera(0) == 0.0 || camera(0) == 1.0 ||
                                                   (camera(0) == 2.0 && camera(1) == depth.shape(0) &&
                                                    camera(2) == depth.shape(1) &&

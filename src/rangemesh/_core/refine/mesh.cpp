@@ -19,6 +19,7 @@
 #include "../heights/pass.hpp"
 #include "../interrupt.hpp"
 #include "deviation.hpp"
+#include "collapse.hpp"
 #include "diagonals.hpp"
 #include "halves.hpp"
 #include "insertion.hpp"
@@ -287,7 +288,7 @@ std::optional<StartArrays> hull_mesh(const Image& image, index_t limit, index_t 
 // nearest `want` is kept, one not above it first.
 class CountSearch {
   public:
-    CountSearch(const MeshRequest& req) : req_(req), want_(req.vertices), beyond_(req.n_valid + 1) {}
+    CountSearch(const MeshRequest& req, index_t want) : req_(req), want_(want), beyond_(req.n_valid + 1) {}
 
     // Note meshing `runs` (request `asked`); false when the search ends, else `asked` is the next.
     bool next(Meshing&& m, index_t runs, index_t& asked) {
@@ -530,6 +531,11 @@ class Refiner {
     bool lift(const ValidFaces& f, bool fit, std::vector<double>& vertices);
     bool bounded(Candidate& c);
     MeshResult finish(Candidate&& c);
+    Meshing counted(index_t want);
+    index_t dense_count(index_t want) const;
+    Meshing best_of(index_t want);
+    bool collapsed(Meshing& m, index_t target);
+    MeshResult finish_bounded(Candidate&& c);
     MeshResult no_face(const Meshing& m) {
         empty_ = true;
         empty_walls_ = m.n_walls;
@@ -636,14 +642,73 @@ MeshResult Refiner::finish(Candidate&& c) {
     return std::move(out_);
 }
 
-MeshResult Refiner::by_count() {
-    CountSearch search(req_);
-    index_t asked = req_.vertices;
+// The meshing with `want` vertices, or the nearest the count search reaches.
+Meshing Refiner::counted(index_t want) {
+    CountSearch search(req_, want);
+    const index_t start = out_.meshings;
+    index_t asked = want;
     for (bool more = true; more;) {
         Meshing m = mesh(asked, -1.0);
-        more = search.next(std::move(m), out_.meshings, asked);
+        more = search.next(std::move(m), out_.meshings - start, asked);
     }
-    Candidate c{std::move(search.best()), {}, 0.0};
+    return std::move(search.best());
+}
+
+// The vertices of `m` collapsed to `target` (collapse.hpp), measured in the values the heights
+// are fitted in, from the dense mesh's own heights; false (m untouched) when they cannot be.
+bool Refiner::collapsed(Meshing& m, index_t target) {
+    if (m.mesh.faces.empty() || m.n_vertices() <= target) return false;
+    const bool pinhole = camera_[0] == PINHOLE;
+    const FitValues v = fit_values(image_, pinhole, req_);
+    const ValidFaces& f = m.mesh;
+    const index_t n_v = m.n_vertices();
+    std::vector<double> depth(n_v), z(n_v);
+    for (index_t i = 0; i < n_v; ++i) {
+        depth[i] = image_.depth(f.pixels[2 * i], f.pixels[2 * i + 1]);
+        z[i] = v.values(f.pixels[2 * i], f.pixels[2 * i + 1]);
+    }
+    if (req_.fit && fitted_depths(image_, pinhole, f, req_, depth))
+        for (index_t i = 0; i < n_v; ++i) z[i] = pinhole ? 1.0 / depth[i] : depth[i];
+    const Image values{v.values, image_.valid, v.hi - v.lo};
+    ValidFaces out;
+    CollapseCount count;
+    if (!collapse_mesh(values, {f, z, target, req_.fit}, out, count)) return false;
+    m.mesh = std::move(out);
+    return true;
+}
+
+// The vertices effort="best" meshes to collapse down to `want`: `req_.collapse` times as many,
+// at most every valid pixel.
+index_t Refiner::dense_count(index_t want) const {
+    const double dense = std::ceil(req_.collapse * static_cast<double>(want));
+    return dense < static_cast<double>(req_.n_valid) ? static_cast<index_t>(dense) : req_.n_valid;
+}
+
+// effort="best": `want` vertices collapsed from `req_.collapse` times as many, or as
+// effort="fast" makes them when the collapses cannot reach the count.
+Meshing Refiner::best_of(index_t want) {
+    const index_t asked = dense_count(want);
+    if (asked > want) {
+        Meshing m = counted(asked);
+        if (collapsed(m, want)) return m;
+    }
+    return counted(want);
+}
+
+// effort="best" under an error bound: the count the search settled on, collapsed from a denser
+// mesh; kept when it meets the bound or errs less than the search's own mesh.
+MeshResult Refiner::finish_bounded(Candidate&& c) {
+    const index_t want = c.meshing.n_vertices(), last_asked = out_.asked, asked = dense_count(want);
+    if (req_.collapse <= 1.0 || asked <= want) return finish(std::move(c));
+    Candidate b{counted(asked), {}, 0.0};
+    out_.asked = last_asked;  // (the record's last request is the search's)
+    if (collapsed(b.meshing, want) && bounded(b) && (b.achieved <= req_.max_error || b.achieved < c.achieved))
+        return finish(std::move(b));
+    return finish(std::move(c));
+}
+
+MeshResult Refiner::by_count() {
+    Candidate c{req_.collapse > 1.0 ? best_of(req_.vertices) : counted(req_.vertices), {}, 0.0};
     if (c.meshing.mesh.faces.empty()) return no_face(c.meshing);
     if (needs_rounds(req_)) return finish(std::move(c));  // (the rounds lift the vertices)
     const auto t = std::chrono::steady_clock::now();
@@ -682,9 +747,9 @@ MeshResult Refiner::by_error() {
                 asked = nxt;
                 continue;
             }
-            return finish(has_met ? std::move(met) : std::move(c));
+            return finish_bounded(has_met ? std::move(met) : std::move(c));
         }
-        if (!(c.achieved > req_.max_error && asked > got && runs < req_.max_runs)) return finish(std::move(c));
+        if (!(c.achieved > req_.max_error && asked > got && runs < req_.max_runs)) return finish_bounded(std::move(c));
         if (c.meshing.error_left) {
             max_sum *= 0.9;  // the running sum is an estimate: tighten and go on
             continue;

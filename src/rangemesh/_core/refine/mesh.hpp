@@ -41,6 +41,7 @@ struct MeshRequest {
     double jump = 0.05;    // the jump rule's share of the local depth per pixel (walls.hpp)
     double pixel_angle = 0.0;  // a ray camera's angle of one pixel, the unit of its edge lengths
     index_t max_runs = 8, max_bisect_runs = 5;  // meshings at most, and once past the count
+    double collapse = 0.0;  // effort="best" (> 1): mesh this many times the count, collapse to it (collapse.hpp)
     HeightRule heights;
     // The deviation targets (deviation.hpp), each negative for none; with either, `vertices` is
     // the cap (n_valid: none) and `max_error` none. A pixel's deviation is |predicted - measured| depth times

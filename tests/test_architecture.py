@@ -67,3 +67,14 @@ def test_the_extension_ships_its_type_stubs():
     import rangemesh
 
     assert Path(rangemesh.__file__).with_name("py.typed").is_file()
+
+
+def test_no_command_line_module_is_over_400_lines():
+    # issue 41: cli.py had grown to 1216 lines; one module a command, the shared flags in one place
+    import rangemesh.cli
+
+    folder = Path(rangemesh.cli.__file__).parent
+    sizes = {f.name: len(f.read_text().splitlines()) for f in folder.glob("*.py")}
+    assert {"mesh.py", "demo.py", "batch.py", "info.py", "eval.py", "live.py", "options.py",
+            "common.py"} <= set(sizes)
+    assert {name: n for name, n in sizes.items() if n > 400} == {}

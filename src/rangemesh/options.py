@@ -12,7 +12,7 @@ its documentation and its command-line flag; from the records come:
   `rangemesh.mesh_bag`'s ``**options`` (`split_options`);
 * the option paragraphs of `rangemesh.triangulate`'s and `MeshParams`'
   docstrings (`option_docs`) and the table of ``docs/options.md`` (`markdown_table`);
-* the flags of ``rangemesh mesh``, ``demo`` and ``batch`` (`rangemesh.cli`).
+* the flags of ``rangemesh mesh``, ``demo`` and ``batch`` (`rangemesh.cli.options`).
 
 ``docs/options.md`` says how to add one.
 """
@@ -42,7 +42,7 @@ class Flag:
     help : str
         The flag's help; ``{default}`` is replaced by the option's default.
     parse : {'int', 'float', 'pair', 'limits', 'flips', 'choice', 'off', 'on_off'}
-        How the text is read (`rangemesh.cli` holds the parsers): ``'choice'``
+        How the text is read (`rangemesh.cli.options` holds the parsers): ``'choice'``
         one of the option's `choices`; ``'off'`` a ``--no-NAME`` switch that
         gives False; ``'on_off'`` ``--NAME`` (True) and ``--no-NAME`` (False).
     metavar : str, optional

@@ -1,0 +1,163 @@
+"""``rangemesh batch``: many images (files, folders, globs) or one ROS recording, in parallel."""
+
+from __future__ import annotations
+
+import json
+import sys
+import time
+from pathlib import Path
+
+from ..io import MESH_SUFFIXES
+from ..resolve import call_options
+from .common import UserError, _camera, _check_depth_scale, _clean, _make_camera, _one_line, _read_image
+from .options import _add_image_options, _add_mesh_options, _add_output_options, _resolve
+
+
+def _cmd_batch(args):
+    from ..batch import mesh_many, summarize
+
+    params, method, _ = _resolve(args)
+    if args.sensor is not None:
+        raise UserError("--sensor goes with mesh, eval and info (one cloud at a time); for a "
+                        "batch, write its beams once (info CLOUD.bin --sensor NAME --write-beams "
+                        "B.json) and give --beams B.json")
+    camera = _camera(args)
+    if _recording_input(args) is None and args.depth_scale is None \
+            and (args.intrinsics is not None or args.camera is not None):
+        from ..batch import expand_inputs
+
+        try:  # the first image stands for the batch: its files are one sensor's
+            first = expand_inputs(args.inputs)[:1]
+        except (OSError, ValueError):
+            first = []  # mesh_many reports unreadable inputs one by one
+        try:
+            image = _read_image(first[0]) if first else None
+        except (UserError, MemoryError):
+            image = None  # mesh_many reports it as that input's failure
+        if image is not None:
+            _check_depth_scale(args, image)
+    bg = args.background
+    bg = None if bg in ("none", "nan") else bg  # 'auto' is resolved image by image, by the camera
+    t0 = time.perf_counter()
+    report = Path(args.output_dir) / "rangemesh-batch.csv"
+    recording = _recording_input(args)
+    try:
+        if recording is not None:
+            results, report = _mesh_recording(args, recording, params, method)
+        else:
+            results = mesh_many(args.inputs, args.output_dir, background=bg, camera=camera,
+                                scheduler=args.scheduler, workers=args.workers,
+                                overwrite=args.overwrite, fmt="." + args.format,
+                                progress=not (args.quiet or args.json) and sys.stderr.isatty(),
+                                method=method, vertices=args.vertices, max_error=args.max_error,
+                                beams=args.beams, **call_options(params, method))
+    except (ValueError, TypeError) as exc:
+        raise UserError(_one_line(exc)) from None
+    summary = summarize(results, time.perf_counter() - t0)
+    failed = [r for r in results if r.status == "failed"]
+    if args.json:
+        from dataclasses import asdict
+
+        print(json.dumps(_clean({"summary": summary, "results": [asdict(r) for r in results]})))
+    elif not args.quiet:
+        for r in failed:
+            print(f"failed: {r.input}: {r.error}", file=sys.stderr)
+        med = summary["median_seconds_per_image"]
+        other = summary.get("skipped_not_depth", 0)  # a recording's summary has none
+        why = "already there" if not other else (
+            f"{summary['skipped'] - other} already there, {other} not depth images: colour "
+            f"images or previews")
+        print(f"meshed {summary['meshed']}, skipped {summary['skipped']} ({why}), failed "
+              f"{summary['failed']} of {summary['inputs']} in {summary['wall_seconds']:.1f} s "
+              f"({summary['images_per_second']:.2f} images/s"
+              + (f", median {med:.3f} s per image" if med is not None else "") + ")", file=sys.stderr)
+        print(f"per-image figures: {report}", file=sys.stderr)
+    return 1 if failed else 0
+
+
+def _recording_input(args):
+    """The recording a batch meshes (a .bag, .db3, .mcap or ROS 2 bag folder), or None for files."""
+    from ..recordings import is_recording
+
+    hits = [i for i in args.inputs if is_recording(i)]
+    if not hits:
+        for opt in ("topic", "color_topic", "camera_info_topic"):
+            if getattr(args, opt) is not None:
+                raise UserError(f"--{opt.replace('_', '-')} goes with a recording (.bag, .db3, "
+                                f".mcap or a ROS 2 bag folder)")
+        return None
+    if len(args.inputs) > 1:
+        raise UserError(f"{hits[0]}: a recording is meshed alone, not with other inputs")
+    if args.background != "auto":
+        raise UserError("--background does not apply to a recording: 0 and below (and NaN in "
+                        "32FC1 images) are missing depth there")
+    return hits[0]
+
+
+def _mesh_recording(args, path, params, method):
+    """`rangemesh batch recording -o out.mcap|folder`: the results and where the figures are."""
+    import warnings
+
+    from ..recordings import Recording, mesh_recording
+
+    camera = None
+    if (args.intrinsics is not None or args.camera is not None) and args.depth_scale is None:
+        with Recording(path) as rec:  # metres per value from the encoding, as with a CameraInfo
+            scale = rec.depth_topic(args.topic).depth_scale
+        try:
+            camera = _make_camera(args, depth_scale=scale)
+        except (ValueError, TypeError) as exc:
+            raise UserError(str(exc)) from None
+    elif any(x is not None for x in (args.intrinsics, args.scale, args.beams, args.depth_scale,
+                                     args.camera)):
+        camera = _camera(args)
+    out = Path(args.output_dir)
+    with warnings.catch_warnings(record=True) as said:
+        warnings.simplefilter("always", UserWarning)
+        results = mesh_recording(
+            path, out, args.topic, color_topic=args.color_topic, camera=camera,
+            camera_info_topic=args.camera_info_topic, scheduler=args.scheduler,
+            workers=args.workers, overwrite=args.overwrite, fmt="." + args.format,
+            progress=not (args.quiet or args.json) and sys.stderr.isatty(),
+            method=method, vertices=args.vertices, max_error=args.max_error,
+            **call_options(params, method))
+    if not args.quiet:
+        for w in said:
+            print(f"rangemesh: warning: {_one_line(w.message)}", file=sys.stderr)
+    report = out.with_name(out.stem + ".rangemesh-batch.csv") if out.suffix.lower() == ".mcap" \
+        else out / "rangemesh-batch.csv"
+    return results, report
+
+
+def add_parser(sub) -> None:
+    """The ``batch`` subcommand's flags."""
+    b = sub.add_parser("batch", help="mesh many images (files, folders, globs) in parallel",
+                       description="Mesh many range images into a folder, in parallel through Dask: "
+                                   "a local cluster of worker processes, or an existing cluster "
+                                   "(--scheduler). Bad files are reported and the rest go on; "
+                                   "outputs already there are skipped unless --overwrite.")
+    b.add_argument("inputs", nargs="+", help="image files, folders or quoted glob patterns "
+                                             "(LiDAR .bin scans with --beams); or one ROS "
+                                             "recording (.bag, .db3, .mcap, ROS 2 bag folder)")
+    b.add_argument("-o", "--output-dir", required=True,
+                   help="folder for the meshes and the report; for a recording also NAME.mcap: "
+                        "one mesh marker per frame, in step with the recording")
+    b.add_argument("--format", default="ply", choices=[s[1:] for s in MESH_SUFFIXES],
+                   help="mesh format (default ply)")
+    b.add_argument("--workers", type=int, default=None,
+                   help="worker processes of the local cluster (default: all cores)")
+    b.add_argument("--scheduler", default=None,
+                   help="address of a running Dask scheduler, e.g. tcp://head:8786")
+    b.add_argument("--overwrite", action="store_true", help="mesh again images already meshed")
+    ros = b.add_argument_group("ROS recordings (pip install \"rangemesh[ros]\")")
+    ros.add_argument("--topic", default=None,
+                     help="depth topic (16UC1/mono16 mm, 32FC1 m, compressedDepth); default: "
+                          "the recording's only one (rangemesh info lists them)")
+    ros.add_argument("--color-topic", default=None,
+                     help="colour topic registered with the depth (same size): vertex colours")
+    ros.add_argument("--camera-info-topic", default=None,
+                     help="CameraInfo topic (default: the one beside the depth topic, same "
+                          "frame id, nearest stamp)")
+    _add_image_options(b)
+    _add_mesh_options(b)
+    _add_output_options(b)

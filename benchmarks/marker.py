@@ -3,7 +3,8 @@
     RANGEMESH_THREADS=1 taskset -c 0 python benchmarks/marker.py [--repeat 15]
 
 On the shared RealSense bag's two 640x480 depth frames, at the default target
-and at 2 % of the valid pixels as vertices (the target's cap), times (``time.process_time``, medians of --repeat rounds, interleaved) of:
+and at 2 % of the valid pixels as vertices (the target's cap), times
+(``time.process_time``, medians of --repeat rounds, interleaved) of:
 
 * meshing: ``rangemesh.triangulate(depth, camera=..., background=0)``;
 * the marker: `rangemesh.recordings.writing.marker_bytes` (the CDR bytes

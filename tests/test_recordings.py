@@ -15,6 +15,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import rangemesh
 from rangemesh.cli import main
@@ -803,3 +805,104 @@ def test_an_output_never_replaces_the_recording(tmp_path, frames, capsys):
         code, _, err = _cli(["batch", rec, "-o", out, "--workers", 1, "--overwrite"], capsys)
         assert code == 2 and "must not be the recording" in err and err.count("\n") == 1, err
     assert {p: p.read_bytes() for p in [bare, *Path(folder).iterdir()]} == before
+
+
+# ---------------------------------------------------------------- the markers' bytes
+
+
+def marker_by_rosbags(mesh, stamp, frame_id, ns="rangemesh"):
+    """The reference: the Marker built as rosbags message objects (a Point per corner) and
+    serialised by rosbags' own ``serialize_cdr`` -- what `marker_bytes` gave before its fast path."""
+    from rangemesh.recordings.writing import GREY, MARKER_TYPE, typestore
+
+    ts = typestore()
+    t = ts.types
+    point, rgba = t["geometry_msgs/msg/Point"], t["std_msgs/msg/ColorRGBA"]
+    sec, nsec = divmod(int(stamp), 1_000_000_000)
+    header = t["std_msgs/msg/Header"](stamp=t["builtin_interfaces/msg/Time"](sec=sec, nanosec=nsec),
+                                      frame_id=frame_id)
+    corners = np.asarray(mesh.vertices, np.float64)[mesh.faces].reshape(-1, 3)
+    points = [point(x=x, y=y, z=z) for x, y, z in corners.tolist()]
+    colors = []
+    if mesh.colors is not None and len(corners):
+        c = (mesh.colors[mesh.faces].reshape(-1, 3) / 255.0).tolist()
+        colors = [rgba(r=r, g=g, b=b, a=1.0) for r, g, b in c]
+    marker_t = t[MARKER_TYPE]
+    msg = marker_t(
+        header=header, ns=ns, id=0, type=marker_t.TRIANGLE_LIST, action=marker_t.ADD,
+        pose=t["geometry_msgs/msg/Pose"](
+            position=point(x=0.0, y=0.0, z=0.0),
+            orientation=t["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=0.0, w=1.0)),
+        scale=t["geometry_msgs/msg/Vector3"](x=1.0, y=1.0, z=1.0),
+        color=rgba(r=1.0, g=1.0, b=1.0, a=1.0) if colors else rgba(*GREY),
+        lifetime=t["builtin_interfaces/msg/Duration"](sec=0, nanosec=0),
+        frame_locked=False, points=points, colors=colors, texture_resource="",
+        texture=t["sensor_msgs/msg/CompressedImage"](header=header, format="", data=np.zeros(0, np.uint8)),
+        uv_coordinates=[], text="", mesh_resource="",
+        mesh_file=t["visualization_msgs/msg/MeshFile"](filename="", data=np.zeros(0, np.uint8)),
+        mesh_use_embedded_materials=False)
+    return bytes(ts.serialize_cdr(msg, MARKER_TYPE))
+
+
+def small_mesh(vertices, faces, colors=None):
+    return rangemesh.Mesh(np.asarray(vertices, np.float64).reshape(-1, 3),
+                          np.asarray(faces, np.int32).reshape(-1, 3),
+                          np.zeros((len(vertices), 2), np.int32), rangemesh.Orthographic(), (1, 1),
+                          colors=None if colors is None else np.asarray(colors, np.uint8))
+
+
+@st.composite
+def small_meshes(draw):
+    """Up to 6 vertices and 5 faces (none: an empty mesh), with or without colours."""
+    nv = draw(st.integers(1, 6))
+    coord = st.floats(-1e6, 1e6, allow_nan=False, allow_infinity=False, width=64)
+    vertices = draw(st.lists(st.tuples(coord, coord, coord), min_size=nv, max_size=nv))
+    faces = draw(st.lists(st.tuples(*[st.integers(0, nv - 1)] * 3), max_size=5))
+    colors = draw(st.none() | st.lists(st.tuples(*[st.integers(0, 255)] * 3), min_size=nv,
+                                        max_size=nv))
+    return small_mesh(vertices, faces, colors)
+
+
+NAMES = st.text(st.characters(blacklist_categories=("Cs",), blacklist_characters="\x00"),
+                max_size=9)  # every length mod 4 and multi-byte UTF-8: the alignment after strings
+
+
+@settings(max_examples=150, deadline=None)
+@given(mesh=small_meshes(), stamp=st.integers(0, 2**31 * 10**9 - 1), frame_id=NAMES, ns=NAMES)
+def test_marker_bytes_are_rosbags_own_serialisation(mesh, stamp, frame_id, ns):
+    from rangemesh.recordings.writing import MARKER_TYPE, marker_bytes, typestore
+
+    data = marker_bytes(mesh, stamp, frame_id, ns=ns)
+    assert data == marker_by_rosbags(mesh, stamp, frame_id, ns)
+    msg = typestore().deserialize_cdr(data, MARKER_TYPE)  # and back to the same message
+    assert (msg.header.stamp.sec, msg.header.stamp.nanosec) == divmod(stamp, 10**9)
+    assert (msg.header.frame_id, msg.ns, msg.type, msg.texture.header.frame_id) == \
+        (frame_id, ns, 11, frame_id)
+    corners = mesh.vertices[mesh.faces].reshape(-1, 3)
+    np.testing.assert_array_equal(np.array([[p.x, p.y, p.z] for p in msg.points]).reshape(-1, 3),
+                                  corners)
+    if mesh.colors is None or mesh.is_empty:
+        assert msg.colors == [] and (msg.color.r, msg.color.a) == (np.float32(0.8), 1.0)
+    else:
+        got = np.array([[c.r, c.g, c.b, c.a] for c in msg.colors])
+        rgb = mesh.colors[mesh.faces].reshape(-1, 3)
+        np.testing.assert_allclose(got[:, :3] * 255.0, rgb, rtol=1e-6)
+        assert (got[:, 3] == 1.0).all()
+
+
+@pytest.mark.parametrize("colors", [None, [[255, 0, 128]] * 3])
+@pytest.mark.parametrize("faces", [[[0, 1, 2]], np.zeros((0, 3))], ids=["one", "empty"])
+def test_marker_bytes_of_one_triangle_and_of_an_empty_mesh(faces, colors):
+    """A single triangle (an odd corner count) and an empty mesh, with and without colours."""
+    from rangemesh.recordings.writing import marker_bytes
+
+    mesh = small_mesh([[0.0, 0.0, 1.0], [1.0, 0.0, 1.0], [0.0, 1.5, 2.0]], faces, colors)
+    data = marker_bytes(mesh, 1_500_000_001, "cam")
+    assert data == marker_by_rosbags(mesh, 1_500_000_001, "cam")
+    # by hand: header 4+4+(4+4) and ns 4+10 end at 30; id, type, action from 32; pose and scale 80
+    # bytes from 48 (8-aligned); color 16, lifetime 8, frame_locked 1 -> 153; points' count at 156
+    n = 3 * len(mesh.faces)
+    assert struct.unpack_from("<I", data, 4 + 156) == (n,)
+    if n:  # the points start 8-aligned at 160
+        assert struct.unpack_from("<9d", data, 4 + 160) == \
+            (0.0, 0.0, 1.0, 1.0, 0.0, 1.0, 0.0, 1.5, 2.0)

@@ -4,14 +4,16 @@ Each mesh is one ``TRIANGLE_LIST`` marker (three points per triangle, in the
 camera's optical frame: metres with a `Pinhole` camera from a CameraInfo)
 with the depth message's header, so RViz and Foxglove show it in step with
 the recording; every marker has the same namespace and id, so each replaces
-the one before. `rosbags` serialises and writes them (the Humble message
-definitions, which the file carries).
+the one before. The markers are serialised from the meshes' arrays in the
+layout of the Humble message definition (`marker_bytes`: no Python object
+per point) and `rosbags` writes them, with the definitions the file carries.
 """
 
 from __future__ import annotations
 
 import os
 import shutil
+import struct
 import tempfile
 from pathlib import Path
 
@@ -41,6 +43,10 @@ def typestore():
 def marker_bytes(mesh: Mesh, stamp: int, frame_id: str, *, ns: str = "rangemesh") -> bytes:
     """A mesh as a serialised (CDR) ``visualization_msgs/msg/Marker`` of type ``TRIANGLE_LIST``.
 
+    The bytes are written from the mesh's arrays as they are (no Python
+    object per point), in the layout of the Humble definition `rosbags`
+    serialises: the same bytes as its ``serialize_cdr`` of the message.
+
     Parameters
     ----------
     mesh : Mesh
@@ -55,33 +61,79 @@ def marker_bytes(mesh: Mesh, stamp: int, frame_id: str, *, ns: str = "rangemesh"
         Points ``vertices[faces].reshape(-1, 3)``; per-point ``colors``
         (RGBA in [0, 1]) when the mesh has colours, else one grey ``color``.
     """
-    ts = typestore()
-    t = ts.types
-    point, rgba = t["geometry_msgs/msg/Point"], t["std_msgs/msg/ColorRGBA"]
+    faces = np.asarray(mesh.faces).reshape(-1)
+    corners = np.asarray(mesh.vertices, np.float64)[faces].astype("<f8", copy=False)
+    colors = None
+    if mesh.colors is not None and len(faces):
+        # per vertex then per corner: the same float32 values as rounding each corner's c / 255.0
+        rgba = np.ones((len(mesh.colors), 4), "<f4")
+        rgba[:, :3] = np.asarray(mesh.colors) / 255.0
+        colors = rgba[faces]
     sec, nsec = divmod(int(stamp), 1_000_000_000)
-    header = t["std_msgs/msg/Header"](stamp=t["builtin_interfaces/msg/Time"](sec=sec, nanosec=nsec),
-                                      frame_id=frame_id)
-    corners = np.asarray(mesh.vertices, np.float64)[mesh.faces].reshape(-1, 3)
-    points = [point(x=x, y=y, z=z) for x, y, z in corners.tolist()]
-    colors = []
-    if mesh.colors is not None and len(corners):
-        c = (mesh.colors[mesh.faces].reshape(-1, 3) / 255.0).tolist()
-        colors = [rgba(r=r, g=g, b=b, a=1.0) for r, g, b in c]
-    marker_t = t[MARKER_TYPE]
-    msg = marker_t(
-        header=header, ns=ns, id=0, type=marker_t.TRIANGLE_LIST, action=marker_t.ADD,
-        pose=t["geometry_msgs/msg/Pose"](
-            position=point(x=0.0, y=0.0, z=0.0),
-            orientation=t["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=0.0, w=1.0)),
-        scale=t["geometry_msgs/msg/Vector3"](x=1.0, y=1.0, z=1.0),  # RViz scales the points
-        color=rgba(r=1.0, g=1.0, b=1.0, a=1.0) if colors else rgba(*GREY),
-        lifetime=t["builtin_interfaces/msg/Duration"](sec=0, nanosec=0),
-        frame_locked=False, points=points, colors=colors, texture_resource="",
-        texture=t["sensor_msgs/msg/CompressedImage"](header=header, format="", data=np.zeros(0, np.uint8)),
-        uv_coordinates=[], text="", mesh_resource="",
-        mesh_file=t["visualization_msgs/msg/MeshFile"](filename="", data=np.zeros(0, np.uint8)),
-        mesh_use_embedded_materials=False)
-    return bytes(ts.serialize_cdr(msg, MARKER_TYPE))
+    header = (sec, nsec, frame_id)
+    cdr = _Cdr()
+    cdr.header(header)
+    cdr.string(ns)
+    cdr.pack(4, "<iii", 0, MARKER_TRIANGLE_LIST, MARKER_ADD)  # id, type, action
+    cdr.pack(8, "<10d", 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0,  # pose: origin, identity
+             1.0, 1.0, 1.0)  # scale: RViz scales the points
+    cdr.pack(4, "<4f", *((1.0, 1.0, 1.0, 1.0) if colors is not None else GREY))
+    cdr.pack(4, "<iI?", 0, 0, False)  # lifetime (forever), frame_locked
+    cdr.sequence(corners, 8)  # points: geometry_msgs/Point, three float64
+    cdr.sequence(colors, 4)  # colors: std_msgs/ColorRGBA, four float32
+    cdr.string("")  # texture_resource
+    cdr.header(header)  # texture: sensor_msgs/CompressedImage with the marker's header,
+    cdr.string("")  # no format
+    cdr.sequence(None, 1)  # and no data
+    cdr.sequence(None, 4)  # uv_coordinates
+    cdr.string("")  # text
+    cdr.string("")  # mesh_resource
+    cdr.string("")  # mesh_file: visualization_msgs/MeshFile, no filename
+    cdr.sequence(None, 1)  # and no data
+    cdr.pack(1, "<?", False)  # mesh_use_embedded_materials
+    return cdr.bytes()
+
+
+MARKER_TRIANGLE_LIST, MARKER_ADD = 11, 0  # visualization_msgs/Marker's constants
+
+
+class _Cdr:
+    """Little-endian CDR (ROS 2's XCDR1): each primitive aligned to its size from the payload's start."""
+
+    def __init__(self):
+        self.parts = [b"\x00\x01\x00\x00"]  # encapsulation: CDR_LE, no options
+        self.pos = 0  # payload bytes so far (alignment counts from after the encapsulation)
+
+    def _put(self, data) -> None:
+        self.parts.append(data)
+        self.pos += len(data)
+
+    def pack(self, align: int, fmt: str, *values) -> None:
+        if pad := -self.pos % align:
+            self._put(bytes(pad))
+        self._put(struct.pack(fmt, *values))
+
+    def string(self, text: str) -> None:
+        data = text.encode()
+        self.pack(4, "<I", len(data) + 1)  # the length counts the closing NUL
+        self._put(data + b"\x00")
+
+    def header(self, header: tuple[int, int, str]) -> None:
+        sec, nsec, frame_id = header
+        self.pack(4, "<iI", sec, nsec)
+        self.string(frame_id)
+
+    def sequence(self, rows: np.ndarray | None, align: int) -> None:
+        """A uint32 count, then the rows' bytes aligned to their widest primitive (none: no padding)."""
+        n = 0 if rows is None else len(rows)
+        self.pack(4, "<I", n)
+        if n:
+            if pad := -self.pos % align:
+                self._put(bytes(pad))
+            self._put(memoryview(np.ascontiguousarray(rows)).cast("B"))
+
+    def bytes(self) -> bytes:
+        return b"".join(self.parts)
 
 
 class MarkerBag:

@@ -13,6 +13,7 @@ import pytest
 import trimesh
 
 import rangemesh
+import rangemesh.memory
 from rangemesh.cli import main
 from rangemesh.io import read_range_image
 
@@ -390,7 +391,7 @@ def test_a_png_past_pillow_s_bomb_limit_reads_without_its_warning(tmp_path, caps
                                f"raise that limit to read it\n")
     # the memory rule (20 bytes a pixel: 40,000 bytes) from the header, before decoding
     monkeypatch.setattr(PIL.Image, "MAX_IMAGE_PIXELS", 1500)
-    monkeypatch.setattr(rangemesh.pipeline, "available_memory", lambda: 30_000)
+    monkeypatch.setattr(rangemesh.memory, "available_memory", lambda: 30_000)
     opened = _pillow_open_spy(monkeypatch)
     for cmd in (["info", png], ["mesh", png, "-o", tmp_path / "m.ply"]):
         rc, _, err = run(cmd, capsys)

@@ -260,7 +260,7 @@ def test_a_vertex_count_of_any_integer_kind_is_taken(value):
 # the memory rule (the 2026-11-21 hostile-input report)
 def test_an_image_larger_than_free_memory_is_refused_before_work(monkeypatch, chair, chair_file,
                                                                   capsys):
-    import rangemesh.pipeline as pl
+    import rangemesh.memory as pl
 
     # 96 x 96 pixels x 20 bytes = 184,320 bytes: refuse with less available, mesh with more
     monkeypatch.setattr(pl, "available_memory", lambda: 184_319)
@@ -276,7 +276,7 @@ def test_free_memory_is_read_at_most_once_a_second(monkeypatch):
     import builtins
     import time
 
-    import rangemesh.pipeline as pl
+    import rangemesh.memory as pl
 
     if not os.path.exists("/proc/meminfo"):
         pytest.skip("no /proc/meminfo on this system")
@@ -303,7 +303,7 @@ def test_free_memory_is_read_at_most_once_a_second(monkeypatch):
 
 # E19 of the 2026-11-25 hostile-input report
 def test_refine_checks_the_memory_of_its_vertices_before_work(monkeypatch, capsys):
-    import rangemesh.pipeline as pl
+    import rangemesh.memory as pl
 
     chair = chair_depths()
     # 96 x 96 pixels x 32 bytes + 500 vertices x 700 bytes = 294,912 + 350,000 = 644,912
@@ -319,7 +319,7 @@ def test_refine_checks_the_memory_of_its_vertices_before_work(monkeypatch, capsy
 
 # E19 of the 2026-11-25 hostile-input report
 def test_an_error_bound_stops_where_memory_runs_out_and_says_so(monkeypatch, tmp_path, capsys):
-    import rangemesh.pipeline as pl
+    import rangemesh.memory as pl
 
     chair = chair_depths()
     # room for 200 vertices beyond the 294,912 bytes of the pixels

@@ -19,6 +19,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import rangemesh
+import rangemesh.memory
 from rangemesh.cli import main
 from rangemesh.recordings import Recording, mesh_bag, mesh_recording
 from rangemesh.recordings.decode import depth_image
@@ -664,7 +665,7 @@ def test_a_frame_is_checked_by_its_png_header_before_it_is_decoded(tmp_path, mon
     assert res[1].error == "ValueError: no CameraInfo of its size and frame id"
     assert opened.calls == 1
     # refine with N vertices needs 48 * 64 * 32 + 300 * 700 = 308,304 bytes: 100,000 are too few
-    monkeypatch.setattr(rangemesh.pipeline, "available_memory", lambda: 100_000)
+    monkeypatch.setattr(rangemesh.memory, "available_memory", lambda: 100_000)
     res = mesh_recording(path, tmp_path / "n.mcap", workers=1, vertices=N)
     assert res[0].status == "failed"
     assert res[0].error.startswith("MemoryError: a 48x64 image needs about 0.3 MiB of memory")

@@ -331,7 +331,7 @@ def test_max_deviation_on_too_few_valid_pixels_names_why():
 
 
 def test_a_deviation_bound_stops_where_memory_runs_out_and_says_so(monkeypatch):
-    import rangemesh.pipeline as pl
+    import rangemesh.memory as pl
 
     depth = smooth_image(2, 40, 50)  # noisy: 0 needs every pixel as a vertex
     # the image's own bytes and room for 200 vertices (as max_error's test in test_reliability_2)

@@ -12,9 +12,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import sys
 import time
-import types
 
 import numpy as np
 
@@ -44,33 +42,17 @@ from .resolve import (  # noqa: F401 - re-exported: their home was here
 __all__ = ["triangulate", "resolve_call", "resolve_params", "prepare", "run", "Workspace",
            "OPTIONS"]
 
-# The memory model's names, whose home was here (`rangemesh.memory`): read from it, and set on it
-# (monkeypatching `rangemesh.pipeline.available_memory` still reaches `check_memory`).
+# The memory model's names, whose home was here (`rangemesh.memory`): still readable from here
+# (PEP 562). To change them (a test's monkeypatch), set them on `rangemesh.memory`, their home.
 _MEMORY_NAMES = frozenset({"available_memory", "memory_need", "check_memory", "vertex_ceiling",
                            "BYTES_PER_PIXEL", "REFINE_BYTES_PER_PIXEL", "REFINE_BYTES_PER_VERTEX",
                            "MEMINFO_SECONDS", "_meminfo"})
 
 
-class _Module(types.ModuleType):
-    def __getattr__(self, name):
-        if name in _MEMORY_NAMES:
-            return getattr(memory, name)
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-
-    def __setattr__(self, name, value):
-        if name in _MEMORY_NAMES:
-            setattr(memory, name, value)
-        else:
-            super().__setattr__(name, value)
-
-    def __delattr__(self, name):
-        if name in _MEMORY_NAMES:
-            delattr(memory, name)
-        else:
-            super().__delattr__(name)
-
-
-sys.modules[__name__].__class__ = _Module
+def __getattr__(name):
+    if name in _MEMORY_NAMES:
+        return getattr(memory, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 class Workspace:

@@ -2,6 +2,7 @@
 // depths, a rendering's error, the faces on valid pixels, the nearest valid pixel, a start grid.
 #pragma once
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -85,6 +86,25 @@ struct ValidFaces {
 };
 ValidFaces valid_faces(Span<const index_t> vr, Span<const index_t> vc, Span<const index_t> tv,
                        Grid<const bool> valid);
+
+// Face t's corners as (row, col) doubles, and whether it is a wrap-around seam face (clockwise and
+// wider than half the image's `width`), which covers no pixel centre: every render of ValidFaces skips it.
+struct FaceCorners {
+    double r[3], c[3];
+    bool wraps(index_t width) const {
+        const double area = (r[1] - r[0]) * (c[2] - c[0]) - (c[1] - c[0]) * (r[2] - r[0]);
+        return area < 0 && std::max({c[0], c[1], c[2]}) - std::min({c[0], c[1], c[2]}) > 0.5 * width;
+    }
+};
+inline FaceCorners face_corners(const ValidFaces& f, index_t t) {
+    FaceCorners fc;
+    for (int k = 0; k < 3; ++k) {
+        const index_t v = f.faces[3 * t + k];
+        fc.r[k] = static_cast<double>(f.pixels[2 * v]);
+        fc.c[k] = static_cast<double>(f.pixels[2 * v + 1]);
+    }
+    return fc;
+}
 
 // The valid pixel nearest (r, c), ties to the smallest (row, col); (-1, -1) when there is none.
 struct Pixel {

@@ -24,12 +24,9 @@ Deviation measure_deviation(const Image& image, const Reference& ref, DeviationR
     std::vector<index_t> kept;  // the rendered faces' ids (a wrap-around seam face covers no pixel)
     for (index_t t = 0; t < n_f; ++t) {
         poll_every(t);
-        double r[3], c[3];
-        for (int k = 0; k < 3; ++k) {
-            const index_t v = f.faces[3 * t + k];
-            r[k] = static_cast<double>(f.pixels[2 * v]);
-            c[k] = static_cast<double>(f.pixels[2 * v + 1]);
-        }
+        const FaceCorners corners = face_corners(f, t);
+        const double* r = corners.r;
+        const double* c = corners.c;
         for (int k = 0; k < 3; ++k) {
             const double dr = r[(k + 1) % 3] - r[k], dc = c[(k + 1) % 3] - c[k];
             d.edge[t] = std::max(d.edge[t], std::sqrt(dr * dr + dc * dc));
@@ -37,8 +34,7 @@ Deviation measure_deviation(const Image& image, const Reference& ref, DeviationR
         d.longest_edge = std::max(d.longest_edge, d.edge[t]);
         cr[t] = (r[0] + r[1] + r[2]) / 3.0;
         cc[t] = (c[0] + c[1] + c[2]) / 3.0;
-        const double area = (r[1] - r[0]) * (c[2] - c[0]) - (c[1] - c[0]) * (r[2] - r[0]);
-        if (area < 0 && std::max({c[0], c[1], c[2]}) - std::min({c[0], c[1], c[2]}) > 0.5 * w) continue;
+        if (corners.wraps(w)) continue;
         kept.push_back(t);
         for (int k = 0; k < 3; ++k) {
             const index_t v = f.faces[3 * t + k];

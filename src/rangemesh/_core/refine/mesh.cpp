@@ -429,18 +429,11 @@ class ErrorMeasure {
         std::vector<double> fr, fc, fv;
         for (index_t t = 0; t < n_f; ++t) {
             poll_every(t);
-            double r[3], c[3];
+            const FaceCorners corners = face_corners(f, t);
+            if (corners.wraps(w)) continue;  // a wrap-around seam face covers no pixel centre
             for (int k = 0; k < 3; ++k) {
-                const index_t v = f.faces[3 * t + k];
-                r[k] = static_cast<double>(f.pixels[2 * v]);
-                c[k] = static_cast<double>(f.pixels[2 * v + 1]);
-            }
-            // a wrap-around seam face (clockwise, as wide as the image) covers no pixel centre
-            const double area = (r[1] - r[0]) * (c[2] - c[0]) - (c[1] - c[0]) * (r[2] - r[0]);
-            if (area < 0 && std::max({c[0], c[1], c[2]}) - std::min({c[0], c[1], c[2]}) > 0.5 * w) continue;
-            for (int k = 0; k < 3; ++k) {
-                fr.push_back(r[k]);
-                fc.push_back(c[k]);
+                fr.push_back(corners.r[k]);
+                fc.push_back(corners.c[k]);
                 fv.push_back(val[f.faces[3 * t + k]]);
             }
         }

@@ -527,6 +527,7 @@ def test_the_status_line_gives_the_rates_drops_and_latency_unless_quiet(shared_d
 def test_the_foxglove_address_is_host_and_port():
     from rangemesh.live.sinks import parse_address
 
+    # parsing only: nothing binds these addresses (the server tests bind 127.0.0.1:0)
     assert parse_address("0") == ("127.0.0.1", 0)
     assert parse_address("0.0.0.0:8765") == ("0.0.0.0", 8765)
     assert parse_address("[::1]:9000") == ("::1", 9000)

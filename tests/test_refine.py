@@ -324,30 +324,33 @@ def test_command_line_greedy(tmp_path, capsys, target):
     assert "--tiles is an option of --method paper" in capsys.readouterr().err
 
 
+@pytest.mark.parametrize("effort", ["fast", "best"])
 @pytest.mark.parametrize("diagonals", ["delaunay", "error"])
 @pytest.mark.parametrize("marker", [0, 65535, np.nan])
-def test_p1_background_marker_invariance(marker, diagonals):
-    """SPEC P1 for greedy insertion: 0, 65535 or NaN as the background marker, one mesh."""
+def test_p1_background_marker_invariance(marker, diagonals, effort):
+    """SPEC P1 for greedy insertion (and its collapses): 0, 65535 or NaN as the marker, one mesh."""
     sc = scenes.make("box", (50, 60), noise=0.3)
     depth = sc.depth.copy()
     holes = np.random.default_rng(3).random(depth.shape) < 0.1
     holes[:8, :8] = True  # a background corner
     ref = triangulate(np.where(holes, np.nan, depth), vertices=400, method="refine",
-                      diagonals=diagonals)
+                      diagonals=diagonals, effort=effort)
     img = np.where(holes, marker, depth)
     m = triangulate(img, background=None if marker != marker else marker, vertices=400,
-                    method="refine", diagonals=diagonals)
+                    method="refine", diagonals=diagonals, effort=effort)
     assert np.array_equal(m.pixels, ref.pixels) and np.array_equal(m.faces, ref.faces)
 
 
+@pytest.mark.parametrize("effort", ["fast", "best"])
 @pytest.mark.parametrize("diagonals", ["delaunay", "error"])
 @pytest.mark.parametrize("s", [2.0**-7, 2.0**9, 10.0, 0.001])
-def test_p2_unit_invariance(s, diagonals):
-    """SPEC P2 for greedy insertion: depth times s with kz divided by s, the same mesh."""
+def test_p2_unit_invariance(s, diagonals, effort):
+    """SPEC P2 for greedy insertion (and its collapses): depth times s, kz over s, one mesh."""
     depth = np.load(CROPS)["chair"].astype(float)
-    a = triangulate(depth, background=0, vertices=700, method="refine", diagonals=diagonals)
+    a = triangulate(depth, background=0, vertices=700, method="refine", diagonals=diagonals,
+                    effort=effort)
     b = triangulate(depth * s, background=0, vertices=700, method="refine", camera=(1, 1, 1 / s),
-                    diagonals=diagonals)
+                    diagonals=diagonals, effort=effort)
     assert np.array_equal(a.pixels, b.pixels) and np.array_equal(a.faces, b.faces)
     np.testing.assert_allclose(a.vertices, b.vertices, rtol=1e-12)
 

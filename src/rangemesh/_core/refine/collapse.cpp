@@ -201,14 +201,18 @@ Choice best_collapse(Work& w, index_t v, Scratch& s, CollapseCount& count, index
     double before = 0.0;
     for (index_t e : s.fan.edges) before += w.err[e / 3];
     each_neighbour(w, s.fan, [&](index_t x) { w.mark[x] = w.stamp; });
+    // compared and ranked in key units (`quantize`), as the insertion's keys: the same choices
+    // in any depth unit (SPEC P2)
+    const double span = w.image.span, q_before = quantize(before, span);
     double least = std::numeric_limits<double>::infinity();
     for (index_t u : s.onto) {
         if (!can_collapse(w, s.fan, u, s.other)) continue;
         ++count.evaluations;
-        const double after = collapsed_error(w, s.fan, u, std::isfinite(least) ? quantize(least, w.image.span) : least);
-        if (after < least) {
-            least = after;
-            best = {before - after, u};
+        const double after = collapsed_error(w, s.fan, u, least);
+        const double q_after = std::isfinite(after) ? quantize(after, span) : after;
+        if (q_after < least) {
+            least = q_after;
+            best = {q_before - q_after, u};
         }
     }
     return best;

@@ -11,6 +11,7 @@ from ..io import MESH_SUFFIXES
 from ..resolve import call_options
 from .common import UserError, _camera, _check_depth_scale, _clean, _make_camera, _one_line, _read_image
 from .options import _add_image_options, _add_mesh_options, _add_output_options, _resolve
+from .ouster import add_ouster_options, check_no_camera
 
 
 def _cmd_batch(args):
@@ -78,8 +79,11 @@ def _cmd_batch(args):
 def _recording_input(args):
     """The recording a batch meshes (a .bag, .db3, .mcap or ROS 2 bag folder), or None for files."""
     from ..recordings import is_recording
+    from ..recordings.ouster import is_ouster
 
-    hits = [i for i in args.inputs if is_recording(i)]
+    hits = [i for i in args.inputs if is_recording(i) or is_ouster(i)]
+    if not hits and args.meta is not None:
+        raise UserError("--meta goes with an Ouster recording (.pcap or .osf)")
     if not hits:
         for opt in ("topic", "color_topic", "camera_info_topic"):
             if getattr(args, opt) is not None:
@@ -99,9 +103,14 @@ def _mesh_recording(args, path, params, method):
     import warnings
 
     from ..recordings import Recording, mesh_recording
+    from ..recordings.ouster import is_ouster
 
     camera = None
-    if (args.intrinsics is not None or args.camera is not None) and args.depth_scale is None:
+    if is_ouster(path):
+        check_no_camera(args)
+    elif args.meta is not None:
+        raise UserError("--meta goes with an Ouster recording (.pcap or .osf)")
+    elif (args.intrinsics is not None or args.camera is not None) and args.depth_scale is None:
         with Recording(path) as rec:  # metres per value from the encoding, as with a CameraInfo
             scale = rec.depth_topic(args.topic).depth_scale
         try:
@@ -118,7 +127,7 @@ def _mesh_recording(args, path, params, method):
             path, out, args.topic, color_topic=args.color_topic, camera=camera,
             camera_info_topic=args.camera_info_topic, scheduler=args.scheduler,
             workers=args.workers, overwrite=args.overwrite, fmt="." + args.format,
-            progress=not (args.quiet or args.json) and sys.stderr.isatty(),
+            progress=not (args.quiet or args.json) and sys.stderr.isatty(), meta=args.meta,
             method=method, vertices=args.vertices, max_error=args.max_error,
             **call_options(params, method))
     if not args.quiet:
@@ -138,7 +147,9 @@ def add_parser(sub) -> None:
                                    "outputs already there are skipped unless --overwrite.")
     b.add_argument("inputs", nargs="+", help="image files, folders or quoted glob patterns "
                                              "(LiDAR .bin scans with --beams); or one ROS "
-                                             "recording (.bag, .db3, .mcap, ROS 2 bag folder)")
+                                             "recording (.bag, .db3, .mcap, ROS 2 bag folder) "
+                                             "or Ouster recording (.pcap, .osf, with --meta): "
+                                             "every frame")
     b.add_argument("-o", "--output-dir", required=True,
                    help="folder for the meshes and the report; for a recording also NAME.mcap: "
                         "one mesh marker per frame, in step with the recording")
@@ -158,6 +169,7 @@ def add_parser(sub) -> None:
     ros.add_argument("--camera-info-topic", default=None,
                      help="CameraInfo topic (default: the one beside the depth topic, same "
                           "frame id, nearest stamp)")
+    add_ouster_options(b, frame=False)
     _add_image_options(b)
     _add_mesh_options(b)
     _add_output_options(b)

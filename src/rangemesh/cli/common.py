@@ -193,7 +193,11 @@ def _refuse_unnamed(args, path: Path, option: str) -> None:
 
 
 def _read_scan(args):
-    """The range image of a mesh command: an image file, or a LiDAR .bin read with --beams."""
+    """The range image of a mesh command: an image file, a LiDAR .bin read with --beams, an Ouster scan."""
+    from .ouster import is_ouster_input, read_ouster_scan
+
+    if is_ouster_input(args, args.image):
+        return read_ouster_scan(args)
     if Path(args.image).suffix.lower() != SCAN_SUFFIX:
         if getattr(args, "sensor", None) is not None:
             raise UserError(f"{args.image}: --sensor goes with a LiDAR cloud (.bin)")

@@ -12,11 +12,14 @@ from ..params import MeshParams
 from ..prepare import NONPOSITIVE, to_depth_and_mask
 from .common import UserError, _camera, _clean, _one_line, _read_image, _read_scan, _resolve_background
 from .options import _add_camera_options, _add_cleanup_options, _add_image_options
+from .ouster import add_ouster_options, info_ouster, is_ouster_input
 
 
 def _cmd_info(args):
     from ..recordings import is_recording
 
+    if is_ouster_input(args, args.image):
+        return info_ouster(args)
     if is_recording(args.image):
         return _info_recording(args)
     if Path(args.image).suffix.lower() == SCAN_SUFFIX:
@@ -185,8 +188,10 @@ def add_parser(sub) -> None:
     i = sub.add_parser("info", help="describe a range image or a recording's depth topics",
                        description="Size, dtype, valid share, depth range and what marks "
                                    "missing depth; for a ROS recording its depth topics with "
-                                   "size, encoding, count and camera.")
+                                   "size, encoding, count and camera; for an Ouster recording "
+                                   "the sensor, its scans and one scan's valid pixels.")
     i.add_argument("image")
+    add_ouster_options(i)
     _add_image_options(i)
     _add_cleanup_options(i)
     _add_camera_options(i)  # the camera says what 'auto' marks as missing depth

@@ -18,6 +18,7 @@ def _cmd_batch(args):
     from ..batch import mesh_many, summarize
 
     params, method, _ = _resolve(args)
+    colors = _colors(args)
     if args.sensor is not None:
         raise UserError("--sensor goes with mesh, eval and info (one cloud at a time); for a "
                         "batch, write its beams once (info CLOUD.bin --sensor NAME --write-beams "
@@ -51,7 +52,7 @@ def _cmd_batch(args):
                                 overwrite=args.overwrite, fmt="." + args.format,
                                 progress=not (args.quiet or args.json) and sys.stderr.isatty(),
                                 method=method, vertices=args.vertices, max_error=args.max_error,
-                                beams=args.beams, **call_options(params, method))
+                                beams=args.beams, colors=colors, **call_options(params, method))
     except (ValueError, TypeError) as exc:
         raise UserError(_one_line(exc)) from None
     summary = summarize(results, time.perf_counter() - t0)
@@ -92,10 +93,39 @@ def _recording_input(args):
         return None
     if len(args.inputs) > 1:
         raise UserError(f"{hits[0]}: a recording is meshed alone, not with other inputs")
+    if args.color_pattern is not None or args.associations is not None:
+        raise UserError("--color-pattern and --associations go with image files; a ROS "
+                        "recording's colour is --color-topic")
     if args.background != "auto":
         raise UserError("--background does not apply to a recording: 0 and below (and NaN in "
                         "32FC1 images) are missing depth there")
     return hits[0]
+
+
+def _colors(args):
+    """The colour pairing of a folder batch (--color-pattern, --associations), or None.
+
+    With --associations and no inputs, its depth files are the inputs.
+    """
+    from ..pairing import check_pattern, read_associations
+
+    if args.color_pattern is not None and args.associations is not None:
+        raise UserError("--color-pattern and --associations exclude each other")
+    if not args.inputs and args.associations is None:
+        raise UserError("give the inputs: image files, folders, quoted glob patterns or one "
+                        "recording (or --associations FILE)")
+    try:
+        if args.associations is not None:
+            pairs = read_associations(args.associations)
+            if not args.inputs:
+                args.inputs = [str(d) for d, _ in pairs]
+            return {str(d): str(c) for d, c in pairs}
+        if args.color_pattern is not None:
+            return check_pattern(args.color_pattern)
+    except (ValueError, TypeError) as exc:
+        raise UserError(f"--{'associations' if args.associations else 'color-pattern'}: "
+                        f"{_one_line(exc)}") from None
+    return None
 
 
 def _mesh_recording(args, path, params, method):
@@ -145,7 +175,7 @@ def add_parser(sub) -> None:
                                    "a local cluster of worker processes, or an existing cluster "
                                    "(--scheduler). Bad files are reported and the rest go on; "
                                    "outputs already there are skipped unless --overwrite.")
-    b.add_argument("inputs", nargs="+", help="image files, folders or quoted glob patterns "
+    b.add_argument("inputs", nargs="*", help="image files, folders or quoted glob patterns "
                                              "(LiDAR .bin scans with --beams); or one ROS "
                                              "recording (.bag, .db3, .mcap, ROS 2 bag folder) "
                                              "or Ouster recording (.pcap, .osf, with --meta): "
@@ -160,6 +190,16 @@ def add_parser(sub) -> None:
     b.add_argument("--scheduler", default=None,
                    help="address of a running Dask scheduler, e.g. tcp://head:8786")
     b.add_argument("--overwrite", action="store_true", help="mesh again images already meshed")
+    col = b.add_argument_group("colour (image files; registered pixel to pixel with the depth)")
+    col.add_argument("--color-pattern", metavar="PATTERN", default=None,
+                     help="each depth file's colour image, named from it: {stem} (name without "
+                          "suffix), {name}, {dir} (its folder), e.g. 'rgb/{stem}.png' for "
+                          "depth/*.png: vertex colours; colour images among the inputs are "
+                          "skipped, not failed")
+    col.add_argument("--associations", metavar="FILE", default=None,
+                     help="a TUM-style association list ('stamp depth stamp rgb' a line, paths "
+                          "relative to it; the path under 'depth' is the depth): the pairs, "
+                          "and the inputs when none are given")
     ros = b.add_argument_group("ROS recordings (pip install \"rangemesh[ros]\")")
     ros.add_argument("--topic", default=None,
                      help="depth topic (16UC1/mono16 mm, 32FC1 m, compressedDepth); default: "

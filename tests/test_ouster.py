@@ -113,7 +113,7 @@ def test_ouster_batch_meshes_every_scan_as_a_recording(shared_data, tmp_path):
     # one file per scan, named by the SDK's stamp (seconds.nanoseconds)
     names = sorted(f.name for f in out.glob("*.ply"))
     assert names == [f"{s // 10**9}.{s % 10**9:09d}.ply" for s, _, _ in scans]
-    for (stamp, rng, xyz), name in zip(scans, names, strict=True):
+    for (_, rng, xyz), name in zip(scans, names, strict=True):
         v = _vertices(out / name)
         assert len(v) == 600
         d, _ = cKDTree(xyz[rng > 0]).query(v)

@@ -53,12 +53,12 @@ def check_no_camera(args) -> None:
 
 def read_ouster_scan(args):
     """Scan --frame of the recording: its range image (mm); the camera, offsets and wrap set on `args`."""
-    from ..recordings.ouster import read_scan
+    from ..recordings.ouster import read_one_scan
 
     check_no_camera(args)
     frame = getattr(args, "frame", None)
     try:
-        scan, reader = read_scan(args.image, meta=getattr(args, "meta", None),
+        scan, reader = read_one_scan(args.image, meta=getattr(args, "meta", None),
                                  frame=0 if frame is None else frame)
     except (ValueError, FileNotFoundError) as exc:
         raise UserError(_one_line(exc)) from None

@@ -2,7 +2,7 @@
 
 One reader, `OusterReader`, for every command that takes an Ouster source:
 ``rangemesh live`` (`rangemesh.live.sources`), ``rangemesh info`` / ``mesh``
-(one scan, `read_scan`) and ``rangemesh batch`` (every scan, as a recording:
+(one scan, `read_one_scan`) and ``rangemesh batch`` (every scan, as a recording:
 `OusterRecording` gives `rangemesh.recordings.meshing.mesh_recording` its
 frames). Each scan is the destaggered RANGE field (millimetres, 0 for no
 return) with the SDK's exact per-pixel geometry: a `Rays` camera and the
@@ -24,7 +24,7 @@ from ..camera import Rays
 from .reading import Frame
 
 __all__ = ["OUSTER_SUFFIXES", "OusterReader", "OusterRecording", "OusterScan", "is_ouster",
-           "ouster_geometry", "read_scan", "with_offsets"]
+           "ouster_geometry", "read_one_scan", "with_offsets"]
 
 OUSTER_SUFFIXES = (".pcap", ".osf")
 FEATURE = "an Ouster LiDAR or recording"
@@ -149,7 +149,7 @@ class OusterReader:
         self._src.close()
 
 
-def read_scan(source, *, meta=None, frame: int = 0) -> tuple[OusterScan, OusterReader]:
+def read_one_scan(source, *, meta=None, frame: int = 0) -> tuple[OusterScan, OusterReader]:
     """Scan `frame` (0: the first) of an Ouster recording, and its (closed) reader for the geometry.
 
     Raises

@@ -104,11 +104,19 @@ def _add_cleanup_options(p):
 def _add_cloud_options(c):
     from ..clouds import SENSORS
 
-    c.add_argument("--sensor", choices=sorted(SENSORS), default=None,
-                   help="an unorganised LiDAR cloud (.bin, KITTI's x, y, z, intensity): the "
-                        "Velodyne head whose beams are found from the cloud to make the range "
-                        "image (rangemesh.project_scan); with --beams a cloud is projected on "
-                        "the file's beams")
+    def sensor(text):
+        if text in SENSORS or text.lower().endswith(".json"):
+            return text
+        raise argparse.ArgumentTypeError(f"expected one of {', '.join(sorted(SENSORS))} or an "
+                                         f"Ouster metadata FILE.json, got {text!r}")
+
+    c.add_argument("--sensor", type=sensor, default=None,
+                   metavar="{" + ",".join(sorted(SENSORS)) + "} or META.json",
+                   help="an unorganised LiDAR cloud (.bin, KITTI's x, y, z, intensity; .pcd or "
+                        ".ply, with a ring field where the driver gives one): the Velodyne head "
+                        "whose beams are found from the cloud, or an Ouster head from its "
+                        "metadata JSON, makes the range image (rangemesh.project_scan); with "
+                        "--beams a .bin cloud is projected on the file's beams")
 
 
 def _add_camera_options(p):

@@ -16,6 +16,8 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import NamedTuple
 
+import numpy as np
+
 from ..batch import (
     BatchResult,
     _clean_stale_parts,
@@ -35,6 +37,7 @@ from ..pipeline import triangulate
 from ..prepare import NONPOSITIVE
 from ..resolve import call_keywords, call_options, resolve_call
 from .decode import color_image, depth_image, depth_shape
+from .ouster import OusterRecording, is_ouster, with_offsets
 from .reading import Frame, Recording, stamp_text
 from .writing import MarkerBag, marker_bytes
 
@@ -84,13 +87,16 @@ def mesh_frame(frame: Frame, call: dict, how: str = "pixel") -> tuple[Mesh, obje
     """
     if frame.error:
         raise ValueError(f"{frame.name}: {frame.error}")
+    decoded = isinstance(frame.depth, np.ndarray)  # an SDK's scan (Ouster): no message to decode
     try:  # a compressed frame's size from its PNG header: a bomb is refused before decoding
-        check_memory(depth_shape(frame.depth, frame.name), call["method"], call["vertices"])
+        shape = frame.depth.shape if decoded else depth_shape(frame.depth, frame.name)
+        check_memory(shape, call["method"], call["vertices"])
     except MemoryError as exc:
         raise MemoryError(f"{frame.name}: {exc}") from None
-    depth, _ = depth_image(frame.depth, frame.name)
+    depth = frame.depth if decoded else depth_image(frame.depth, frame.name)[0]
     try:
         mesh = triangulate(depth, background=BACKGROUND, camera=frame.camera, **call)
+        mesh = with_offsets(mesh, frame.offsets)
         if frame.color is not None:
             mesh = mesh.with_colors(color_image(frame.color, frame.name), how=how)
     except ValueError as exc:
@@ -234,14 +240,16 @@ def mesh_recording(path: str | os.PathLike, output: str | os.PathLike, topic: st
                    scheduler: str | None = None, workers: int | None = None,
                    overwrite: bool = False, fmt: str = ".ply", write_options: dict | None = None,
                    progress: bool = False, connect_timeout: float = 10.0, marker_topic: str | None = None,
-                   method: str = "refine", vertices: int | None = None,
+                   meta=None, method: str = "refine", vertices: int | None = None,
                    max_error: float | None = None, **options) -> list[BatchResult]:
     """Mesh every depth frame of a recording into an MCAP file of markers, or a folder of meshes.
 
     Parameters
     ----------
     path, topic, color_topic, camera, camera_info_topic, color_how
-        As for `mesh_bag`.
+        As for `mesh_bag`. An Ouster ``.pcap``/``.osf`` (with `meta`) is read
+        through `ouster-sdk` (`rangemesh.recordings.ouster`): every scan with
+        the SDK's rays and beam-origin offsets; the ROS options do not apply.
     output : str or os.PathLike
         ``name.mcap``: a ROS 2 MCAP recording with one
         ``visualization_msgs/msg/Marker`` (``TRIANGLE_LIST``) per frame on
@@ -265,7 +273,9 @@ def mesh_recording(path: str | os.PathLike, output: str | os.PathLike, topic: st
     progress : bool, default False
         Show the batch's progress bar.
     marker_topic : str, optional
-        Default ``<depth topic>/mesh``.
+        Default ``<depth topic>/mesh`` (an Ouster recording: ``/os_lidar/mesh``).
+    meta : str or os.PathLike, optional
+        An Ouster recording's metadata JSON (``--meta``).
     method, vertices, max_error, **options
         As for `rangemesh.triangulate`, checked before any work.
 
@@ -290,7 +300,9 @@ def mesh_recording(path: str | os.PathLike, output: str | os.PathLike, topic: st
     if to_bag and output.exists() and not overwrite:
         raise ValueError(f"{output}: exists; give --overwrite (overwrite=True) to replace it")
     t0 = time.perf_counter()
-    with Recording(path) as rec:
+    with _open(path, meta) as rec:
+        if getattr(rec, "wraps", False) and call.get("wrap") is None:  # an Ouster's whole circle
+            call = {**call, "wrap": True}
         frames = rec.frames(topic, color_topic=color_topic, camera=camera,
                             camera_info_topic=camera_info_topic)
         dt = rec.depth_topic(topic)
@@ -328,6 +340,15 @@ def mesh_recording(path: str | os.PathLike, output: str | os.PathLike, topic: st
     else:
         write_report(results, report_dir, wall, names)
     return results
+
+
+def _open(path, meta):
+    """The recording's reader: an Ouster one for a ``.pcap``/``.osf``, else the ROS one."""
+    if is_ouster(path):
+        return OusterRecording(path, meta=meta)
+    if meta is not None:
+        raise ValueError("meta (--meta) goes with an Ouster recording (.pcap or .osf)")
+    return Recording(path)
 
 
 def _check_apart(recording: Path, output: Path) -> None:

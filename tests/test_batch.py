@@ -175,6 +175,23 @@ def test_local_workers_run_one_thread_each(tmp_path, monkeypatch):
     assert seen["env"] == {"RANGEMESH_THREADS": "1"}
 
 
+def test_cli_batch_takes_the_deviation_targets(tmp_path, capsys):
+    # batch lacked --max-deviation and --mean-deviation, which `mesh` takes (issue 42)
+    a = scenes.dome((40, 50)).depth
+    np.save(tmp_path / "a.npy", a)
+    rc = main(["batch", str(tmp_path / "a.npy"), "-o", str(tmp_path / "out"), "--workers", "1",
+               "--max-deviation", "0.5"])
+    assert rc == 0, capsys.readouterr().err
+    back = rangemesh.read_mesh(tmp_path / "out" / "a.ply")
+    want = rangemesh.triangulate(a, max_deviation=0.5)
+    assert np.array_equal(back.faces, want.faces)
+    assert rangemesh.evaluate(want, a).max_deviation <= 0.5
+    rc = main(["batch", str(tmp_path / "a.npy"), "-o", str(tmp_path / "o2"), "--max-deviation",
+               "0.5", "--vertices", "30"])
+    assert rc == 2
+    assert "max_deviation and vertices exclude each other" in capsys.readouterr().err
+
+
 def test_one_worker_meshes_in_this_process_without_dask(tmp_path, monkeypatch):
     """workers=1: no cluster is started (Dask need not be installed); the same files come out."""
     import rangemesh.batch as batch

@@ -549,6 +549,22 @@ def test_live_cli_takes_the_mesh_options(shared_data):
     assert r.returncode == 2 and "--tiles" in r.stderr and "--method paper" in r.stderr
 
 
+def test_live_cli_takes_the_deviation_targets(shared_data, tmp_path):
+    # `live` lacked --max-deviation and --mean-deviation, which `mesh` takes (issue 42: every
+    # mesh option of `mesh`); rangemesh.live refused them as unknown options
+    r = _cli(shared_data / REALSENSE, "--source", "ros", "--pace", "fast", "--max-deviation",
+             "0.02", "-o", tmp_path / "m", "--quiet")
+    assert r.returncode == 0, r.stderr
+    want = _expected_meshes(shared_data, max_deviation=0.02)
+    for stamp, mesh in want.items():
+        back = rangemesh.read_mesh(tmp_path / "m" / f"{stamp // 10**9}.{stamp % 10**9:09d}.ply")
+        assert np.array_equal(back.faces, mesh.faces)
+        assert np.allclose(back.vertices, mesh.vertices)
+    got = [m for _, _, m in rangemesh.live(shared_data / REALSENSE, kind="ros", pace="fast",
+                                           mean_deviation=0.005)]
+    assert len(got) == 2 and all(m.stats.target.kind == "mean_deviation" for m in got)
+
+
 def test_pacing_module_has_the_wall_clock():
     t0 = pacing.Clock.now()
     pacing.Clock.sleep(0.01)

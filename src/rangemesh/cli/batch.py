@@ -52,6 +52,8 @@ def _cmd_batch(args):
                                 overwrite=args.overwrite, fmt="." + args.format,
                                 progress=not (args.quiet or args.json) and sys.stderr.isatty(),
                                 method=method, vertices=args.vertices, max_error=args.max_error,
+                                max_deviation=args.max_deviation,
+                                mean_deviation=args.mean_deviation,
                                 beams=args.beams, colors=colors, **call_options(params, method))
     except (ValueError, TypeError) as exc:
         raise UserError(_one_line(exc)) from None
@@ -159,6 +161,7 @@ def _mesh_recording(args, path, params, method):
             workers=args.workers, overwrite=args.overwrite, fmt="." + args.format,
             progress=not (args.quiet or args.json) and sys.stderr.isatty(), meta=args.meta,
             method=method, vertices=args.vertices, max_error=args.max_error,
+            max_deviation=args.max_deviation, mean_deviation=args.mean_deviation,
             **call_options(params, method))
     if not args.quiet:
         for w in said:

@@ -25,7 +25,9 @@ def _cmd_live(args):
                 fmt="." + args.format, overwrite=args.overwrite, quiet=args.quiet,
                 kind=args.source_kind, meta=args.meta, topic=args.topic, pace=args.pace,
                 loop=args.loop, frames=args.frames, queue=args.queue, method=method,
-                vertices=args.vertices, max_error=args.max_error, **call_options(params, method))
+                vertices=args.vertices, max_error=args.max_error,
+                max_deviation=args.max_deviation, mean_deviation=args.mean_deviation,
+                **call_options(params, method))
     except (ValueError, TypeError) as exc:
         raise UserError(_one_line(exc)) from None
     if not args.quiet:

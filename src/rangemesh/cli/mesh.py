@@ -207,12 +207,4 @@ def add_parser(sub) -> None:
     _add_overwrite_option(m)
     _add_image_options(m)
     _add_mesh_options(m)
-    dev = m.add_argument_group("deviation targets (--method refine; instead of --vertices or "
-                               "--max-error)")
-    dev.add_argument("--max-deviation", type=float, default=None, metavar="D",
-                     help="every valid pixel within D of the mesh along its ray: metres with "
-                          "--intrinsics, --camera or --beams (z-depth, or range), depth units "
-                          "otherwise; fitted depths included")
-    dev.add_argument("--mean-deviation", type=float, default=None, metavar="D",
-                     help="the mean deviation of the valid pixels (as --max-deviation) at most D")
     _add_output_options(m)

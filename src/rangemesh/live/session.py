@@ -108,7 +108,8 @@ def live(source: str | os.PathLike, *, kind: str | None = None, meta=None, topic
         Frames kept waiting while one is meshed; beyond, the oldest are
         dropped (1: the newest frame wins).
     method, vertices, max_error, **options
-        As for `rangemesh.triangulate`, checked once, at the call.
+        As for `rangemesh.triangulate` (``max_deviation`` and ``mean_deviation``
+        among the options), checked once, at the call.
 
     Yields
     ------

@@ -62,10 +62,17 @@ def resolve(method: str, vertices, max_error, options: dict) -> dict:
     ValueError, TypeError
         A bad option or target; an unknown keyword.
     """
+    options = dict(options)
+    deviations = (options.pop("max_deviation", None), options.pop("mean_deviation", None))
     given, rest = call_keywords(options)
-    params, method, _ = resolve_call(None, method, vertices, max_error, given, rest, stacklevel=4)
-    return {"method": method, "vertices": vertices, "max_error": max_error,
+    params, method, _ = resolve_call(None, method, vertices, max_error, given, rest, stacklevel=4,
+                                     deviations=deviations)
+    call = {"method": method, "vertices": vertices, "max_error": max_error,
             **call_options(params, method)}
+    # (only when given, as mesh_many: a folder's record of its options stays as it was without)
+    call.update({k: v for k, v in zip(("max_deviation", "mean_deviation"), deviations, strict=True)
+                 if v is not None})
+    return call
 
 
 def mesh_frame(frame: Frame, call: dict, how: str = "pixel") -> tuple[Mesh, object]:
@@ -137,7 +144,8 @@ def mesh_bag(path: str | os.PathLike, topic: str | None = None, *, color_topic: 
         warns (`SkippedFrame`, naming the frame and why) and goes on with the
         next frame, as ``rangemesh batch`` does.
     method, vertices, max_error, **options
-        As for `rangemesh.triangulate`, checked once, before the first frame.
+        As for `rangemesh.triangulate` (``max_deviation`` and ``mean_deviation``
+        among the options), checked once, before the first frame.
 
     Yields
     ------
@@ -277,7 +285,8 @@ def mesh_recording(path: str | os.PathLike, output: str | os.PathLike, topic: st
     meta : str or os.PathLike, optional
         An Ouster recording's metadata JSON (``--meta``).
     method, vertices, max_error, **options
-        As for `rangemesh.triangulate`, checked before any work.
+        As for `rangemesh.triangulate` (``max_deviation`` and ``mean_deviation``
+        among the options), checked before any work.
 
     Returns
     -------

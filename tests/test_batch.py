@@ -192,6 +192,19 @@ def test_cli_batch_takes_the_deviation_targets(tmp_path, capsys):
     assert "max_deviation and vertices exclude each other" in capsys.readouterr().err
 
 
+def test_cli_batch_output_that_is_an_input_or_a_file_is_one_line(tmp_path, capsys):
+    # `batch a.npy -o a.npy` said only "a.npy: File exists" (issue 42)
+    a = tmp_path / "a.npy"
+    np.save(a, scenes.dome((40, 50)).depth)
+    data = a.read_bytes()
+    rc = main(["batch", str(a), "-o", str(a), "--workers", "1"])
+    one_error_line(capsys, rc, match=f"-o {a} is the input {a}: the meshes go to a folder")
+    (tmp_path / "notes.txt").write_text("mine")
+    rc = main(["batch", str(a), "-o", str(tmp_path / "notes.txt"), "--workers", "1"])
+    one_error_line(capsys, rc, match="notes.txt is a file: the meshes go to a folder")
+    assert a.read_bytes() == data and (tmp_path / "notes.txt").read_text() == "mine"
+
+
 def test_one_worker_meshes_in_this_process_without_dask(tmp_path, monkeypatch):
     """workers=1: no cluster is started (Dask need not be installed); the same files come out."""
     import rangemesh.batch as batch

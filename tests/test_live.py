@@ -10,6 +10,7 @@ import struct
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -547,6 +548,47 @@ def test_live_cli_takes_the_mesh_options(shared_data):
     # an option of the other method is refused as `rangemesh mesh` refuses it: the same groups
     r = _cli(shared_data / REALSENSE, "--tiles", "4x4")
     assert r.returncode == 2 and "--tiles" in r.stderr and "--method paper" in r.stderr
+
+
+def test_an_output_never_replaces_the_source_recording(shared_data, tmp_path):
+    # `live x.bag -o x.bag` said only "x.bag: File exists"; `--csv x.bag` replaced the recording
+    # with the CSV at the end of the run (issue 42)
+    import shutil
+
+    from rangemesh.live import run
+
+    from .rosbag_writer import image_topic, info_topic, mcap_file, write_bag
+
+    bag = tmp_path / "x.bag"
+    shutil.copy(shared_data / REALSENSE, bag)
+    folder = write_bag(tmp_path / "rec", [image_topic([np.full((48, 64), 900, np.uint16)] * 2,
+                                                      "16UC1"),
+                                          info_topic(size=(48, 64))], "mcap")
+    (tmp_path / "notes.txt").write_text("mine")
+    before = {p: p.read_bytes() for p in [bag, tmp_path / "notes.txt", *Path(folder).iterdir()]}
+    cases = [
+        ((bag, "-o", bag), f"-o {bag} is the source recording {bag}: writing there would "
+                           f"replace the recording; write elsewhere"),
+        ((bag, "--source", "ros", "-o", bag), f"-o {bag} is the source recording"),
+        ((bag, "-o", tmp_path / "m.mcap", "--csv", bag), f"--csv {bag} is the source recording"),
+        ((folder, "-o", Path(folder) / "m.mcap"),
+         f"-o {Path(folder) / 'm.mcap'} is the source recording {folder} or lies inside it"),
+        ((folder, "-o", mcap_file(folder)), f"-o {mcap_file(folder)} is the source recording"),
+        ((bag, "-o", tmp_path / "notes.txt"),
+         f"-o {tmp_path / 'notes.txt'} is a file: an output is NAME.mcap or a folder"),
+        ((bag, "-o", tmp_path / "m.mcap", "--csv", tmp_path / "m.mcap"),
+         "--csv " + str(tmp_path / "m.mcap") + " is the MCAP output too"),
+    ]
+    for argv, says in cases:
+        r = _cli(*argv, "--pace", "fast", "--vertices", "300", "--overwrite", "--quiet")
+        assert r.returncode == 2
+        assert r.stderr.count("\n") == 1 and "Traceback" not in r.stderr, r.stderr
+        assert r.stderr.startswith(f"rangemesh: error: {says}"), r.stderr
+    assert {p: p.read_bytes() for p in [bag, tmp_path / "notes.txt", *Path(folder).iterdir()]} \
+        == before
+    assert not (tmp_path / "m.mcap").exists()
+    with pytest.raises(ValueError, match=r"^csv .* is the source recording"):
+        run(bag, csv=bag, pace="fast", quiet=True)
 
 
 def test_live_cli_takes_the_deviation_targets(shared_data, tmp_path):

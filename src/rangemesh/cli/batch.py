@@ -9,7 +9,16 @@ from pathlib import Path
 
 from ..io import MESH_SUFFIXES
 from ..resolve import call_options
-from .common import UserError, _camera, _check_depth_scale, _clean, _make_camera, _one_line, _read_image
+from .common import (
+    UserError,
+    _camera,
+    _check_depth_scale,
+    _clean,
+    _make_camera,
+    _one_line,
+    _read_image,
+    _same_file,
+)
 from .options import _add_image_options, _add_mesh_options, _add_output_options, _resolve
 from .ouster import add_ouster_options, check_no_camera
 
@@ -43,6 +52,7 @@ def _cmd_batch(args):
     t0 = time.perf_counter()
     report = Path(args.output_dir) / "rangemesh-batch.csv"
     recording = _recording_input(args)
+    _check_output_dir(args, recording)
     try:
         if recording is not None:
             results, report = _mesh_recording(args, recording, params, method)
@@ -77,6 +87,25 @@ def _cmd_batch(args):
               + (f", median {med:.3f} s per image" if med is not None else "") + ")", file=sys.stderr)
         print(f"per-image figures: {report}", file=sys.stderr)
     return 1 if failed else 0
+
+
+def _check_output_dir(args, recording) -> None:
+    """Refuse an -o that is an input, lies inside the recording, or is a file for the meshes' folder."""
+    out = Path(args.output_dir)
+    if recording is not None:
+        rec = Path(recording)
+        if _same_file(out, rec) or (rec.is_dir() and rec.resolve() in out.resolve().parents):
+            raise UserError(f"-o {out}: the output must not be the recording {rec} or lie "
+                            f"inside it; write it elsewhere")
+        if out.suffix.lower() == ".mcap":
+            return  # a file of markers: an existing one is replaced with --overwrite only
+    for i in args.inputs:
+        if _same_file(out, Path(i)):
+            raise UserError(f"-o {out} is the input {i}: the meshes go to a folder, and an "
+                            f"output never replaces an input")
+    if out.exists() and not out.is_dir():
+        what = "a folder (or NAME.mcap for a recording)" if recording is not None else "a folder"
+        raise UserError(f"-o {out} is a file: the meshes go to {what}")
 
 
 def _recording_input(args):

@@ -475,12 +475,15 @@ def test_a_websocket_client_receives_scene_updates_as_meshed(shared_data):
 
 
 @pytest.mark.slow
-def test_ctrl_c_leaves_a_readable_mcap(shared_data, tmp_path):
+@pytest.mark.parametrize("reader", ["ros", "realsense"])
+def test_ctrl_c_leaves_a_readable_mcap(shared_data, tmp_path, reader):
     sdk("foxglove")
+    if reader == "realsense":  # the SDK's playback: its pipeline stopped before the MCAP closes
+        sdk("pyrealsense2")
     make_reader, DecoderFactory = _decoder()
     out = tmp_path / "run.mcap"
     proc = subprocess.Popen(
-        [sys.executable, "-m", "rangemesh", "live", str(shared_data / REALSENSE), "--source", "ros",
+        [sys.executable, "-m", "rangemesh", "live", str(shared_data / REALSENSE), "--source", reader,
          "--pace", "20", "--loop", "--vertices", "300", "--foxglove", "0", "-o", str(out)],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=ENV)
     try:

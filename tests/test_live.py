@@ -123,6 +123,16 @@ def test_a_looped_recording_goes_on_one_frame_gap_after_its_end():
     assert [a for _, a, _ in out] == [0.0, 0.5, 1.0, 1.5]
 
 
+def test_a_looped_recording_of_unknown_rate_keeps_its_pace_pass_after_pass():
+    # no fps: the gap between passes is the first pass's mean gap, 0.5 s here. It was the mean
+    # over every frame released so far, so each pass came sooner (1/3 of the gap at the third,
+    # 1/5 at the fourth: the ROS bag looped at --pace recorded went in at 11 frames/s, not 6)
+    clock = FakeClock()
+    out, stats = _run(Playback(_frames([0.0, 0.5] * 4), "recorded", clock), 1, 0.0, clock)
+    assert [round(a, 9) for _, a, _ in out] == [0.0, 0.5, 1.0, 1.5, 2.0, 2.5, 3.0, 3.5]
+    assert stats.dropped == 0
+
+
 def test_a_device_s_frames_dropped_before_the_mesher_takes_them_are_counted():
     # a sensor gave 1100 frames while the mesher was busy: the feed keeps the newest 64, the
     # queue the newest one; all 1100 arrived, 1099 were dropped, the last one is meshed

@@ -580,7 +580,7 @@ def _flags(command):
 # `mesh`'s flags about its input and outputs; every other flag of it is a meshing option
 MESH_IO_FLAGS = {"-h", "--help", "-o", "--output", "--preview", "--color", "--intensity",
                  "--color-mean", "--ascii", "--pixels", "--overwrite", "--background", "--quiet",
-                 "--json"}
+                 "--json", "--meta", "--frame"}
 
 
 @pytest.mark.parametrize("command", ["batch", "live", "demo"])

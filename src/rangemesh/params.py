@@ -266,7 +266,7 @@ class MeshParams:
     walls: bool = option(
         True, methods=REFINE, type="bool", check=flag,
         doc="Keep the triangles that bridge a depth jump (\"walls\"). False drops them, so "
-            "separate surfaces stay separate (see `rangemesh.refine.walls` for how a jump is "
+            "separate surfaces stay separate (see `rangemesh.geometry.walls` for how a jump is "
             "decided).",
         flag=Flag("drop the triangles across depth jumps, so separate surfaces stay "
                   "separate", "off"))

@@ -20,7 +20,7 @@ from . import memory
 from ._core import EXACT_SPAN, valid_range
 from .camera import Orthographic, Spherical, as_camera, check_reach, check_shape
 from .cleanup import clean_inplace, warn_zero_marker
-from .geometry.seam import seam_strip, strip_to_keep, unrolled_columns
+from .geometry.seam import seam_faces
 from .mesh import Mesh, Stats, Target, count_edges, empty_mesh, with_fields
 from .options import option_docs
 from .paper import targets
@@ -29,7 +29,6 @@ from .paper.stages import mesh_grid
 from .params import DEFAULT_TARGET, OPTION_TABLE, MeshParams, default_vertex_cap
 from .prepare import check_image, fill_gaps_inplace, mask_into, to_depth_and_mask
 from .refine import greedy_mesh
-from .refine.walls import wall_faces
 from .resolve import (  # noqa: F401 - re-exported: their home was here
     ALIASES,
     OPTIONS,
@@ -148,30 +147,15 @@ def wraps(params: MeshParams, camera) -> bool:
 
 
 def close_seam(mesh: Mesh, depth: np.ndarray, params: MeshParams) -> Mesh:
-    """`mesh` with the strip of `rangemesh.geometry.seam.seam_strip` added.
+    """`mesh` with the faces that close its seam (`rangemesh.geometry.seam.seam_faces`).
 
-    With ``walls=False`` the strip's triangles across a jump are dropped by
-    the same rule as the others, their pixel lengths measured across the seam.
-    Then every strip triangle that would repeat an edge of the mesh or give a
-    vertex a second fan is dropped
-    (`rangemesh.geometry.seam.strip_to_keep`): the mesh's own triangles and
-    vertices stay, so a vertex count asked for is kept.
+    With ``walls=False`` the strip's walls are dropped by the mesh's rule
+    (`rangemesh.geometry.walls`); the mesh's own triangles and vertices stay.
     """
     if mesh.is_empty:
         return mesh
-    w = mesh.image_shape[1]
-    strip = seam_strip(mesh.pixels, mesh.faces, w)
-    if len(strip) and not params.walls:
-        z = depth[mesh.pixels[:, 0], mesh.pixels[:, 1]]
-        if hasattr(mesh.camera, "directions"):  # lengths are ray angles: the seam is no gap
-            walls = wall_faces(strip, mesh.pixels, z, params.jump, mesh.camera)
-        else:
-            coords = np.stack([mesh.pixels[:, 0], unrolled_columns(mesh.pixels, w)], axis=1)
-            walls = wall_faces(strip, coords, z, params.jump)
-        strip = strip[~walls]
-    # a strip face that repeats a mesh edge or reaches a vertex across a dropped wall would
-    # break P4: such faces go, the mesh's own faces and vertices stay
-    strip = strip[strip_to_keep(mesh.faces, strip)]
+    strip = seam_faces(mesh.pixels, mesh.faces, mesh.image_shape[1], depth=depth,
+                       jump=None if params.walls else params.jump, camera=mesh.camera)
     if not len(strip):
         return mesh
     faces = np.concatenate([mesh.faces, strip]).astype(np.int32)

@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import time
 
 import numpy as np
 
@@ -37,6 +36,7 @@ from .resolve import (  # noqa: F401 - re-exported: their home was here
     resolve_call,
     resolve_params,
 )
+from .timing import now, timed
 
 __all__ = ["triangulate", "resolve_call", "resolve_params", "prepare", "run", "Workspace",
            "OPTIONS"]
@@ -188,7 +188,7 @@ def run(image, params: MeshParams, *, background="auto", camera=None, vertices=N
     image's size, and leaves nothing half-made.
     """
     camera = as_camera(camera)
-    t0 = time.perf_counter()
+    t0 = now()
     image, background = check_image(image, background, camera=camera)  # resolves 'auto'
     check_side(image.shape)
     if method == "paper" and min(image.shape) < 2:  # no tile fits, with or without a target
@@ -215,7 +215,7 @@ def run(image, params: MeshParams, *, background="auto", camera=None, vertices=N
             raise ValueError(f"depths {lo:g} .. {hi:g} reach beyond {MAX_DEPTH:g}, where the "
                              f"kernels' squares overflow: scale the image (and its camera) down")
         check_reach(camera, depth.shape, lo, hi)
-    t1 = time.perf_counter()
+    t1 = now()
     if not n_valid:
         # Still check the tiling so that bad parameters fail the same way on any image.
         if method == "paper":
@@ -272,15 +272,14 @@ def run(image, params: MeshParams, *, background="auto", camera=None, vertices=N
     else:
         weights = None
         if workspace is not None:
-            weights = sampling_weights(depth, valid, params, out=workspace.weights)
-        t2 = time.perf_counter()
+            with timed(extra, "sampling"):  # the weights: stage one's
+                weights = sampling_weights(depth, valid, params, out=workspace.weights)
         mesh = mesh_grid(depth, valid, params, camera, weights=weights)
-        extra["sampling"] = mesh.stats.seconds["sampling"] + t2 - t1  # the weights: stage one's
+        extra["sampling"] = mesh.stats.seconds["sampling"] + extra.get("sampling", 0.0)
     if wraps(params, camera):
-        t3 = time.perf_counter()
-        mesh = close_seam(mesh, depth, params)
-        extra["seam"] = time.perf_counter() - t3
-    t4 = time.perf_counter()
+        with timed(extra, "seam"):
+            mesh = close_seam(mesh, depth, params)
+    t4 = now()
     stages = {**mesh.stats.seconds, **extra} if extra else mesh.stats.seconds
     seconds = {"prepare": t1 - t0, **stages}
     if target:

@@ -25,7 +25,7 @@ from .options import option_docs
 from .paper import targets
 from .paper.sampling import sample_grid, sampling_weights
 from .paper.stages import mesh_grid
-from .params import DEFAULT_TARGET, OPTION_TABLE, MeshParams, default_vertex_cap
+from .params import DEFAULT_TARGET, NONE_MEANS, OPTION_TABLE, MeshParams, default_vertex_cap
 from .prepare import check_image, fill_gaps_inplace, mask_into, to_depth_and_mask
 from .refine import greedy_mesh
 from .resolve import (  # noqa: F401 - re-exported: their home was here
@@ -240,8 +240,9 @@ def run(image, params: MeshParams, *, background="auto", camera=None, vertices=N
         ref = reference(image, background, cleaned) \
             if max_error is not None or deviation or params.max_edge is not None else None
         mesh, target = greedy_mesh(depth, valid, camera, vertices=vertices, max_error=max_error,
-                                   reference=ref, fit=params.heights != "pixel",
-                                   diagonals=params.diagonals or "error",
+                                   reference=ref,
+                                   fit=(params.heights or NONE_MEANS["heights"]) == "fit",
+                                   diagonals=params.diagonals or NONE_MEANS["diagonals"],
                                    walls=params.walls, jump=params.jump, effort=params.effort,
                                    extent=(lo, hi, n_valid), max_vertices=cap,
                                    max_deviation=max_deviation, mean_deviation=mean_deviation,

@@ -373,18 +373,30 @@ def test_a_format_is_one_entry_of_the_table(tmp_path, monkeypatch):
     def read_xyz(path):
         return np.loadtxt(path, ndmin=2)
 
-    def write_xyz(mesh, path, tmp, ascii, pixels, normals):
-        np.savetxt(tmp, mesh.vertices)
+    def write_vf(mesh, path, tmp, ascii, pixels, normals):
+        with open(tmp, "wb") as fh:
+            np.savez(fh, v=mesh.vertices, f=mesh.faces)
 
-    monkeypatch.setitem(rio.FORMATS, ".xyz", rio.Format("image", read_xyz, write_xyz))
+    def read_vf(path, camera, image_shape):
+        with np.load(path) as got:
+            return rio._MeshFile(got["v"], got["f"])
+
+    monkeypatch.setitem(rio.FORMATS, ".xyz", rio.Format("image", read_xyz))
+    monkeypatch.setitem(rio.FORMATS, ".vf", rio.Format("mesh", read_vf, write_vf))
     image = tmp_path / "d.xyz"
     image.write_text("1 2 3\n4 5 6\n")
     np.testing.assert_array_equal(rangemesh.read_range_image(image), [[1, 2, 3], [4, 5, 6]])
     mesh = rangemesh.triangulate(np.add.outer(np.arange(6.0), np.arange(7.0)), vertices=8)
-    out = write_mesh(mesh, tmp_path / "m.xyz")  # through atomic_path: the temporary is renamed
-    np.testing.assert_allclose(np.loadtxt(out), mesh.vertices, rtol=1e-15)
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["d.xyz", "m.xyz"]
+    out = write_mesh(mesh, tmp_path / "m.vf")  # through atomic_path: the temporary is renamed
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["d.xyz", "m.vf"]
+    back = read_mesh(out)
+    np.testing.assert_array_equal(back.vertices, mesh.vertices)
+    np.testing.assert_array_equal(back.faces, mesh.faces)
     unknown = tmp_path / "d.abc"
     unknown.touch()
     with pytest.raises(ValueError, match=r"known: \.npy, .*, \.pcd, \.xyz$"):
         rangemesh.read_range_image(unknown)
+    with pytest.raises(ValueError, match=r"known: \.ply, .*, \.glb, \.vf$"):
+        read_mesh(unknown)
+    with pytest.raises(ValueError, match="unknown mesh format '.xyz'"):  # an image format
+        write_mesh(mesh, tmp_path / "m.xyz")

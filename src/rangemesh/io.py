@@ -830,7 +830,7 @@ def write_mesh(mesh: Mesh, path: str | os.PathLike, *, ascii: bool = False,
     path = Path(path)
     suffix = _suffix(path)
     fmt = FORMATS.get(suffix)
-    if fmt is None or fmt.write is None:
+    if fmt is None or fmt.kind != "mesh" or fmt.write is None:
         raise ValueError(f"{path}: unknown mesh format {suffix!r}; use one of "
                          f"{', '.join(_suffixes('mesh'))}")
     if not fmt.ply_options and (ascii or pixels):

@@ -285,7 +285,7 @@ def test_failed_write_leaves_nothing(tmp_path, monkeypatch, capsys):
     np.save(src, crops()["chair"][0])
     out = tmp_path / "out"
     out.mkdir()
-    monkeypatch.setattr(rio, "_write_ply", boom)
+    monkeypatch.setattr(rio.FORMATS[".ply"], "write", boom)
     code = main(["mesh", str(src), "-o", str(out / "c.ply")])
     err = capsys.readouterr().err
     assert code == 2

@@ -50,6 +50,7 @@ from .params import MeshParams
 from .pipeline import Workspace, run
 from .prepare import NONPOSITIVE, check_image
 from .resolve import call_keywords, call_options, resolve_call
+from .timing import timed
 
 __all__ = ["mesh_stream", "mesh_many", "expand_inputs", "BatchResult", "summarize"]
 
@@ -247,7 +248,7 @@ def _one(path: str, out: str, call: dict, background, camera, overwrite: bool,
     """
     from .pipeline import triangulate
 
-    t0 = time.perf_counter()
+    clock = timed()
     if not overwrite and Path(out).exists():
         return BatchResult(path, out, "skipped")
     try:
@@ -269,10 +270,10 @@ def _one(path: str, out: str, call: dict, background, camera, overwrite: bool,
     except Exception as exc:  # one bad file must not stop the batch: report it in one line
         msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         return BatchResult(path, out, "failed", error=f"{type(exc).__name__}: {msg}",
-                           seconds=time.perf_counter() - t0)
+                           seconds=clock.elapsed)
     s = mesh.stats
     return BatchResult(path, out, "meshed", vertices=s.vertices, triangles=s.triangles,
-                       flipped_edges=s.flipped_edges, seconds=time.perf_counter() - t0,
+                       flipped_edges=s.flipped_edges, seconds=clock.elapsed,
                        relative_error=ev.relative_error)
 
 
@@ -529,7 +530,7 @@ def mesh_many(paths, out_dir, params: MeshParams | None = None, *,
     out_dir.mkdir(parents=True, exist_ok=True)
     _clean_stale_parts(out_dir)
     outs = output_paths(files, out_dir, fmt)
-    t0 = time.perf_counter()
+    clock = timed()
     results: dict[int, BatchResult] = {
         i: BatchResult(str(f), str(output_path(f, out_dir, fmt)), "failed",
                        error="another input has the same file name: no unique output name")
@@ -556,7 +557,7 @@ def mesh_many(paths, out_dir, params: MeshParams | None = None, *,
             bar.close()
     ordered = [results[i] for i in range(len(files))]
     write_report(_report_rows(earlier.get("results", ()), ordered), out_dir,
-                 time.perf_counter() - t0, counted=ordered, options=record)
+                 clock.elapsed, counted=ordered, options=record)
     return ordered
 
 

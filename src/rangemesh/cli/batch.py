@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import json
 import sys
-import time
 from pathlib import Path
 
 from ..io import MESH_SUFFIXES
 from ..resolve import call_options
+from ..timing import timed
 from .common import (
     UserError,
     _camera,
@@ -49,7 +49,7 @@ def _cmd_batch(args):
             _check_depth_scale(args, image)
     bg = args.background
     bg = None if bg in ("none", "nan") else bg  # 'auto' is resolved image by image, by the camera
-    t0 = time.perf_counter()
+    clock = timed()
     report = Path(args.output_dir) / "rangemesh-batch.csv"
     recording = _recording_input(args)
     _check_output_dir(args, recording)
@@ -67,7 +67,7 @@ def _cmd_batch(args):
                                 beams=args.beams, colors=colors, **call_options(params, method))
     except (ValueError, TypeError) as exc:
         raise UserError(_one_line(exc)) from None
-    summary = summarize(results, time.perf_counter() - t0)
+    summary = summarize(results, clock.elapsed)
     failed = [r for r in results if r.status == "failed"]
     if args.json:
         from dataclasses import asdict

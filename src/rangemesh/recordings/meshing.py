@@ -11,7 +11,6 @@ the same progress bar and statistics (CSV and JSON) as a batch of files.
 from __future__ import annotations
 
 import os
-import time
 from collections.abc import Iterator
 from pathlib import Path
 from typing import NamedTuple
@@ -36,6 +35,7 @@ from ..metrics import evaluate
 from ..pipeline import triangulate
 from ..prepare import NONPOSITIVE
 from ..resolve import call_keywords, call_options, resolve_call
+from ..timing import timed
 from .decode import color_image, depth_image, depth_shape
 from .ouster import OusterRecording, is_ouster, with_offsets
 from .reading import Frame, Recording, stamp_text
@@ -215,7 +215,7 @@ def _meshes(path, topic, color_topic, camera, camera_info_topic, call, how, erro
 def _task(frame: Frame, call: dict, how: str, out: str | None, overwrite: bool,
           write_options: dict) -> tuple[BatchResult, bytes | None]:
     """Mesh one frame: its marker (``out`` None) or its mesh file written. Never raises."""
-    t0 = time.perf_counter()
+    clock = timed()
     target = out if out is not None else ""
     if out is not None and not overwrite and Path(out).exists():
         return BatchResult(frame.name, target, "skipped"), None
@@ -235,10 +235,10 @@ def _task(frame: Frame, call: dict, how: str, out: str | None, overwrite: bool,
         prefix = f"{frame.name}: "
         msg = msg[len(prefix):] if msg.startswith(prefix) else msg
         return BatchResult(frame.name, target, "failed", error=f"{type(exc).__name__}: {msg}",
-                           seconds=time.perf_counter() - t0), None
+                           seconds=clock.elapsed), None
     s = mesh.stats
     return BatchResult(frame.name, target, "meshed", vertices=s.vertices, triangles=s.triangles,
-                       flipped_edges=s.flipped_edges, seconds=time.perf_counter() - t0,
+                       flipped_edges=s.flipped_edges, seconds=clock.elapsed,
                        relative_error=ev.relative_error), data
 
 
@@ -308,7 +308,7 @@ def mesh_recording(path: str | os.PathLike, output: str | os.PathLike, topic: st
     _check_apart(Path(path), output)
     if to_bag and output.exists() and not overwrite:
         raise ValueError(f"{output}: exists; give --overwrite (overwrite=True) to replace it")
-    t0 = time.perf_counter()
+    clock = timed()
     with _open(path, meta) as rec:
         if getattr(rec, "wraps", False) and call.get("wrap") is None:  # an Ouster's whole circle
             call = {**call, "wrap": True}
@@ -342,7 +342,7 @@ def mesh_recording(path: str | os.PathLike, output: str | os.PathLike, topic: st
         finally:
             if bar is not None:
                 bar.close()
-    wall = time.perf_counter() - t0
+    wall = clock.elapsed
     if names is None:
         write_report(_report_rows(earlier.get("results", ()), results), report_dir, wall,
                      counted=results, options=record)

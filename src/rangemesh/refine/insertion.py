@@ -404,7 +404,8 @@ def _plan(shape, camera, n_valid, vertices, max_error, max_vertices):
     n_grid = grid_size(want, n_valid, vertices is None)
     if vertices is None and max_vertices is not None:  # the first mesh stays under the cap
         n_grid = min(n_grid, grid_size(want, n_valid, False))
-    return want, delaunay_scales(camera, shape), n_grid, use_strips(shape, want, max_error, n_valid)
+    scales = (1, 1) if camera is _UNIT else delaunay_scales(camera, shape)  # (square pixels)
+    return want, scales, n_grid, use_strips(shape, want, max_error, n_valid)
 
 
 def _round_record(target: dict, res, bounds, exponent, cap=None) -> dict:
@@ -515,17 +516,26 @@ def _native(depth, valid, camera, ref, extent, exponent, vertices, max_error, ma
     if not res.done:
         return None, None
     got = res.vertex_count
-    seconds = {"insertion": res.seconds - res.fit_seconds}
-    if fit:
-        seconds["fit"] = res.fit_seconds
-    faces, pixels = res.faces, res.pixels
-    # (from templates: the frozen classes' own __init__ weighs on a call on a small image)
-    stats = with_fields(_NATIVE_STATS, vertices=got, triangles=len(faces), edges=res.edges,
-                        sampled_points=got, seconds=seconds, flip_tests={}, flipped_edges=res.flips,
-                        insertions=res.insertions, strips=res.strips,
-                        heights="fit" if fit and res.fitted else "pixel")
-    mesh = with_fields(_NATIVE_MESH, vertices=res.vertices, faces=faces, pixels=pixels,
-                       camera=camera, image_shape=(h, w), stats=stats, attributes={})
+    fit_seconds = res.fit_seconds
+    seconds = {"insertion": res.seconds - fit_seconds, "fit": fit_seconds} if fit else \
+        {"insertion": res.seconds}
+    faces = res.faces
+    # (from templates, their instance dicts filled directly: the frozen classes' own __init__,
+    # and keyword arguments, weigh on a call on a small image)
+    stats = object.__new__(Stats)
+    fields = stats.__dict__
+    fields.update(_NATIVE_STATS.__dict__)
+    fields["vertices"] = fields["sampled_points"] = got
+    fields["triangles"], fields["edges"], fields["seconds"] = len(faces), res.edges, seconds
+    fields["flip_tests"], fields["flipped_edges"] = {}, res.flips
+    fields["insertions"], fields["strips"] = res.insertions, res.strips
+    fields["heights"] = "fit" if fit and res.fitted else "pixel"
+    mesh = object.__new__(Mesh)
+    fields = mesh.__dict__
+    fields.update(_NATIVE_MESH.__dict__)
+    fields["vertices"], fields["faces"], fields["pixels"] = res.vertices, faces, res.pixels
+    fields["camera"], fields["image_shape"], fields["stats"] = camera, (h, w), stats
+    fields["attributes"] = {}
     dropped = None if walls else res.walls_dropped
     if vertices is not None:
         target = _count_record(got, int(vertices), res.meshings, n_valid, h * w, walls, dropped)

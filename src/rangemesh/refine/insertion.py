@@ -195,7 +195,7 @@ def greedy_mesh(depth: np.ndarray, valid: np.ndarray, camera, *, vertices: int |
         search finds the count as ``'fast'`` does, and the collapsed mesh of
         that count is kept when it meets the bound (or errs less). Where
         the collapses cannot reach the count (too few interior vertices),
-        or the native call declines, the mesh is ``'fast'``'s.
+        the mesh is ``'fast'``'s.
 
     Returns
     -------

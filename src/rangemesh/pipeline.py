@@ -133,7 +133,8 @@ def _prepare_checked(arr, params: MeshParams, background, workspace, need=("pape
     else:
         depth, valid = workspace.depth, workspace.valid
     mask_into(arr, background, depth, valid)
-    if clean_inplace(depth, valid, params, camera) and cleaned is not None:  # before gaps fill
+    if (params.depth_limits is not None or params.min_region is not None) \
+            and clean_inplace(depth, valid, params, camera) and cleaned is not None:  # before gaps fill
         cleaned.append(valid.copy())
     if params.fill_gaps:
         # the arrays are ours and hold 0.0 on background: fill in place, no copies

@@ -349,6 +349,9 @@ def _count_record(got, asked, runs, n_valid, n_pixels, no_walls_dropped,
 
 # What `_native`'s stats and meshes start from (`with_fields`).
 _NATIVE_STATS = Stats(method="refine", grid_shape=None, strips=1)
+_new = _core.RefineRequest()  # the settings a new request holds, which `_native` leaves as they are
+_REQUEST_SETTINGS = (_new.flip, _new.fit, _new.walls, _new.jump, _new.max_runs, _new.max_bisect_runs)
+del _new
 _UNIT_ARRAY = _UNIT.as_array()  # the default camera's, made once (read-only)
 _UNIT_ARRAY.flags.writeable = False
 _NATIVE_MESH = Mesh(np.zeros((0, 3)), np.zeros((0, 3), np.int32), np.zeros((0, 2), np.int32),
@@ -388,11 +391,13 @@ def _native(depth, valid, camera, ref, extent, exponent, vertices, max_error, ma
         req.strips, req.seam_density, req.seam_error_share = True, SEAM_DENSITY, SEAM_ERROR_SHARE
         req.threads = _threads.threads()
     req.vertices, req.n_valid, req.lo, req.hi, req.n_grid = want, n_valid, lo, hi, n_grid
-    req.sr, req.sc = scales
-    req.flip, req.fit, req.walls, req.jump = diagonals == "error", fit, walls, float(jump)
+    if scales != (1, 1):
+        req.sr, req.sc = scales
+    settings = (diagonals == "error", fit, walls, float(jump), MAX_RUNS, MAX_BISECT_RUNS)
+    if settings != _REQUEST_SETTINGS:  # (a call with the defaults sets none of them: every call)
+        req.flip, req.fit, req.walls, req.jump, req.max_runs, req.max_bisect_runs = settings
     if not walls and getattr(camera, "directions", None) is not None:
         req.pixel_angle = pixel_angle(camera)  # (edge lengths are ray angles)
-    req.max_runs, req.max_bisect_runs = MAX_RUNS, MAX_BISECT_RUNS
     req.heights = height_rule(n_valid)
     if effort == "best":
         req.collapse = COLLAPSE_BEST

@@ -32,7 +32,6 @@ from hypothesis import strategies as st
 
 import rangemesh
 import rangemesh.refine.heights as refine_heights
-import rangemesh.refine.insertion as refine_insertion
 import rangemesh.refine.strips as refine_strips
 from rangemesh._core import _ext
 
@@ -168,6 +167,36 @@ def _derive(calls):
     return derived
 
 
+def _python_steps(image):
+    """The refine kernels the native call holds, called on `image` as its old Python steps did."""
+    from rangemesh.prepare import to_depth_and_mask
+    from rangemesh.refine.start import first_mesh
+    from rangemesh.refine.walls import drop_walls
+    from rangemesh.render import relative_error
+
+    core = rangemesh._core  # (the spies sit on the modules' names, not on _ext's)
+    depth, valid = to_depth_and_mask(image)
+    lo, hi, _ = core.valid_range(depth, valid)
+    start = first_mesh(depth, valid, 4)
+    core.greedy_insert(depth, valid, *start, 60, -1.0, hi - lo, 1, 1)
+    vr, vc, tv, he, tsum = core.greedy_insert_sums(depth, valid, *start, 60, -1.0, hi - lo, 1, 1)
+    core.flip_by_error(vr, vc, tv, he, tsum, depth, valid, hi - lo)
+    faces, pixels = core.valid_faces(vr, vc, tv, valid)
+    f = faces.astype(np.int64)
+    _, halfedges = core.build_halfedges(f, len(pixels))
+    core.prune_dangling(f, core.neighbors_from_halfedges(halfedges), np.ones(len(f), bool), len(pixels),
+                        drop_lone=False)
+    rays = rangemesh.Spherical.from_beams({"elevation_deg": list(np.linspace(-10, 10, 48)),
+                                           "azimuth0_deg": 0.0, "azimuth_step_deg": 0.5, "cols": 40})
+    drop_walls(faces, pixels, depth[pixels[:, 0], pixels[:, 1]], 0.05, rays)
+    refine_heights.fit_heights(pixels, faces, depth, valid, rangemesh.Orthographic(), extent=(lo, hi, 0))
+    relative_error(rangemesh.triangulate(image, vertices=60), depth, valid)  # (an error bound's render)
+    with _patched(refine_strips, STRIP_MIN_PIXELS=1000, STRIP_MIN_COLUMNS=16, STRIP_MIN_VERTICES=20):
+        for asked, max_sum in ((300, -1.0), (len(pixels), 0.5 / 100.0 * (hi - lo) * valid.sum())):
+            refine_strips.strip_insert(depth, valid, asked, hi - lo, (1, 1), 18, max_sum=max_sum,
+                                       diagonals="error", info={})
+
+
 def capture():
     """Kernel name -> [(args, kwargs)]: the calls meshing makes, then those derived from them."""
     calls = {}
@@ -183,20 +212,9 @@ def capture():
                       dict(vertices=300, diagonals="error", walls=False)]
             for kw in strips:
                 rangemesh.triangulate(image, **kw)
-        # one native call a whole refine call: the path it declines to (the fit's fallbacks) holds
-        # the other kernels, the strips' and the ray cameras' lengths of walls among them
-        with _patched(refine_insertion, _native=lambda *a, **k: (None, None)):
-            rangemesh.triangulate(image, vertices=60, diagonals="delaunay")
-            rangemesh.triangulate(image, max_error=0.5, diagonals="error", walls=False)
-            rays = rangemesh.Spherical.from_beams({"elevation_deg": list(np.linspace(-10, 10, 48)),
-                                                   "azimuth0_deg": 0.0, "azimuth_step_deg": 0.5,
-                                                   "cols": 40})
-            rangemesh.triangulate(np.where(np.isnan(image), 0.0, image), camera=rays, vertices=60,
-                                  walls=False)
-            with _patched(refine_strips, STRIP_MIN_PIXELS=1000, STRIP_MIN_COLUMNS=16,
-                          STRIP_MIN_VERTICES=20):
-                for kw in strips:
-                    rangemesh.triangulate(image, **kw)
+        # one native call a whole refine call, its search included: the kernels it holds, called
+        # as the Python steps that were its fallback called them (strips, walls by ray lengths)
+        _python_steps(image)
     for kernel, kept in _derive(calls).items():
         calls.setdefault(kernel, kept)
     return calls

@@ -607,9 +607,10 @@ def test_corner_depths_are_those_of_the_nearest_valid_pixel(seed, h, w, share):
 
 
 def _python_steps(depth, valid, camera, ref, walls=True, **target):
-    """`greedy_mesh`'s Python steps (`_greedy`), which the native call stands for."""
+    """`greedy_mesh`'s Python steps (`_greedy`, the tests' reference), which the native call stands for."""
     from rangemesh._core import valid_range
-    from rangemesh.refine.insertion import _greedy
+
+    from .refine_reference import _greedy
 
     target = {"vertices": None, "max_error": None, "max_vertices": None, **target}
     return _greedy(depth, valid, camera, ref, valid_range(depth, valid), 0, walls=walls, jump=0.05,
@@ -665,8 +666,7 @@ def test_the_native_call_gives_the_meshes_of_the_python_steps(seed, h, w, kind, 
              "default": {"max_error": 0.5, "max_vertices": n}}[target]
     a, ta = _native_call(depth, valid, camera, ref, fit, diagonals, walls=walls, **asked)
     b, tb = _python_steps(depth, valid, camera, ref, walls, fit=fit, diagonals=diagonals, **asked)
-    if a is None:  # declined: no triangle of valid corners (the next test); the Python steps mesh it
-        return
+    # (no triangle of valid corners, even from their hull: both empty, the same reason)
     for field in ("vertices", "faces", "pixels"):
         x, y = getattr(a, field), getattr(b, field)
         assert x.dtype == y.dtype and x.shape == y.shape and np.array_equal(x, y, equal_nan=True)
@@ -1053,3 +1053,28 @@ def test_command_line_effort(tmp_path, capsys):
     with pytest.raises(SystemExit):
         main(["mesh", str(tmp_path / "box.npy"), "--effort", "slow"])
     assert "--effort" in capsys.readouterr().err
+
+
+def test_a_fit_that_does_not_converge_is_solved_directly_inside_the_refine_call(monkeypatch):
+    # With a relative residual of 0 asked, conjugate gradients stop at their step limit: the
+    # native call hands the system to heights._direct_solve (before: the Python search did).
+    from rangemesh.refine import heights
+
+    sc = rangemesh.scenes.make("box", (40, 50), noise=0.3)
+    solves = []
+    direct = heights._direct_solve
+    monkeypatch.setattr(heights, "CG_RTOL", 0.0)
+    monkeypatch.setattr(heights, "_direct_solve", lambda *a: solves.append(1) or direct(*a))
+    mesh = rangemesh.triangulate(sc.depth, vertices=60)
+    assert len(solves) == 1 and mesh.stats.vertices == 60
+    valid = np.ones(sc.depth.shape, bool)
+    want = heights.fit_heights(mesh.pixels, mesh.faces, sc.depth, valid, mesh.camera)  # its own solve
+    np.testing.assert_array_equal(mesh.vertices[:, 2], want)
+
+
+def test_a_pinhole_depth_of_zero_raises_from_the_refine_call():
+    # the native call raises the fit's ValueError itself (before: the Python search's fit did)
+    depth = 100.0 + np.add.outer(np.arange(12.0), 0.5 * np.arange(14.0))
+    depth[0, 0] = 0.0  # valid (background=None), at a corner: always a vertex
+    with pytest.raises(ValueError, match=r"depth 0 at pixel \(0, 0\) cannot be fitted with a pinhole"):
+        rangemesh.triangulate(depth, camera=rangemesh.Pinhole(50, 50, 6, 7), background=None, vertices=8)

@@ -249,3 +249,13 @@ def test_seam_strips_keep_every_mesh_a_surface():
         assert_valid_mesh(mesh, wrap=True)
 
     check()
+
+
+def test_a_mesh_of_walls_only_is_empty_and_says_so():
+    # 2 x 2, depths 1 and 100 on the diagonals: both triangles of the square (either diagonal)
+    # join a 1 and a 100, a step far above 5 % of 1 per pixel, so both are walls; with walls
+    # dropped nothing is left, and the native call's fields name why (no hull restart: walls).
+    depth = np.array([[1.0, 100.0], [100.0, 1.0]])
+    mesh = rangemesh.triangulate(depth, vertices=4, walls=False)
+    assert mesh.is_empty and mesh.stats.target is None
+    assert mesh.stats.reason == "every triangle was a wall across a jump (2 dropped)"

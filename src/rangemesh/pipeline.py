@@ -34,6 +34,7 @@ from .resolve import (  # noqa: F401 - re-exported: their home was here
     call_options,
     keyword_options,
     resolve_call,
+    resolve_keywords,
     resolve_params,
 )
 from .timing import now, timed
@@ -131,7 +132,8 @@ def _prepare_checked(arr, params: MeshParams, background, workspace, need=("pape
     else:
         depth, valid = workspace.depth, workspace.valid
     mask_into(arr, background, depth, valid)
-    if clean_inplace(depth, valid, params, camera) and cleaned is not None:  # before gaps fill
+    if (params.depth_limits is not None or params.min_region is not None) \
+            and clean_inplace(depth, valid, params, camera) and cleaned is not None:  # before gaps fill
         cleaned.append(valid.copy())
     if params.fill_gaps:
         # the arrays are ours and hold 0.0 on background: fill in place, no copies
@@ -293,7 +295,10 @@ def run(image, params: MeshParams, *, background="auto", camera=None, vertices=N
         # the grid the search chose; with max_edge the mesh's points are a list, not a grid
         (v, h), (rs, z) = record.tiles, record.samples
         changes["grid_shape"] = ((rs - 1) * v + 1, (z - 1) * h + 1)
-    return with_fields(mesh, stats=with_fields(mesh.stats, **changes))
+    stats = object.__new__(Stats)  # (`with_fields` without its keyword arguments: every call)
+    stats.__dict__.update(mesh.stats.__dict__)
+    stats.__dict__.update(changes)
+    return with_fields(mesh, stats=stats)
 
 
 def reference(image, background, cleaned=()):
@@ -447,10 +452,9 @@ def triangulate(image, params: MeshParams | None = None, *,
     >>> mesh.stats.grid_shape, mesh.faces.shape[1]
     ((9, 9), 3)
     """
-    options = keyword_options(locals())
-    params, method, tiles_given = resolve_call(params, method, vertices, max_error, options,
-                                               overrides,
-                                               deviations=(max_deviation, mean_deviation))
+    params, method, tiles_given = resolve_keywords(params, method, vertices, max_error, locals(),
+                                                   overrides,
+                                                   deviations=(max_deviation, mean_deviation))
     if color is not None:
         shape, cshape = np.shape(image)[:2], np.shape(color)[:2]
         if shape != cshape:

@@ -23,6 +23,8 @@ __all__ = ["to_depth_and_mask", "check_image", "mask_into", "guess_background", 
 # `background` for "0 and below mark missing depth": what 'auto' means before a camera that
 # measures distance (REP 118: depth is a distance in front of the camera).
 NONPOSITIVE = "nonpositive"
+# float64 and float32, native-endian: `kernel_array` passes them unchanged.
+_KERNEL_DTYPES = (np.dtype(np.float64), np.dtype(np.float32))
 
 
 def to_depth_and_mask(image, background=None, *, camera=None) -> tuple[np.ndarray, np.ndarray]:
@@ -104,7 +106,8 @@ def check_image(image, background=None, *, camera=None):
         arr = np.asarray(np.ma.getdata(image) if mask is not None else image)
     except ValueError as exc:  # a ragged nested list
         raise ValueError(f"image must be a rectangular 2-D array of numbers ({exc})") from None
-    if arr.dtype == object or arr.dtype.kind not in "iuf":
+    dt = arr.dtype
+    if dt.kind not in "iuf":  # (object arrays too: kind "O")
         raise TypeError(
             f"image must be an array of integers or floats, got dtype {arr.dtype}"
         )
@@ -119,10 +122,11 @@ def check_image(image, background=None, *, camera=None):
                             f"'{NONPOSITIVE}', got {background!r}")
         if background == "auto":  # by the dtype as given, before any conversion
             background = guess_background(arr, camera)
-    wide = arr
-    arr = kernel_array(arr)
-    if arr.dtype.itemsize < wide.dtype.itemsize and arr.dtype.kind == "f":
-        _check_narrowed(wide, arr, mask)
+    if dt not in _KERNEL_DTYPES:  # (the dtypes the kernels take pass by identity: every call)
+        wide = arr
+        arr = kernel_array(arr)
+        if arr.dtype.itemsize < wide.dtype.itemsize and arr.dtype.kind == "f":
+            _check_narrowed(wide, arr, mask)
     if mask is not None and mask.any():
         # NaN is missing depth whatever the background is; the kernels compare
         # integers as float64, so the float64 copy changes no value they see

@@ -17,8 +17,8 @@ from .checks import real_number, whole_number
 from .options import check_option, split_options
 from .params import METHODS, OPTION_TABLE, OPTIONS_BY_NAME, MeshParams, misplaced_option
 
-__all__ = ["resolve_call", "resolve_params", "call_options", "keyword_options", "call_keywords",
-           "OPTIONS", "ALIASES"]
+__all__ = ["resolve_call", "resolve_keywords", "resolve_params", "call_options",
+           "keyword_options", "call_keywords", "OPTIONS", "ALIASES"]
 
 # The keyword options of `triangulate`, `mesh_stream` and `mesh_many` besides the targets.
 OPTIONS = tuple(o.name for o in OPTION_TABLE)
@@ -172,6 +172,7 @@ def _deprecated_workers(overrides: dict, given: dict, stacklevel: int) -> None:
 
 _UNSET = {o.name: o.unset for o in OPTION_TABLE}
 _NOT_GIVEN = dict(_UNSET)  # the options of a call that gives none
+_NOT_GIVEN_VALUES = tuple(_NOT_GIVEN[name] for name in OPTIONS)
 
 
 def _unset(name: str, value) -> bool:
@@ -190,10 +191,10 @@ def check_deviations(deviations, vertices, max_error, method: str) -> None:
     TypeError
         A bound that is not a real number.
     """
+    if deviations[0] is None and deviations[1] is None:  # (most calls: no list built)
+        return
     given = [(k, v) for k, v in zip(("max_deviation", "mean_deviation"), deviations, strict=True)
              if v is not None]
-    if not given:
-        return
     others = [k for k, v in (("vertices", vertices), ("max_error", max_error)) if v is not None]
     names = [k for k, _ in given] + others
     if len(names) > 1:
@@ -206,6 +207,23 @@ def check_deviations(deviations, vertices, max_error, method: str) -> None:
     if not (math.isfinite(x) and x >= 0.0):
         raise ValueError(f"{name} must be a finite number of 0 or more (metres with a metric "
                          f"camera, depth units with Orthographic), got {value!r}")
+
+
+def resolve_keywords(params, method, vertices, max_error, scope: dict, overrides: dict, *,
+                     stacklevel: int = 3, deviations=(None, None)) -> tuple[MeshParams, str, bool]:
+    """`resolve_call` of a `triangulate` call, its options read from its `locals()` (`scope`).
+
+    A call that gives no option (most calls) is resolved without building the
+    options' dict: they are compared with their "not given" values by identity.
+    """
+    values = _read_options(scope)
+    if params is None and not overrides and all(map(operator.is_, values, _NOT_GIVEN_VALUES)):
+        method = _method_name(method, stacklevel)
+        base = defaults()
+        _targets_given(base, vertices, max_error, {}, deviations, method)
+        return base, method, False
+    return resolve_call(params, method, vertices, max_error, dict(zip(OPTIONS, values, strict=True)),
+                        overrides, stacklevel=stacklevel + 1, deviations=deviations)
 
 
 def resolve_call(params, method, vertices, max_error, options: dict, overrides: dict, *,

@@ -3,31 +3,23 @@
 from __future__ import annotations
 
 import math
-import time
 
 import numpy as np
 
 from .. import _core
 from .._core import (
     EXACT_SPAN,
-    build_halfedges,
-    count_edges,
-    flip_by_error,
-    greedy_insert,
-    greedy_insert_sums,
-    neighbors_from_halfedges,
-    prune_dangling,
-    valid_faces,
     valid_range,
 )
-from ..camera import _UNIT, Orthographic, backproject, pixel_aspect
+from ..camera import _UNIT, Orthographic, pixel_aspect
 from ..mesh import Mesh, Stats, empty_mesh, with_fields
-from ..render import deviation_scale, relative_error
+from ..render import deviation_scale
+from . import heights as _heights
 from . import threads as _threads
-from .heights import fit_heights, height_rule
-from .start import corner_depths, first_mesh, hull_mesh, valid_hull
-from .strips import SEAM_DENSITY, SEAM_ERROR_SHARE, strip_insert, use_strips
-from .walls import drop_walls, pixel_angle
+from .heights import height_rule
+from .start import corner_depths, first_mesh, valid_hull
+from .strips import SEAM_DENSITY, SEAM_ERROR_SHARE, use_strips
+from .walls import pixel_angle
 
 __all__ = ["greedy_mesh", "corner_depths", "first_mesh", "delaunay_scales"]
 
@@ -101,22 +93,15 @@ def grid_size(want: int, n_valid: int, by_error: bool) -> int:
     return min(GRID_MAX, int(want * GRID_SHARE))
 
 
-def _assemble(vr, vc, tv, depth, valid, camera, walls, jump):
-    """Drop triangles with a background vertex (and walls, unless `walls`), then unused vertices.
-
-    Returns the faces, pixels and the number of walls dropped.
-    """
-    faces, pixels = valid_faces(vr, vc, tv, valid)
-    if 0 < len(faces) < len(tv) // 3:
-        faces, pixels = _one_fan_each(faces, pixels, valid)
-    n_walls = 0
-    if not walls and len(faces):
-        kept, wall = drop_walls(faces, pixels, depth[pixels[:, 0], pixels[:, 1]], jump, camera)
-        n_walls = int(wall.sum())
-        if n_walls:  # the same pass again: every kept face is valid, so it drops unused vertices
-            faces, pixels = valid_faces(pixels[:, 0].astype(np.int64), pixels[:, 1].astype(np.int64),
-                                        faces[kept].ravel().astype(np.int64), valid)
-    return faces, pixels, n_walls
+def _empty_reason(walls_dropped: int, walls: bool, valid: np.ndarray, n_valid: int) -> str:
+    """Why the native call left no triangle (its hull restart included): the cause, named."""
+    if walls_dropped and not walls:
+        return f"every triangle was a wall across a jump ({walls_dropped} dropped)"
+    if n_valid >= 3 and len(valid_hull(valid)) < 3:
+        return f"the {n_valid} valid pixels lie on one line: no triangle"
+    if n_valid < 3:
+        return f"only {n_valid} valid pixel{'s' if n_valid != 1 else ''}: a triangle needs 3"
+    return "no triangle with valid corners"
 
 
 def _count_note(got: int, asked: int, n_valid: int, n_pixels: int, no_walls_dropped: bool) -> str:
@@ -130,85 +115,6 @@ def _count_note(got: int, asked: int, n_valid: int, n_pixels: int, no_walls_drop
         walls = "" if no_walls_dropped else "walls"
         return f"{got} vertices kept after dropping {' and '.join(x for x in (dropped, walls) if x)}"
     return f"{got} vertices: the insertion found no other pixel to insert"
-
-
-def _one_fan_each(faces, pixels, valid):
-    """Drop what leaves a vertex with two fans once the background triangles are gone (SPEC P4).
-
-    Two triangles of valid pixels may meet at one vertex only across a dropped
-    background triangle; each such vertex keeps its largest fan (`prune_dangling`,
-    as the paper's stage two and `drop_walls` do), and lone triangles stay.
-    """
-    f = faces.astype(np.int64)
-    _, halfedges = build_halfedges(f, len(pixels))
-    kept = np.ones(len(f), bool)
-    if prune_dangling(f, neighbors_from_halfedges(halfedges), kept, len(pixels), drop_lone=False):
-        faces, pixels = valid_faces(pixels[:, 0].astype(np.int64), pixels[:, 1].astype(np.int64),
-                                    f[kept].ravel(), valid)
-    return faces, pixels
-
-
-def _copied(pixels, depth, camera):
-    """The vertices lifted to 3-D with each pixel's own depth (made only when kept)."""
-    return backproject(pixels[:, 0], pixels[:, 1], depth[pixels[:, 0], pixels[:, 1]], camera)
-
-
-def _fitted(faces, pixels, depth, valid, camera, extent):
-    """The vertices with least-squares depths (`fit_heights`), same pixels and faces."""
-    z = fit_heights(pixels, faces, depth, valid, camera, extent=extent)
-    return backproject(pixels[:, 0], pixels[:, 1], z, camera)
-
-
-def _bounded(faces, pixels, depth, valid, camera, shape, max_error, ref, fit, extent):
-    """The vertices to keep under `max_error`, and their relative error against `ref`.
-
-    With `fit`, fitted depths are tried first: they meet the bound far more
-    often than copied ones, so one render of the mesh usually decides (measuring
-    the copied depths' error first would cost a second render). Copied depths
-    are kept only when they meet the bound
-    and the fitted ones do not.
-    """
-    def error(v):
-        return relative_error(Mesh(v, faces, pixels, camera, shape), *ref)
-
-    if not fit:
-        verts = _copied(pixels, depth, camera)
-        return verts, error(verts)
-    fitted = _fitted(faces, pixels, depth, valid, camera, extent)
-    fitted_error = error(fitted)
-    if fitted_error > max_error:
-        verts = _copied(pixels, depth, camera)
-        copied_error = error(verts)
-        if copied_error <= max_error:
-            return verts, copied_error
-    return fitted, fitted_error
-
-
-def _refine(depth, valid, start, strips, asked, max_sum, span, scales, n_grid, diagonals,
-            info=None):
-    """``vr, vc, tv`` of greedy insertion, on one strip or two (`strip_insert`).
-
-    With ``diagonals='error'`` each quad then takes the diagonal that fits
-    its pixels better (`rangemesh.refine.diagonals`; on strips, each strip
-    on its thread, then the seam); `info` receives ``flips`` and ``total``,
-    the insertion's summed error of the valid pixels where it stopped.
-    """
-    info = {} if info is None else info
-    info["flips"] = 0
-    if strips:  # two strips on two threads (`rangemesh.refine.strips`)
-        vr, vc, tv, _, info["total"] = strip_insert(depth, valid, asked, span, scales, n_grid,
-                                                    max_sum=max_sum, diagonals=diagonals,
-                                                    info=info)
-        return vr, vc, tv
-    if diagonals != "error":
-        vr, vc, tv, _, info["total"] = greedy_insert(depth, valid, *start, asked, max_sum, span,
-                                                     *scales)
-        return vr, vc, tv
-    # the insertion's own half-edges and triangle sums: no second pass over the pixels
-    vr, vc, tv, he, tsum = greedy_insert_sums(depth, valid, *start, asked, max_sum, span, *scales)
-    info["total"] = float(tsum.sum())
-    info["flips"] = int(flip_by_error(vr, vc, tv, he, tsum, depth, valid, span)[0])
-    return vr, vc, tv
 
 
 def greedy_mesh(depth: np.ndarray, valid: np.ndarray, camera, *, vertices: int | None = None,
@@ -289,7 +195,7 @@ def greedy_mesh(depth: np.ndarray, valid: np.ndarray, camera, *, vertices: int |
         search finds the count as ``'fast'`` does, and the collapsed mesh of
         that count is kept when it meets the bound (or errs less). Where
         the collapses cannot reach the count (too few interior vertices),
-        or the native call declines, the mesh is ``'fast'``'s.
+        the mesh is ``'fast'``'s.
 
     Returns
     -------
@@ -334,25 +240,6 @@ def greedy_mesh(depth: np.ndarray, valid: np.ndarray, camera, *, vertices: int |
     mesh, target = _native(depth, valid, camera, ref, extent, exponent, vertices, max_error,
                            max_vertices, fit=fit, diagonals=diagonals, walls=walls, jump=jump,
                            bounds=bounds, effort=effort)
-    if mesh is None and bounds != (None, None, None):
-        # The Python steps take no rounds: a fit the call declined (it must raise or solve
-        # directly) gives way to copied depths; no triangle left is named by `_greedy`.
-        if fit:
-            mesh, target = _native(depth, valid, camera, ref, extent, exponent, vertices,
-                                   max_error, max_vertices, fit=False, diagonals=diagonals,
-                                   walls=walls, jump=jump, bounds=bounds,
-                                   effort=effort)
-        if mesh is None:
-            mesh, target = _greedy(depth, valid, camera, ref, extent, exponent,
-                                   vertices=extent[2], max_error=None, fit=False,
-                                   diagonals=diagonals, walls=walls, jump=jump,
-                                   max_vertices=None, first=None)
-            if len(mesh.faces):  # (the call declines only when no triangle is left)
-                raise RuntimeError("refine: the compiled call declined a mesh with triangles")
-    elif mesh is None:  # declined
-        mesh, target = _greedy(depth, valid, camera, ref, extent, exponent, vertices=vertices,
-                               max_error=max_error, fit=fit, diagonals=diagonals, walls=walls,
-                               jump=jump, max_vertices=max_vertices, first=None)
     if exponent and len(mesh.faces):
         mesh = with_fields(mesh, vertices=_in_units(mesh.vertices, camera, exponent))
     return mesh, target
@@ -404,7 +291,8 @@ def _plan(shape, camera, n_valid, vertices, max_error, max_vertices):
     n_grid = grid_size(want, n_valid, vertices is None)
     if vertices is None and max_vertices is not None:  # the first mesh stays under the cap
         n_grid = min(n_grid, grid_size(want, n_valid, False))
-    return want, delaunay_scales(camera, shape), n_grid, use_strips(shape, want, max_error, n_valid)
+    scales = (1, 1) if camera is _UNIT else delaunay_scales(camera, shape)  # (square pixels)
+    return want, scales, n_grid, use_strips(shape, want, max_error, n_valid)
 
 
 def _round_record(target: dict, res, bounds, exponent, cap=None) -> dict:
@@ -461,6 +349,9 @@ def _count_record(got, asked, runs, n_valid, n_pixels, no_walls_dropped,
 
 # What `_native`'s stats and meshes start from (`with_fields`).
 _NATIVE_STATS = Stats(method="refine", grid_shape=None, strips=1)
+_new = _core.RefineRequest()  # the settings a new request holds, which `_native` leaves as they are
+_REQUEST_SETTINGS = (_new.flip, _new.fit, _new.walls, _new.jump, _new.max_runs, _new.max_bisect_runs)
+del _new
 _UNIT_ARRAY = _UNIT.as_array()  # the default camera's, made once (read-only)
 _UNIT_ARRAY.flags.writeable = False
 _NATIVE_MESH = Mesh(np.zeros((0, 3)), np.zeros((0, 3), np.int32), np.zeros((0, 2), np.int32),
@@ -470,12 +361,12 @@ _NATIVE_MESH = Mesh(np.zeros((0, 3)), np.zeros((0, 3), np.int32), np.zeros((0, 2
 def _native(depth, valid, camera, ref, extent, exponent, vertices, max_error, max_vertices, *,
             fit, diagonals, walls=True, jump=0.05, bounds=(None, None, None),
             effort="fast"):
-    """`_greedy` on one strip or two, as one native call (`rangemesh._core.refine_mesh`).
+    """`greedy_mesh` on one strip or two, as one native call (`rangemesh._core.refine_mesh`).
 
-    Returns ``(mesh, target)``, or ``(None, None)`` when the call declines
-    (no triangle left, even from the valid pixels' hull: `_greedy` names
-    why; a fit that must raise or solve directly): `_greedy` then meshes
-    the image.
+    The call holds the whole search (first mesh, insertion, diagonals, walls,
+    heights, the hull restart); a fit conjugate gradients do not converge on
+    is solved by `_direct_solve` (a sparse LU). Returns ``(mesh, target)``;
+    with no triangle left, an empty mesh whose ``stats.reason`` names why.
     """
     h, w = depth.shape
     lo, hi, n_valid = extent
@@ -500,32 +391,48 @@ def _native(depth, valid, camera, ref, extent, exponent, vertices, max_error, ma
         req.strips, req.seam_density, req.seam_error_share = True, SEAM_DENSITY, SEAM_ERROR_SHARE
         req.threads = _threads.threads()
     req.vertices, req.n_valid, req.lo, req.hi, req.n_grid = want, n_valid, lo, hi, n_grid
-    req.sr, req.sc = scales
-    req.flip, req.fit, req.walls, req.jump = diagonals == "error", fit, walls, float(jump)
+    if scales != (1, 1):
+        req.sr, req.sc = scales
+    settings = (diagonals == "error", fit, walls, float(jump), MAX_RUNS, MAX_BISECT_RUNS)
+    if settings != _REQUEST_SETTINGS:  # (a call with the defaults sets none of them: every call)
+        req.flip, req.fit, req.walls, req.jump, req.max_runs, req.max_bisect_runs = settings
     if not walls and getattr(camera, "directions", None) is not None:
         req.pixel_angle = pixel_angle(camera)  # (edge lengths are ray angles)
-    req.max_runs, req.max_bisect_runs = MAX_RUNS, MAX_BISECT_RUNS
     req.heights = height_rule(n_valid)
     if effort == "best":
         req.collapse = COLLAPSE_BEST
     if max_error is not None:
         req.max_error = float(max_error)
     cam = _UNIT_ARRAY if camera is _UNIT else camera.as_array()
-    res = _core.refine_mesh(depth, valid, cam, req, *(() if ref is None else ref))
-    if not res.done:
-        return None, None
+    res = _core.refine_mesh(depth, valid, cam, req, *((None, None) if ref is None else ref),
+                            _heights._direct_solve)
+    if not res.done:  # (only a call without a direct solve declines)
+        raise RuntimeError("refine: the native call declined with a direct solve given")
     got = res.vertex_count
-    seconds = {"insertion": res.seconds - res.fit_seconds}
-    if fit:
-        seconds["fit"] = res.fit_seconds
-    faces, pixels = res.faces, res.pixels
-    # (from templates: the frozen classes' own __init__ weighs on a call on a small image)
-    stats = with_fields(_NATIVE_STATS, vertices=got, triangles=len(faces), edges=res.edges,
-                        sampled_points=got, seconds=seconds, flip_tests={}, flipped_edges=res.flips,
-                        insertions=res.insertions, strips=res.strips,
-                        heights="fit" if fit and res.fitted else "pixel")
-    mesh = with_fields(_NATIVE_MESH, vertices=res.vertices, faces=faces, pixels=pixels,
-                       camera=camera, image_shape=(h, w), stats=stats, attributes={})
+    if not got:
+        stats = Stats(seconds={"insertion": res.seconds}, method="refine", grid_shape=None,
+                      reason=_empty_reason(res.walls_dropped, walls, valid, n_valid))
+        return empty_mesh(camera, (h, w), stats), {}
+    fit_seconds = res.fit_seconds
+    seconds = {"insertion": res.seconds - fit_seconds, "fit": fit_seconds} if fit else \
+        {"insertion": res.seconds}
+    faces = res.faces
+    # (from templates, their instance dicts filled directly: the frozen classes' own __init__,
+    # and keyword arguments, weigh on a call on a small image)
+    stats = object.__new__(Stats)
+    fields = stats.__dict__
+    fields.update(_NATIVE_STATS.__dict__)
+    fields["vertices"] = fields["sampled_points"] = got
+    fields["triangles"], fields["edges"], fields["seconds"] = len(faces), res.edges, seconds
+    fields["flip_tests"], fields["flipped_edges"] = {}, res.flips
+    fields["insertions"], fields["strips"] = res.insertions, res.strips
+    fields["heights"] = "fit" if fit and res.fitted else "pixel"
+    mesh = object.__new__(Mesh)
+    fields = mesh.__dict__
+    fields.update(_NATIVE_MESH.__dict__)
+    fields["vertices"], fields["faces"], fields["pixels"] = res.vertices, faces, res.pixels
+    fields["camera"], fields["image_shape"], fields["stats"] = camera, (h, w), stats
+    fields["attributes"] = {}
     dropped = None if walls else res.walls_dropped
     if vertices is not None:
         target = _count_record(got, int(vertices), res.meshings, n_valid, h * w, walls, dropped)
@@ -557,130 +464,3 @@ def _error_record(achieved, asked, runs, got, last, want, max_vertices, walls_dr
     if not ok:
         target["note"] = f"stopped at max_vertices={want}" if capped else "the bound was not reached"
     return target
-
-
-def _greedy(depth, valid, camera, ref, extent, exponent, *, vertices, max_error, fit, diagonals,
-            walls, jump, max_vertices, first):
-    """`greedy_mesh` on depths divided by ``2**exponent`` (`ref` and `extent` too).
-
-    Its vertices are lifted from those depths; the notes name the depth range
-    in the image's own units.
-    """
-    h, w = depth.shape
-    t0 = time.perf_counter()
-    lo, hi, n_valid = extent
-    span = hi - lo
-    want, scales, n_grid, strips = _plan(depth.shape, camera, n_valid, vertices, max_error,
-                                         max_vertices)
-    strips = strips and first is None
-    start = first if first is not None or strips else first_mesh(depth, valid, n_grid, scales)
-    max_sum = -1.0 if max_error is None else float(max_error) / 100.0 * span * n_valid
-    runs = 0
-    asked = want
-    achieved = float("nan")  # the relative error, measured with max_error only
-    short, beyond = 0, n_valid + 1  # requests known to give fewer / more than `want`
-    best = None  # with `vertices`: the result nearest `want`, not above it if any is
-    fit_seconds = 0.0  # fitting the depths (with max_error, measuring their error too)
-    counted = None  # with max_error, once searching by count: its bounds and best result
-    info = {}
-    while True:
-        runs += 1
-        vr, vc, tv = _refine(depth, valid, start, strips, asked, max_sum, float(span), scales,
-                             n_grid, diagonals, info)
-        faces, pixels, n_walls = _assemble(vr, vc, tv, depth, valid, camera, walls, jump)
-        got = len(pixels)
-        if vertices is not None:
-            rank = (got > want, abs(got - want))
-            if best is None or rank < best[0]:
-                best = (rank, faces, pixels, n_walls)
-            if got != want and runs < (MAX_RUNS if beyond > n_valid else MAX_BISECT_RUNS):
-                # Vertices left without a triangle (background corners' fans, dropped
-                # walls): insert as many more. Dropping walls is not monotone in the
-                # request, so past N the request is bisected between the last one short
-                # of N and the first beyond it; the nearest result not above N is kept.
-                if got < want:
-                    short = max(short, asked)
-                else:
-                    beyond = min(beyond, asked)
-                nxt = asked + (want - got) if beyond > n_valid else (short + beyond) // 2
-                nxt = min(nxt, n_valid)
-                if short < nxt < beyond and nxt != asked:
-                    asked = nxt
-                    continue
-            _, faces, pixels, n_walls = best
-            got = len(pixels)
-        if max_error is not None and len(faces):
-            t = time.perf_counter()
-            verts, achieved = _bounded(faces, pixels, depth, valid, camera, (h, w),
-                                       max_error, ref, fit, extent)
-            if fit:
-                fit_seconds += time.perf_counter() - t
-            if counted is not None:
-                if achieved <= max_error:
-                    counted["met"], counted["hi"] = (faces, pixels, n_walls, verts, achieved), asked
-                else:
-                    counted["lo"] = asked
-                few, most = counted["lo"], counted["hi"]
-                # the last meshing asks for the largest count if no count met the bound yet
-                nxt = want if runs == MAX_RUNS - 1 and counted["met"] is None else (few + most) // 2
-                if runs < MAX_RUNS and few < nxt <= most and nxt != asked \
-                        and (counted["met"] is None or nxt < most):
-                    asked = nxt
-                    continue
-                if counted["met"] is not None:
-                    faces, pixels, n_walls, verts, achieved = counted["met"]
-                    got = len(pixels)
-            elif achieved > max_error and asked > got and runs < MAX_RUNS:
-                if info["total"] > 0.0:
-                    max_sum *= 0.9  # the running sum is an estimate: tighten and go on
-                    continue
-                # The insertion's own sum is 0 (every pixel fits its plane in the kernel's
-                # arithmetic) while the rendered mesh rounds otherwise (depths far from 0 with a
-                # tiny range): a tighter sum stops at the same mesh. Search by count instead,
-                # up to `want` (every valid pixel a vertex renders exactly).
-                counted = {"lo": got, "hi": want, "met": None}
-                max_sum = -1.0
-                if strips:  # (strips never insert the seam column's other pixels)
-                    strips = False
-                    start = first_mesh(depth, valid, n_grid, scales)
-                asked = want if runs == MAX_RUNS - 1 else (got + want) // 2
-                continue
-        break
-    t1 = time.perf_counter()
-    if fit and len(faces) and max_error is None:
-        verts = _fitted(faces, pixels, depth, valid, camera, extent)
-        fit_seconds += time.perf_counter() - t1
-    elif max_error is None or not len(faces):
-        verts = _copied(pixels, depth, camera)
-    seconds = {"insertion": time.perf_counter() - t0 - fit_seconds}
-    if fit and len(faces):
-        seconds["fit"] = fit_seconds
-    # (the kernel itself: faces made here need no checks)
-    stats = Stats(vertices=got, triangles=len(faces), edges=count_edges(faces, got),
-                  sampled_points=got, seconds=seconds, method="refine", grid_shape=None,
-                  flipped_edges=info["flips"], insertions=len(vr), strips=2 if strips else 1,
-                  heights="fit" if fit else "pixel")
-    if len(faces) == 0 and first is None and (walls or not n_walls):
-        # every triangle had a background image corner: start again from valid pixels only
-        hull = hull_mesh(depth, valid, want, scales)
-        if hull is not None:
-            return _greedy(depth, valid, camera, ref, extent, exponent, vertices=vertices,
-                           max_error=max_error, fit=fit, diagonals=diagonals, walls=walls,
-                           jump=jump, max_vertices=max_vertices, first=hull)
-    if len(faces) == 0:
-        reason = (f"every triangle was a wall across a jump ({n_walls} dropped)"
-                  if n_walls and not walls else
-                  f"the {n_valid} valid pixels lie on one line: no triangle"
-                  if len(valid_hull(valid)) < 3 and n_valid >= 3 else
-                  f"only {n_valid} valid pixel{'s' if n_valid != 1 else ''}: a triangle needs 3"
-                  if n_valid < 3 else
-                  "no triangle with valid corners")
-        stats = Stats(seconds=seconds, method="refine", grid_shape=None, reason=reason)
-        return empty_mesh(camera, (h, w), stats), {}
-    mesh = Mesh(verts, faces, pixels, camera, (h, w), stats)
-    dropped = None if walls else n_walls
-    if vertices is not None:
-        return mesh, _count_record(got, int(vertices), runs, n_valid, h * w, walls and n_walls == 0,
-                                   dropped)
-    return mesh, _error_record(achieved, float(max_error), runs, got, asked, want, max_vertices,
-                               dropped)

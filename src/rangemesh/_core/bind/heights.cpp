@@ -154,6 +154,8 @@ void bind_fit(nb::module_& m) {
 
 }  // namespace
 
+nb::tuple face_block_arrays(const std::vector<heights::FaceBlock>& blocks) { return arrays_from_blocks(blocks); }
+
 void bind_heights(nb::module_& m) {
     // below this many faces the fit's pass runs on the calling thread whatever `threads` says
     m.attr("FIT_SPLIT_MIN_FACES") = heights::SPLIT_MIN_FACES;

@@ -84,8 +84,8 @@ void bind_request(nb::module_& m) {
 void bind_result(nb::module_& m) {
     nb::class_<MeshResult>(m, "RefineResult", "What ``refine_mesh`` made; arrays are views this object keeps alive.")
         .def_prop_ro("done", [](const MeshResult& r) { return r.outcome == refine::MeshOutcome::done; },
-                     "False when the call declined the case (no triangle left, a fit that must raise or "
-                     "solve directly): the Python path then meshes it.")
+                     "False when the call declined: a fit that did not converge with no direct_solve given. "
+                     "No face (done): no triangle of valid pixels, walls_dropped says whether walls took them.")
         .def_prop_ro("faces", [](MeshResult& r) { return rows_of(r.faces, 3); }, nb::rv_policy::reference_internal,
                      "(F, 3) int32, counter-clockwise.")
         .def_prop_ro("pixels", [](MeshResult& r) { return rows_of(r.pixels, 2); }, nb::rv_policy::reference_internal,
@@ -167,7 +167,7 @@ void bind_refine_mesh(nb::module_& m) {
     m.def(
         "refine_mesh",
         [](In2<double> depth, In2<bool> valid, In1<double> camera, const MeshRequest& req,
-           std::optional<In2<double>> ref_depth, std::optional<In2<bool>> ref_valid) {
+           std::optional<In2<double>> ref_depth, std::optional<In2<bool>> ref_valid, nb::handle direct_solve) {
             check_input(same_shape(depth, valid), "refine_mesh: depth and valid must have one shape");
             check_input(ref_depth.has_value() == ref_valid.has_value() &&
                             (!ref_depth || (same_shape(*ref_depth, depth) && same_shape(*ref_valid, depth))),
@@ -206,14 +206,24 @@ void bind_refine_mesh(nb::module_& m) {
             const refine::Image image{grid(depth), grid(valid), req.hi - req.lo};
             const refine::Reference ref = ref_depth ? refine::Reference{grid(*ref_depth), grid(*ref_valid)}
                                                     : refine::Reference{image.depth, image.valid};
-            return run_released([&] { return refine::refine_mesh(image, span(camera), ref, req); }, work(depth));
+            refine::DirectSolve direct;  // (the GIL taken back for the Python solve, a rare fallback)
+            if (!direct_solve.is_none())
+                direct = [direct_solve](const std::vector<heights::FaceBlock>& blocks, const std::vector<double>& h0) {
+                    nb::gil_scoped_acquire gil;
+                    const nb::tuple system = face_block_arrays(blocks);
+                    const nb::object out = direct_solve(system[0], system[1], system[2], to_numpy(std::vector<double>(h0)));
+                    const auto x = nb::cast<nb::ndarray<const double, nb::ndim<1>, nb::c_contig, nb::device::cpu>>(out);
+                    return std::vector<double>(x.data(), x.data() + x.shape(0));
+                };
+            return run_released([&] { return refine::refine_mesh(image, span(camera), ref, req, direct); }, work(depth));
         },
         nb::arg("depth"), nb::arg("valid"), nb::arg("camera"), nb::arg("request"), nb::arg("ref_depth").none() = nb::none(),
-        nb::arg("ref_valid").none() = nb::none(),
+        nb::arg("ref_valid").none() = nb::none(), nb::arg("direct_solve").none() = nb::none(),
         "The whole refine call on one strip or two: first mesh, insertion, diagonals, valid faces with one fan "
         "each, heights and the lift by ``camera`` (``Camera.as_array()``), searched until "
         "``request.vertices`` vertices or, with ``request.max_error``, the relative error against "
-        "``ref_depth``, ``ref_valid`` (default: depth, valid) is met. Returns a RefineResult.");
+        "``ref_depth``, ``ref_valid`` (default: depth, valid) is met; a fit that does not converge is solved by "
+        "``direct_solve(ids, block, rhs, h0)`` (None: the call declines). Returns a RefineResult.");
 }
 
 }  // namespace rangemesh::bind

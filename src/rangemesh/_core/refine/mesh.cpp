@@ -7,6 +7,8 @@
 #include <memory>
 #include <numeric>
 #include <optional>
+#include <stdexcept>
+#include <string>
 #include <utility>
 
 #include "../geometry/delaunay.hpp"
@@ -367,10 +369,19 @@ heights::FitSettings fit_settings(const MeshRequest& req, const FitValues& v, in
             10 * n_vertices, threads, v.lo, v.hi};
 }
 
-// The vertices' depths fitted by least squares, into `z`; false when the fit must raise (a value
-// that is not finite) or solve directly (not converged): the Python path does both.
-bool fitted_depths(const Image& image, bool pinhole, const ValidFaces& f, const MeshRequest& req,
-                   std::vector<double>& z) {
+// How a fit of the vertices' depths ended: `z` set (fitted, or the copied depths as the
+// solution), or not: a vertex value that is not finite (`FitStatus::vertex`), or conjugate
+// gradients did not converge and no direct solve was given.
+struct FitStatus {
+    enum { ok, not_finite, not_converged } outcome = ok;
+    index_t vertex = -1;
+    explicit operator bool() const { return outcome == ok; }
+};
+
+// The vertices' depths fitted by least squares, into `z`; a fit that does not converge is solved
+// by `direct` when given, its values clipped to the valid range as the fit clips its own.
+FitStatus fitted_depths(const Image& image, bool pinhole, const ValidFaces& f, const MeshRequest& req,
+                        std::vector<double>& z, const DirectSolve* direct = nullptr) {
     const index_t n_f = static_cast<index_t>(f.faces.size() / 3), n_v = static_cast<index_t>(f.pixels.size() / 2);
     const FitValues v = fit_values(image, pinhole, req);
     std::vector<index_t> rows(n_v), cols(n_v);
@@ -380,7 +391,7 @@ bool fitted_depths(const Image& image, bool pinhole, const ValidFaces& f, const 
         rows[i] = f.pixels[2 * i];
         cols[i] = f.pixels[2 * i + 1];
         copied[i] = v.values(rows[i], cols[i]);
-        if (!std::isfinite(copied[i])) return false;
+        if (!std::isfinite(copied[i])) return {FitStatus::not_finite, i};
     }
     const std::vector<index_t> faces(f.faces.begin(), f.faces.end());
     std::vector<index_t> order(n_f);
@@ -392,12 +403,31 @@ bool fitted_depths(const Image& image, bool pinhole, const ValidFaces& f, const 
     const heights::FitMesh mesh{{faces.data(), n_f, 3}, view(rows), view(cols), view(copied)};
     heights::FitResult fit =
         heights::fit_heights(mesh, {v.values, image.valid}, view(order), fit_settings(req, v, n_f, n_v));
-    if (fit.outcome == heights::FitOutcome::not_converged) return false;
-    if (fit.outcome != heights::FitOutcome::fitted) return true;  // the copied depths are the solution
+    if (fit.outcome == heights::FitOutcome::not_converged) {  // ill-conditioned: a direct solve
+        if (direct == nullptr || !*direct) return {FitStatus::not_converged, -1};
+        fit.values = (*direct)(fit.blocks, copied);
+        require(static_cast<index_t>(fit.values.size()) == n_v, "fitted_depths: the direct solve's values, one a vertex");
+        for (double& x : fit.values) {
+            if (!std::isfinite(x)) throw InvariantError("fit_heights: the least-squares solve failed");
+            x = std::min(std::max(x, v.lo), v.hi);  // (np.minimum(np.maximum(x, lo), hi): NaN-free here)
+        }
+    } else if (fit.outcome != heights::FitOutcome::fitted) {
+        return {};  // the copied depths are the solution
+    }
     if (pinhole)
         for (double& x : fit.values) x = 1.0 / x;
     z = std::move(fit.values);
-    return true;
+    return {};
+}
+
+// The ValueError of a fit that meets a vertex value that is not finite (refine/heights.py's).
+[[noreturn]] void not_finite(const Image& image, bool pinhole, const ValidFaces& f, index_t vertex) {
+    const index_t r = f.pixels[2 * vertex], c = f.pixels[2 * vertex + 1];
+    if (pinhole && image.depth(r, c) == 0.0)
+        throw std::invalid_argument("depth 0 at pixel (" + std::to_string(r) + ", " + std::to_string(c) +
+                                    ") cannot be fitted with a pinhole camera (its inverse depth is infinite): "
+                                    "mark missing depth with background=0, or copy the depths with heights='pixel'");
+    throw std::invalid_argument("fit_heights: every vertex must sit on a valid pixel");
 }
 
 // The mesh's vertices lifted to 3-D from depths `z` (camera.py's `backproject`).
@@ -503,8 +533,9 @@ struct Candidate {
 // The call's searches over meshings of one first mesh.
 class Refiner {
   public:
-    Refiner(const Image& image, Span<const double> camera, const Reference& ref, const MeshRequest& req)
-        : image_(image), camera_(camera), req_(req), ref_(ref), measure_(camera, ref),
+    Refiner(const Image& image, Span<const double> camera, const Reference& ref, const MeshRequest& req,
+            const DirectSolve& direct)
+        : image_(image), camera_(camera), req_(req), ref_(ref), measure_(camera, ref), direct_(direct),
           strips_(req.strips && !needs_rounds(req)) {}
 
     // The search; when it leaves no face (every triangle keeps a background image corner), once
@@ -539,6 +570,7 @@ class Refiner {
     const MeshRequest& req_;
     Reference ref_;
     ErrorMeasure measure_;
+    const DirectSolve& direct_;
     std::optional<StartArrays> first_;  // one strip's first mesh, made when first needed
     bool strips_;                       // the next meshing is on two strips
     MeshResult out_;
@@ -561,16 +593,26 @@ MeshResult Refiner::search() {
 
 MeshResult Refiner::run() {
     MeshResult out = search();
-    if (!empty_ || (!req_.walls && empty_walls_ > 0)) return out;
-    std::optional<StartArrays> hull = hull_mesh(image_, req_.vertices, req_.sr, req_.sc);
-    if (!hull) return out;  // declined: no triangle of valid pixels (Python names the reason)
-    first_ = std::move(hull);
-    strips_ = false;
-    out_ = MeshResult{};
-    empty_ = false;
-    rounded_ = false;
-    out = search();
-    return empty_ ? MeshResult{} : out;  // still no face: declined (Python names the reason)
+    if (!empty_) return out;
+    if (req_.walls || empty_walls_ == 0) {
+        std::optional<StartArrays> hull = hull_mesh(image_, req_.vertices, req_.sr, req_.sc);
+        if (hull) {
+            first_ = std::move(hull);
+            strips_ = false;
+            out_ = MeshResult{};
+            empty_ = false;
+            rounded_ = false;
+            out = search();
+            if (!empty_) return out;
+        }
+    }
+    // no triangle of valid pixels: done, with no face (Python names the reason)
+    MeshResult none;
+    none.outcome = MeshOutcome::done;
+    none.meshings = out_.meshings;
+    none.walls_dropped = empty_walls_;
+    none.fitted = false;
+    return none;
 }
 
 Meshing Refiner::mesh(index_t asked, double max_sum) {
@@ -585,11 +627,18 @@ Meshing Refiner::mesh(index_t asked, double max_sum) {
 }
 
 // The vertices of `f` lifted from fitted or copied depths; false when the fit declines.
+// A fit that meets a value that is not finite raises, unless under rounds (the call then goes
+// again with copied heights, `refine_mesh`), as does one not converged under rounds.
 bool Refiner::lift(const ValidFaces& f, bool fit, std::vector<double>& vertices) {
     const index_t n_v = static_cast<index_t>(f.pixels.size() / 2);
     std::vector<double> z(n_v);
     for (index_t i = 0; i < n_v; ++i) z[i] = image_.depth(f.pixels[2 * i], f.pixels[2 * i + 1]);
-    if (fit && !fitted_depths(image_, camera_[0] == PINHOLE, f, req_, z)) return false;
+    const bool pinhole = camera_[0] == PINHOLE, rounds = needs_rounds(req_);
+    if (fit) {
+        const FitStatus status = fitted_depths(image_, pinhole, f, req_, z, rounds ? nullptr : &direct_);
+        if (status.outcome == FitStatus::not_finite && !rounds) not_finite(image_, pinhole, f, status.vertex);
+        if (!status) return false;
+    }
     vertices = lifted(camera_, f, z);
     return true;
 }
@@ -780,7 +829,7 @@ std::vector<double> Refiner::depths(const ValidFaces& f, bool fit, bool& fitted)
     if (!fit) return z;
     const auto t = std::chrono::steady_clock::now();
     std::vector<double> copied = z;
-    fitted = fitted_depths(image_, camera_[0] == PINHOLE, f, req_, z);
+    fitted = static_cast<bool>(fitted_depths(image_, camera_[0] == PINHOLE, f, req_, z));
     if (!fitted) z = copied;
     if (fitted && req_.max_deviation >= 0.0) {
         // (a hair inside the bound: the prediction at a vertex rounds through the scale)
@@ -863,10 +912,14 @@ void Refiner::rounds(Candidate& c) {
 }  // namespace
 
 MeshResult refine_mesh(const Image& image, Span<const double> camera, const Reference& reference,
-                       const MeshRequest& req) {
+                       const MeshRequest& req, const DirectSolve& direct) {
     const auto t0 = std::chrono::steady_clock::now();
-    Refiner refiner(image, camera, reference, req);
-    MeshResult out = refiner.run();
+    MeshResult out = Refiner(image, camera, reference, req, direct).run();
+    if (out.outcome == MeshOutcome::declined && req.fit && needs_rounds(req)) {
+        MeshRequest copied = req;  // (the rounds' search with copied heights, from the start)
+        copied.fit = false;
+        out = Refiner(image, camera, reference, copied, direct).run();
+    }
     out.seconds = seconds_since(t0);
     return out;
 }

@@ -9,6 +9,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <vector>
 
 #include "../heights/fit.hpp"
@@ -61,10 +62,17 @@ struct Reference {
     Grid<const bool> valid;
 };
 
-// How the call ended. `declined`: a case the Python path handles (no triangle left, even from
-// the valid pixels' hull, so the mesh is empty and Python names why; a fit that must raise or
-// solve directly): nothing else of the result is set.
+// How the call ended. `declined`: a fit conjugate gradients did not converge on, with no
+// `DirectSolve` given (a raw call: the library always gives one); nothing else of the result is
+// set. A call that leaves no triangle, even from the valid pixels' hull, is `done` with no face
+// (`walls_dropped` says whether walls took them: Python names the reason).
 enum class MeshOutcome { done, declined };
+
+// The direct solve of a fit's system that conjugate gradients did not converge on (the caller's
+// sparse LU, refine/heights.py's `_direct_solve`): the visited faces' blocks and the vertices'
+// copied values in, the solution out, neither clipped nor inverted.
+using DirectSolve =
+    std::function<std::vector<double>(const std::vector<heights::FaceBlock>&, const std::vector<double>&)>;
 
 struct MeshResult {
     MeshOutcome outcome = MeshOutcome::declined;
@@ -89,7 +97,11 @@ struct MeshResult {
 
 // The mesh of `image` for `req`, lifted by `camera` (`Camera.as_array()`; vectors.hpp); an
 // error bound is measured against `reference`.
+// A fit that meets a vertex value that is not finite raises ValueError (as refine/heights.py's
+// `fit_heights`), except under rounds (a deviation target, max_edge), where the call is made
+// again with copied heights; one that does not converge is solved by `direct` (under rounds:
+// copied heights again).
 MeshResult refine_mesh(const Image& image, Span<const double> camera, const Reference& reference,
-                       const MeshRequest& req);
+                       const MeshRequest& req, const DirectSolve& direct = {});
 
 }  // namespace rangemesh::refine

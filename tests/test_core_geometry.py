@@ -138,7 +138,8 @@ def test_valid_range_and_covered_error_by_plain_loops(seed, h, w, share):
     pred[0, 0] = np.inf
     inside = depth[valid].tolist()
     want = (min(inside), max(inside), len(inside)) if inside else (0.0, 0.0, 0)
-    assert _core.valid_range(depth, valid) == want
+    got = _core.valid_range(depth, valid)
+    assert (got.lo, got.hi, got.count) == want
     total, n = 0.0, 0  # the same row-major order of additions
     for r in range(h):
         for c in range(w):

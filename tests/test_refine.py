@@ -437,15 +437,15 @@ def test_fitted_depths_are_not_pulled_across_a_small_step():
     outcomes = []
 
     def fit(*args, **kwargs):
-        outcome, fitted, system = _core_fit(*args, **kwargs)
-        outcomes.append(outcome)
-        return outcome, fitted, system
+        result = _core_fit(*args, **kwargs)
+        outcomes.append(result.outcome)
+        return result
 
     _core_fit = _core.fit_heights
     with pytest.MonkeyPatch.context() as mp:
         mp.setattr(_core, "fit_heights", fit)
         z = heights.fit_heights(m.pixels, m.faces, depth, valid, m.camera)
-    assert outcomes == ["copied"]
+    assert outcomes == [_core.FitOutcome.COPIED]
     np.testing.assert_array_equal(z, own)
 
 
@@ -501,7 +501,7 @@ def test_the_fit_samples_its_errors_from_every_kth_face_or_row(vertices):
     # order, or of every 4th row: the same errors as a full pass over the faces order[::k]
     # alone, or over the image with every other row masked out (each face owns its pixels
     # by its own edges' orientation, whatever its neighbours).
-    from rangemesh._core import face_order, fit_sample_errors
+    from rangemesh._core import FitSettings, face_order, fit_sample_errors
 
     sc = scenes.make("box", (60, 80), noise=0.5)
     m = triangulate(sc.depth, vertices=vertices, method="refine", heights="pixel")
@@ -512,7 +512,9 @@ def test_the_fit_samples_its_errors_from_every_kth_face_or_row(vertices):
     order = face_order(faces, pr, pc, 60, 80, 8)
 
     def errors(f, o, mask, rows, every):
-        return np.sort(fit_sample_errors(f, o, pr, pc, h0, sc.depth, mask, rows, every, sc.depth.size))
+        sample = FitSettings()
+        sample.row_stride, sample.face_stride, sample.capacity = rows, every, sc.depth.size
+        return np.sort(fit_sample_errors(f, o, m.pixels, h0, sc.depth, mask, sample))
 
     every_row = np.zeros_like(valid)
     every_row[::4] = True

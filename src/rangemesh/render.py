@@ -179,8 +179,8 @@ def relative_error(mesh: Mesh, depth: np.ndarray, valid: np.ndarray) -> float:
     total, n = covered_error(pred, depth, valid)
     if n == 0:
         return float("nan")
-    lo, hi, _ = valid_range(depth, valid)
-    return float(per_span(total / n, float(hi - lo), 100.0))
+    r = valid_range(depth, valid)
+    return float(per_span(total / n, float(r.hi - r.lo), 100.0))
 
 
 def per_span(x, span: float, full: float, *, out=None):

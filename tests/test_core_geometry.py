@@ -146,7 +146,8 @@ def test_valid_range_and_covered_error_by_plain_loops(seed, h, w, share):
             if valid[r, c] and np.isfinite(pred[r, c]):
                 total += abs(float(pred[r, c]) - float(depth[r, c]))
                 n += 1
-    assert _core.covered_error(pred, depth, valid) == (total, n)
+    got = _core.covered_error(pred, depth, valid)
+    assert (got.total, got.count) == (total, n)
 
 
 # --- fans ------------------------------------------------------------------------------------

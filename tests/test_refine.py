@@ -484,15 +484,16 @@ def test_block_solver_equals_a_dense_solve(n, n_faces, seed):
         b[ids[t]] += rhs[t]
     ridge = RIDGE * np.maximum(np.diag(dense), 1.0)
     want = np.linalg.solve(dense + np.diag(ridge), b + ridge * h0)
-    got, converged = solve_blocks(ids, block, rhs, h0, RIDGE, 1e-12, 10 * n)
-    assert converged
+    solution = solve_blocks(ids, block, rhs, h0, RIDGE, 1e-12, 10 * n)
+    got = solution.x
+    assert solution.converged
     np.testing.assert_allclose(got, want, rtol=1e-7, atol=1e-7 * np.abs(want).max())
     # the fallback when CG does not converge solves the same system directly
     np.testing.assert_allclose(_direct_solve(ids, block, rhs, h0), want, rtol=1e-9,
                                atol=1e-9 * np.abs(want).max())
     # and CG says so when it is stopped early on a system it has not solved
     if not np.allclose(h0, want, rtol=1e-6):
-        assert not solve_blocks(ids, block, rhs, h0, RIDGE, 1e-12, 0)[1]
+        assert not solve_blocks(ids, block, rhs, h0, RIDGE, 1e-12, 0).converged
 
 
 @pytest.mark.parametrize("vertices", [40, 400])

@@ -176,7 +176,8 @@ def relative_error(mesh: Mesh, depth: np.ndarray, valid: np.ndarray) -> float:
     pred, _ = render_depth(mesh, depth.shape)
     depth = np.asarray(depth, np.float64)
     valid = np.asarray(valid, np.bool_)
-    total, n = covered_error(pred, depth, valid)
+    covered = covered_error(pred, depth, valid)
+    total, n = covered.total, covered.count
     if n == 0:
         return float("nan")
     r = valid_range(depth, valid)

@@ -138,11 +138,10 @@ void bind_pixels(nb::module_& m) {
         [](In2<double> pred, In2<double> depth, In2<bool> valid) {
             check_input(same_shape(pred, depth) && same_shape(valid, depth),
                         "covered_error: pred, depth and valid must have one shape");
-            const CoveredError e = run_released([&] { return covered_error(grid(pred), grid(depth), grid(valid)); });
-            return nb::make_tuple(e.total, e.count);
+            return run_released([&] { return covered_error(grid(pred), grid(depth), grid(valid)); });
         },
         nb::arg("pred"), nb::arg("depth"), nb::arg("valid"),
-        "``(sum of |pred - depth|, count)`` over the valid pixels where `pred` is finite.");
+        "The CoveredError: the sum of |pred - depth| over the valid pixels where `pred` is finite, and their count.");
     m.def(
         "valid_faces",
         [](In1<index_t> vr, In1<index_t> vc, In1<index_t> tv, In2<bool> valid) {
@@ -171,13 +170,12 @@ void bind_pixels(nb::module_& m) {
         [](In2<bool> valid, index_t n_rows, index_t n_cols, index_t c_lo, index_t c_hi, bool inner) {
             check_input(valid.shape(0) >= 1 && 0 <= c_lo && c_lo <= c_hi && c_hi < static_cast<index_t>(valid.shape(1)),
                         "grid_pixels: columns c_lo <= c_hi of a non-empty image");
-            PixelList p = run_released([&] { return grid_pixels(grid(valid), n_rows, n_cols, c_lo, c_hi, inner); },
-                                       work(valid));
-            return nb::make_tuple(to_numpy(std::move(p.rows)), to_numpy(std::move(p.cols)));
+            return run_released([&] { return grid_pixels(grid(valid), n_rows, n_cols, c_lo, c_hi, inner); },
+                                work(valid));
         },
         nb::arg("valid"), nb::arg("n_rows"), nb::arg("n_cols"), nb::arg("c_lo"), nb::arg("c_hi"), nb::arg("inner"),
-        "``(rows, cols)`` int64: the corners of columns c_lo..c_hi, then row by row the distinct valid "
-        "centres of an n_rows x n_cols grid over them (none on the first or last column with `inner`).");
+        "A PixelList: the corners of columns c_lo..c_hi, then row by row the distinct valid centres of an "
+        "n_rows x n_cols grid over them (none on the first or last column with `inner`).");
     m.def(
         "rasterize",
         [](In2<double> face_r, In2<double> face_c, In2<double> face_val, Out2<double> out_val,
@@ -199,6 +197,14 @@ void bind_pixels(nb::module_& m) {
 void bind_geometry(nb::module_& m) {
     // the widest span of coordinates (pixels times Delaunay scales) the exact predicates take
     m.attr("EXACT_SPAN") = EXACT_SPAN;
+    nb::class_<CoveredError>(m, "CoveredError", "The error of a render over the covered valid pixels (``covered_error``).")
+        .def_ro("total", &CoveredError::total, "The sum of |pred - depth|.")
+        .def_ro("count", &CoveredError::count, "The valid pixels where pred is finite.");
+    nb::class_<PixelList>(m, "PixelList", "Pixels as their rows and columns (``grid_pixels``).")
+        .def_prop_ro("rows", [](PixelList& p) { return view_of(p.rows); }, nb::rv_policy::reference_internal,
+                     "(n,) int64.")
+        .def_prop_ro("cols", [](PixelList& p) { return view_of(p.cols); }, nb::rv_policy::reference_internal,
+                     "(n,) int64.");
     nb::class_<DepthRange>(m, "DepthRange", "The valid depths' range and count (``valid_range``).")
         .def_ro("lo", &DepthRange::lo, "The smallest valid depth (0.0 when there is none).")
         .def_ro("hi", &DepthRange::hi, "The largest (0.0 when there is none).")

@@ -96,6 +96,12 @@ struct HeightFit {
     std::optional<index_t> not_finite;      // not_finite: the first such vertex
 };
 
+// What solve_blocks found.
+struct BlockSolution {
+    std::vector<double> x;   // the last iterate
+    bool converged = false;  // within rtol
+};
+
 // Each vertex's (row, col) of a (V, 2) array, as the row and column spans the passes take.
 struct VertexPixels {
     std::vector<index_t> rows, cols;
@@ -160,6 +166,10 @@ void bind_fit_classes(nb::module_& m) {
         .def_prop_ro("system", [](const HeightFit& f) { return f.system; }, nb::rv_policy::move,
                      "NOT_CONVERGED: the FaceBlocks to solve directly, else None.")
         .def_ro("not_finite", &HeightFit::not_finite, "NOT_FINITE: the first vertex whose value is not, else None.");
+    nb::class_<BlockSolution>(m, "BlockSolution", "What ``solve_blocks`` found.")
+        .def_prop_ro("x", [](BlockSolution& s) { return view_of(s.x); }, nb::rv_policy::reference_internal,
+                     "(V,) float64: conjugate gradients' last iterate.")
+        .def_ro("converged", &BlockSolution::converged, "Whether the residual reached rtol within max_iter steps.");
     nb::class_<heights::VertexSystem>(m, "VertexSystem", "The fit's system gathered onto the vertices.")
         .def_prop_ro("diag", [](heights::VertexSystem& s) { return view_of(s.diag); },
                      nb::rv_policy::reference_internal, "(V,) float64: diag(M) + ridge.")
@@ -319,17 +329,18 @@ void bind_heights(nb::module_& m) {
         [](In2<index_t> ids, In3<double> block, In2<double> rhs, In1<double> h0, double ridge_share, double rtol,
            index_t max_iter) {
             const std::vector<FaceBlock> blocks = blocks_from_arrays(ids, block, rhs);
-            std::vector<double> x(h0.shape(0));
-            const bool converged = run_released([&] {
+            BlockSolution out;
+            out.x.resize(h0.shape(0));
+            out.converged = run_released([&] {
                 return heights::solve_blocks(Span<const FaceBlock>{blocks.data(), static_cast<index_t>(blocks.size())},
                                              span(h0), ridge_share, rtol, max_iter,
-                                             Span<double>{x.data(), static_cast<index_t>(x.size())});
+                                             Span<double>{out.x.data(), static_cast<index_t>(out.x.size())});
             });
-            return nb::make_tuple(to_numpy(std::move(x)), converged);
+            return out;
         },
         nb::arg("ids"), nb::arg("block"), nb::arg("rhs"), nb::arg("h0"), nb::arg("ridge_share"), nb::arg("rtol"),
         nb::arg("max_iter"),
-        "``(x, converged)``: ``(M + diag(ridge)) x = b + ridge * h0`` by Jacobi-preconditioned conjugate "
+        "A BlockSolution: ``(M + diag(ridge)) x = b + ridge * h0`` by Jacobi-preconditioned conjugate "
         "gradients from h0, M and b gathered from the faces' blocks onto their vertices ``ids``.");
     m.def(
         "median_inplace",

@@ -109,7 +109,8 @@ def test_the_pass_on_two_threads_is_the_pass_on_one():
     rows, cols = (np.ascontiguousarray(m.pixels[:, k], dtype=np.int64) for k in (0, 1))
     valid = np.ones(sc.depth.shape, bool)
     order = _core.face_order(faces, rows, cols, 300, 300, 8)
-    args = (faces, order, _pixels(rows, cols), np.ascontiguousarray(sc.depth[rows, cols]), sc.depth, valid, 1.0)
+    values = np.ascontiguousarray(sc.depth[rows, cols])
+    args = (faces, order, _pixels(rows, cols), values, sc.depth, valid, 1.0)
     one = _core.fit_blocks(*args, threads=1)
     two = _core.fit_blocks(*args, threads=2)
     for name in ("ids", "block", "rhs", "used"):
@@ -210,7 +211,8 @@ def test_the_kernels_refuse_a_vertex_outside_the_image():
     rows = np.array([-1, 3, 0, 1], np.int64)
     cols = np.array([0, 0, 0, 3], np.int64)
     for face in ([0, 1, 2], [1, 2, 3]):
-        args = (np.array([face], np.int64), np.zeros(1, np.int64), _pixels(rows, cols), np.ones(4), image, valid)
+        args = (np.array([face], np.int64), np.zeros(1, np.int64), _pixels(rows, cols), np.ones(4), image,
+                valid)
         with pytest.raises(ValueError, match="outside the image"):
             _core.fit_sample_errors(*args, _sampling(1, 1, 25))
 

@@ -165,7 +165,8 @@ def _flip_log(vertices, **params):
                              epsilon=math.radians(p["epsilon"]), max_angle=math.radians(p["max_angle"]),
                              min_bend=math.radians(p["min_bend"]), quantum=2.0**-32, max_edge2=np.inf,
                              log_size=2)
-    log = flip_loop(triangles, halfedges, pixels, vertices, depth, valid, Orthographic().as_array(), settings).log
+    cam = Orthographic().as_array()
+    log = flip_loop(triangles, halfedges, pixels, vertices, depth, valid, cam, settings).log
     return [(int(a), int(b), Verdict(v)) for a, b, v in log]
 
 

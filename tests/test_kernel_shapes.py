@@ -55,8 +55,8 @@ def core_settings(cls, **fields):
 
 
 def _flip_settings(rule=1, log_size=0):
-    return core_settings(_core.FlipSettings, rule=rule, threshold=-np.inf, delta=0.3, epsilon=0.005, max_angle=2.8,
-                         min_bend=0.08, quantum=2.0**-32, max_edge2=np.inf, log_size=log_size)
+    return core_settings(_core.FlipSettings, rule=rule, threshold=-np.inf, delta=0.3, epsilon=0.005,
+                         max_angle=2.8, min_bend=0.08, quantum=2.0**-32, max_edge2=np.inf, log_size=log_size)
 
 
 def _flips(fn, vr=VR, vc=VC, *extra):
@@ -224,7 +224,7 @@ MALFORMED = {
                                                                zs=3),
     "line_pixel/k beyond the line": lambda: _core.line_pixel(0, 0, 3, 1, 4),
     "line_pixel/far endpoint": lambda: _core.line_pixel(0, 0, 2**62, 1, 1),
-    "_triangle_rows/step": lambda: _core._triangle_rows(np.array([[0, 0], [4, 0], [0, 4]]), (True, True, True), 0,
+    "_triangle_rows/step": lambda: _core._triangle_rows(np.array([[0, 0], [4, 0], [0, 4]]), (True,) * 3, 0,
                                                         2**62),
 }
 
@@ -313,7 +313,8 @@ REFUSED_BY_THE_KERNEL = {
     "gather_blocks/shapes": lambda: _core.gather_blocks(
         FACES, np.zeros((1, 3, 3)), np.zeros((2, 3)), np.zeros(4), 1e-3),
     "flip_loop/halfedges length": lambda: _core.flip_loop(
-        TV.copy(), HE[:3].copy(), PTS, np.zeros((4, 3)), DEPTH, VALID, Orthographic().as_array(), _flip_settings()),
+        TV.copy(), HE[:3].copy(), PTS, np.zeros((4, 3)), DEPTH, VALID, Orthographic().as_array(),
+        _flip_settings()),
 }
 
 
@@ -355,7 +356,8 @@ def test_a_row_stride_beyond_the_image_samples_its_first_row(big):
 
     def sample(row_stride, face_stride=1):
         return _core.fit_sample_errors(FACES, np.arange(2, dtype=I64), np.stack([rows, VC], axis=1),
-                                       depth[rows, VC], depth, valid, _sampling(row_stride, face_stride, 24)).tolist()
+                                       depth[rows, VC], depth, valid,
+                                       _sampling(row_stride, face_stride, 24)).tolist()
 
     assert sample(big) == sample(6) == []
     assert sample(3) == pytest.approx([0.0, 2.0, 2.0], abs=1e-12)
@@ -423,7 +425,8 @@ ENDLESS = {
     "grid_pixels/2^62 columns": ("_pixel_list(VALID, 2, 2**62, 0, 3, False)",
                                  [[0, 3, 3, 0, 1, 1, 1, 1, 3, 3], [0, 0, 3, 3, 0, 1, 2, 3, 1, 2]]),
     # F8: a list of 2^31 rows
-    "_triangle_rows/corner at 2^31": ("_core._triangle_rows(np.array([[0, 0], [2**31, 0], [0, 4]]), (True,) * 3)",
+    "_triangle_rows/corner at 2^31": ("_core._triangle_rows(np.array([[0, 0], [2**31, 0], [0, 4]]), "
+                                      "(True,) * 3)",
                                       "_triangle_rows: corners are pixels within EXACT_SPAN"),
     # the strips' last vertices one at a time: a NaN key (a depth of 1e300) made neither strip
     # go on, and the loop asked them again for ever

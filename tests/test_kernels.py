@@ -202,7 +202,8 @@ def test_lift_is_backproject(seed, cam_kind):
 
 def test_lift_by_hand():
     # pinhole: x = (c - cx) z / fx, y = (r - cy) z / fy, z = depth * scale
-    assert _core.lift(240, 420, 2000.0, np.array([1.0, 500, 500, 320, 240, 0.001])).tolist() == [0.4, 0.0, 2.0]
+    pinhole = np.array([1.0, 500, 500, 320, 240, 0.001])
+    assert _core.lift(240, 420, 2000.0, pinhole).tolist() == [0.4, 0.0, 2.0]
     # orthographic: (kx r, ky c, kz d)
     assert _core.lift(2, 3, 10.0, np.array([0.0, 0.5, 0.5, 2.0, 0, 0])).tolist() == [1.0, 1.5, 20.0]
 

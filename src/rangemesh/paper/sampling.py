@@ -35,7 +35,8 @@ _PAPER_SCALE = 255.0
 
 def valid_span(depth: np.ndarray, valid: np.ndarray) -> float:
     """Max - min of the valid depths (0 when there is none)."""
-    r = valid_range(np.ascontiguousarray(depth, dtype=np.float64), np.ascontiguousarray(valid, dtype=np.bool_))
+    r = valid_range(np.ascontiguousarray(depth, dtype=np.float64),
+                    np.ascontiguousarray(valid, dtype=np.bool_))
     return float(r.hi - r.lo) if r.count else 0.0
 
 

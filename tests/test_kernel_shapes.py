@@ -213,6 +213,12 @@ MALFORMED = {
                                                               4, 4, 2),
     "face_order/more cells than an image has": lambda: _core.face_order(FACES, VR, VC, 2**40, 2**40, 1),
     "fit_sample_errors/stride 0": lambda: _sample_errors(row_stride=0),
+    "fit_sample_errors/pixels not (V, 2)": lambda: _core.fit_sample_errors(
+        FACES, np.arange(2, dtype=I64), VR[:, None].copy(), DEPTH[VR, VC], DEPTH, VALID, _sampling(1, 1, 16)),
+    "fit_heights/pixels not (V, 2)": lambda: _core.fit_heights(
+        FACES, np.column_stack([VR, VC, VC]), DEPTH, VALID, None, _core.FitSettings()),
+    "fit_blocks/pixels not (V, 2)": lambda: _core.fit_blocks(
+        FACES, np.arange(2, dtype=I64), np.column_stack([VR, VC, VC]), DEPTH[VR, VC], DEPTH, VALID, 1.0),
     "fit_sample_errors/order entry": lambda: _core.fit_sample_errors(
         FACES, np.array([0, 2], I64), PTS, np.zeros(4), DEPTH, VALID, _sampling(1, 1, 16)),
     # (a barycentre inside, a corner outside: the squared edge lengths overflowed for far ones)
@@ -224,6 +230,7 @@ MALFORMED = {
                                                                zs=3),
     "line_pixel/k beyond the line": lambda: _core.line_pixel(0, 0, 3, 1, 4),
     "line_pixel/far endpoint": lambda: _core.line_pixel(0, 0, 2**62, 1, 1),
+    "_triangle_rows/corners not (3, 2)": lambda: _core._triangle_rows(np.array([[0, 0], [4, 0]]), (True,) * 3),
     "_triangle_rows/step": lambda: _core._triangle_rows(np.array([[0, 0], [4, 0], [0, 4]]), (True,) * 3, 0,
                                                         2**62),
 }
@@ -284,7 +291,8 @@ def _sample_tiles(f, rs=2, zs=2):
 NAMED = {"_heap_sift_up": "heap: ", "_heap_rekey": "heap: ", "flip_by_error": "flips: ",
          "flip_from_edges": "flips: ", "error_flips/vertex outside": "flips: ",
          "error_flips/vertex id": "build_halfedges: ", "greedy_insert_sums": "greedy_insert: ",
-         "strip_insert": "greedy_insert: ", "fit_sample_errors": "fit: "}
+         "strip_insert": "greedy_insert: ", "fit_sample_errors": "fit: ", "fit_blocks": "fit: ",
+         "fit_heights": "fit: "}
 
 
 @pytest.mark.parametrize("case", MALFORMED, ids=MALFORMED)

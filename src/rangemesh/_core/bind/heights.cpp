@@ -187,7 +187,7 @@ void bind_fit(nb::module_& m) {
         "fit_heights",
         [](In2<I> faces, In2<I> pixels, In2<double> image, In2<bool> valid, std::optional<In1<index_t>> order,
            const heights::FitSettings& settings) {
-            require(pixels.shape(1) == 2, "fit: pixels are (V, 2)");
+            check_input(pixels.shape(1) == 2, "fit: pixels are (V, 2)");
             const index_t n = static_cast<index_t>(pixels.shape(0));
             index_t not_finite = -1;  // the first vertex whose value is not finite
             heights::FitResult fit = run_released([&] {

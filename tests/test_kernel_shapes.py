@@ -214,7 +214,8 @@ MALFORMED = {
     "face_order/more cells than an image has": lambda: _core.face_order(FACES, VR, VC, 2**40, 2**40, 1),
     "fit_sample_errors/stride 0": lambda: _sample_errors(row_stride=0),
     "fit_sample_errors/pixels not (V, 2)": lambda: _core.fit_sample_errors(
-        FACES, np.arange(2, dtype=I64), VR[:, None].copy(), DEPTH[VR, VC], DEPTH, VALID, _sampling(1, 1, 16)),
+        FACES, np.arange(2, dtype=I64), np.column_stack([VR, VC, VC]), DEPTH[VR, VC], DEPTH, VALID,
+        _sampling(1, 1, 16)),
     "fit_heights/pixels not (V, 2)": lambda: _core.fit_heights(
         FACES, np.column_stack([VR, VC, VC]), DEPTH, VALID, None, _core.FitSettings()),
     "fit_blocks/pixels not (V, 2)": lambda: _core.fit_blocks(

@@ -50,7 +50,6 @@ void bind_valid_samples(nb::module_& m) {
         "int64 array; samples outside the image are left out.");
 }
 
-
 // The decisions a flip loop may log at most (24 bytes each): a raw 2^62 would only allocate.
 constexpr index_t FLIP_LOG_MAX = index_t{1} << 24;
 
@@ -138,10 +137,14 @@ void bind_paper(nb::module_& m) {
                                         options.quantum, options.max_edge2};
             FlipReport report;
             report.verdicts.assign(N_VERDICTS, 0);
-            report.log.assign(3 * static_cast<std::size_t>(options.log_size), 0);
-            const FlipRecord record{{report.verdicts.data(), N_VERDICTS}, {report.log.data(), options.log_size, 3}};
             const RangeImage image = range_image(depth, valid, cam);
-            report.flips = run_released([&] { return flip_loop(mesh, image, settings, record); });
+            report.flips = run_released([&] {
+                const FreeLater late(on_throw, report.log);
+                fill_polled(report.log, 3 * static_cast<std::size_t>(options.log_size), index_t{0});
+                const FlipRecord record{{report.verdicts.data(), N_VERDICTS},
+                                        {report.log.data(), options.log_size, 3}};
+                return flip_loop(mesh, image, settings, record);
+            });
             index_t decisions = 0;
             for (const index_t count : report.verdicts) decisions += count;
             report.log.resize(3 * static_cast<std::size_t>(std::min(decisions, options.log_size)));

@@ -1,14 +1,25 @@
-"""rangemesh live's throughput: frames/s meshed and published from the real recordings at --pace fast.
+"""rangemesh live's speed: frames/s in and out, drops, latency and frames per CPU second.
 
-Run ``RANGEMESH_THREADS=1 taskset -c 0 python benchmarks/live.py`` (``--frames N``,
-``--repeat K``, ``--only realsense|ouster``, ``--sink none|mcap``). Each run
-plays a recording looped (the RealSense bag holds 2 depth frames, the Ouster
-pcap 3 scans) through `rangemesh.live.run` at the default target, every
-frame meshed and, with ``--sink mcap``, published to an MCAP file (the
-Foxglove server's messages). It prints frames/s by the wall clock and per CPU second
-(`time.process_time`, which a loaded machine does not slow; medians of the runs),
-the median meshing time and the median time to build and write a
-frame's messages (``publish_ms``), as a share of the frame's time.
+Run ``python benchmarks/live.py`` (``--pace fast,30,recorded``, ``--threads 1,2``,
+``--frames N``, ``--repeat K``, ``--only realsense|ros|ouster``, ``--sink none|mcap``).
+Each run plays a recording looped (the RealSense bag holds 2 depth frames, the
+Ouster pcap 3 scans) through `rangemesh.live.run` at the default target until
+``--frames`` meshes are published (to an MCAP file with ``--sink mcap``, the
+Foxglove server's messages). The sources: ``realsense``, the shared RealSense
+SDK bag played by pyrealsense2; ``ros``, the same bag read as a ROS bag (the
+ROS reader, ``--source ros``); ``ouster``, the Ouster pcap with its metadata.
+
+For each source, pace and thread count (``RANGEMESH_THREADS``, set in this
+process before the run: `rangemesh.refine.threads` reads it at each call) it
+prints the medians over the runs of what the session records
+(`rangemesh.live.stats.Stats.summary`): frames/s in and out, frames dropped,
+the latency from a frame's release by the playback clock to its publication
+(median and 95th percentile), and frames per CPU second (frames out over the
+process's `time.process_time`, every thread counted, which a loaded machine
+slows less than the wall clock), the median meshing time and the median time
+to build and write a frame's messages (``publish_ms``). The machine's load
+(1-minute average) is printed before and after each configuration. Under
+``taskset -c 0`` the process may use one core, so two threads give one.
 """
 
 from __future__ import annotations
@@ -27,47 +38,99 @@ from rangemesh.live import run
 
 HERE = Path(__file__).resolve().parent
 DATA = Path(os.environ.get("RANGEMESH_DATA", HERE.parent.parent / "shared" / "data"))
+BAG = "librealsense_d435_single_depth_color_640x480.bag"
 
 
 def _sources(data: Path) -> dict:
+    bag = data / "rosbag" / BAG
     return {
-        "realsense": (data / "rosbag" / "librealsense_d435_single_depth_color_640x480.bag", {}),
+        "realsense": (bag, {"kind": "realsense"}),
+        "ros": (bag, {"kind": "ros"}),
         "ouster": (data / "lidar" / "OS-1-128_v2.3.0_1024x10_lb_n3.pcap",
                    {"meta": data / "lidar" / "OS-1-128_v2.3.0_1024x10.json"}),
     }
 
 
+def _available(name: str) -> str | None:
+    """Why a source cannot run here (its SDK is missing), or None."""
+    module = {"realsense": "pyrealsense2", "ouster": "ouster.sdk", "ros": "rosbags"}[name]
+    try:
+        __import__(module)
+    except ImportError as exc:
+        return f"{module} is not installed ({exc})"
+    return None
+
+
+def _load() -> str:
+    return f"{os.getloadavg()[0]:.1f}"
+
+
+def one_run(path, kw, pace, frames, sink) -> dict:
+    """One live run: its summary, frames per CPU second and the CSV's median times."""
+    with tempfile.TemporaryDirectory() as tmp:
+        out = [Path(tmp) / "live.mcap"] if sink == "mcap" else []
+        table = Path(tmp) / "live.csv"
+        c0 = time.process_time()
+        s = run(path, outputs=out, csv=table, quiet=True, pace=pace, loop=True, frames=frames,
+                status_stream=io.StringIO(), **kw)
+        cpu = time.process_time() - c0
+        rows = list(csv.DictReader(table.open()))
+    s["cpu_fps"] = s["frames_out"] / cpu
+    s["mesh_ms"] = statistics.median(float(r["mesh_ms"]) for r in rows)
+    s["publish_ms"] = statistics.median(float(r["publish_ms"]) for r in rows)
+    return s
+
+
+def _median(runs, key):
+    return statistics.median(r[key] for r in runs)
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--data", type=Path, default=DATA)
-    ap.add_argument("--frames", type=int, default=60)
+    ap.add_argument("--frames", type=int, default=60, help="meshes published a run")
     ap.add_argument("--repeat", type=int, default=3)
-    ap.add_argument("--only", choices=["realsense", "ouster"], default=None)
+    ap.add_argument("--only", choices=["realsense", "ros", "ouster"], action="append",
+                    default=None, help="a source (may be given again; default all)")
+    ap.add_argument("--pace", default="fast", help="comma-separated: fast, recorded, N frames/s")
+    ap.add_argument("--threads", default=None,
+                    help="comma-separated RANGEMESH_THREADS values (default: as the "
+                         "environment says)")
     ap.add_argument("--sink", choices=["none", "mcap"], default="mcap")
     args = ap.parse_args(argv)
+    paces = [p.strip() for p in args.pace.split(",")]
+    threads = args.threads.split(",") if args.threads else [os.environ.get("RANGEMESH_THREADS")]
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    print(f"{args.frames} meshes a run, medians of {args.repeat}, sink {args.sink}, "
+          f"{cores} core(s) allowed, load {_load()}")
+    print("source     pace      thr  in/s   out/s  dropped  lat p50 ms  lat p95 ms  "
+          "frames/CPU s  mesh ms  msg ms  load")
     for name, (path, kw) in _sources(args.data).items():
-        if args.only and name != args.only:
+        if args.only and name not in args.only:
             continue
-        fps, cpu_fps, mesh_ms, pub_ms = [], [], [], []
-        for _ in range(args.repeat):
-            with tempfile.TemporaryDirectory() as tmp:
-                out = [Path(tmp) / "live.mcap"] if args.sink == "mcap" else []
-                table = Path(tmp) / "live.csv"
-                c0 = time.process_time()
-                s = run(path, outputs=out, csv=table, quiet=True, pace="fast", loop=True,
-                        frames=args.frames, status_stream=io.StringIO(), **kw)
-                cpu = time.process_time() - c0
-                rows = list(csv.DictReader(table.open()))
-            fps.append(s["fps_out"])
-            cpu_fps.append(s["frames_out"] / cpu)
-            mesh_ms.append(statistics.median(float(r["mesh_ms"]) for r in rows))
-            pub_ms.append(statistics.median(float(r["publish_ms"]) for r in rows))
-        m, p = statistics.median(mesh_ms), statistics.median(pub_ms)
-        print(f"{name}: {statistics.median(fps):.1f} frames/s (runs: "
-              f"{', '.join(f'{x:.1f}' for x in fps)}; per CPU second "
-              f"{statistics.median(cpu_fps):.1f}), mesh {m:.1f} ms, messages {p:.2f} ms "
-              f"({100 * p / (m + p):.1f} % of a frame), {args.frames} frames a run, sink "
-              f"{args.sink}")
+        why = _available(name)
+        if why is not None:
+            print(f"{name}: skipped, {why}")
+            continue
+        for pace in paces:
+            for t in threads:
+                if t is None:
+                    os.environ.pop("RANGEMESH_THREADS", None)
+                else:
+                    os.environ["RANGEMESH_THREADS"] = t
+                before = _load()
+                runs = [one_run(path, kw, pace, args.frames, args.sink)
+                        for _ in range(args.repeat)]
+                lat50 = _median(runs, "latency_median_ms")
+                lat95 = _median(runs, "latency_p95_ms")
+                drops = [r["dropped"] for r in runs]
+                outs = ", ".join(f"{r['fps_out']:.1f}" for r in runs)
+                print(f"{name:<10} {pace:<9} {t or '-':>3} {_median(runs, 'fps_in'):6.1f} "
+                      f"{_median(runs, 'fps_out'):6.1f}  {statistics.median(drops):7.0f}  "
+                      f"{lat50:10.1f}  {lat95:10.1f}  {_median(runs, 'cpu_fps'):12.1f}  "
+                      f"{_median(runs, 'mesh_ms'):7.1f}  {_median(runs, 'publish_ms'):6.2f}  "
+                      f"{before}-{_load()}  (runs out/s: {outs}; dropped: "
+                      f"{', '.join(map(str, drops))})", flush=True)
     return 0
 
 

@@ -175,6 +175,36 @@ def test_local_workers_run_one_thread_each(tmp_path, monkeypatch):
     assert seen["env"] == {"RANGEMESH_THREADS": "1"}
 
 
+def test_cli_batch_takes_the_deviation_targets(tmp_path, capsys):
+    # batch lacked --max-deviation and --mean-deviation, which `mesh` takes (issue 42)
+    a = scenes.dome((40, 50)).depth
+    np.save(tmp_path / "a.npy", a)
+    rc = main(["batch", str(tmp_path / "a.npy"), "-o", str(tmp_path / "out"), "--workers", "1",
+               "--max-deviation", "0.5"])
+    assert rc == 0, capsys.readouterr().err
+    back = rangemesh.read_mesh(tmp_path / "out" / "a.ply")
+    want = rangemesh.triangulate(a, max_deviation=0.5)
+    assert np.array_equal(back.faces, want.faces)
+    assert rangemesh.evaluate(want, a).max_deviation <= 0.5
+    rc = main(["batch", str(tmp_path / "a.npy"), "-o", str(tmp_path / "o2"), "--max-deviation",
+               "0.5", "--vertices", "30"])
+    assert rc == 2
+    assert "max_deviation and vertices exclude each other" in capsys.readouterr().err
+
+
+def test_cli_batch_output_that_is_an_input_or_a_file_is_one_line(tmp_path, capsys):
+    # `batch a.npy -o a.npy` said only "a.npy: File exists" (issue 42)
+    a = tmp_path / "a.npy"
+    np.save(a, scenes.dome((40, 50)).depth)
+    data = a.read_bytes()
+    rc = main(["batch", str(a), "-o", str(a), "--workers", "1"])
+    one_error_line(capsys, rc, match=f"-o {a} is the input {a}: the meshes go to a folder")
+    (tmp_path / "notes.txt").write_text("mine")
+    rc = main(["batch", str(a), "-o", str(tmp_path / "notes.txt"), "--workers", "1"])
+    one_error_line(capsys, rc, match="notes.txt is a file: the meshes go to a folder")
+    assert a.read_bytes() == data and (tmp_path / "notes.txt").read_text() == "mine"
+
+
 def test_one_worker_meshes_in_this_process_without_dask(tmp_path, monkeypatch):
     """workers=1: no cluster is started (Dask need not be installed); the same files come out."""
     import rangemesh.batch as batch
@@ -489,3 +519,133 @@ def test_batch_reads_the_bin_scans_that_mesh_reads(os1, beams_file, tmp_path, ca
     assert main(["batch", str(folder / "s.bin"), "-o", str(tmp_path / "x"), "--vertices", "1500",
                  "--workers", "1"]) == 1
     assert "needs --beams" in capsys.readouterr().err
+
+
+# ------------------------------------------------------------------ coloured folder batches
+
+
+def _rgbd_folder(root: Path) -> Path:
+    """Two 20 x 30 frames, depth/a.png and depth/b.png (a plane: 1000 + 10 row + 5 col, uint16),
+    with rgb/a.png and rgb/b.png: red 8 col, green 8 row, blue 40 (a) or 200 (b)."""
+    import imageio.v3 as iio
+
+    (root / "depth").mkdir(parents=True)
+    (root / "rgb").mkdir()
+    r, c = np.mgrid[0:20, 0:30]
+    for name, blue in (("a", 40), ("b", 200)):
+        iio.imwrite(root / "depth" / f"{name}.png", (1000 + 10 * r + 5 * c).astype(np.uint16))
+        rgb = np.stack([8 * c, 8 * r, np.full_like(r, blue)], axis=-1).astype(np.uint8)
+        iio.imwrite(root / "rgb" / f"{name}.png", rgb)
+    return root
+
+
+def _colored(path: Path):
+    """A PLY file's vertex depth and colours."""
+    from plyfile import PlyData
+
+    v = PlyData.read(str(path))["vertex"]
+    return np.asarray(v["z"], float), np.stack([v["red"], v["green"], v["blue"]], -1).astype(int)
+
+
+def _check_colors(path: Path, blue: int):
+    z, rgb = _colored(path)
+    assert len(z) == 12 and (rgb[:, 2] == blue).all()
+    # each vertex's colour is its own pixel's: the pixel (green / 8, red / 8) has the vertex's depth
+    assert np.array_equal(z, 1000 + 10 * (rgb[:, 1] // 8) + 5 * (rgb[:, 0] // 8))
+
+
+def test_a_folder_batch_takes_colours_by_a_pattern(tmp_path, capsys, monkeypatch):
+    _rgbd_folder(tmp_path)
+    monkeypatch.chdir(tmp_path)  # a relative pattern is taken from the current folder
+    rc = main(["batch", "depth", "--color-pattern", "rgb/{stem}.png", "-o", "out",
+               "--vertices", "12", "--heights", "pixel", "--workers", "1"])
+    assert rc == 0, capsys.readouterr().err
+    _check_colors(tmp_path / "out/a.ply", 40)
+    _check_colors(tmp_path / "out/b.ply", 200)
+
+
+def test_a_folder_batch_takes_colours_from_an_association_list(tmp_path, capsys):
+    root = _rgbd_folder(tmp_path / "seq")
+    # TUM's associate.py order either way round; here each depth takes the *other* frame's
+    # colour, so the pairs come from the list and not from the names
+    (root / "associations.txt").write_text("# depth and rgb\n"
+                                           "1305031102.175304 depth/a.png 1305031102.160407 rgb/b.png\n"
+                                           "1305031102.211214 rgb/a.png 1305031102.226738 depth/b.png\n")
+    rc = main(["batch", "--associations", str(root / "associations.txt"), "-o",
+               str(tmp_path / "out"), "--vertices", "12", "--heights", "pixel", "--workers", "1"])
+    err = capsys.readouterr().err
+    assert rc == 0, err
+    assert "meshed 2, skipped 0 (already there), failed 0 of 2" in err
+    _check_colors(tmp_path / "out/a.ply", 200)
+    _check_colors(tmp_path / "out/b.ply", 40)
+
+
+def test_a_depth_file_without_its_colour_fails_alone_and_colour_files_are_skipped(tmp_path, capsys):
+    import shutil
+
+    root = _rgbd_folder(tmp_path / "seq")
+    flat = tmp_path / "flat"
+    flat.mkdir()
+    shutil.copy(root / "depth/a.png", flat / "a.png")
+    shutil.copy(root / "depth/b.png", flat / "b.png")
+    shutil.copy(root / "rgb/a.png", flat / "a_rgb.png")  # b has none
+    rc = main(["batch", str(flat), "--color-pattern", "{dir}/{stem}_rgb.png", "-o",
+               str(tmp_path / "out"), "--vertices", "12", "--heights", "pixel", "--workers", "1"])
+    err = capsys.readouterr().err
+    assert rc == 1, err
+    assert "meshed 1, skipped 1 (0 already there, 1 not depth images" in err and "failed 1 of 3" in err
+    rows = {Path(r["input"]).name: r for r in _csv_rows(tmp_path / "out/rangemesh-batch.csv")}
+    assert rows["a_rgb.png"]["status"] == "skipped"
+    assert rows["b.png"]["status"] == "failed" and "b_rgb.png" in rows["b.png"]["error"]
+    _check_colors(tmp_path / "out/a.ply", 40)
+
+
+def test_colour_options_say_what_is_wrong_in_one_line(tmp_path, capsys, shared_data):
+    root = _rgbd_folder(tmp_path / "seq")
+    out = str(tmp_path / "out")
+    one_error_line(capsys, main(["batch", str(root / "depth"), "--color-pattern", "rgb/x.png",
+                                 "-o", out]), match="must name the depth file by {stem}")
+    one_error_line(capsys, main(["batch", str(root / "depth"), "--color-pattern", "{stem}.png",
+                                 "--associations", str(root / "x.txt"), "-o", out]),
+                   match="exclude each other")
+    (root / "bad.txt").write_text("1.0 depth/a.png rgb/a.png\n")
+    one_error_line(capsys, main(["batch", "--associations", str(root / "bad.txt"), "-o", out]),
+                   match="line 1 is not 'stamp path stamp path'")
+    one_error_line(capsys, main(["batch", "-o", out]), match="give the inputs")
+    bag = shared_data / "rosbag/librealsense_d435_single_depth_color_640x480.bag"
+    one_error_line(capsys, main(["batch", str(bag), "--color-pattern", "{stem}.png", "-o", out]),
+                   match="--color-topic")
+
+
+def test_a_rerun_with_other_colours_is_refused_as_other_options(tmp_path):
+    root = _rgbd_folder(tmp_path / "seq")
+    pairs = {root / "depth/a.png": root / "rgb/a.png", root / "depth/b.png": root / "rgb/b.png"}
+    res = mesh_many(root / "depth", tmp_path / "out", colors=pairs, vertices=12, workers=1)
+    assert [r.status for r in res] == ["meshed", "meshed"]
+    with pytest.raises(ValueError, match="colors"):
+        mesh_many(root / "depth", tmp_path / "out", colors=str(root / "rgb/{stem}.png"),
+                  vertices=12, workers=1)
+    with pytest.raises(TypeError, match="colors must be a pattern string or a mapping"):
+        mesh_many(root / "depth", tmp_path / "other", colors=3, vertices=12, workers=1)
+
+
+def test_a_coloured_batch_of_the_tum_frame_gives_what_mesh_color_gives(shared_data, tmp_path,
+                                                                         capsys):
+    import shutil
+
+    seq = tmp_path / "tum"
+    (seq / "depth").mkdir(parents=True)
+    (seq / "rgb").mkdir()
+    shutil.copy(shared_data / "rgbd/slambook2_ch7_1_depth.png", seq / "depth/1.png")
+    shutil.copy(shared_data / "rgbd/slambook2_ch7_1_color.png", seq / "rgb/1.png")
+    (seq / "associations.txt").write_text("1.0 rgb/1.png 1.0 depth/1.png\n")
+    cam = ["--intrinsics", "520.9,521.0,325.1,249.7", "--depth-scale", "0.0002"]
+    assert main(["batch", "--associations", str(seq / "associations.txt"), "-o",
+                 str(tmp_path / "out"), "--vertices", "2000", "--workers", "1", *cam]) == 0
+    assert main(["mesh", str(seq / "depth/1.png"), "--color", str(seq / "rgb/1.png"), "-o",
+                 str(tmp_path / "one.ply"), "--vertices", "2000", "--quiet", *cam]) == 0
+    capsys.readouterr()
+    z, rgb = _colored(tmp_path / "out/1.ply")
+    z1, rgb1 = _colored(tmp_path / "one.ply")
+    assert np.array_equal(z, z1) and np.array_equal(rgb, rgb1)
+    assert len(np.unique(rgb, axis=0)) > 500  # the photo's colours, not one grey

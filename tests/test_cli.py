@@ -285,7 +285,7 @@ def test_failed_write_leaves_nothing(tmp_path, monkeypatch, capsys):
     np.save(src, crops()["chair"][0])
     out = tmp_path / "out"
     out.mkdir()
-    monkeypatch.setattr(rio, "_write_ply", boom)
+    monkeypatch.setattr(rio.FORMATS[".ply"], "write", boom)
     code = main(["mesh", str(src), "-o", str(out / "c.ply")])
     err = capsys.readouterr().err
     assert code == 2
@@ -565,3 +565,29 @@ def test_mesh_deviation_targets_exclude_the_others(tmp_path, capsys):
     assert rc == 2 and "max_deviation and vertices exclude each other" in err
     rc, _, err = run(["mesh", src, "-o", tmp_path / "c.ply", "--mean-deviation", "-1"], capsys)
     assert rc == 2 and "mean_deviation must be a finite number of 0 or more" in err
+
+
+# ---------------------------------------------------------------- one set of mesh options
+
+
+def _flags(command):
+    from rangemesh.cli import build_parser
+
+    sub = next(a for a in build_parser()._actions if a.dest == "command")
+    return {f for a in sub.choices[command]._actions for f in a.option_strings}
+
+
+# `mesh`'s flags about its input and outputs; every other flag of it is a meshing option
+MESH_IO_FLAGS = {"-h", "--help", "-o", "--output", "--preview", "--color", "--intensity",
+                 "--color-mean", "--ascii", "--pixels", "--overwrite", "--background", "--quiet",
+                 "--json", "--meta", "--frame"}
+
+
+@pytest.mark.parametrize("command", ["batch", "live", "demo"])
+def test_every_meshing_command_takes_every_mesh_option_of_mesh(command):
+    # batch and live lacked --max-deviation and --mean-deviation (issue 42)
+    options = _flags("mesh") - MESH_IO_FLAGS
+    assert {"--method", "--vertices", "--max-error", "--max-edge", "--max-deviation",
+            "--mean-deviation", "--tiles", "--intrinsics"} <= options
+    assert options - _flags(command) == set()
+

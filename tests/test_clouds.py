@@ -157,3 +157,157 @@ def test_a_camera_over_part_of_the_circle_takes_the_points_in_its_columns(shared
     assert not scan.camera.wraps and scan.collisions == 0
     assert np.array_equal(scan.ranges > 0, want > 0)
     np.testing.assert_allclose(scan.ranges, want, rtol=1e-6)
+
+
+# ------------------------------------------------------------------ cloud files with a ring field
+
+# Two beams at +2 and -2 degrees, four columns a turn (azimuth 0, -90, 180, 90: clockwise), by hand:
+# ranges [[1, 2, 3, 4], [5, 6, 7, 8]]; the driver's ring counts from the bottom beam (Velodyne's
+# order). The top beam's second point is measured at -1.5 degrees, nearer the bottom beam's -2:
+# its ring keeps it in the top row. A NaN point is a no-return, as drivers write them.
+HAND_RANGES = np.array([[1.0, 2.0, 3.0, 4.0], [5.0, 6.0, 7.0, 8.0]])
+
+
+def _hand_cloud():
+    rows = []
+    for b, (elev, ring) in enumerate(((2.0, 1), (-2.0, 0))):
+        for c, az in enumerate((0.0, -90.0, 180.0, 90.0)):
+            e = -1.5 if (b, c) == (0, 1) else elev
+            r = HAND_RANGES[b, c]
+            er, ar = np.radians(e), np.radians(az)
+            rows.append((r * np.cos(er) * np.cos(ar), r * np.cos(er) * np.sin(ar), r * np.sin(er),
+                         10.0 * r, ring))
+    rows.append((np.nan, np.nan, np.nan, 0.0, 0))
+    return rows
+
+
+def _pcd_header(data: str, fields="x y z intensity ring", size="4 4 4 4 2", typ="F F F F U"):
+    n = len(_hand_cloud())
+    return (f"# .PCD v0.7 - Point Cloud Data file format\nVERSION 0.7\nFIELDS {fields}\n"
+            f"SIZE {size}\nTYPE {typ}\nCOUNT 1 1 1 1 1\nWIDTH {n}\nHEIGHT 1\n"
+            f"VIEWPOINT 0 0 0 1 0 0 0\nPOINTS {n}\nDATA {data}\n")
+
+
+def _check_hand_scan(points, ring):
+    assert ring is not None and list(ring) == [1, 1, 1, 1, 0, 0, 0, 0, 0]
+    scan = project_scan(points, ring=ring)
+    np.testing.assert_allclose(scan.ranges, HAND_RANGES, rtol=1e-6)
+    np.testing.assert_allclose(scan.intensity, 10.0 * HAND_RANGES, rtol=1e-6)
+    assert scan.index.tolist() == [[0, 1, 2, 3], [4, 5, 6, 7]] and scan.collisions == 0
+    np.testing.assert_allclose(scan.camera.elevation, [2.0, -2.0], atol=1e-5)
+    # without the ring the odd point goes to the nearer bottom row, where a nearer point wins
+    plain = project_scan(points, rows=2, cols=4)
+    assert plain.ranges[0, 1] == 0.0 and plain.collisions == 1
+
+
+def test_an_ascii_pcd_cloud_with_a_ring_field_keeps_each_point_in_its_beam(tmp_path):
+    path = tmp_path / "hand.pcd"
+    lines = [" ".join(f"{v:.9g}" for v in row[:4]) + f" {row[4]}" for row in _hand_cloud()]
+    path.write_text(_pcd_header("ascii") + "\n".join(lines) + "\n")
+    points, ring = read_cloud(path, ring=True)
+    assert points.shape == (9, 4) and np.isnan(points[8, :3]).all()
+    _check_hand_scan(points, ring)
+
+
+def test_a_binary_pcd_cloud_reads_as_its_ascii_twin(tmp_path):
+    import struct
+
+    path = tmp_path / "hand.pcd"
+    body = b"".join(struct.pack("<ffffH", *row) for row in _hand_cloud())  # 18 bytes a point
+    path.write_bytes(_pcd_header("binary").encode() + body)
+    _check_hand_scan(*read_cloud(path, ring=True))
+
+
+def test_a_ply_cloud_with_a_ring_field_keeps_each_point_in_its_beam(tmp_path):
+    from plyfile import PlyData, PlyElement
+
+    rows = np.array(_hand_cloud(), dtype=[("x", "f4"), ("y", "f4"), ("z", "f4"),
+                                          ("intensity", "f4"), ("ring", "u2")])
+    path = tmp_path / "hand.ply"
+    PlyData([PlyElement.describe(rows, "vertex")]).write(str(path))
+    _check_hand_scan(*read_cloud(path, ring=True))
+    # a cloud file without a ring field gives None
+    bare = np.array([r[:3] for r in _hand_cloud()], dtype=[("x", "f4"), ("y", "f4"), ("z", "f4")])
+    PlyData([PlyElement.describe(bare, "vertex")]).write(str(tmp_path / "bare.ply"))
+    pts, ring = read_cloud(tmp_path / "bare.ply", ring=True)
+    assert ring is None and (pts[:8, 3] == 0).all()
+
+
+def test_a_cloud_file_s_bad_ring_or_missing_axis_is_one_line(tmp_path):
+    path = tmp_path / "bad.pcd"
+    path.write_text(_pcd_header("ascii", "x y intensity ring", "4 4 4 2", "F F F U")
+                    .replace("COUNT 1 1 1 1 1", "COUNT 1 1 1 1") + "1 2 3 0\n" * 9)
+    with pytest.raises(ValueError, match="no z field"):
+        read_cloud(path)
+    pts = np.array([r[:4] for r in _hand_cloud()[:8]])
+    with pytest.raises(ValueError, match="ring"):
+        project_scan(pts, ring=np.arange(8.0) + 0.5)
+
+
+def test_the_command_line_meshes_and_describes_a_pcd_cloud(tmp_path, capsys):
+    path = tmp_path / "hand.pcd"
+    lines = [" ".join(f"{v:.9g}" for v in row[:4]) + f" {row[4]}" for row in _hand_cloud()]
+    path.write_text(_pcd_header("ascii") + "\n".join(lines) + "\n")
+    assert main(["info", str(path), "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert (doc["points"], doc["returns"], doc["no_returns"], doc["ring_beams"]) == (9, 8, 1, 2)
+    assert main(["info", str(path), "--sensor", "vlp16", "--json"]) == 2  # 2 rings, 16 beams
+    assert "16 beams" in capsys.readouterr().err
+    ply = tmp_path / "hand.ply"
+    assert main(["mesh", str(ply), "-o", str(tmp_path / "m.ply")]) == 2
+    assert "a .ply cloud needs --sensor" in capsys.readouterr().err
+
+
+# ------------------------------------------------------------------ Ouster heads from metadata
+
+OUSTER_META = "lidar/OS-1-128_v2.3.0_1024x10.json"
+
+
+def _ouster_cloud(meta: dict, ranges):
+    """Points of every pixel by the formula of Ouster's manual ("Lidar Range to XYZ"), in metres,
+    in the sensor frame (lidar_to_sensor_transform applied), as the SDK and ouster-ros give them."""
+    alt = np.radians(np.asarray(meta["beam_altitude_angles"]))[:, None]
+    azi = -np.radians(np.asarray(meta["beam_azimuth_angles"]))[:, None]
+    w = int(meta["lidar_mode"].split("x")[0])
+    enc = 2 * np.pi * (1 - np.arange(w) / w)[None, :]
+    n = meta["lidar_origin_to_beam_origin_mm"] / 1000.0
+    x = (ranges - n) * np.cos(enc + azi) * np.cos(alt) + n * np.cos(enc)
+    y = (ranges - n) * np.sin(enc + azi) * np.cos(alt) + n * np.sin(enc)
+    z = (ranges - n) * np.sin(alt)
+    m = np.asarray(meta["lidar_to_sensor_transform"], float).reshape(4, 4)
+    p = np.stack([x, y, z], -1) @ m[:3, :3].T + m[:3, 3] / 1000.0
+    return p.reshape(-1, 3)
+
+
+def test_an_ouster_head_from_its_metadata_puts_every_point_in_its_beam(shared_data):
+    meta = json.loads((shared_data / OUSTER_META).read_text())
+    h, w = len(meta["beam_altitude_angles"]), 1024
+    # near and far: at 0.5-2 m the 36 mm and 16 mm offsets move a point's elevation by a beam
+    ranges = np.random.default_rng(3).uniform(0.5, 40.0, (h, w))
+    ranges[:, ::7] = np.random.default_rng(4).uniform(0.5, 2.0, (h, len(range(0, w, 7))))
+    cloud = _ouster_cloud(meta, ranges)
+    order = np.random.default_rng(5).permutation(len(cloud))
+    scan = project_scan(cloud[order], sensor=shared_data / OUSTER_META)
+    assert scan.ranges.shape == (h, w) and scan.camera.wraps and scan.collisions == 0
+    pid = order[scan.index]  # each pixel's point, as the generator numbered it (row-major)
+    assert (scan.index >= 0).all()
+    rows, cols = np.divmod(pid, w)
+    assert np.array_equal(rows, np.repeat(np.arange(h)[:, None], w, axis=1))  # each in its beam
+    shift = (np.arange(w)[None, :] - cols) % w
+    assert (shift == shift[0, 0]).all()  # the columns in the sensor's order, one turn of shift
+    np.testing.assert_allclose(scan.camera.elevation, meta["beam_altitude_angles"])
+
+
+def test_an_ouster_head_from_the_command_line(shared_data, tmp_path, capsys):
+    from plyfile import PlyData, PlyElement
+
+    meta = json.loads((shared_data / OUSTER_META).read_text())
+    ranges = np.random.default_rng(6).uniform(2.0, 20.0, (128, 1024))
+    pts = _ouster_cloud(meta, ranges).astype("f4")
+    path = tmp_path / "os1.ply"
+    PlyData([PlyElement.describe(np.rec.fromarrays(pts.T, names="x,y,z"), "vertex")]).write(str(path))
+    assert main(["mesh", str(path), "--sensor", str(shared_data / OUSTER_META), "--vertices", "500",
+                 "-o", str(tmp_path / "m.ply"), "--quiet"]) == 0
+    assert main(["info", str(path), "--sensor", str(shared_data / OUSTER_META), "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["shape"] == [128, 1024] and doc["valid_pixels"] == 128 * 1024

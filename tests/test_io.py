@@ -83,15 +83,20 @@ def test_permission_denied_names_the_output(chair_file, tmp_path, capsys, monkey
 
 
 # D14 of the 2026-11-21 hostile-input report
-@pytest.mark.parametrize("suffix, target", [(".ply", "rangemesh.io._write_ply"),
+@pytest.mark.parametrize("suffix, target", [(".ply", "write"),
                                             (".png", "matplotlib.figure.Figure.savefig")])
 def test_a_full_disk_leaves_no_file(chair_file, tmp_path, capsys, monkeypatch, suffix, target):
     import errno
 
+    import rangemesh.io as rio
+
     def full(*args, **kwargs):
         raise OSError(errno.ENOSPC, "No space left on device")
 
-    monkeypatch.setattr(target, full)
+    if target == "write":  # the PLY writer of the table of formats
+        monkeypatch.setattr(rio.FORMATS[".ply"], "write", full)
+    else:
+        monkeypatch.setattr(target, full)
     args = ["mesh", str(chair_file)]
     args += ["-o", str(tmp_path / "o.ply")] if suffix == ".ply" else ["--preview", str(tmp_path / "p.png")]
     line = one_error_line(capsys, main(args), match="No space left on device")
@@ -126,13 +131,13 @@ def test_an_overwritten_file_keeps_its_mode(chair_file, tmp_path):
 def test_a_signal_while_writing_leaves_nothing(chair_file, tmp_path, monkeypatch, capsys, signum):
     import rangemesh.io as rio
 
-    real = rio._write_ply
+    real = rio.FORMATS[".ply"].write
 
-    def write_then_signal(mesh, tmp, *args):
-        real(mesh, tmp, *args)  # the temporary file exists and is complete
+    def write_then_signal(mesh, path, tmp, *args):
+        real(mesh, path, tmp, *args)  # the temporary file exists and is complete
         os.kill(os.getpid(), signum)
 
-    monkeypatch.setattr(rio, "_write_ply", write_then_signal)
+    monkeypatch.setattr(rio.FORMATS[".ply"], "write", write_then_signal)
     (tmp_path / "out.ply").write_text("old")
     code = main(["mesh", str(chair_file), "-o", str(tmp_path / "out.ply"), "--quiet"])
     assert code == 128 + signum
@@ -322,3 +327,76 @@ def test_a_subnormal_depth_scale_mesh_file_evaluates_as_made(tmp_path, capsys):
     got = json.loads(capsys.readouterr().out)
     assert got["relative_error"] == pytest.approx(made["relative_error"], rel=1e-6)
     assert got["uncovered"] == 0.0
+
+
+# ---------------------------------------------------------------- the table of formats
+
+
+def test_the_suffixes_are_those_documented():
+    from rangemesh.io import IMAGE_SUFFIXES, MESH_SUFFIXES
+
+    # the README's and read_range_image's list, in their order (issue 43: now made from FORMATS)
+    assert IMAGE_SUFFIXES == (".npy", ".png", ".pgm", ".ppm", ".pnm", ".pfm", ".tif", ".tiff",
+                              ".pcd")
+    assert MESH_SUFFIXES == (".ply", ".obj", ".off", ".stl", ".glb")
+
+
+def test_unknown_suffixes_are_refused_in_one_line(tmp_path):
+    odd = tmp_path / "a.xyz"
+    odd.write_text("1 2 3\n")
+    mesh = rangemesh.triangulate(np.add.outer(np.arange(6.0), np.arange(7.0)), vertices=8)
+    with pytest.raises(ValueError) as got:
+        rangemesh.read_range_image(odd)
+    assert str(got.value) == (f"{odd}: unknown image type '.xyz'; known: .npy, .png, .pgm, "
+                              f".ppm, .pnm, .pfm, .tif, .tiff, .pcd")
+    with pytest.raises(ValueError) as got:
+        read_mesh(odd)
+    assert str(got.value) == f"{odd}: unknown mesh format '.xyz'; known: .ply, .obj, .off, .stl, .glb"
+    with pytest.raises(ValueError) as got:
+        write_mesh(mesh, odd)
+    assert str(got.value) == (f"{odd}: unknown mesh format '.xyz'; use one of .ply, .obj, .off, "
+                              f".stl, .glb")
+    # a mesh suffix is no image, and an image suffix no mesh
+    ply = tmp_path / "m.ply"
+    ply.touch()
+    with pytest.raises(ValueError, match="unknown image type '.ply'"):
+        rangemesh.read_range_image(ply)
+    with pytest.raises(ValueError, match="unknown mesh format '.png'; use one of"):
+        write_mesh(mesh, tmp_path / "m.png")
+    with pytest.raises(ValueError, match="ascii and pixels apply to PLY files only"):
+        write_mesh(mesh, tmp_path / "m.obj", ascii=True)
+
+
+def test_a_format_is_one_entry_of_the_table(tmp_path, monkeypatch):
+    import rangemesh.io as rio
+
+    def read_xyz(path):
+        return np.loadtxt(path, ndmin=2)
+
+    def write_vf(mesh, path, tmp, ascii, pixels, normals):
+        with open(tmp, "wb") as fh:
+            np.savez(fh, v=mesh.vertices, f=mesh.faces)
+
+    def read_vf(path, camera, image_shape):
+        with np.load(path) as got:
+            return rio._MeshFile(got["v"], got["f"])
+
+    monkeypatch.setitem(rio.FORMATS, ".xyz", rio.Format("image", read_xyz))
+    monkeypatch.setitem(rio.FORMATS, ".vf", rio.Format("mesh", read_vf, write_vf))
+    image = tmp_path / "d.xyz"
+    image.write_text("1 2 3\n4 5 6\n")
+    np.testing.assert_array_equal(rangemesh.read_range_image(image), [[1, 2, 3], [4, 5, 6]])
+    mesh = rangemesh.triangulate(np.add.outer(np.arange(6.0), np.arange(7.0)), vertices=8)
+    out = write_mesh(mesh, tmp_path / "m.vf")  # through atomic_path: the temporary is renamed
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["d.xyz", "m.vf"]
+    back = read_mesh(out)
+    np.testing.assert_array_equal(back.vertices, mesh.vertices)
+    np.testing.assert_array_equal(back.faces, mesh.faces)
+    unknown = tmp_path / "d.abc"
+    unknown.touch()
+    with pytest.raises(ValueError, match=r"known: \.npy, .*, \.pcd, \.xyz$"):
+        rangemesh.read_range_image(unknown)
+    with pytest.raises(ValueError, match=r"known: \.ply, .*, \.glb, \.vf$"):
+        read_mesh(unknown)
+    with pytest.raises(ValueError, match="unknown mesh format '.xyz'"):  # an image format
+        write_mesh(mesh, tmp_path / "m.xyz")

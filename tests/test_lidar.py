@@ -9,9 +9,9 @@ import pytest
 import rangemesh
 from rangemesh import Orthographic, Rays, Spherical, backproject, triangulate
 from rangemesh.cli import main
-from rangemesh.geometry.seam import is_seam, seam_strip
+from rangemesh.geometry.seam import is_seam, seam_faces, seam_strip
+from rangemesh.geometry.walls import wall_faces
 from rangemesh.io import read_lidar_bin, read_mesh, write_mesh
-from rangemesh.refine.walls import wall_faces
 
 from .helpers import assert_valid_mesh
 from .images import lidar_scan
@@ -185,6 +185,30 @@ def test_seam_strip_of_a_full_mesh_by_hand():
     inner = mesh.pixels[:, 1] % (w - 1) != 0
     keep = inner[mesh.faces].all(axis=1)
     assert len(seam_strip(mesh.pixels, mesh.faces[keep], w)) == 0
+
+
+def test_seam_faces_measure_the_jump_across_the_seam_by_hand():
+    """2x4 image, depth 1 on column 0 and 2 on column 3: the strip's edges are 1 pixel long.
+
+    Across the seam a straight edge is 1 pixel and a diagonal 1.41, so a step of 1 at depth 1
+    is a jump for ``jump=0.5`` (0.5 * 1 * 1 < 1) and not for 1.5 (1.5 * 1 * 1 > 1); measured in
+    the plain image (3 pixels from column 3 to column 0) 0.5 would let it pass (1.5 > 1).
+    """
+    depth = np.array([[1.0, 1.0, 2.0, 2.0], [1.0, 1.0, 2.0, 2.0]])
+    mesh = triangulate(depth, vertices=8, heights="pixel", wrap=False)
+    kept = seam_faces(mesh.pixels, mesh.faces, 4)
+    assert len(kept) == 2  # one quad between the two rows, two triangles
+    assert is_seam(mesh.pixels, kept).all()
+    assert len(seam_faces(mesh.pixels, mesh.faces, 4, depth=depth, jump=1.5)) == 2
+    assert len(seam_faces(mesh.pixels, mesh.faces, 4, depth=depth, jump=0.5)) == 0
+    # through the pipeline: the same strip, walls or not
+    assert is_seam(*_pf(triangulate(depth, vertices=8, heights="pixel", wrap=True))).sum() == 2
+    no_walls = triangulate(depth, vertices=8, heights="pixel", wrap=True, walls=False, jump=0.5)
+    assert not is_seam(*_pf(no_walls)).any()
+
+
+def _pf(mesh):
+    return mesh.pixels, mesh.faces
 
 
 def test_walls_across_the_seam_are_dropped():

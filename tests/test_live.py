@@ -10,6 +10,7 @@ import struct
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -120,6 +121,16 @@ def test_a_looped_recording_goes_on_one_frame_gap_after_its_end():
     clock = FakeClock()
     out, _ = _run(Playback(_frames([0.0, 0.5, 0.0, 0.5]), "recorded", clock, fps=2.0), 1, 0.0, clock)
     assert [a for _, a, _ in out] == [0.0, 0.5, 1.0, 1.5]
+
+
+def test_a_looped_recording_of_unknown_rate_keeps_its_pace_pass_after_pass():
+    # no fps: the gap between passes is the first pass's mean gap, 0.5 s here. It was the mean
+    # over every frame released so far, so each pass came sooner (1/3 of the gap at the third,
+    # 1/5 at the fourth: the ROS bag looped at --pace recorded went in at 11 frames/s, not 6)
+    clock = FakeClock()
+    out, stats = _run(Playback(_frames([0.0, 0.5] * 4), "recorded", clock), 1, 0.0, clock)
+    assert [round(a, 9) for _, a, _ in out] == [0.0, 0.5, 1.0, 1.5, 2.0, 2.5, 3.0, 3.5]
+    assert stats.dropped == 0
 
 
 def test_a_device_s_frames_dropped_before_the_mesher_takes_them_are_counted():
@@ -474,12 +485,15 @@ def test_a_websocket_client_receives_scene_updates_as_meshed(shared_data):
 
 
 @pytest.mark.slow
-def test_ctrl_c_leaves_a_readable_mcap(shared_data, tmp_path):
+@pytest.mark.parametrize("reader", ["ros", "realsense"])
+def test_ctrl_c_leaves_a_readable_mcap(shared_data, tmp_path, reader):
     sdk("foxglove")
+    if reader == "realsense":  # the SDK's playback: its pipeline stopped before the MCAP closes
+        sdk("pyrealsense2")
     make_reader, DecoderFactory = _decoder()
     out = tmp_path / "run.mcap"
     proc = subprocess.Popen(
-        [sys.executable, "-m", "rangemesh", "live", str(shared_data / REALSENSE), "--source", "ros",
+        [sys.executable, "-m", "rangemesh", "live", str(shared_data / REALSENSE), "--source", reader,
          "--pace", "20", "--loop", "--vertices", "300", "--foxglove", "0", "-o", str(out)],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=ENV)
     try:
@@ -547,6 +561,63 @@ def test_live_cli_takes_the_mesh_options(shared_data):
     # an option of the other method is refused as `rangemesh mesh` refuses it: the same groups
     r = _cli(shared_data / REALSENSE, "--tiles", "4x4")
     assert r.returncode == 2 and "--tiles" in r.stderr and "--method paper" in r.stderr
+
+
+def test_an_output_never_replaces_the_source_recording(shared_data, tmp_path):
+    # `live x.bag -o x.bag` said only "x.bag: File exists"; `--csv x.bag` replaced the recording
+    # with the CSV at the end of the run (issue 42)
+    import shutil
+
+    from rangemesh.live import run
+
+    from .rosbag_writer import image_topic, info_topic, mcap_file, write_bag
+
+    bag = tmp_path / "x.bag"
+    shutil.copy(shared_data / REALSENSE, bag)
+    folder = write_bag(tmp_path / "rec", [image_topic([np.full((48, 64), 900, np.uint16)] * 2,
+                                                      "16UC1"),
+                                          info_topic(size=(48, 64))], "mcap")
+    (tmp_path / "notes.txt").write_text("mine")
+    before = {p: p.read_bytes() for p in [bag, tmp_path / "notes.txt", *Path(folder).iterdir()]}
+    cases = [
+        ((bag, "-o", bag), f"-o {bag} is the source recording {bag}: writing there would "
+                           f"replace the recording; write elsewhere"),
+        ((bag, "--source", "ros", "-o", bag), f"-o {bag} is the source recording"),
+        ((bag, "-o", tmp_path / "m.mcap", "--csv", bag), f"--csv {bag} is the source recording"),
+        ((folder, "-o", Path(folder) / "m.mcap"),
+         f"-o {Path(folder) / 'm.mcap'} is the source recording {folder} or lies inside it"),
+        ((folder, "-o", mcap_file(folder)), f"-o {mcap_file(folder)} is the source recording"),
+        ((bag, "-o", tmp_path / "notes.txt"),
+         f"-o {tmp_path / 'notes.txt'} is a file: an output is NAME.mcap or a folder"),
+        ((bag, "-o", tmp_path / "m.mcap", "--csv", tmp_path / "m.mcap"),
+         "--csv " + str(tmp_path / "m.mcap") + " is the MCAP output too"),
+    ]
+    for argv, says in cases:
+        r = _cli(*argv, "--pace", "fast", "--vertices", "300", "--overwrite", "--quiet")
+        assert r.returncode == 2
+        assert r.stderr.count("\n") == 1 and "Traceback" not in r.stderr, r.stderr
+        assert r.stderr.startswith(f"rangemesh: error: {says}"), r.stderr
+    assert {p: p.read_bytes() for p in [bag, tmp_path / "notes.txt", *Path(folder).iterdir()]} \
+        == before
+    assert not (tmp_path / "m.mcap").exists()
+    with pytest.raises(ValueError, match=r"^csv .* is the source recording"):
+        run(bag, csv=bag, pace="fast", quiet=True)
+
+
+def test_live_cli_takes_the_deviation_targets(shared_data, tmp_path):
+    # `live` lacked --max-deviation and --mean-deviation, which `mesh` takes (issue 42: every
+    # mesh option of `mesh`); rangemesh.live refused them as unknown options
+    r = _cli(shared_data / REALSENSE, "--source", "ros", "--pace", "fast", "--max-deviation",
+             "0.02", "-o", tmp_path / "m", "--quiet")
+    assert r.returncode == 0, r.stderr
+    want = _expected_meshes(shared_data, max_deviation=0.02)
+    for stamp, mesh in want.items():
+        back = rangemesh.read_mesh(tmp_path / "m" / f"{stamp // 10**9}.{stamp % 10**9:09d}.ply")
+        assert np.array_equal(back.faces, mesh.faces)
+        assert np.allclose(back.vertices, mesh.vertices)
+    got = [m for _, _, m in rangemesh.live(shared_data / REALSENSE, kind="ros", pace="fast",
+                                           mean_deviation=0.005)]
+    assert len(got) == 2 and all(m.stats.target.kind == "mean_deviation" for m in got)
 
 
 def test_pacing_module_has_the_wall_clock():

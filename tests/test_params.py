@@ -7,7 +7,7 @@ import pytest
 import rangemesh
 from rangemesh import MeshParams, Orthographic, Pinhole, backproject, to_depth_and_mask
 from rangemesh.options import markdown_table
-from rangemesh.params import OPTION_METHOD, OPTION_TABLE
+from rangemesh.params import NONE_MEANS, OPTION_METHOD, OPTION_TABLE
 
 
 def test_defaults_are_the_papers():
@@ -50,6 +50,34 @@ def test_every_field_is_an_option_of_the_table():
 def test_params_check_each_field_by_its_options_rule(field, bad, error, message):
     with pytest.raises(error, match=message):
         MeshParams(**{field: bad})
+
+
+def test_what_none_means_is_declared_with_its_option_and_documented():
+    # issue 43: "None means the method's default" was spelled in the pipeline (heights != 'pixel',
+    # diagonals or 'error'); it is declared on the option and read from one table
+    assert NONE_MEANS == {"heights": "fit", "diagonals": "error"}
+    for o in OPTION_TABLE:
+        if o.none_means is not None:
+            assert o.default is None and o.none_means in o.choices
+            assert f"``{o.none_means!r}`` (None: the default)" in o.doc
+
+
+@pytest.mark.parametrize("name, other", [("diagonals", "delaunay"), ("heights", "pixel")])
+def test_the_pipeline_resolves_none_from_the_table(monkeypatch, name, other):
+    r, c = np.mgrid[0:30, 0:40]
+    depth = 100.0 + 5.0 * np.sin(r / 4.0) * np.cos(c / 5.0) + 0.02 * r * c
+
+    def mesh(**options):
+        m = rangemesh.triangulate(depth, vertices=60, **options)
+        return m.vertices, m.faces
+
+    default, given, changed = mesh(), mesh(**{name: NONE_MEANS[name]}), mesh(**{name: other})
+    for a, b in zip(default, given, strict=True):
+        np.testing.assert_array_equal(a, b)
+    assert any(a.shape != b.shape or (a != b).any() for a, b in zip(default, changed, strict=True))
+    monkeypatch.setitem(NONE_MEANS, name, other)
+    for a, b in zip(mesh(), changed, strict=True):
+        np.testing.assert_array_equal(a, b)
 
 
 def test_the_docs_option_table_is_the_codes():

@@ -208,6 +208,26 @@ def test_mesh_bag_takes_triangulate_s_options(bags, frames):
         mesh_bag(bags["mcap"]["32FC1"], vertices=N, tiles=3)
 
 
+def test_a_recording_takes_the_deviation_targets(bags, frames, tmp_path, capsys):
+    # mesh_bag, mesh_recording and `batch` on a recording refused max_deviation and
+    # mean_deviation as unknown options, though triangulate and `rangemesh mesh` take them
+    first = metres(frames[0][0])
+    want = rangemesh.triangulate(first, camera=pinhole(1.0), background=0, max_deviation=0.01)
+    got = next(iter(mesh_bag(bags["mcap"]["32FC1"], max_deviation=0.01))).mesh
+    same_mesh(got, want)
+    assert rangemesh.evaluate(got, first, background=0).max_deviation <= 0.01
+    with pytest.raises(ValueError, match="max_deviation and vertices exclude each other"):
+        mesh_bag(bags["mcap"]["32FC1"], max_deviation=0.01, vertices=N)
+    out = tmp_path / "m.mcap"
+    code, _, err = _cli(["batch", bags["mcap"]["32FC1"], "-o", out, "--mean-deviation", "0.002",
+                         "--workers", 1], capsys)
+    assert code == 0, err
+    markers = read_markers(out)
+    want = [rangemesh.triangulate(metres(d), camera=pinhole(1.0), background=0,
+                                  mean_deviation=0.002) for d in frames[0]]
+    check_markers(markers, want)
+
+
 def test_depth_of_zero_and_below_is_no_return_in_a_recording(tmp_path, frames):
     # F16: a 32FC1 frame's negative depths were meshed behind the camera (z < 0), exit 0
     depth = metres(frames[0][0])

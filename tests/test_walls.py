@@ -9,8 +9,8 @@ from hypothesis import strategies as st
 
 import rangemesh
 from rangemesh import Spherical, evaluate, scenes, triangulate
+from rangemesh.geometry.walls import wall_faces
 from rangemesh.io import read_lidar_bin
-from rangemesh.refine.walls import wall_faces
 
 from .helpers import assert_valid_mesh
 

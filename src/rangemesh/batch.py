@@ -39,15 +39,18 @@ from .io import (
     atomic_path,
     bin_layout,
     part_owner,
+    read_color_image,
     read_scan,
     write_mesh,
 )
 from .mesh import Mesh
 from .metrics import evaluate
+from .pairing import check_pattern, color_for, colors_record
 from .params import MeshParams
 from .pipeline import Workspace, run
 from .prepare import NONPOSITIVE, check_image
 from .resolve import call_keywords, call_options, resolve_call
+from .timing import timed
 
 __all__ = ["mesh_stream", "mesh_many", "expand_inputs", "BatchResult", "summarize"]
 
@@ -235,16 +238,17 @@ def _connect(client_cls, scheduler: str, timeout: float):
 
 
 def _one(path: str, out: str, call: dict, background, camera, overwrite: bool,
-         layout: dict | None = None) -> BatchResult:
+         layout: dict | None = None, color: str | None = None) -> BatchResult:
     """The task every worker runs: read, mesh, evaluate, write. Never raises.
 
     `call` holds `triangulate`'s keywords (method, targets, options), checked
     by `mesh_many` before any work; `layout`, a ``.bin`` scan's
-    (`rangemesh.io.bin_layout`).
+    (`rangemesh.io.bin_layout`); `color`, the paired colour image ("" when
+    colours were asked for and none is paired with this file).
     """
     from .pipeline import triangulate
 
-    t0 = time.perf_counter()
+    clock = timed()
     if not overwrite and Path(out).exists():
         return BatchResult(path, out, "skipped")
     try:
@@ -258,15 +262,24 @@ def _one(path: str, out: str, call: dict, background, camera, overwrite: bool,
             raise ValueError(f"nothing to mesh: {mesh.stats.reason}")
         ev = evaluate(mesh, img, background=background, depth_limits=call.get("depth_limits"),
                       min_region=call.get("min_region"))
+        if color == "":
+            raise ValueError("no colour image is paired with it (colors=, --associations)")
+        if color is not None:
+            mesh = mesh.with_colors(read_color_image(color))
         write_mesh(mesh, out, pixels=getattr(camera, "z_depth", False))  # as `rangemesh mesh`
     except Exception as exc:  # one bad file must not stop the batch: report it in one line
         msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         return BatchResult(path, out, "failed", error=f"{type(exc).__name__}: {msg}",
-                           seconds=time.perf_counter() - t0)
+                           seconds=clock.elapsed)
     s = mesh.stats
     return BatchResult(path, out, "meshed", vertices=s.vertices, triangles=s.triangles,
-                       flipped_edges=s.flipped_edges, seconds=time.perf_counter() - t0,
+                       flipped_edges=s.flipped_edges, seconds=clock.elapsed,
                        relative_error=ev.relative_error)
+
+
+def _one_paired(path: str, out: str, color: str | None, **task) -> BatchResult:
+    """`_one` with the colour image as a positional argument: `Client.map` maps only those."""
+    return _one(path, out, color=color, **task)
 
 
 # Another host's leftovers (a shared folder) are removed only after this long: its processes
@@ -403,7 +416,7 @@ def mesh_many(paths, out_dir, params: MeshParams | None = None, *,
               mean_deviation: float | None = None, background="auto", camera=None,
               scheduler: str | None = None, workers: int | None = None, overwrite: bool = False,
               fmt: str = ".ply", progress: bool = False, connect_timeout: float = 10.0,
-              beams: str | os.PathLike | None = None, **options) -> list[BatchResult]:
+              beams: str | os.PathLike | None = None, colors=None, **options) -> list[BatchResult]:
     """Mesh many range images into `out_dir`, in parallel through Dask, or in this process.
 
     Parameters
@@ -446,6 +459,13 @@ def mesh_many(paths, out_dir, params: MeshParams | None = None, *,
         rows and column shifts (`rangemesh.io.read_scan`), as ``rangemesh
         mesh --beams`` reads them, and a folder's ``.bin`` files are inputs
         too. The camera is still `camera` (``Spherical.from_beams(beams)``).
+    colors : str or mapping, optional
+        Vertex colours from each depth file's colour image, registered pixel to
+        pixel: a pattern naming it from the depth file (``"rgb/{stem}.png"``;
+        fields ``{stem}``, ``{name}``, ``{dir}``: `rangemesh.pairing`), or a
+        mapping of depth file to colour file (`rangemesh.pairing.read_associations`
+        reads TUM's ``associate.txt`` lists). A depth file whose colour image is
+        missing, or another size, fails with the reason.
 
     Returns
     -------
@@ -494,6 +514,15 @@ def mesh_many(paths, out_dir, params: MeshParams | None = None, *,
         layout = bin_layout(beams)  # checked before any work
     out_dir = Path(out_dir)
     record = _options_record(call, background, camera, fmt, beams)
+    if colors is not None:  # (only when given: the records of batches without colour stay)
+        if isinstance(colors, str):
+            check_pattern(colors)
+        elif hasattr(colors, "items"):
+            colors = {str(Path(k).absolute()): str(Path(v).absolute()) for k, v in colors.items()}
+        else:
+            raise TypeError(f"colors must be a pattern string or a mapping, got "
+                            f"{type(colors).__name__}")
+        record["colors"] = colors_record(colors)
     earlier = _earlier_report(out_dir)
     before = earlier.get("options")
     if before is not None and before != record and not overwrite:
@@ -501,7 +530,7 @@ def mesh_many(paths, out_dir, params: MeshParams | None = None, *,
     out_dir.mkdir(parents=True, exist_ok=True)
     _clean_stale_parts(out_dir)
     outs = output_paths(files, out_dir, fmt)
-    t0 = time.perf_counter()
+    clock = timed()
     results: dict[int, BatchResult] = {
         i: BatchResult(str(f), str(output_path(f, out_dir, fmt)), "failed",
                        error="another input has the same file name: no unique output name")
@@ -509,16 +538,18 @@ def mesh_many(paths, out_dir, params: MeshParams | None = None, *,
     todo = [i for i, o in enumerate(outs) if o is not None]
     task = {"call": call, "background": background, "camera": camera, "overwrite": overwrite,
             "layout": layout}
+    paired = {i: None if colors is None else str(color_for(files[i], colors) or "") for i in todo}
     bar = progress_bar(len(todo)) if progress else None
     try:
         if scheduler is None and workers is not None and _workers(workers) == 1:
             # one process: no cluster to start, and no Dask needed
-            done = ((i, _one(str(files[i]), str(outs[i]), **task)) for i in todo)
+            done = ((i, _one(str(files[i]), str(outs[i]), **task, color=paired[i])) for i in todo)
             _gather(done, results, bar)
         else:
             with dask_client(scheduler, workers, connect_timeout) as (client, as_completed):
-                futures = client.map(_one, [str(files[i]) for i in todo],
-                                     [str(outs[i]) for i in todo], **task, pure=False)
+                futures = client.map(_one_paired, [str(files[i]) for i in todo],
+                                     [str(outs[i]) for i in todo], [paired[i] for i in todo],
+                                     **task, pure=False)
                 index = {f.key: i for i, f in zip(todo, futures, strict=True)}
                 _gather(((index[f.key], f.result()) for f in as_completed(futures)), results, bar)
     finally:
@@ -526,7 +557,7 @@ def mesh_many(paths, out_dir, params: MeshParams | None = None, *,
             bar.close()
     ordered = [results[i] for i in range(len(files))]
     write_report(_report_rows(earlier.get("results", ()), ordered), out_dir,
-                 time.perf_counter() - t0, counted=ordered, options=record)
+                 clock.elapsed, counted=ordered, options=record)
     return ordered
 
 

@@ -41,9 +41,10 @@ import numpy as np
 
 from .camera import Spherical, read_beams
 from .checks import whole_number
+from .cloud_files import CLOUD_SUFFIXES, ouster_head
 
 __all__ = ["Scan", "SENSORS", "project_scan", "read_cloud", "find_beams", "write_beams",
-           "CLOUD_SUFFIX"]
+           "CLOUD_SUFFIX", "CLOUD_SUFFIXES"]
 
 CLOUD_SUFFIX = ".bin"
 
@@ -95,27 +96,29 @@ class Scan:
     collisions: int
 
 
-def read_cloud(path: str | os.PathLike) -> np.ndarray:
-    """A KITTI-style ``.bin`` cloud: float32 ``x y z intensity`` records, as an (N, 4) array.
+def read_cloud(path: str | os.PathLike, *, ring: bool = False):
+    """A LiDAR cloud file's points as an (N, 4) float32 array: ``x y z intensity``.
+
+    ``.bin`` (KITTI's float32 records), ``.pcd`` (ASCII or binary, with
+    `pypcd4`) or ``.ply`` (`plyfile`); intensity is 0 where the file has none
+    (`rangemesh.cloud_files`).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+    ring : bool, default False
+        Also return the file's beam field (``ring``, ``beam``, ``channel``,
+        ``laser_id`` or ``line``): ``(points, ring)``, ring None without one.
 
     Raises
     ------
     ValueError
-        A file that cannot be read or whose size is not a whole number of records.
+        A file that cannot be read, with no x, y, z, or whose size is not a whole number of records.
     """
-    path = Path(path)
-    try:
-        size = path.stat().st_size
-        if not path.is_file():
-            raise OSError("not a regular file")
-        if size == 0 or size % 16:
-            raise ValueError(f"{size} bytes is not a whole number of float32 x, y, z, intensity "
-                             f"records (16 bytes a point)")
-        return np.fromfile(path, dtype="<f4").reshape(-1, 4)
-    except OSError as exc:
-        raise ValueError(f"{path}: {exc.strerror or exc}") from None
-    except ValueError as exc:
-        raise ValueError(f"{path}: {exc}") from None
+    from .cloud_files import read_cloud_file
+
+    points, beams = read_cloud_file(path)
+    return (points, beams) if ring else points
 
 
 def _returns(points) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -139,7 +142,28 @@ def _angles(xyz, r):
     return elevation, azimuth
 
 
-def find_beams(points, rows: int, *, cols: int | None = None) -> dict:
+def _ring_groups(ring, keep, rows: int | None):
+    """The kept points' ring values as groups 0..K-1 (inverse) and K, checked against `rows`."""
+    r = np.asarray(ring)
+    if r.ndim != 1 or r.dtype.kind not in "iu" and not (r.dtype.kind == "f" and
+                                                        (r == np.round(r)).all()):
+        raise ValueError(f"ring must be one whole beam number a point, got dtype {r.dtype} shape "
+                         f"{r.shape}")
+    uniq, inverse = np.unique(r[keep].astype(np.int64), return_inverse=True)
+    if rows is not None and len(uniq) > rows:
+        raise ValueError(f"the ring field holds {len(uniq)} beams with a return, more than the "
+                         f"{rows} rows of the sensor")
+    return inverse, len(uniq)
+
+
+def _group_elevations(el, inverse, k):
+    """The median elevation of each of `k` groups."""
+    order = np.argsort(inverse, kind="stable")
+    bounds = np.searchsorted(inverse[order], np.arange(k + 1))
+    return np.array([np.median(el[order[bounds[g]:bounds[g + 1]]]) for g in range(k)])
+
+
+def find_beams(points, rows: int, *, cols: int | None = None, ring=None) -> dict:
     """The beams of a spinning LiDAR found from its cloud (the rule in the module's docstring).
 
     Parameters
@@ -150,6 +174,9 @@ def find_beams(points, rows: int, *, cols: int | None = None) -> dict:
         The sensor's beams.
     cols : int, optional
         Azimuth steps a turn; default: 360 over the median step between a beam's neighbours.
+    ring : (N,) array_like of int, optional
+        Each point's beam as the driver gives it (``ring``): the beams are these
+        groups, ordered by their median elevation (top first), not split at gaps.
 
     Returns
     -------
@@ -162,10 +189,19 @@ def find_beams(points, rows: int, *, cols: int | None = None) -> dict:
         Fewer points than beams, or a cloud whose elevations do not split into `rows` beams.
     """
     rows = whole_number("rows", rows, minimum=1)
-    xyz, _, r = _returns(points)
+    xyz, keep, r = _returns(points)
     if len(r) < 2 * rows:
         raise ValueError(f"the cloud has {len(r)} points with a return: too few to find {rows} beams")
     el, az = _angles(xyz, r)
+    if ring is not None:
+        inverse, k = _ring_groups(ring, keep, rows)
+        if k != rows:
+            raise ValueError(f"the ring field has {k} beams with a return, not the sensor's {rows}")
+        elevation = _group_elevations(el, inverse, k)
+        top = np.argsort(-elevation, kind="stable")  # row 0: the highest beam
+        rank = np.empty(k, np.int64)
+        rank[top] = np.arange(k)
+        return _azimuths(rank[inverse], elevation[top], az, rows, cols)
     order = np.argsort(el)
     s = el[order]
     gaps = np.diff(s)
@@ -178,6 +214,11 @@ def find_beams(points, rows: int, *, cols: int | None = None) -> dict:
     for b, g in enumerate(groups[::-1]):  # row 0: the highest beam
         beam_of[order[g]] = b
     elevation = np.array([np.median(s[g]) for g in groups[::-1]])
+    return _azimuths(beam_of, elevation, az, rows, cols)
+
+
+def _azimuths(beam_of, elevation, az, rows, cols) -> dict:
+    """The beams file of beams found: the azimuth step and each beam's offset on its grid."""
     if cols is None:
         steps = []
         for b in range(rows):
@@ -199,8 +240,8 @@ def find_beams(points, rows: int, *, cols: int | None = None) -> dict:
             "azimuth_row_residual_deg": [round(float(x), 6) for x in residual]}
 
 
-def project_scan(points, *, beams=None, sensor: str | None = None, rows: int | None = None,
-                 cols: int | None = None) -> Scan:
+def project_scan(points, *, ring=None, beams=None, sensor: str | os.PathLike | None = None,
+                 rows: int | None = None, cols: int | None = None) -> Scan:
     """An organised range image and its spherical camera from an unorganised LiDAR cloud.
 
     Parameters
@@ -209,10 +250,19 @@ def project_scan(points, *, beams=None, sensor: str | None = None, rows: int | N
         x, y, z in metres in the sensor frame (x forward, y left, z up), and
         optionally intensity. Points at the origin (KITTI's dropped returns)
         or not finite are no return.
+    ring : (N,) array_like of int, optional
+        Each point's beam as the driver gives it (`read_cloud(path, ring=True)`):
+        a ring's points go to one row, the row nearest their median elevation,
+        whatever their own elevation. Alone, the ring field's beams are the rows.
     beams : dict or path, optional
         A beams file (`rangemesh.Spherical.from_beams`'s layout): the rows and columns as it gives them.
-    sensor : {'vlp16', 'vlp32c', 'hdl32', 'hdl64'}, optional
-        A Velodyne head: its beam count; the beams are found from the cloud (`find_beams`).
+    sensor : {'vlp16', 'vlp32c', 'hdl32', 'hdl64'} or path, optional
+        A Velodyne head: its beam count; the beams are found from the cloud
+        (`find_beams`). Or an Ouster sensor's metadata ``.json``: its beams'
+        altitude and azimuth angles and columns (`rangemesh.cloud_files.ouster_head`),
+        each point's elevation taken from its beam's origin, as the SDK places
+        the points (its sensor frame); vertices lie on the beams' rays from the
+        origin, within the beam-origin offsets (about 5 cm on an OS-1) of the points.
     rows : int, optional
         The beam count of another sensor; the beams are found from the cloud.
     cols : int, optional
@@ -238,32 +288,44 @@ def project_scan(points, *, beams=None, sensor: str | None = None, rows: int | N
     ((2, 4), 5.0, True)
     """
     given = [n for n, v in (("beams", beams), ("sensor", sensor), ("rows", rows)) if v is not None]
-    if len(given) != 1:
+    if len(given) > 1 or (not given and ring is None):
         raise ValueError("project_scan needs one of beams= (a beams file), sensor= (a preset: "
-                         f"{', '.join(SENSORS)}) or rows= (the beam count), got "
-                         f"{' and '.join(given) or 'none'}")
+                         f"{', '.join(SENSORS)}, or an Ouster metadata .json) or rows= (the beam "
+                         f"count), or a ring field, got {' and '.join(given) or 'none'}")
+    head = None
     if sensor is not None:
-        if sensor not in SENSORS:
-            raise ValueError(f"sensor must be one of {tuple(SENSORS)}, got {sensor!r}")
-        rows = len(SENSORS[sensor])
+        if isinstance(sensor, (str, os.PathLike)) and Path(sensor).suffix.lower() == ".json":
+            head = beams = ouster_head(sensor)
+            if cols is not None:
+                raise ValueError("cols goes with a Velodyne preset or rows=: Ouster metadata "
+                                 "gives its own")
+        elif sensor not in SENSORS:
+            raise ValueError(f"sensor must be one of {tuple(SENSORS)} or an Ouster metadata "
+                             f".json, got {sensor!r}")
+        else:
+            rows = len(SENSORS[sensor])
     if beams is None:
-        beams = find_beams(points, rows, cols=cols)
-    elif cols is not None:
+        if rows is None:  # the ring field alone: its beams are the sensor's
+            rows = _ring_groups(ring, _returns(points)[1], None)[1]
+        beams = find_beams(points, rows, cols=cols, ring=ring)
+    elif cols is not None and head is None:
         raise ValueError("cols goes with sensor= or rows=: a beams file gives its own")
     elif not isinstance(beams, dict):
         beams = read_beams(beams)
     camera = Spherical.from_beams(beams)
     xyz, kept, r = _returns(points)
     el, az = _angles(xyz, r)
-    elevation = camera.elevation
+    if head is not None:  # the elevation each beam measures, from its own origin
+        el = _beam_elevation(xyz, head)
+    if ring is not None:  # a ring's points share its row: the row nearest their median elevation
+        inverse, k = _ring_groups(ring, kept, camera.shape[0])
+        ring_row = _nearest_rows(_group_elevations(el, inverse, k), camera.elevation)
+        if len(np.unique(ring_row)) < k:
+            raise ValueError("two rings of the ring field fall on one row of the beams")
+        row = ring_row[inverse]
+    else:
+        row = _nearest_rows(el, camera.elevation)
     h, w = camera.shape
-    # the nearest beam by elevation (rows strictly monotonic: a sorted search)
-    up = elevation[0] > elevation[-1]
-    e_sorted = elevation[::-1] if up else elevation
-    j = np.clip(np.searchsorted(e_sorted, el), 1, max(h - 1, 1)) if h > 1 else np.zeros(len(el), int)
-    if h > 1:
-        j = np.where(np.abs(el - e_sorted[j - 1]) <= np.abs(e_sorted[j] - el), j - 1, j)
-    row = (h - 1 - j) if up else j
     az0, step = float(camera.azimuth[0]), float(camera.step)
     col = np.rint((az - az0 - camera.row_azimuth[row]) / step).astype(np.int64) % w
     if not camera.wraps:  # a camera over part of the circle: points beyond its columns are out
@@ -288,6 +350,29 @@ def project_scan(points, *, beams=None, sensor: str | None = None, rows: int | N
         intensity = intensity.reshape(h, w)
     return Scan(ranges.reshape(h, w), camera, dict(beams), index.reshape(h, w), intensity,
                 points=len(r), collisions=len(r) - len(take))
+
+
+def _nearest_rows(el, elevation) -> np.ndarray:
+    """The row of the nearest beam by elevation (rows strictly monotonic: a sorted search)."""
+    h = len(elevation)
+    up = elevation[0] > elevation[-1]
+    e_sorted = elevation[::-1] if up else elevation
+    j = np.clip(np.searchsorted(e_sorted, el), 1, max(h - 1, 1)) if h > 1 else np.zeros(len(el), int)
+    if h > 1:
+        j = np.where(np.abs(el - e_sorted[j - 1]) <= np.abs(e_sorted[j] - el), j - 1, j)
+    return (h - 1 - j) if up else j
+
+
+def _beam_elevation(xyz, head) -> np.ndarray:
+    """An Ouster point's elevation from its beam's origin (degrees).
+
+    Back to the lidar frame, less the beam-origin offset: near the sensor the
+    36 mm and 16 mm of an OS-1 are a beam apart.
+    """
+    m = np.asarray(head["lidar_to_sensor"], np.float64)
+    p = (xyz - m[:3, 3]) @ m[:3, :3]  # the inverse of the rigid transform, for row vectors
+    rho = np.hypot(p[:, 0], p[:, 1]) - head["beam_origin_m"]
+    return np.degrees(np.arctan2(p[:, 2], rho))
 
 
 def write_beams(path: str | os.PathLike, beams: dict) -> None:

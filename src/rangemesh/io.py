@@ -8,6 +8,10 @@ Meshes: PLY through plyfile (binary by default, ASCII on request, optional
 per-vertex ``row``/``col``), OBJ, OFF, STL and GLB through trimesh. Every file
 is written to a temporary file in the target folder and renamed into place,
 so a failed run never leaves a half-written file.
+
+The reader and writer of each suffix are one entry of `FORMATS`; the
+suffixes the entry points take (`IMAGE_SUFFIXES`, `MESH_SUFFIXES`) come
+from it.
 """
 
 from __future__ import annotations
@@ -21,6 +25,7 @@ import struct
 import tempfile
 import warnings
 import zlib
+from collections.abc import Callable
 from contextlib import contextmanager
 from pathlib import Path
 
@@ -35,6 +40,8 @@ __all__ = [
     "IMAGE_SUFFIXES",
     "SCAN_SUFFIX",
     "MESH_SUFFIXES",
+    "FORMATS",
+    "Format",
     "read_range_image",
     "read_image_size",
     "read_lidar_bin",
@@ -46,10 +53,10 @@ __all__ = [
     "atomic_path",
 ]
 
-IMAGE_SUFFIXES = (".npy", ".png", ".pgm", ".ppm", ".pnm", ".pfm", ".tif", ".tiff", ".pcd")
 # A KITTI-style LiDAR scan: read with its beams file (`read_scan`, `bin_layout`).
 SCAN_SUFFIX = ".bin"
-MESH_SUFFIXES = (".ply", ".obj", ".off", ".stl", ".glb")
+# IMAGE_SUFFIXES and MESH_SUFFIXES come from the table of formats, `FORMATS` (below its readers
+# and writers).
 
 
 def _suffix(path: Path) -> str:
@@ -319,6 +326,39 @@ def _undecodable(path: Path, exc: BaseException) -> ValueError:
     return ValueError(f"{path}: cannot be decoded as {a} {kind} file ({type(exc).__name__}: {cause})")
 
 
+def _read_npy(path: Path) -> np.ndarray:
+    return np.load(path, allow_pickle=False)
+
+
+def _read_tiff(path: Path) -> np.ndarray:
+    import tifffile
+
+    # tifffile logs damage (a truncated file) before failing; the error says it once
+    log = logging.getLogger("tifffile")
+    level = log.level
+    log.setLevel(logging.CRITICAL)
+    try:
+        return tifffile.imread(path)
+    finally:
+        log.setLevel(level)
+
+
+def _read_pillow(path: Path) -> np.ndarray:
+    """PNG and Netpbm images through imageio's Pillow plugin, their size checked from the header."""
+    import imageio.v3 as iio
+
+    header = _image_header(path)  # size from the header: a lie is said before decoding
+    if header is not None:
+        if header[2]:
+            raise ValueError(f"{path}: {header[2]}")
+        check_pillow_size(str(path), header[0], header[1])
+    try:
+        with pillow_quiet():
+            return iio.imread(path, plugin="pillow")  # no probing of other plugins
+    except Exception as exc:
+        raise _undecodable(path, exc) from None
+
+
 def read_range_image(path: str | os.PathLike) -> np.ndarray:
     """Read a range image as a 2-D array, values exactly as stored.
 
@@ -356,37 +396,12 @@ def read_range_image(path: str | os.PathLike) -> np.ndarray:
     path = Path(path)
     _check_readable(path)
     suffix = _suffix(path)
-    if suffix not in IMAGE_SUFFIXES:
-        raise ValueError(f"{path}: unknown image type {suffix!r}; known: {', '.join(IMAGE_SUFFIXES)}")
+    fmt = FORMATS.get(suffix)
+    if fmt is None or fmt.kind != "image":
+        raise ValueError(f"{path}: unknown image type {suffix!r}; known: "
+                         f"{', '.join(_suffixes('image'))}")
     with _reading(path, "a range image"):
-        if suffix == ".npy":
-            arr = np.load(path, allow_pickle=False)
-        elif suffix in (".tif", ".tiff"):
-            import tifffile
-
-            # tifffile logs damage (a truncated file) before failing; the error says it once
-            log = logging.getLogger("tifffile")
-            level = log.level
-            log.setLevel(logging.CRITICAL)
-            try:
-                arr = tifffile.imread(path)
-            finally:
-                log.setLevel(level)
-        elif suffix == ".pcd":
-            arr = _read_pcd_z(path)
-        else:
-            import imageio.v3 as iio
-
-            header = _image_header(path)  # size from the header: a lie is said before decoding
-            if header is not None:
-                if header[2]:
-                    raise ValueError(f"{path}: {header[2]}")
-                check_pillow_size(str(path), header[0], header[1])
-            try:
-                with pillow_quiet():
-                    arr = iio.imread(path, plugin="pillow")  # no probing of other plugins
-            except Exception as exc:
-                raise _undecodable(path, exc) from None
+        arr = fmt.read(path)
     arr = np.asarray(arr)
     if arr.size == 0:
         raise ValueError(f"{path}: the file holds no pixel (empty or truncated)")
@@ -639,7 +654,7 @@ def _coordinate_type(points: np.ndarray) -> str:
         else "f8"
 
 
-def _write_ply(mesh: Mesh, tmp: Path, ascii: bool, pixels: bool, normals: bool):
+def _write_ply(mesh: Mesh, path: Path, tmp: Path, ascii: bool, pixels: bool, normals: bool):
     from plyfile import PlyData, PlyElement
 
     xyz = _coordinate_type(mesh.vertices)
@@ -683,7 +698,8 @@ def _write_png(image: np.ndarray, path: Path) -> None:
         iio.imwrite(tmp, image, extension=".png", plugin="pillow")
 
 
-def _write_obj(mesh: Mesh, path: Path, tmp: Path, normals: bool) -> None:
+def _write_obj(mesh: Mesh, path: Path, tmp: Path, ascii: bool, pixels: bool,
+               normals: bool) -> None:
     """OBJ text: ``v x y z [r g b]``, ``vt``, ``vn``, ``f v/vt/vn``, and MTL + PNG for a texture.
 
     Written here rather than by trimesh, whose OBJ writer takes vertex colours
@@ -752,6 +768,20 @@ def _to_glb(mesh: Mesh, normals: bool) -> bytes:
     return tm.export(file_type="glb", **kwargs)
 
 
+def _write_glb(mesh: Mesh, path: Path, tmp: Path, ascii: bool, pixels: bool,
+               normals: bool) -> None:
+    tmp.write_bytes(_to_glb(mesh, normals))
+
+
+def _write_trimesh(mesh: Mesh, path: Path, tmp: Path, ascii: bool, pixels: bool,
+                   normals: bool) -> None:
+    """OFF and STL through trimesh's exporter (no normals, colours or texture in them)."""
+    suffix = _suffix(path)
+    tm = require("trimesh", f"{suffix} output").Trimesh(mesh.vertices, mesh.faces, process=False)
+    data = tm.export(file_type=suffix[1:])
+    tmp.write_bytes(data.encode() if isinstance(data, str) else data)
+
+
 def write_mesh(mesh: Mesh, path: str | os.PathLike, *, ascii: bool = False,
                pixels: bool = False, normals: bool = True, texture: bool = True) -> Path:
     """Write a mesh file, chosen by suffix; atomically.
@@ -799,10 +829,11 @@ def write_mesh(mesh: Mesh, path: str | os.PathLike, *, ascii: bool = False,
     """
     path = Path(path)
     suffix = _suffix(path)
-    if suffix not in MESH_SUFFIXES:
+    fmt = FORMATS.get(suffix)
+    if fmt is None or fmt.kind != "mesh" or fmt.write is None:
         raise ValueError(f"{path}: unknown mesh format {suffix!r}; use one of "
-                         f"{', '.join(MESH_SUFFIXES)}")
-    if suffix != ".ply" and (ascii or pixels):
+                         f"{', '.join(_suffixes('mesh'))}")
+    if not fmt.ply_options and (ascii or pixels):
         raise ValueError(f"{path}: ascii and pixels apply to PLY files only")
     check_arrays(mesh.vertices, mesh.faces, mesh.pixels, mesh.image_shape, what=str(path))
     largest = float(np.abs(mesh.vertices).max()) if mesh.vertices.size else 0.0
@@ -813,17 +844,7 @@ def write_mesh(mesh: Mesh, path: str | os.PathLike, *, ascii: bool = False,
         mesh = dataclasses.replace(mesh, texture=None)
     normals = normals and not mesh.is_empty
     with atomic_path(path) as tmp:
-        if suffix == ".ply":
-            _write_ply(mesh, tmp, ascii, pixels, normals)
-        elif suffix == ".obj":
-            _write_obj(mesh, path, tmp, normals)
-        elif suffix == ".glb":
-            tmp.write_bytes(_to_glb(mesh, normals))
-        else:
-            tm = require("trimesh", f"{suffix} output").Trimesh(mesh.vertices, mesh.faces,
-                                                                 process=False)
-            data = tm.export(file_type=suffix[1:])
-            tmp.write_bytes(data.encode() if isinstance(data, str) else data)
+        fmt.write(mesh, path, tmp, ascii, pixels, normals)
     return path
 
 
@@ -863,6 +884,70 @@ def _check_ply_counts(path: Path) -> None:
                              f"file's {size} bytes can hold")
 
 
+@dataclasses.dataclass
+class _MeshFile:
+    """What a mesh reader found in a file (`read_mesh` checks it)."""
+
+    vertices: np.ndarray
+    faces: np.ndarray
+    pixels: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros((0, 2), np.int32))
+    colors: np.ndarray | None = None
+    image_shape: tuple = (0, 0)
+    camera: object = None  # the camera the file records
+
+
+def _read_ply(path: Path, camera, image_shape) -> _MeshFile:
+    """A PLY file through plyfile, with what rangemesh records: pixels, colours, shape, camera."""
+    from plyfile import PlyData
+
+    pixels = np.zeros((0, 2), np.int32)
+    shape = (0, 0)
+    recorded = None
+    colors = None
+    _check_ply_counts(path)
+    ply = PlyData.read(str(path))
+    v = ply["vertex"].data
+    vertices = np.stack([v["x"], v["y"], v["z"]], axis=1).astype(np.float64)
+    faces = np.stack(ply["face"].data["vertex_indices"]) \
+        if len(ply["face"].data) else np.zeros((0, 3), np.int32)
+    if not np.issubdtype(faces.dtype, np.integer):
+        whole = np.isfinite(faces).all() and (faces == np.round(faces)).all()
+        if not whole:
+            raise ValueError("face indices must be whole numbers")
+    with np.errstate(invalid="ignore"):
+        big = faces.size and (faces.max() > np.iinfo(np.int32).max or faces.min() < 0)
+    if big:
+        raise ValueError(f"a face index is out of range (0 .. {np.iinfo(np.int32).max})")
+    faces = faces.astype(np.int32)
+    if "row" in v.dtype.names and "col" in v.dtype.names:
+        pixels = np.stack([v["row"], v["col"]], axis=1).astype(np.int32)
+    if {"red", "green", "blue"} <= set(v.dtype.names):
+        colors = np.stack([v["red"], v["green"], v["blue"]], axis=1).astype(np.uint8)
+    camera_words = []
+    for c in ply.comments:
+        parts = c.split()
+        if len(parts) == 4 and parts[:2] == ["rangemesh", "image_shape"]:
+            shape = (int(parts[2]), int(parts[3]))
+        if len(parts) >= 3 and parts[:2] == ["rangemesh", "camera"]:
+            camera_words = parts[2:]
+        if len(parts) >= 3 and parts[:2] == ["rangemesh", "camera+"] and camera_words:
+            camera_words += parts[2:]
+    if camera_words:
+        recorded = _camera_from_text(camera_words, image_shape or shape)
+        if recorded is None and camera is None:
+            raise ValueError(f"the file records a camera that cannot be read back "
+                             f"({' '.join(camera_words)[:60]}); give camera=")
+    return _MeshFile(vertices, faces, pixels, colors, shape, recorded)
+
+
+def _read_trimesh(path: Path, camera, image_shape) -> _MeshFile:
+    """OBJ, OFF, STL and GLB through trimesh: vertices and faces."""
+    import trimesh
+
+    tm = trimesh.load(path, process=False, force="mesh")
+    return _MeshFile(np.asarray(tm.vertices, np.float64), np.asarray(tm.faces, np.int32))
+
+
 def read_mesh(path: str | os.PathLike, *, camera=None, image_shape=None) -> Mesh:
     """Read a mesh file into a `Mesh` (for `evaluate`).
 
@@ -897,58 +982,19 @@ def read_mesh(path: str | os.PathLike, *, camera=None, image_shape=None) -> Mesh
     path = Path(path)
     _check_readable(path)
     suffix = _suffix(path)
-    if suffix not in MESH_SUFFIXES:
-        raise ValueError(f"{path}: unknown mesh format {suffix!r}; known: {', '.join(MESH_SUFFIXES)}")
-    pixels = np.zeros((0, 2), np.int32)
-    shape = (0, 0)
-    recorded = None
-    colors = None
-    if suffix != ".ply":
-        trimesh = require("trimesh", f"reading {suffix} meshes")
+    fmt = FORMATS.get(suffix)
+    if fmt is None or fmt.kind != "mesh":
+        raise ValueError(f"{path}: unknown mesh format {suffix!r}; known: "
+                         f"{', '.join(_suffixes('mesh'))}")
+    if fmt.reader_needs is not None:  # a missing extra is said as such, not as a bad file
+        require(fmt.reader_needs, f"reading {suffix} meshes")
     try:
-        if suffix == ".ply":
-            from plyfile import PlyData
-
-            _check_ply_counts(path)
-            ply = PlyData.read(str(path))
-            v = ply["vertex"].data
-            vertices = np.stack([v["x"], v["y"], v["z"]], axis=1).astype(np.float64)
-            faces = np.stack(ply["face"].data["vertex_indices"]) \
-                if len(ply["face"].data) else np.zeros((0, 3), np.int32)
-            if not np.issubdtype(faces.dtype, np.integer):
-                whole = np.isfinite(faces).all() and (faces == np.round(faces)).all()
-                if not whole:
-                    raise ValueError("face indices must be whole numbers")
-            with np.errstate(invalid="ignore"):
-                big = faces.size and (faces.max() > np.iinfo(np.int32).max or faces.min() < 0)
-            if big:
-                raise ValueError(f"a face index is out of range (0 .. {np.iinfo(np.int32).max})")
-            faces = faces.astype(np.int32)
-            if "row" in v.dtype.names and "col" in v.dtype.names:
-                pixels = np.stack([v["row"], v["col"]], axis=1).astype(np.int32)
-            if {"red", "green", "blue"} <= set(v.dtype.names):
-                colors = np.stack([v["red"], v["green"], v["blue"]], axis=1).astype(np.uint8)
-            camera_words = []
-            for c in ply.comments:
-                parts = c.split()
-                if len(parts) == 4 and parts[:2] == ["rangemesh", "image_shape"]:
-                    shape = (int(parts[2]), int(parts[3]))
-                if len(parts) >= 3 and parts[:2] == ["rangemesh", "camera"]:
-                    camera_words = parts[2:]
-                if len(parts) >= 3 and parts[:2] == ["rangemesh", "camera+"] and camera_words:
-                    camera_words += parts[2:]
-            if camera_words:
-                recorded = _camera_from_text(camera_words, image_shape or shape)
-                if recorded is None and camera is None:
-                    raise ValueError(f"the file records a camera that cannot be read back "
-                                     f"({' '.join(camera_words)[:60]}); give camera=")
-        else:
-            tm = trimesh.load(path, process=False, force="mesh")
-            vertices = np.asarray(tm.vertices, np.float64)
-            faces = np.asarray(tm.faces, np.int32)
+        got = fmt.read(path, camera, image_shape)
     except Exception as exc:  # readers raise many kinds of errors on bad files
         raise ValueError(f"{path}: cannot read it as a mesh "
                          f"({type(exc).__name__}: {_first_line(exc)})") from None
+    vertices, faces, colors = got.vertices, got.faces, got.colors
+    pixels, shape, recorded = got.pixels, got.image_shape, got.camera
     if faces.ndim != 2 or (len(faces) and faces.shape[1] != 3):
         raise ValueError(f"{path}: only triangle meshes are supported")
     if len(faces) == 0:
@@ -967,6 +1013,64 @@ def read_mesh(path: str | os.PathLike, *, camera=None, image_shape=None) -> Mesh
     camera = camera if camera is not None else recorded if recorded is not None else Orthographic()
     return Mesh(vertices=vertices, faces=faces, pixels=pixels, camera=camera,
                 image_shape=shape, stats=stats, colors=colors)
+
+
+@dataclasses.dataclass
+class Format:
+    """How files of one suffix are read and written: an entry of `FORMATS`.
+
+    Attributes
+    ----------
+    kind : {'image', 'mesh'}
+        A range image (`read_range_image`) or a mesh (`read_mesh`, `write_mesh`).
+    read : callable
+        ``read(path) -> array`` for an image; ``read(path, camera, image_shape)
+        -> _MeshFile`` for a mesh. Its errors become one ValueError naming the file.
+    write : callable or None
+        ``write(mesh, path, tmp, ascii, pixels, normals)``, writing `tmp`
+        (renamed to `path` when it returns); None: not written.
+    reader_needs : str or None
+        The optional module the reader needs (its ImportError says which extra).
+    ply_options : bool
+        The writer takes ``ascii`` and ``pixels``.
+    """
+
+    kind: str
+    read: Callable
+    write: Callable | None = None
+    reader_needs: str | None = None
+    ply_options: bool = False
+
+
+_PILLOW = Format("image", _read_pillow)
+_TRIMESH = {"read": _read_trimesh, "reader_needs": "trimesh"}
+
+# The one table of file formats, by suffix: adding a format is one entry (and its functions).
+# The order is that of IMAGE_SUFFIXES and MESH_SUFFIXES, which messages and the CLI list.
+FORMATS = {
+    ".npy": Format("image", _read_npy),
+    ".png": _PILLOW,
+    ".pgm": _PILLOW,
+    ".ppm": _PILLOW,
+    ".pnm": _PILLOW,
+    ".pfm": _PILLOW,
+    ".tif": Format("image", _read_tiff),
+    ".tiff": Format("image", _read_tiff),
+    ".pcd": Format("image", _read_pcd_z),
+    ".ply": Format("mesh", _read_ply, _write_ply, ply_options=True),
+    ".obj": Format("mesh", write=_write_obj, **_TRIMESH),
+    ".off": Format("mesh", write=_write_trimesh, **_TRIMESH),
+    ".stl": Format("mesh", write=_write_trimesh, **_TRIMESH),
+    ".glb": Format("mesh", write=_write_glb, **_TRIMESH),
+}
+
+
+def _suffixes(kind: str) -> tuple[str, ...]:
+    return tuple(suffix for suffix, fmt in FORMATS.items() if fmt.kind == kind)
+
+
+IMAGE_SUFFIXES = _suffixes("image")
+MESH_SUFFIXES = _suffixes("mesh")
 
 
 # Header lines stay well under RPly's 1,024 characters (Open3D aborts on longer ones).

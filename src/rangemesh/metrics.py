@@ -7,8 +7,8 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from .cleanup import clean_inplace
+from .geometry.curvature import curvature, valid_span
 from .mesh import Mesh, check_arrays
-from .paper.sampling import curvature, valid_span
 from .params import MeshParams
 from .prepare import to_depth_and_mask
 from .render import deviation_scale, per_span, relative_error, render_depth

@@ -82,6 +82,11 @@ class Option:
         None is a setting of its own (``flips=None``: no flips), so not
         giving the option is its default rather than None; ``'none'`` is
         taken for None in calls and on the command line.
+    none_means : object
+        What None stands for in the method that reads the option, when None
+        is "the method's default" (``heights`` None is ``'fit'``); None when
+        it is no setting of that kind. `rangemesh.params.NONE_MEANS` is the
+        table of them, which the pipeline resolves from.
     """
 
     name: str
@@ -94,6 +99,7 @@ class Option:
     flag: Flag | None = None
     choices: tuple | None = None
     none_is_value: bool = False
+    none_means: object = None
 
     @property
     def unset(self):
@@ -111,7 +117,7 @@ class Option:
 
 def option(default, *, methods, type: str, doc: str, check: Callable, name: str | None = None,
            flag: Flag | None = None, choices: tuple | None = None,
-           none_is_value: bool = False):
+           none_is_value: bool = False, none_means=None):
     """A `MeshParams` field declaring an option (see `Option` for the arguments).
 
     Returns
@@ -121,7 +127,7 @@ def option(default, *, methods, type: str, doc: str, check: Callable, name: str 
         `field` are filled in by `options_of`).
     """
     record = Option(name or "", "", tuple(methods), default, type, doc, check, flag, choices,
-                    none_is_value)
+                    none_is_value, none_means)
     return dataclasses.field(default=default, metadata={"option": record})
 
 

@@ -29,7 +29,8 @@ from .options import (
 )
 
 __all__ = ["MeshParams", "SAMPLING_CHOICES", "FLIP_CHOICES", "METHODS", "OPTION_METHOD",
-           "OPTION_TABLE", "DEFAULT_TARGET", "DefaultTarget", "misplaced_option", "default_vertex_cap"]
+           "OPTION_TABLE", "NONE_MEANS", "DEFAULT_TARGET", "DefaultTarget", "misplaced_option",
+           "default_vertex_cap"]
 
 METHODS = ("refine", "paper")
 REFINE, PAPER = ("refine",), ("paper",)
@@ -244,7 +245,7 @@ class MeshParams:
                   "(default {default})", "int"))
     heights: str | None = option(
         None, methods=REFINE, type="{'fit', 'pixel'} or None", check=choice(HEIGHT_CHOICES),
-        choices=("fit", "pixel"),
+        choices=("fit", "pixel"), none_means="fit",
         doc="Where vertex depths come from. ``'fit'`` (None: the default): least squares "
             "over the pixels each vertex's triangles cover, pixels across a jump left out "
             "(`rangemesh.refine.heights.fit_heights`); ``'pixel'``: each vertex copies the "
@@ -253,7 +254,7 @@ class MeshParams:
                   "default) or copied from the vertex's pixel (pixel)", "choice"))
     diagonals: str | None = option(
         None, methods=REFINE, type="{'error', 'delaunay'} or None",
-        check=choice(DIAGONAL_CHOICES), choices=("error", "delaunay"),
+        check=choice(DIAGONAL_CHOICES), choices=("error", "delaunay"), none_means="error",
         doc="How each quad picks its diagonal. ``'error'`` (None: the default): by the "
             "data, flipping an edge when the two triangles fit their pixels with a smaller "
             "summed error the other way (`rangemesh.refine.diagonals`); ``'delaunay'``: "
@@ -266,7 +267,7 @@ class MeshParams:
     walls: bool = option(
         True, methods=REFINE, type="bool", check=flag,
         doc="Keep the triangles that bridge a depth jump (\"walls\"). False drops them, so "
-            "separate surfaces stay separate (see `rangemesh.refine.walls` for how a jump is "
+            "separate surfaces stay separate (see `rangemesh.geometry.walls` for how a jump is "
             "decided).",
         flag=Flag("drop the triangles across depth jumps, so separate surfaces stay "
                   "separate", "off"))
@@ -352,6 +353,9 @@ class MeshParams:
 OPTION_TABLE = options_of(MeshParams)
 OPTIONS_BY_FIELD = {o.field: o for o in OPTION_TABLE}
 OPTIONS_BY_NAME = {o.name: o for o in OPTION_TABLE}
+# What None stands for in the method that reads an option (its `Option.none_means`): the
+# one place a method's default behind a None is resolved from (docs/decisions.md, "MeshParams").
+NONE_MEANS = {o.name: o.none_means for o in OPTION_TABLE if o.none_means is not None}
 # Which method reads each option; options of both methods (fill_gaps, wrap) are not listed.
 # The one rule for Python and the command line (`misplaced_option`).
 OPTION_METHOD = {o.name: o.methods[0] for o in OPTION_TABLE if len(o.methods) == 1}

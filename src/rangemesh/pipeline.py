@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import time
 
 import numpy as np
 
@@ -20,16 +19,15 @@ from . import memory
 from ._core import EXACT_SPAN, valid_range
 from .camera import Orthographic, Spherical, as_camera, check_reach, check_shape
 from .cleanup import clean_inplace, warn_zero_marker
-from .geometry.seam import seam_strip, strip_to_keep, unrolled_columns
+from .geometry.seam import seam_faces
 from .mesh import Mesh, Stats, Target, count_edges, empty_mesh, with_fields
 from .options import option_docs
 from .paper import targets
 from .paper.sampling import sample_grid, sampling_weights
 from .paper.stages import mesh_grid
-from .params import DEFAULT_TARGET, OPTION_TABLE, MeshParams, default_vertex_cap
+from .params import DEFAULT_TARGET, NONE_MEANS, OPTION_TABLE, MeshParams, default_vertex_cap
 from .prepare import check_image, fill_gaps_inplace, mask_into, to_depth_and_mask
 from .refine import greedy_mesh
-from .refine.walls import wall_faces
 from .resolve import (  # noqa: F401 - re-exported: their home was here
     ALIASES,
     OPTIONS,
@@ -38,6 +36,7 @@ from .resolve import (  # noqa: F401 - re-exported: their home was here
     resolve_call,
     resolve_params,
 )
+from .timing import now, timed
 
 __all__ = ["triangulate", "resolve_call", "resolve_params", "prepare", "run", "Workspace",
            "OPTIONS"]
@@ -148,30 +147,15 @@ def wraps(params: MeshParams, camera) -> bool:
 
 
 def close_seam(mesh: Mesh, depth: np.ndarray, params: MeshParams) -> Mesh:
-    """`mesh` with the strip of `rangemesh.geometry.seam.seam_strip` added.
+    """`mesh` with the faces that close its seam (`rangemesh.geometry.seam.seam_faces`).
 
-    With ``walls=False`` the strip's triangles across a jump are dropped by
-    the same rule as the others, their pixel lengths measured across the seam.
-    Then every strip triangle that would repeat an edge of the mesh or give a
-    vertex a second fan is dropped
-    (`rangemesh.geometry.seam.strip_to_keep`): the mesh's own triangles and
-    vertices stay, so a vertex count asked for is kept.
+    With ``walls=False`` the strip's walls are dropped by the mesh's rule
+    (`rangemesh.geometry.walls`); the mesh's own triangles and vertices stay.
     """
     if mesh.is_empty:
         return mesh
-    w = mesh.image_shape[1]
-    strip = seam_strip(mesh.pixels, mesh.faces, w)
-    if len(strip) and not params.walls:
-        z = depth[mesh.pixels[:, 0], mesh.pixels[:, 1]]
-        if hasattr(mesh.camera, "directions"):  # lengths are ray angles: the seam is no gap
-            walls = wall_faces(strip, mesh.pixels, z, params.jump, mesh.camera)
-        else:
-            coords = np.stack([mesh.pixels[:, 0], unrolled_columns(mesh.pixels, w)], axis=1)
-            walls = wall_faces(strip, coords, z, params.jump)
-        strip = strip[~walls]
-    # a strip face that repeats a mesh edge or reaches a vertex across a dropped wall would
-    # break P4: such faces go, the mesh's own faces and vertices stay
-    strip = strip[strip_to_keep(mesh.faces, strip)]
+    strip = seam_faces(mesh.pixels, mesh.faces, mesh.image_shape[1], depth=depth,
+                       jump=None if params.walls else params.jump, camera=mesh.camera)
     if not len(strip):
         return mesh
     faces = np.concatenate([mesh.faces, strip]).astype(np.int32)
@@ -204,7 +188,7 @@ def run(image, params: MeshParams, *, background="auto", camera=None, vertices=N
     image's size, and leaves nothing half-made.
     """
     camera = as_camera(camera)
-    t0 = time.perf_counter()
+    t0 = now()
     image, background = check_image(image, background, camera=camera)  # resolves 'auto'
     check_side(image.shape)
     if method == "paper" and min(image.shape) < 2:  # no tile fits, with or without a target
@@ -231,7 +215,7 @@ def run(image, params: MeshParams, *, background="auto", camera=None, vertices=N
             raise ValueError(f"depths {lo:g} .. {hi:g} reach beyond {MAX_DEPTH:g}, where the "
                              f"kernels' squares overflow: scale the image (and its camera) down")
         check_reach(camera, depth.shape, lo, hi)
-    t1 = time.perf_counter()
+    t1 = now()
     if not n_valid:
         # Still check the tiling so that bad parameters fail the same way on any image.
         if method == "paper":
@@ -256,8 +240,9 @@ def run(image, params: MeshParams, *, background="auto", camera=None, vertices=N
         ref = reference(image, background, cleaned) \
             if max_error is not None or deviation or params.max_edge is not None else None
         mesh, target = greedy_mesh(depth, valid, camera, vertices=vertices, max_error=max_error,
-                                   reference=ref, fit=params.heights != "pixel",
-                                   diagonals=params.diagonals or "error",
+                                   reference=ref,
+                                   fit=(params.heights or NONE_MEANS["heights"]) == "fit",
+                                   diagonals=params.diagonals or NONE_MEANS["diagonals"],
                                    walls=params.walls, jump=params.jump, effort=params.effort,
                                    extent=(lo, hi, n_valid), max_vertices=cap,
                                    max_deviation=max_deviation, mean_deviation=mean_deviation,
@@ -288,15 +273,14 @@ def run(image, params: MeshParams, *, background="auto", camera=None, vertices=N
     else:
         weights = None
         if workspace is not None:
-            weights = sampling_weights(depth, valid, params, out=workspace.weights)
-        t2 = time.perf_counter()
+            with timed(extra, "sampling"):  # the weights: stage one's
+                weights = sampling_weights(depth, valid, params, out=workspace.weights)
         mesh = mesh_grid(depth, valid, params, camera, weights=weights)
-        extra["sampling"] = mesh.stats.seconds["sampling"] + t2 - t1  # the weights: stage one's
+        extra["sampling"] = mesh.stats.seconds["sampling"] + extra.get("sampling", 0.0)
     if wraps(params, camera):
-        t3 = time.perf_counter()
-        mesh = close_seam(mesh, depth, params)
-        extra["seam"] = time.perf_counter() - t3
-    t4 = time.perf_counter()
+        with timed(extra, "seam"):
+            mesh = close_seam(mesh, depth, params)
+    t4 = now()
     stages = {**mesh.stats.seconds, **extra} if extra else mesh.stats.seconds
     seconds = {"prepare": t1 - t0, **stages}
     if target:

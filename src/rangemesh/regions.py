@@ -13,7 +13,7 @@ when::
     |za - zb| <= REGION_JUMP * min(|za|, |zb|) * L
 
 with ``L = 1`` along a row or column and ``sqrt(2)`` across a diagonal: the
-rule of `rangemesh.refine.walls` (a step above 5 % of the local depth per
+rule of `rangemesh.geometry.walls` (a step above 5 % of the local depth per
 pixel is a jump), in stored units (the ratio is the same in metres). OpenCV
 compares with a fixed ``maxDiff`` in disparity units; a share of the depth
 follows a depth camera's noise, which grows with the depth, and on a
@@ -31,7 +31,7 @@ from ._core import label_regions as _label_regions
 __all__ = ["REGION_JUMP", "label_regions", "drop_small_regions"]
 
 # A step above this share of the smaller depth per pixel splits two neighbours' regions:
-# MeshParams.jump's default, the walls' rule (rangemesh.refine.walls).
+# MeshParams.jump's default, the walls' rule (rangemesh.geometry.walls).
 REGION_JUMP = 0.05
 
 

@@ -15,9 +15,9 @@ import argparse
 import os
 import signal
 import sys
-import time
 
 from .._version import __version__
+from ..timing import timed
 from . import batch, demo, info, live, mesh
 from . import eval as eval_
 from .common import Terminated, UserError, _one_line, _os_message, _signals_raise
@@ -57,7 +57,7 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     commands = {"mesh": mesh._cmd_mesh, "demo": demo._cmd_demo, "info": info._cmd_info,
                 "eval": eval_._cmd_eval, "batch": batch._cmd_batch, "live": live._cmd_live}
-    t0 = time.perf_counter()
+    clock = timed()
     try:
         with _signals_raise():
             return commands[args.command](args)
@@ -67,7 +67,7 @@ def main(argv=None) -> int:
     except KeyboardInterrupt as exc:
         signum = getattr(exc, "signum", signal.SIGINT)
         print(f"rangemesh: interrupted ({signal.Signals(signum).name}) after "
-              f"{time.perf_counter() - t0:.1f} s", file=sys.stderr)
+              f"{clock.elapsed:.1f} s", file=sys.stderr)
         return 128 + int(signum)
     except (UserError, ImportError) as exc:  # ImportError: an optional extra is missing
         message = _one_line(exc)

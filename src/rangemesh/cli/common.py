@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from ..camera import Orthographic, Pinhole, Spherical
+from ..cloud_files import CLOUD_SUFFIXES
 from ..io import MESH_SUFFIXES, SCAN_SUFFIX, bin_layout, read_image_size, read_range_image, read_scan
 from ..memory import check_memory
 from ..prepare import guess_background
@@ -193,11 +194,20 @@ def _refuse_unnamed(args, path: Path, option: str) -> None:
 
 
 def _read_scan(args):
-    """The range image of a mesh command: an image file, or a LiDAR .bin read with --beams."""
-    if Path(args.image).suffix.lower() != SCAN_SUFFIX:
-        if getattr(args, "sensor", None) is not None:
-            raise UserError(f"{args.image}: --sensor goes with a LiDAR cloud (.bin)")
+    """The range image of a mesh command: an image file, a LiDAR .bin read with --beams, an Ouster scan."""
+    from .ouster import is_ouster_input, read_ouster_scan
+
+    if is_ouster_input(args, args.image):
+        return read_ouster_scan(args)
+    suffix = Path(args.image).suffix.lower()
+    if suffix != SCAN_SUFFIX and getattr(args, "sensor", None) is None:
+        if suffix == ".ply":  # a mesh suffix, never an image: as a cloud it needs its head
+            raise UserError(f"{args.image}: a .ply cloud needs --sensor (a Velodyne preset or "
+                            f"an Ouster metadata .json) to become a range image")
         return _read_image(args.image)
+    if suffix not in CLOUD_SUFFIXES:
+        raise UserError(f"{args.image}: --sensor goes with a LiDAR cloud "
+                        f"({', '.join(CLOUD_SUFFIXES)})")
     scan = _project(args)
     if scan is not None:
         return scan.ranges
@@ -227,7 +237,8 @@ def _project(args):
     if args.beams is not None:
         raise UserError("--sensor and --beams exclude each other (--sensor finds the beams)")
     try:
-        scan = project_scan(read_cloud(args.image), sensor=sensor)
+        points, ring = read_cloud(args.image, ring=True)  # the driver's ring field, if any
+        scan = project_scan(points, ring=ring, sensor=sensor)
     except (ValueError, TypeError) as exc:
         raise UserError(_one_line(exc)) from None
     args.scan_camera, args.scan_beams = scan.camera, scan.beams

@@ -12,14 +12,17 @@ from ..params import MeshParams
 from ..prepare import NONPOSITIVE, to_depth_and_mask
 from .common import UserError, _camera, _clean, _one_line, _read_image, _read_scan, _resolve_background
 from .options import _add_camera_options, _add_cleanup_options, _add_image_options
+from .ouster import add_ouster_options, info_ouster, is_ouster_input
 
 
 def _cmd_info(args):
     from ..recordings import is_recording
 
+    if is_ouster_input(args, args.image):
+        return info_ouster(args)
     if is_recording(args.image):
         return _info_recording(args)
-    if Path(args.image).suffix.lower() == SCAN_SUFFIX:
+    if _is_cloud(args.image) or args.sensor is not None:
         if args.beams is None and args.sensor is None:
             return _info_cloud(args)
         image = _read_scan(args)
@@ -75,12 +78,25 @@ def _cmd_info(args):
     return 0
 
 
+def _is_cloud(path) -> bool:
+    """A cloud file: a .bin or .ply, or a .pcd that is not organised (an organised one is an image)."""
+    from ..cloud_files import pcd_height
+
+    suffix = Path(path).suffix.lower()
+    if suffix == ".pcd":
+        try:
+            return pcd_height(path) <= 1
+        except (OSError, ValueError):
+            return False  # the image reader says why in one line
+    return suffix in (SCAN_SUFFIX, ".ply")
+
+
 def _info_cloud(args):
     """`rangemesh info cloud.bin`: its points, returns and angles (no beams: no range image)."""
     from ..clouds import read_cloud
 
     try:
-        pts = read_cloud(args.image)
+        pts, ring = read_cloud(args.image, ring=True)
     except ValueError as exc:
         raise UserError(_one_line(exc)) from None
     xyz = pts[:, :3].astype(np.float64)
@@ -93,18 +109,20 @@ def _info_cloud(args):
             "range_min": float(r[ok].min()) if ok.any() else None,
             "range_max": float(r[ok].max()) if ok.any() else None,
             "elevation_min_deg": float(el.min()) if ok.any() else None,
-            "elevation_max_deg": float(el.max()) if ok.any() else None}
+            "elevation_max_deg": float(el.max()) if ok.any() else None,
+            "ring_beams": None if ring is None else int(len(np.unique(ring)))}
     if args.json:
         print(json.dumps(_clean(info)))
         return 0
-    print(f"{args.image}: a LiDAR cloud of {info['points']} points (float32 x, y, z, "
-          f"intensity), {info['returns']} with a return, {info['no_returns']} at the origin "
-          f"(no return)")
+    print(f"{args.image}: a LiDAR cloud of {info['points']} points (x, y, z, intensity), "
+          f"{info['returns']} with a return, {info['no_returns']} at the origin or not finite "
+          f"(no return)" + ("" if ring is None else f"; a ring field of {info['ring_beams']} beams"))
     if ok.any():
         print(f"range {info['range_min']:g} .. {info['range_max']:g} m, elevation "
               f"{info['elevation_min_deg']:.2f} .. {info['elevation_max_deg']:.2f} degrees")
-    print("as a range image: give --sensor NAME (the beams found from the cloud) or --beams "
-          "FILE.json; --write-beams FILE.json keeps the beams found")
+    print("as a range image: give --sensor NAME (the beams found from the cloud), --sensor "
+          "META.json (an Ouster's metadata) or --beams FILE.json; --write-beams FILE.json keeps "
+          "the beams found")
     return 0
 
 
@@ -112,11 +130,13 @@ def _write_beams(args):
     """--write-beams: the beams of the projected cloud, as --beams reads them."""
     from ..clouds import project_scan, read_cloud, write_beams
 
-    if Path(args.image).suffix.lower() != SCAN_SUFFIX or args.sensor is None:
-        raise UserError("--write-beams goes with a LiDAR cloud (.bin) and --sensor")
+    if not _is_cloud(args.image) or args.sensor is None:
+        raise UserError("--write-beams goes with a LiDAR cloud (.bin, .pcd, .ply) and --sensor")
     try:
-        beams = getattr(args, "scan_beams", None) or project_scan(read_cloud(args.image),
-                                                                  sensor=args.sensor).beams
+        beams = getattr(args, "scan_beams", None)
+        if beams is None:
+            points, ring = read_cloud(args.image, ring=True)
+            beams = project_scan(points, ring=ring, sensor=args.sensor).beams
         write_beams(args.write_beams, beams)
     except (ValueError, OSError) as exc:
         raise UserError(_one_line(exc)) from None
@@ -185,8 +205,10 @@ def add_parser(sub) -> None:
     i = sub.add_parser("info", help="describe a range image or a recording's depth topics",
                        description="Size, dtype, valid share, depth range and what marks "
                                    "missing depth; for a ROS recording its depth topics with "
-                                   "size, encoding, count and camera.")
+                                   "size, encoding, count and camera; for an Ouster recording "
+                                   "the sensor, its scans and one scan's valid pixels.")
     i.add_argument("image")
+    add_ouster_options(i)
     _add_image_options(i)
     _add_cleanup_options(i)
     _add_camera_options(i)  # the camera says what 'auto' marks as missing depth

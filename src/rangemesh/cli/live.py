@@ -13,6 +13,7 @@ from .options import _add_mesh_options, _resolve
 def _cmd_live(args):
     """`rangemesh live SOURCE`: meshes as the sensor (or a paced recording) gives frames."""
     from ..live import run
+    from ..live.session import check_apart
 
     params, method, _ = _resolve(args)
     given = [o for o in ("scale", "intrinsics", "camera", "depth_scale", "beams")
@@ -21,11 +22,14 @@ def _cmd_live(args):
         raise UserError(f"--{given[0].replace('_', '-')} does not apply to live: the camera comes "
                         f"from the source (its SDK, or the recording's CameraInfo)")
     try:
+        check_apart(args.source, args.output or (), args.csv, names=("-o", "--csv"))
         s = run(args.source, foxglove=args.foxglove, outputs=args.output or (), csv=args.csv,
                 fmt="." + args.format, overwrite=args.overwrite, quiet=args.quiet,
                 kind=args.source_kind, meta=args.meta, topic=args.topic, pace=args.pace,
                 loop=args.loop, frames=args.frames, queue=args.queue, method=method,
-                vertices=args.vertices, max_error=args.max_error, **call_options(params, method))
+                vertices=args.vertices, max_error=args.max_error,
+                max_deviation=args.max_deviation, mean_deviation=args.mean_deviation,
+                **call_options(params, method))
     except (ValueError, TypeError) as exc:
         raise UserError(_one_line(exc)) from None
     if not args.quiet:

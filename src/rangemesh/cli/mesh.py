@@ -34,6 +34,7 @@ from .options import (
     _deviations,
     _resolve,
 )
+from .ouster import add_ouster_options, default_ouster_output, is_ouster_input, with_scan_offsets
 
 
 def _did(s) -> str:
@@ -103,6 +104,7 @@ def _run_mesh(args, image, name, bg, outputs_for):
             raise UserError(f"{name}: nothing to mesh: {mesh.stats.reason}")
         ev = evaluate(mesh, image, background=bg, depth_limits=params.depth_limits,
                       min_region=params.min_region)
+        mesh = with_scan_offsets(args, mesh)  # an Ouster scan: the SDK's exact points
         bar.update(1)
         written = []
         out, preview = outputs_for
@@ -157,11 +159,14 @@ def _with_colors(args, mesh, name):
 
 
 def _default_output(args) -> None:
-    """Without -o or --preview: the mesh goes beside the input as ``<stem>.ply``, never over it."""
+    """Without -o or --preview: the mesh goes beside the input as ``<stem>.ply``, never over it.
+
+    An Ouster recording's scan K goes to ``<stem>.frameK.ply``.
+    """
     if args.output or args.preview:
         return
     image = Path(args.image)
-    out = image.with_suffix(".ply")
+    out = default_ouster_output(args) if is_ouster_input(args, image) else image.with_suffix(".ply")
     if _same_file(out, image):
         raise UserError(f"{image}: is a .ply file; give -o FILE to choose where the mesh goes")
     _refuse_unnamed(args, out, "-o FILE")
@@ -180,8 +185,9 @@ def add_parser(sub) -> None:
     """The ``mesh`` subcommand's flags."""
     m = sub.add_parser("mesh", help="mesh one range image",
                        description="Mesh one range image; print the figures on stderr.")
-    m.add_argument("image", help=f"range image ({' '.join(IMAGE_SUFFIXES)}), or a KITTI-style "
-                                 f"LiDAR .bin with --beams")
+    m.add_argument("image", help=f"range image ({' '.join(IMAGE_SUFFIXES)}), a KITTI-style "
+                                 f"LiDAR .bin with --beams or --sensor, or an Ouster .pcap/.osf "
+                                 f"with --meta (one scan: --frame)")
     m.add_argument("-o", "--output", help=f"mesh file to write ({' '.join(MESH_SUFFIXES)}); "
                                           f"default: the image's name with .ply, beside it "
                                           f"(unless --preview is given)")
@@ -196,16 +202,9 @@ def add_parser(sub) -> None:
     col.add_argument("--color-mean", action="store_true",
                      help="a vertex takes the mean over the pixels it stands for, not its "
                           "own pixel's value")
+    add_ouster_options(m)
     _add_ply_options(m)
     _add_overwrite_option(m)
     _add_image_options(m)
     _add_mesh_options(m)
-    dev = m.add_argument_group("deviation targets (--method refine; instead of --vertices or "
-                               "--max-error)")
-    dev.add_argument("--max-deviation", type=float, default=None, metavar="D",
-                     help="every valid pixel within D of the mesh along its ray: metres with "
-                          "--intrinsics, --camera or --beams (z-depth, or range), depth units "
-                          "otherwise; fitted depths included")
-    dev.add_argument("--mean-deviation", type=float, default=None, metavar="D",
-                     help="the mean deviation of the valid pixels (as --max-deviation) at most D")
     _add_output_options(m)

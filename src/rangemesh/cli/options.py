@@ -104,11 +104,19 @@ def _add_cleanup_options(p):
 def _add_cloud_options(c):
     from ..clouds import SENSORS
 
-    c.add_argument("--sensor", choices=sorted(SENSORS), default=None,
-                   help="an unorganised LiDAR cloud (.bin, KITTI's x, y, z, intensity): the "
-                        "Velodyne head whose beams are found from the cloud to make the range "
-                        "image (rangemesh.project_scan); with --beams a cloud is projected on "
-                        "the file's beams")
+    def sensor(text):
+        if text in SENSORS or text.lower().endswith(".json"):
+            return text
+        raise argparse.ArgumentTypeError(f"expected one of {', '.join(sorted(SENSORS))} or an "
+                                         f"Ouster metadata FILE.json, got {text!r}")
+
+    c.add_argument("--sensor", type=sensor, default=None,
+                   metavar="{" + ",".join(sorted(SENSORS)) + "} or META.json",
+                   help="an unorganised LiDAR cloud (.bin, KITTI's x, y, z, intensity; .pcd or "
+                        ".ply, with a ring field where the driver gives one): the Velodyne head "
+                        "whose beams are found from the cloud, or an Ouster head from its "
+                        "metadata JSON, makes the range image (rangemesh.project_scan); with "
+                        "--beams a .bin cloud is projected on the file's beams")
 
 
 def _add_camera_options(p):
@@ -179,6 +187,7 @@ def _add_option_flags(groups: dict, only=None, unset=_UNSET) -> None:
 
 
 def _add_mesh_options(p):
+    """The meshing flags, the same for every command that meshes (mesh, demo, batch, live)."""
     p.add_argument("--method", choices=["refine", "paper", "greedy"], default="refine",
                    help="refine (the default): refine a coarse mesh at its worst pixels until "
                         "--vertices or --max-error is met, or without either the default "
@@ -196,6 +205,14 @@ def _add_mesh_options(p):
                        ("paper",): p.add_argument_group(
                            "--method paper's options (defaults: rangemesh.MeshParams)")})
     _add_camera_options(p)
+    dev = p.add_argument_group("deviation targets (--method refine; instead of --vertices or "
+                               "--max-error)")
+    dev.add_argument("--max-deviation", type=float, default=None, metavar="D",
+                     help="every valid pixel within D of the mesh along its ray: metres with "
+                          "--intrinsics, --camera or --beams (z-depth, or range), depth units "
+                          "otherwise; fitted depths included")
+    dev.add_argument("--mean-deviation", type=float, default=None, metavar="D",
+                     help="the mean deviation of the valid pixels (as --max-deviation) at most D")
 
 
 def _add_ply_options(p):
@@ -230,8 +247,8 @@ def _flag(name: str) -> str:
 
 
 def _deviations(args) -> tuple:
-    """``(max_deviation, mean_deviation)`` of a command that takes them (`mesh`), else Nones."""
-    return getattr(args, "max_deviation", None), getattr(args, "mean_deviation", None)
+    """``(max_deviation, mean_deviation)`` as given (Nones when not)."""
+    return args.max_deviation, args.mean_deviation
 
 
 def _resolve(args):

@@ -16,7 +16,9 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["seam_strip", "is_seam", "unrolled_columns", "strip_to_keep"]
+from .walls import wall_faces
+
+__all__ = ["seam_strip", "is_seam", "unrolled_columns", "strip_to_keep", "seam_faces"]
 
 
 def _signed_area(r, c, faces):
@@ -227,3 +229,48 @@ def strip_to_keep(faces: np.ndarray, strip: np.ndarray) -> np.ndarray:
             break
         kept[np.flatnonzero(kept)[bad]] = False
     return kept
+
+
+def seam_faces(pixels: np.ndarray, faces: np.ndarray, width: int, *,
+               depth: np.ndarray | None = None, jump: float | None = None,
+               camera=None) -> np.ndarray:
+    """The faces that close a mesh's seam: `seam_strip`, its walls dropped, what `strip_to_keep` keeps.
+
+    With a `jump` (``walls=False``) the strip's triangles across a jump are
+    dropped by the rule of `rangemesh.geometry.walls`, their pixel lengths
+    measured across the seam (or as ray angles with a ray `camera`). Then
+    every strip face that would repeat an edge of the mesh or give a vertex a
+    second fan is dropped: the mesh's own faces and vertices stay, so a
+    vertex count asked for is kept.
+
+    Parameters
+    ----------
+    pixels : (V, 2) ndarray of int
+    faces : (F, 3) ndarray of int
+        The mesh, one fan per vertex.
+    width : int
+        The image's width W (column W-1 is beside column 0).
+    depth : (H, W) ndarray of float, optional
+        The vertices' depths are read from it; needed with `jump`.
+    jump : float, optional
+        Drop the strip's walls (`rangemesh.geometry.walls.wall_faces`).
+    camera : optional
+        With a `Spherical` or `Rays` camera, edge lengths are ray angles.
+
+    Returns
+    -------
+    (K, 3) ndarray of int
+        Faces to add to `faces` (counter-clockwise once unrolled).
+    """
+    strip = seam_strip(pixels, faces, width)
+    if len(strip) and jump is not None:
+        z = depth[pixels[:, 0], pixels[:, 1]]
+        if hasattr(camera, "directions"):  # lengths are ray angles: the seam is no gap
+            walls = wall_faces(strip, pixels, z, jump, camera)
+        else:
+            coords = np.stack([pixels[:, 0], unrolled_columns(pixels, width)], axis=1)
+            walls = wall_faces(strip, coords, z, jump)
+        strip = strip[~walls]
+    # a strip face that repeats a mesh edge or reaches a vertex across a dropped wall would
+    # break P4: such faces go, the mesh's own faces and vertices stay
+    return strip[strip_to_keep(faces, strip)]

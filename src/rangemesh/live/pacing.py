@@ -79,6 +79,7 @@ class Playback:
         self._t0 = None
         self._first_stamp = self._last_stamp = None
         self._offset = 0.0  # seconds added to the stamps since the first frame: loops
+        self._gap = None  # seconds from a pass's last frame to the next pass's first
         self._last_release = None
         self.ended = False
 
@@ -103,9 +104,11 @@ class Playback:
         if self._first_stamp is None:
             self._first_stamp = stamp
         elif stamp <= self._last_stamp:  # a loop began again (or stamps went back): one gap later
-            gap = 1.0 / self._fps if self._fps else (
-                (self._last_stamp - self._first_stamp) / 1e9 / max(1, self._count - 1) or _GAP)
-            self._offset = self._last_release + gap - self._t0 - (stamp - self._first_stamp) / 1e9
+            if self._gap is None:  # the first pass's mean gap (later passes would shrink it)
+                self._gap = 1.0 / self._fps if self._fps else (
+                    (self._last_stamp - self._first_stamp) / 1e9 / max(1, self._count - 1) or _GAP)
+            self._offset = (self._last_release + self._gap - self._t0
+                            - (stamp - self._first_stamp) / 1e9)
         self._last_stamp = stamp
         release = self._t0 + (stamp - self._first_stamp) / 1e9 + self._offset
         self._last_release = release

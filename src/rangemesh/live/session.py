@@ -47,6 +47,52 @@ def _check_count(name: str, value, low: int):
     return value
 
 
+def _within(path: Path, source: Path) -> bool:
+    """Whether `path` is `source`, or lies inside it (a ROS 2 bag folder)."""
+    p, src = path.resolve(), source.resolve()
+    return p == src or (src.is_dir() and src in p.parents) or (
+        p.exists() and src.exists() and p.samefile(src))
+
+
+def check_apart(source, outputs=(), csv=None, names=("outputs", "csv")) -> None:
+    """Refuse outputs that would write over the source, or over each other, or are no folder.
+
+    Parameters
+    ----------
+    source : str or os.PathLike
+        The recording (a device's name names no file: nothing to refuse).
+    outputs, csv
+        As `run` takes them.
+    names : (str, str)
+        How the message names `outputs` and `csv` (the command line: ``-o``, ``--csv``).
+
+    Raises
+    ------
+    ValueError
+        An output or the CSV that is the source recording or lies inside it
+        (it would be replaced while it is read), a CSV that is the MCAP
+        output, or a folder output that is an existing file; in one line
+        naming the parameter.
+    """
+    src = Path(source)
+    given = [(names[0], Path(o)) for o in outputs] + ([(names[1], Path(csv))] if csv else [])
+    for name, p in given:
+        if src.exists() and _within(p, src):
+            inside = "" if p.resolve() == src.resolve() else " or lies inside it"
+            raise ValueError(f"{name} {p} is the source recording {source}{inside}: writing "
+                             f"there would replace the recording; write elsewhere")
+    mcaps = [Path(o) for o in outputs if Path(o).suffix.lower() == ".mcap"]
+    if csv and any(Path(csv).resolve() == m.resolve() for m in mcaps):
+        raise ValueError(f"{names[1]} {csv} is the MCAP output too: name the CSV apart")
+    for o in outputs:
+        p = Path(o)
+        if p.suffix.lower() != ".mcap" and p.exists() and not p.is_dir():
+            raise ValueError(f"{names[0]} {p} is a file: an output is NAME.mcap or a folder for "
+                             f"one mesh file a frame")
+    if csv and Path(csv).is_dir():
+        raise ValueError(f"{names[1]} {csv} is a folder, not a file to write")
+
+
 def _open(source, kind, meta, topic, pace, loop, frames, queue, method, vertices, max_error,
           options):
     """Everything checked, then the source opened: errors at the call, not at the first frame."""
@@ -108,7 +154,8 @@ def live(source: str | os.PathLike, *, kind: str | None = None, meta=None, topic
         Frames kept waiting while one is meshed; beyond, the oldest are
         dropped (1: the newest frame wins).
     method, vertices, max_error, **options
-        As for `rangemesh.triangulate`, checked once, at the call.
+        As for `rangemesh.triangulate` (``max_deviation`` and ``mean_deviation``
+        among the options), checked once, at the call.
 
     Yields
     ------
@@ -199,6 +246,9 @@ def run(source: str | os.PathLike, *, foxglove: str | None = None, outputs=(),
 
     Raises
     ------
+    ValueError
+        As `live`; and an output or `csv` that would replace the source
+        recording or each other (`check_apart`), before anything is opened.
     KeyboardInterrupt
         After the sinks are closed (the MCAP file readable) and the CSV written.
     """
@@ -213,6 +263,7 @@ def run(source: str | os.PathLike, *, foxglove: str | None = None, outputs=(),
     if csv is None:
         csv = mcaps[0].with_name(mcaps[0].stem + ".rangemesh-live.csv") if mcaps else \
             (folders[0] / "rangemesh-live.csv" if folders else None)
+    check_apart(source, outputs, csv)
     call, pace, src = _open(source, kind, meta, topic, pace, loop, frames, queue, method,
                             vertices, max_error, options)
     fox = None

@@ -11,14 +11,14 @@ from its recording's only in how the SDK is opened.
   from the SDK.
 * an Ouster hostname, or a ``.pcap``/``.osf`` with ``meta=FILE.json``:
   `ouster-sdk` (``rangemesh[ouster]``); each pixel's ray and beam-origin offset
-  come from the SDK's XYZ lookup table.
+  come from the SDK's XYZ lookup table (`rangemesh.recordings.ouster`, the
+  reader ``info``, ``mesh`` and ``batch`` use too).
 * a ROS recording (``.bag``, ``.db3``, ``.mcap``, ROS 2 bag folder), read as
   ``rangemesh batch`` reads it (`rangemesh.recordings`).
 """
 
 from __future__ import annotations
 
-import dataclasses
 import os
 from pathlib import Path
 from typing import NamedTuple
@@ -26,12 +26,14 @@ from typing import NamedTuple
 import numpy as np
 
 from .._optional import require
-from ..camera import Pinhole, Rays
+from ..camera import Pinhole
+from ..recordings.ouster import FRAME_ID, OUSTER_SUFFIXES, OusterReader, ouster_geometry, with_offsets
 
-__all__ = ["LiveFrame", "open_source", "source_kind", "is_realsense_bag", "SOURCE_KINDS"]
+__all__ = ["LiveFrame", "open_source", "source_kind", "is_realsense_bag", "SOURCE_KINDS",
+           # the Ouster reader's helpers live with it (rangemesh.recordings.ouster); kept here by name
+           "OUSTER_SUFFIXES", "ouster_geometry", "with_offsets"]
 
 SOURCE_KINDS = ("realsense", "ouster", "ros")
-OUSTER_SUFFIXES = (".pcap", ".osf")
 # a RealSense SDK recording starts with these topics (librealsense's rosbag format)
 _REALSENSE_TOPICS = ("/file_version", "/device_0/")
 _WAIT_MS = 5000  # no frame from the SDK for this long: a device's error, a recording's end
@@ -259,73 +261,29 @@ class RealSenseSource:
 # ------------------------------------------------------------------------- Ouster
 
 
-def ouster_geometry(info):
-    """Each pixel's unit ray and beam-origin offset (metres) from the SDK's XYZ lookup table, destaggered.
-
-    `ouster.sdk.core.XYZLut` maps a range image (millimetres) to points,
-    ``range * ray + offset`` (a range of 0, no return, to the origin): the
-    points at 1 m and 2 m give both. Both are destaggered, as the range image is.
-    """
-    core = require("ouster.sdk.core", "an Ouster LiDAR or recording")
-    lut = core.XYZLut(info)
-    h, w = info.format.pixels_per_column, info.format.columns_per_frame
-    one = np.asarray(lut(np.full((h, w), 1000, np.uint32)), np.float64)
-    ray = np.asarray(lut(np.full((h, w), 2000, np.uint32)), np.float64) - one
-    offset = one - ray
-    return core.destagger(info, ray), core.destagger(info, offset)
-
-
 class OusterSource:
-    """An Ouster sensor (its hostname) or a ``.pcap``/``.osf`` recording with its metadata."""
+    """An Ouster sensor (its hostname) or a ``.pcap``/``.osf`` recording with its metadata.
 
-    frame_id = "os_lidar"
+    The reader `rangemesh.recordings.ouster.OusterReader` is the one ``info``,
+    ``mesh`` and ``batch`` use; this gives its scans as `LiveFrame` objects.
+    """
+
+    frame_id = FRAME_ID
 
     def __init__(self, source: str, *, meta=None, loop: bool = False):
-        sdk = require("ouster.sdk", "an Ouster LiDAR or recording")
-        self._core = require("ouster.sdk.core", "an Ouster LiDAR or recording")
-        p = Path(source)
-        self.device = p.suffix.lower() not in OUSTER_SUFFIXES and not p.exists()
-        if not self.device and not p.is_file():
-            raise FileNotFoundError(f"{source}: no such file")
-        if meta is not None and not Path(meta).is_file():
-            raise FileNotFoundError(f"{meta}: no such metadata file")
-        self._open = lambda: sdk.open_source(source, meta=[os.fspath(meta)] if meta else None)
-        try:
-            self._src = self._open()
-        except Exception as exc:  # the SDK's own errors: no metadata, unreachable sensor, bad file
-            text = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-            hint = "" if meta or self.device else " (give its metadata with --meta FILE.json)"
-            raise ValueError(f"{source}: ouster-sdk cannot open it: {text}{hint}") from None
-        self.info = self._src.sensor_info[0]
-        rays, self.offsets = ouster_geometry(self.info)
-        self.camera = Rays(rays, range_scale=0.001)  # RANGE is in millimetres
-        self.fps = float(self.info.format.fps)
-        # every column of the circle is read: column W-1 is beside column 0 (the seam is closed)
-        fmt = self.info.format
-        self.wraps = tuple(fmt.column_window) == (0, fmt.columns_per_frame - 1)
-        self.name, self._loop = source, loop
+        self._reader = OusterReader(source, meta=meta, loop=loop)
+        r = self._reader
+        self.device, self.info, self.camera, self.offsets = r.device, r.info, r.camera, r.offsets
+        self.fps, self.wraps, self.name = r.fps, r.wraps, r.name
 
     def frames(self):
         """The scans, destaggered (a recording: to its end, or without end with `loop`)."""
-        core = self._core
-        while True:
-            for group in self._src:
-                scan = group if hasattr(group, "timestamp") else group[0]  # a FrameSet of one sensor
-                if scan is None:
-                    continue
-                rng = core.destagger(self.info, scan.field(core.ChanField.RANGE))
-                col = scan.get_first_valid_column()
-                stamp = int(scan.timestamp[col]) if 0 <= col < len(scan.timestamp) else 0
-                yield LiveFrame(stamp, self.frame_id, np.ascontiguousarray(rng), self.camera,
-                                self.offsets)
-            if self.device or not self._loop:
-                return
-            self._src.close()
-            self._src = self._open()
+        for scan in self._reader.scans():
+            yield LiveFrame(scan.stamp, self.frame_id, scan.ranges, self.camera, self.offsets)
 
     def close(self):
         """Close the SDK's source."""
-        self._src.close()
+        self._reader.close()
 
 
 # ------------------------------------------------------------------------- ROS
@@ -365,11 +323,3 @@ class RosSource:
     def close(self):
         """Close the recording."""
         self._rec.__exit__(None, None, None)
-
-
-def with_offsets(mesh, offsets):
-    """The mesh with each vertex moved by its pixel's beam-origin offset (Ouster's exact points)."""
-    if offsets is None or not len(mesh.vertices):
-        return mesh
-    r, c = mesh.pixels[:, 0], mesh.pixels[:, 1]
-    return dataclasses.replace(mesh, vertices=mesh.vertices + offsets[r, c])

@@ -3,12 +3,12 @@
 from __future__ import annotations
 
 import dataclasses
-import time
 
 import numpy as np
 
 from ..mesh import Mesh
 from ..params import MeshParams
+from ..timing import timed
 from .flipping import flip_edges
 from .sampling import sample_grid
 from .triangulation import delaunay_mesh
@@ -37,17 +37,16 @@ def mesh_grid(depth: np.ndarray, valid: np.ndarray, params: MeshParams, camera, 
     Mesh
         With ``stats.seconds`` for ``sampling``, ``triangulation``, ``flipping``.
     """
-    t1 = time.perf_counter()
-    grid = sample_grid(depth, valid, params, weights=weights, workers=params.workers)
-    t2 = time.perf_counter()
-    if params.max_edge is None:
-        mesh = delaunay_mesh(grid, depth, valid, camera)
-    else:
-        mesh = refine_to_edge(grid, depth, valid, camera, params.max_edge)[0]
-    t3 = time.perf_counter()
-    mesh = flip_edges(mesh, depth, valid, params)
-    t4 = time.perf_counter()
-    seconds = {"sampling": t2 - t1, "triangulation": t3 - t2, "flipping": t4 - t3}
+    seconds = {}
+    with timed(seconds, "sampling"):
+        grid = sample_grid(depth, valid, params, weights=weights, workers=params.workers)
+    with timed(seconds, "triangulation"):
+        if params.max_edge is None:
+            mesh = delaunay_mesh(grid, depth, valid, camera)
+        else:
+            mesh = refine_to_edge(grid, depth, valid, camera, params.max_edge)[0]
+    with timed(seconds, "flipping"):
+        mesh = flip_edges(mesh, depth, valid, params)
     return dataclasses.replace(mesh, stats=dataclasses.replace(mesh.stats, seconds=seconds))
 
 

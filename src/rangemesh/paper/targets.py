@@ -12,13 +12,13 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import time
 
 import numpy as np
 
 from ..mesh import Mesh
 from ..params import MeshParams
 from ..render import relative_error
+from ..timing import timed
 from .flipping import flip_edges
 from .sampling import max_grid_entries, sample_grid, sampling_weights
 from .stages import mesh_grid, refine_to_edge
@@ -373,24 +373,22 @@ def fit_edge(depth, valid, params: MeshParams, camera, *, tiles=None) -> tuple[M
         raise ValueError("fit_edge needs params.max_edge")
     h, w = depth.shape
     tiles = tuple(tiles) if tiles is not None else params.tiles
-    t0 = time.perf_counter()
-    weights = sampling_weights(depth, valid, params)
-    v, t = tiles
-    step = max_edge / math.sqrt(2.0)
-    rs = max(2, math.ceil((max(h - 1, 1) / v) / step) + 1)
-    z = max(2, math.ceil((max(w - 1, 1) / t) / step) + 1)
-    p = params.replace(tiles=tiles, samples=(rs, z))
-    grid = sample_grid(depth, valid, p, weights=weights)
-    t1 = time.perf_counter()
-    mesh, rounds, points = refine_to_edge(grid, depth, valid, camera, max_edge)
-    t2 = time.perf_counter()
-    mesh = flip_edges(mesh, depth, valid, params)
-    t3 = time.perf_counter()
+    seconds = {}
+    with timed(seconds, "sampling"):
+        weights = sampling_weights(depth, valid, params)
+        v, t = tiles
+        step = max_edge / math.sqrt(2.0)
+        rs = max(2, math.ceil((max(h - 1, 1) / v) / step) + 1)
+        z = max(2, math.ceil((max(w - 1, 1) / t) / step) + 1)
+        p = params.replace(tiles=tiles, samples=(rs, z))
+        grid = sample_grid(depth, valid, p, weights=weights)
+    with timed(seconds, "triangulation"):
+        mesh, rounds, points = refine_to_edge(grid, depth, valid, camera, max_edge)
+    with timed(seconds, "flipping"):
+        mesh = flip_edges(mesh, depth, valid, params)
     added = len(np.unique(points[:, 0] * w + points[:, 1])) - len(
         np.unique(grid[..., 0].astype(np.int64) * w + grid[..., 1]))
-    stats = dataclasses.replace(
-        mesh.stats, grid_shape=p.grid_shape,
-        seconds={"sampling": t1 - t0, "triangulation": t2 - t1, "flipping": t3 - t2})
+    stats = dataclasses.replace(mesh.stats, grid_shape=p.grid_shape, seconds=seconds)
     mesh = dataclasses.replace(mesh, stats=stats)
     longest = _longest_edge(mesh)
     return mesh, _target_record("max_edge", max_edge, longest, p, rounds, longest <= max_edge,

@@ -11,10 +11,11 @@ the same progress bar and statistics (CSV and JSON) as a batch of files.
 from __future__ import annotations
 
 import os
-import time
 from collections.abc import Iterator
 from pathlib import Path
 from typing import NamedTuple
+
+import numpy as np
 
 from ..batch import (
     BatchResult,
@@ -34,7 +35,9 @@ from ..metrics import evaluate
 from ..pipeline import triangulate
 from ..prepare import NONPOSITIVE
 from ..resolve import call_keywords, call_options, resolve_call
+from ..timing import timed
 from .decode import color_image, depth_image, depth_shape
+from .ouster import OusterRecording, is_ouster, with_offsets
 from .reading import Frame, Recording, stamp_text
 from .writing import MarkerBag, marker_bytes
 
@@ -59,10 +62,17 @@ def resolve(method: str, vertices, max_error, options: dict) -> dict:
     ValueError, TypeError
         A bad option or target; an unknown keyword.
     """
+    options = dict(options)
+    deviations = (options.pop("max_deviation", None), options.pop("mean_deviation", None))
     given, rest = call_keywords(options)
-    params, method, _ = resolve_call(None, method, vertices, max_error, given, rest, stacklevel=4)
-    return {"method": method, "vertices": vertices, "max_error": max_error,
+    params, method, _ = resolve_call(None, method, vertices, max_error, given, rest, stacklevel=4,
+                                     deviations=deviations)
+    call = {"method": method, "vertices": vertices, "max_error": max_error,
             **call_options(params, method)}
+    # (only when given, as mesh_many: a folder's record of its options stays as it was without)
+    call.update({k: v for k, v in zip(("max_deviation", "mean_deviation"), deviations, strict=True)
+                 if v is not None})
+    return call
 
 
 def mesh_frame(frame: Frame, call: dict, how: str = "pixel") -> tuple[Mesh, object]:
@@ -84,13 +94,16 @@ def mesh_frame(frame: Frame, call: dict, how: str = "pixel") -> tuple[Mesh, obje
     """
     if frame.error:
         raise ValueError(f"{frame.name}: {frame.error}")
+    decoded = isinstance(frame.depth, np.ndarray)  # an SDK's scan (Ouster): no message to decode
     try:  # a compressed frame's size from its PNG header: a bomb is refused before decoding
-        check_memory(depth_shape(frame.depth, frame.name), call["method"], call["vertices"])
+        shape = frame.depth.shape if decoded else depth_shape(frame.depth, frame.name)
+        check_memory(shape, call["method"], call["vertices"])
     except MemoryError as exc:
         raise MemoryError(f"{frame.name}: {exc}") from None
-    depth, _ = depth_image(frame.depth, frame.name)
+    depth = frame.depth if decoded else depth_image(frame.depth, frame.name)[0]
     try:
         mesh = triangulate(depth, background=BACKGROUND, camera=frame.camera, **call)
+        mesh = with_offsets(mesh, frame.offsets)
         if frame.color is not None:
             mesh = mesh.with_colors(color_image(frame.color, frame.name), how=how)
     except ValueError as exc:
@@ -131,7 +144,8 @@ def mesh_bag(path: str | os.PathLike, topic: str | None = None, *, color_topic: 
         warns (`SkippedFrame`, naming the frame and why) and goes on with the
         next frame, as ``rangemesh batch`` does.
     method, vertices, max_error, **options
-        As for `rangemesh.triangulate`, checked once, before the first frame.
+        As for `rangemesh.triangulate` (``max_deviation`` and ``mean_deviation``
+        among the options), checked once, before the first frame.
 
     Yields
     ------
@@ -201,7 +215,7 @@ def _meshes(path, topic, color_topic, camera, camera_info_topic, call, how, erro
 def _task(frame: Frame, call: dict, how: str, out: str | None, overwrite: bool,
           write_options: dict) -> tuple[BatchResult, bytes | None]:
     """Mesh one frame: its marker (``out`` None) or its mesh file written. Never raises."""
-    t0 = time.perf_counter()
+    clock = timed()
     target = out if out is not None else ""
     if out is not None and not overwrite and Path(out).exists():
         return BatchResult(frame.name, target, "skipped"), None
@@ -221,10 +235,10 @@ def _task(frame: Frame, call: dict, how: str, out: str | None, overwrite: bool,
         prefix = f"{frame.name}: "
         msg = msg[len(prefix):] if msg.startswith(prefix) else msg
         return BatchResult(frame.name, target, "failed", error=f"{type(exc).__name__}: {msg}",
-                           seconds=time.perf_counter() - t0), None
+                           seconds=clock.elapsed), None
     s = mesh.stats
     return BatchResult(frame.name, target, "meshed", vertices=s.vertices, triangles=s.triangles,
-                       flipped_edges=s.flipped_edges, seconds=time.perf_counter() - t0,
+                       flipped_edges=s.flipped_edges, seconds=clock.elapsed,
                        relative_error=ev.relative_error), data
 
 
@@ -234,14 +248,16 @@ def mesh_recording(path: str | os.PathLike, output: str | os.PathLike, topic: st
                    scheduler: str | None = None, workers: int | None = None,
                    overwrite: bool = False, fmt: str = ".ply", write_options: dict | None = None,
                    progress: bool = False, connect_timeout: float = 10.0, marker_topic: str | None = None,
-                   method: str = "refine", vertices: int | None = None,
+                   meta=None, method: str = "refine", vertices: int | None = None,
                    max_error: float | None = None, **options) -> list[BatchResult]:
     """Mesh every depth frame of a recording into an MCAP file of markers, or a folder of meshes.
 
     Parameters
     ----------
     path, topic, color_topic, camera, camera_info_topic, color_how
-        As for `mesh_bag`.
+        As for `mesh_bag`. An Ouster ``.pcap``/``.osf`` (with `meta`) is read
+        through `ouster-sdk` (`rangemesh.recordings.ouster`): every scan with
+        the SDK's rays and beam-origin offsets; the ROS options do not apply.
     output : str or os.PathLike
         ``name.mcap``: a ROS 2 MCAP recording with one
         ``visualization_msgs/msg/Marker`` (``TRIANGLE_LIST``) per frame on
@@ -265,9 +281,12 @@ def mesh_recording(path: str | os.PathLike, output: str | os.PathLike, topic: st
     progress : bool, default False
         Show the batch's progress bar.
     marker_topic : str, optional
-        Default ``<depth topic>/mesh``.
+        Default ``<depth topic>/mesh`` (an Ouster recording: ``/os_lidar/mesh``).
+    meta : str or os.PathLike, optional
+        An Ouster recording's metadata JSON (``--meta``).
     method, vertices, max_error, **options
-        As for `rangemesh.triangulate`, checked before any work.
+        As for `rangemesh.triangulate` (``max_deviation`` and ``mean_deviation``
+        among the options), checked before any work.
 
     Returns
     -------
@@ -289,8 +308,10 @@ def mesh_recording(path: str | os.PathLike, output: str | os.PathLike, topic: st
     _check_apart(Path(path), output)
     if to_bag and output.exists() and not overwrite:
         raise ValueError(f"{output}: exists; give --overwrite (overwrite=True) to replace it")
-    t0 = time.perf_counter()
-    with Recording(path) as rec:
+    clock = timed()
+    with _open(path, meta) as rec:
+        if getattr(rec, "wraps", False) and call.get("wrap") is None:  # an Ouster's whole circle
+            call = {**call, "wrap": True}
         frames = rec.frames(topic, color_topic=color_topic, camera=camera,
                             camera_info_topic=camera_info_topic)
         dt = rec.depth_topic(topic)
@@ -321,13 +342,22 @@ def mesh_recording(path: str | os.PathLike, output: str | os.PathLike, topic: st
         finally:
             if bar is not None:
                 bar.close()
-    wall = time.perf_counter() - t0
+    wall = clock.elapsed
     if names is None:
         write_report(_report_rows(earlier.get("results", ()), results), report_dir, wall,
                      counted=results, options=record)
     else:
         write_report(results, report_dir, wall, names)
     return results
+
+
+def _open(path, meta):
+    """The recording's reader: an Ouster one for a ``.pcap``/``.osf``, else the ROS one."""
+    if is_ouster(path):
+        return OusterRecording(path, meta=meta)
+    if meta is not None:
+        raise ValueError("meta (--meta) goes with an Ouster recording (.pcap or .osf)")
+    return Recording(path)
 
 
 def _check_apart(recording: Path, output: Path) -> None:

@@ -148,6 +148,8 @@ class Frame:
     error : str
         Why the frame cannot be meshed ("" when it can).
     topic : str
+    offsets : (H, W, 3) ndarray or None
+        Per-pixel beam-origin offsets added to the vertices (an Ouster scan), metres.
     """
 
     index: int
@@ -159,6 +161,7 @@ class Frame:
     color: Payload | None = None
     error: str = ""
     topic: str = ""
+    offsets: np.ndarray | None = None
 
     @property
     def name(self) -> str:

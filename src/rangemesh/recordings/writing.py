@@ -159,6 +159,10 @@ class MarkerBag:
 
     def __enter__(self) -> MarkerBag:
         rosbag2 = require("rosbags.rosbag2", FEATURE)
+        if not hasattr(rosbag2, "StoragePlugin"):  # rosbags < 0.10 (ouster-sdk 1.0 pins 0.9.23)
+            raise ImportError(f"{self.path}: writing MCAP needs rosbags>=0.10, and this "
+                              f"environment has an older one (ouster-sdk 1.0 pins "
+                              f"rosbags==0.9.23): write a folder of meshes instead (-o FOLDER)")
         folder = self.path.parent if str(self.path.parent) else Path(".")
         if not folder.is_dir():
             raise FileNotFoundError(f"{folder}: folder does not exist")

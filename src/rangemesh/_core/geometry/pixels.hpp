@@ -78,6 +78,45 @@ struct CoveredError {
 };
 CoveredError covered_error(Grid<const double> pred, Grid<const double> depth, Grid<const bool> valid);
 
+// The same, each valid pixel's prediction read as map(pred) (a render's stored values in depth
+// units), and with `range`, `valid_range(depth, valid)` in the same pass: one read of the image.
+template <class Map>
+CoveredError covered_error(Grid<const double> pred, Grid<const double> depth, Grid<const bool> valid, Map&& map,
+                           DepthRange* range) {
+    CoveredError out;
+    double lo = INFINITY, hi = -INFINITY;
+    index_t n_valid = 0;
+    for (index_t r = 0; r < depth.rows; ++r) {
+        poll_interrupt();
+        const double* prow = pred.row(r);
+        const double* drow = depth.row(r);
+        const bool* vrow = valid.row(r);
+        for (index_t c = 0; c < depth.cols; ++c) {
+            if (!vrow[c]) continue;
+            const double x = drow[c];
+            if (range != nullptr) {  // (valid_range's tests, in its order)
+                ++n_valid;
+                if (x < lo) lo = x;
+                if (x > hi) hi = x;
+            }
+            const double p = map(prow[c]);
+            if (std::isfinite(p)) {
+                out.total += std::abs(p - x);
+                ++out.count;
+            }
+        }
+    }
+    if (range != nullptr) {
+        *range = DepthRange{};
+        range->count = n_valid;
+        if (n_valid > 0) {
+            range->lo = lo;
+            range->hi = hi;
+        }
+    }
+    return out;
+}
+
 // The triangles (vertex ids `tv`, three a triangle) whose corners are all valid pixels, renumbered
 // over the vertices they use (in vertex order), and those vertices' (row, col).
 struct ValidFaces {

@@ -22,4 +22,13 @@ struct RenderTarget {
 // box; both give the same pixels and the same values, bit for bit.
 void rasterize(FaceValues faces, RenderTarget out);
 
+// The render without face ids: `claimed` 0 where no triangle has written yet, set to 1 where one
+// does (an eighth of the ids' memory); the same values, bit for bit.
+struct ValueTarget {
+    Grid<double> value;
+    Grid<unsigned char> claimed;
+};
+
+void rasterize(FaceValues faces, ValueTarget out);
+
 }  // namespace rangemesh

@@ -438,21 +438,20 @@ class ErrorMeasure {
             }
         }
         fill_polled(pred_, static_cast<std::size_t>(n_), std::numeric_limits<double>::quiet_NaN());
-        fill_polled(face_, static_cast<std::size_t>(n_), index_t{-1});
+        fill_polled(claimed_, static_cast<std::size_t>(n_), static_cast<unsigned char>(0));
         const index_t n_kept = static_cast<index_t>(fr.size() / 3);
         rasterize({{fr.data(), n_kept, 3}, {fc.data(), n_kept, 3}, {fv.data(), n_kept, 3}},
-                  {{pred_.data(), ref_.depth.rows, w}, {face_.data(), ref_.depth.rows, w}});
-        if (inverse)
-            for (index_t i = 0; i < n_; ++i) {
-                poll_every(i);
-                pred_[i] = stored ? 1.0 / pred_[i] : 1.0 / pred_[i] / camera_[5];
-            }
-        const CoveredError e = covered_error({pred_.data(), ref_.depth.rows, w}, ref_.depth, ref_.valid);
+                  ValueTarget{{pred_.data(), ref_.depth.rows, w}, {claimed_.data(), ref_.depth.rows, w}});
+        // the valid range on the first render's pass (only an error bound measures: a count's call makes none)
+        DepthRange* range = has_range_ ? nullptr : &range_;
+        const Grid<const double> pred{pred_.data(), ref_.depth.rows, w};
+        const double scale = camera_[5];
+        const CoveredError e =
+            !inverse ? covered_error(pred, ref_.depth, ref_.valid, [](double p) { return p; }, range)
+            : stored ? covered_error(pred, ref_.depth, ref_.valid, [](double p) { return 1.0 / p; }, range)
+                     : covered_error(pred, ref_.depth, ref_.valid, [scale](double p) { return 1.0 / p / scale; }, range);
+        has_range_ = true;
         if (e.count == 0) return std::numeric_limits<double>::quiet_NaN();
-        if (!has_range_) {  // (only an error bound measures: a count's call makes no pass for it)
-            range_ = valid_range(ref_.depth, ref_.valid);
-            has_range_ = true;
-        }
         return per_span(e.total / static_cast<double>(e.count), range_.hi - range_.lo);
     }
 
@@ -491,7 +490,7 @@ class ErrorMeasure {
     bool has_range_ = false;
     index_t n_;
     std::vector<double> pred_;
-    std::vector<index_t> face_;
+    std::vector<unsigned char> claimed_;
 };
 
 // A meshing with its vertices lifted and, under an error bound, the error they reach.

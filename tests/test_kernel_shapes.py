@@ -231,7 +231,8 @@ MALFORMED = {
                                                                zs=3),
     "line_pixel/k beyond the line": lambda: _core.line_pixel(0, 0, 3, 1, 4),
     "line_pixel/far endpoint": lambda: _core.line_pixel(0, 0, 2**62, 1, 1),
-    "_triangle_rows/corners not (3, 2)": lambda: _core._triangle_rows(np.array([[0, 0], [4, 0]]), (True,) * 3),
+    "_triangle_rows/corners not (3, 2)": lambda: _core._triangle_rows(np.array([[0, 0], [4, 0]]),
+                                                                      (True,) * 3),
     "_triangle_rows/step": lambda: _core._triangle_rows(np.array([[0, 0], [4, 0], [0, 4]]), (True,) * 3, 0,
                                                         2**62),
 }

@@ -197,3 +197,11 @@ def chair_depths():
     from .golden import crops
 
     return crops()["chair"][0].astype(np.float64)
+
+
+def core_settings(cls, **fields):
+    """A bound settings object of `rangemesh._core` (`FlipSettings`, `FitSettings`) with these fields."""
+    settings = cls()
+    for name, value in fields.items():
+        setattr(settings, name, value)  # (a name the class lacks raises AttributeError)
+    return settings

@@ -138,14 +138,16 @@ def test_valid_range_and_covered_error_by_plain_loops(seed, h, w, share):
     pred[0, 0] = np.inf
     inside = depth[valid].tolist()
     want = (min(inside), max(inside), len(inside)) if inside else (0.0, 0.0, 0)
-    assert _core.valid_range(depth, valid) == want
+    got = _core.valid_range(depth, valid)
+    assert (got.lo, got.hi, got.count) == want
     total, n = 0.0, 0  # the same row-major order of additions
     for r in range(h):
         for c in range(w):
             if valid[r, c] and np.isfinite(pred[r, c]):
                 total += abs(float(pred[r, c]) - float(depth[r, c]))
                 n += 1
-    assert _core.covered_error(pred, depth, valid) == (total, n)
+    got = _core.covered_error(pred, depth, valid)
+    assert (got.total, got.count) == (total, n)
 
 
 # --- fans ------------------------------------------------------------------------------------

@@ -13,6 +13,18 @@ from rangemesh.refine import heights
 from . import reference_heights as ref
 
 
+def _pixels(rows, cols):
+    """The (V, 2) pixels the fit's kernels take, of each vertex's row and column."""
+    return np.ascontiguousarray(np.stack([rows, cols], axis=1), dtype=np.int64)
+
+
+def _sampling(row_stride, face_stride, capacity):
+    """FitSettings of the errors' sample: `fit_sample_errors` reads no other field."""
+    s = _core.FitSettings()
+    s.row_stride, s.face_stride, s.capacity = row_stride, face_stride, capacity
+    return s
+
+
 @st.composite
 def fit_cases(draw):
     """A random image and mask, and a mesh over some of its pixels (either orientation)."""
@@ -40,14 +52,14 @@ def fit_cases(draw):
 def test_sampled_errors_are_those_of_the_owned_pixels(case, row_stride, face_stride):
     faces, order, rows, cols, values, image, valid = case
     want = ref.errors(faces, order, rows, cols, values, image, valid, row_stride, face_stride)
-    got = _core.fit_sample_errors(faces, order, rows, cols, values, image, valid, row_stride, face_stride,
-                                  image.size)
+    got = _core.fit_sample_errors(faces, order, _pixels(rows, cols), values, image, valid,
+                                  _sampling(row_stride, face_stride, image.size))
     assert len(got) == len(want)
     np.testing.assert_allclose(np.sort(got), np.sort(want), rtol=0, atol=1e-12)
     # at most `capacity` errors are kept: the first ones visited
     if len(want) > 2:
-        few = _core.fit_sample_errors(faces, order, rows, cols, values, image, valid, row_stride,
-                                      face_stride, 2)
+        few = _core.fit_sample_errors(faces, order, _pixels(rows, cols), values, image, valid,
+                                      _sampling(row_stride, face_stride, 2))
         np.testing.assert_array_equal(few, got[:2])
 
 
@@ -55,13 +67,13 @@ def test_sampled_errors_are_those_of_the_owned_pixels(case, row_stride, face_str
 @given(fit_cases(), st.sampled_from([np.pi / 50, 0.5 / np.e, np.inf]))
 def test_face_blocks_sum_the_kept_pixels(case, threshold):
     faces, order, rows, cols, values, image, valid = case
-    ids, block, rhs, used = _core.fit_blocks(faces, order, rows, cols, values, image, valid, threshold)
+    got = _core.fit_blocks(faces, order, _pixels(rows, cols), values, image, valid, threshold)
     want_ids, want_block, want_rhs, want_used = ref.blocks(faces, order, rows, cols, values, image, valid,
                                                            threshold)
-    np.testing.assert_array_equal(ids, want_ids)
-    np.testing.assert_allclose(block, want_block, rtol=1e-12, atol=1e-12)
-    np.testing.assert_allclose(rhs, want_rhs, rtol=1e-12, atol=1e-12)
-    assert used == want_used  # (no error lies within rounding of these irrational bounds)
+    np.testing.assert_array_equal(got.ids, want_ids)
+    np.testing.assert_allclose(got.block, want_block, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(got.rhs, want_rhs, rtol=1e-12, atol=1e-12)
+    assert got.used == want_used  # (no error lies within rounding of these irrational bounds)
 
 
 def test_a_triangulation_of_the_whole_image_visits_each_pixel_once():
@@ -84,8 +96,8 @@ def test_a_triangulation_of_the_whole_image_visits_each_pixel_once():
     valid = np.ones((h, w), bool)
     order = np.arange(len(faces), dtype=np.int64)
     values = np.ascontiguousarray(image[rows, cols])
-    *_, used = _core.fit_blocks(faces, order, rows, cols, values, image, valid, np.inf)
-    assert used == seen.sum()
+    got = _core.fit_blocks(faces, order, _pixels(rows, cols), values, image, valid, np.inf)
+    assert got.used == seen.sum()
 
 
 def test_the_pass_on_two_threads_is_the_pass_on_one():
@@ -97,11 +109,12 @@ def test_the_pass_on_two_threads_is_the_pass_on_one():
     rows, cols = (np.ascontiguousarray(m.pixels[:, k], dtype=np.int64) for k in (0, 1))
     valid = np.ones(sc.depth.shape, bool)
     order = _core.face_order(faces, rows, cols, 300, 300, 8)
-    args = (faces, order, rows, cols, np.ascontiguousarray(sc.depth[rows, cols]), sc.depth, valid, 1.0)
+    values = np.ascontiguousarray(sc.depth[rows, cols])
+    args = (faces, order, _pixels(rows, cols), values, sc.depth, valid, 1.0)
     one = _core.fit_blocks(*args, threads=1)
     two = _core.fit_blocks(*args, threads=2)
-    for a, b in zip(one, two, strict=True):
-        assert np.array_equal(a, b)
+    for name in ("ids", "block", "rhs", "used"):
+        assert np.array_equal(getattr(one, name), getattr(two, name))
     z1 = heights.fit_heights(m.pixels, m.faces, sc.depth, valid, m.camera, threads=1)
     z2 = heights.fit_heights(m.pixels, m.faces, sc.depth, valid, m.camera, threads=2)
     assert np.array_equal(z1.view(np.int64), z2.view(np.int64))
@@ -187,9 +200,9 @@ def test_the_kernels_refuse_a_vertex_outside_the_image():
     cols = np.array([0, 0, 3], np.int64)
     image = np.ones((5, 5))
     valid = np.ones((5, 5), bool)
-    args = (faces, np.zeros(1, np.int64), rows, cols, np.ones(3), image, valid)
+    args = (faces, np.zeros(1, np.int64), _pixels(rows, cols), np.ones(3), image, valid)
     with pytest.raises(ValueError, match="outside the image"):
-        _core.fit_sample_errors(*args, 1, 1, 25)
+        _core.fit_sample_errors(*args, _sampling(1, 1, 25))
     with pytest.raises(ValueError, match="outside the image"):
         _core.fit_blocks(*args, 1.0)
     with pytest.raises(RuntimeError, match="vertex id is out of range"):
@@ -198,9 +211,10 @@ def test_the_kernels_refuse_a_vertex_outside_the_image():
     rows = np.array([-1, 3, 0, 1], np.int64)
     cols = np.array([0, 0, 0, 3], np.int64)
     for face in ([0, 1, 2], [1, 2, 3]):
-        args = (np.array([face], np.int64), np.zeros(1, np.int64), rows, cols, np.ones(4), image, valid)
+        args = (np.array([face], np.int64), np.zeros(1, np.int64), _pixels(rows, cols), np.ones(4), image,
+                valid)
         with pytest.raises(ValueError, match="outside the image"):
-            _core.fit_sample_errors(*args, 1, 1, 25)
+            _core.fit_sample_errors(*args, _sampling(1, 1, 25))
 
 
 def test_a_fit_that_does_not_converge_is_solved_directly(monkeypatch):
@@ -214,12 +228,12 @@ def test_a_fit_that_does_not_converge_is_solved_directly(monkeypatch):
     core_fit = _core.fit_heights
 
     def fit(*args, **kwargs):
-        outcome, fitted, system = core_fit(*args, **kwargs)
-        outcomes.append(outcome)
-        if outcome == "not converged":
-            ids, block, rhs = system
-            assert ids.shape == (len(m.faces), 3) and block.shape == (len(m.faces), 3, 3)
-        return outcome, fitted, system
+        result = core_fit(*args, **kwargs)
+        outcomes.append(result.outcome)
+        if result.outcome == _core.FitOutcome.NOT_CONVERGED:
+            assert result.system.ids.shape == (len(m.faces), 3)
+            assert result.system.block.shape == (len(m.faces), 3, 3)
+        return result
 
     solved = []
     direct_solve = heights._direct_solve
@@ -232,7 +246,7 @@ def test_a_fit_that_does_not_converge_is_solved_directly(monkeypatch):
     monkeypatch.setattr(heights, "_direct_solve", direct)
     monkeypatch.setattr(heights, "CG_RTOL", 0.0)
     got = heights.fit_heights(m.pixels, m.faces, sc.depth, valid, m.camera)
-    assert outcomes == ["not converged"] and len(solved) == 1
+    assert outcomes == [_core.FitOutcome.NOT_CONVERGED] and len(solved) == 1
     lo, hi = sc.depth.min(), sc.depth.max()
     np.testing.assert_array_equal(got, np.clip(solved[0], lo, hi))  # the direct solve's depths
     np.testing.assert_allclose(got, want, rtol=0, atol=1e-6 * np.ptp(sc.depth))
@@ -244,13 +258,14 @@ def test_the_kernel_clips_the_fitted_values_as_numpy_does():
     sc = scenes.make("stairs", (40, 50), noise=0.3)
     m = triangulate(sc.depth, vertices=60, method="refine", heights="pixel")
     valid = np.ones(sc.depth.shape, bool)
-    kw = dict(row_stride=4, face_stride=1, capacity=valid.sum(), outlier_mads=heights.OUTLIER_MADS,
-              outlier_floor=heights.OUTLIER_FLOOR, ridge=heights.RIDGE, rtol=heights.CG_RTOL,
-              max_iter=1000, threads=1)
-    outcome, free, _ = _core.fit_heights(m.faces, m.pixels, sc.depth, valid, None, -np.inf, np.inf, **kw)
-    assert outcome == "fitted"
+    settings = heights.fit_settings(-np.inf, np.inf, len(m.faces), len(m.pixels), int(valid.sum()), threads=1)
+    settings.max_iter = 1000
+    fit = _core.fit_heights(m.faces, m.pixels, sc.depth, valid, None, settings)
+    assert fit.outcome == _core.FitOutcome.FITTED
+    free = fit.values
     lo, hi = np.quantile(free, [0.25, 0.75])
-    _, got, _ = _core.fit_heights(m.faces, m.pixels, sc.depth, valid, None, lo, hi, **kw)
+    settings.lo, settings.hi = lo, hi
+    got = _core.fit_heights(m.faces, m.pixels, sc.depth, valid, None, settings).values
     want = np.minimum(np.maximum(free, lo), hi)
     assert np.array_equal(got.view(np.int64), want.view(np.int64))
     assert (got == lo).any() and (got == hi).any()
@@ -286,3 +301,19 @@ def test_a_vertex_without_a_finite_value_is_named():
     outside[7] = (depth.shape[0], 0)
     with pytest.raises(ValueError, match="outside the image"):
         heights.fit_heights(outside, m.faces, depth, valid, m.camera)
+
+
+def test_the_kernel_names_the_first_vertex_without_a_finite_value():
+    # a status and the vertex, no sentinel in place of the values (issue 43)
+    sc = scenes.make("box", (40, 50), noise=0.3)
+    m = triangulate(sc.depth, vertices=60, method="refine", heights="pixel")
+    valid = np.ones(sc.depth.shape, bool)
+    settings = heights.fit_settings(sc.depth.min(), sc.depth.max(), len(m.faces), len(m.pixels), valid.size)
+    fit = _core.fit_heights(m.faces, m.pixels, sc.depth, valid, None, settings)
+    assert fit.outcome == _core.FitOutcome.FITTED and fit.not_finite is None and fit.system is None
+    hole = sc.depth.copy()
+    for k, value in ((9, np.inf), (7, np.nan)):
+        hole[tuple(m.pixels[k])] = value
+    fit = _core.fit_heights(m.faces, m.pixels, hole, valid, None, settings)
+    assert fit.outcome == _core.FitOutcome.NOT_FINITE and fit.not_finite == 7
+    assert fit.values is None and fit.system is None

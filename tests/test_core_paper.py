@@ -11,17 +11,16 @@ import pytest
 
 from rangemesh import Orthographic, _core
 
-from .helpers import interrupt
+from .helpers import core_settings, interrupt
 
 
 def _flip(pixels, faces=((0, 1, 2),), shape=(4, 4)):
     tri, he = _core.build_halfedges(np.array(faces, np.int64), 3)
     vertices = np.zeros((3, 3))
+    settings = core_settings(_core.FlipSettings, rule=1, threshold=-np.inf, delta=0.3, epsilon=0.005,
+                             max_angle=2.8, min_bend=0.08, quantum=2.0**-32, max_edge2=np.inf)
     return _core.flip_loop(tri, he, np.array(pixels, np.int64), vertices, np.zeros(shape),
-                           np.ones(shape, bool), Orthographic().as_array(), rule=1,
-                           threshold=-np.inf, delta=0.3, epsilon=0.005, max_angle=2.8, min_bend=0.08,
-                           quantum=2.0**-32, max_edge2=np.inf, verdicts=np.zeros(8, np.int64),
-                           log=np.zeros((0, 3), np.int64))
+                           np.ones(shape, bool), Orthographic().as_array(), settings).flips
 
 
 def test_flip_loop_takes_a_sound_mesh():
@@ -76,9 +75,9 @@ def test_a_per_pixel_camera_with_a_bad_width_is_refused(width):
 def test_lift_refuses_a_pixel_outside_a_per_pixel_camera():
     cam = _rays_camera(2, 2)
     cam[6 + 3 * 3:] = [1.0, 2.0, 3.0]  # the ray of pixel (1, 1)
-    assert _core.lift(1, 1, 2.0, cam) == (0.0, 0.0, 0.0)  # range_scale 0
+    assert _core.lift(1, 1, 2.0, cam).tolist() == [0.0, 0.0, 0.0]  # range_scale 0
     cam[3] = 1.0
-    assert _core.lift(1, 1, 2.0, cam) == (2.0, 4.0, 6.0)
+    assert _core.lift(1, 1, 2.0, cam).tolist() == [2.0, 4.0, 6.0]
     for r, c in [(2, 0), (0, 2), (-1, 0), (0, -1), (2**62, 0), (-(2**62), 1), (0, 2**62)]:
         with pytest.raises(ValueError, match="per-pixel camera"):
             _core.lift(r, c, 1.0, cam)
@@ -98,14 +97,14 @@ _KERNEL_LOOP = textwrap.dedent("""
     f = np.random.default_rng(1).uniform(0.5, 2.0, (3000, 3000))
     b = np.linspace(0, 2999, 201).round().astype(np.int64)
     grid = np.zeros((200 * 19 + 1, 200 * 19 + 1, 2), np.int32)
+    settings = _core.FlipSettings()
+    settings.rule, settings.threshold, settings.quantum, settings.max_edge2 = 1, -np.inf, 2.0**-32, np.inf
+    settings.delta, settings.epsilon, settings.max_angle, settings.min_bend = 0.35, 0.005, 2.8, 0.09
     print("ready", flush=True)
     while True:
         tri, he = _core.build_halfedges(faces, n * n)
         _core.flip_loop(tri, he, pixels, vertices, depth, np.ones((n, n), bool),
-                        Orthographic().as_array(), rule=1, threshold=-np.inf, delta=0.35,
-                        epsilon=0.005, max_angle=2.8, min_bend=0.09, quantum=2.0**-32,
-                        max_edge2=np.inf, verdicts=np.zeros(8, np.int64),
-                        log=np.zeros((0, 3), np.int64))
+                        Orthographic().as_array(), settings)
         _core.sample_tiles(f, b, b, 20, 20, grid, 2)
 """)
 

@@ -1,13 +1,13 @@
 """The flip stage decision by decision against a plain-Python reference written from the SPEC."""
 
-import math
+import dataclasses
 
 import numpy as np
 import pytest
 
 import rangemesh
 from rangemesh._core import build_halfedges, flip_loop
-from rangemesh.paper.flipping import Verdict, _gain_quantum
+from rangemesh.paper.flipping import Verdict, _gain_quantum, flip_settings
 
 from . import golden
 from .reference_flips import FlipReference
@@ -25,17 +25,13 @@ def _canonical(faces):
 
 def _kernel_run(mesh, depth, valid, mode, p):
     tri, he = build_halfedges(mesh.faces.astype(np.int64), len(mesh.vertices))
-    verdicts = np.zeros(len(Verdict), np.int64)
-    log = np.zeros((100_000, 3), np.int64)
-    flip_loop(tri, he, mesh.pixels.astype(np.int64), mesh.vertices, depth, valid,
-              mesh.camera.as_array(), rule={"disparity": 0, "error": 1}[mode], threshold=-np.inf,
-              delta=math.radians(p.delta), epsilon=math.radians(p.epsilon),
-              max_angle=math.radians(p.max_angle), min_bend=math.radians(p.min_bend),
-              quantum=_gain_quantum(mesh.vertices), max_edge2=np.inf, verdicts=verdicts, log=log)
-    n = int(verdicts.sum())
-    assert n < len(log)
-    names = [Verdict(v).name.lower() for v in log[:n, 2]]
-    return tri.reshape(-1, 3), [(int(a), int(b), v) for (a, b, _), v in zip(log[:n], names, strict=True)]
+    settings = flip_settings(dataclasses.replace(p, flips=mode), mesh.vertices, log_size=100_000)
+    report = flip_loop(tri, he, mesh.pixels.astype(np.int64), mesh.vertices, depth, valid,
+                       mesh.camera.as_array(), settings)
+    log = report.log
+    assert len(log) == int(report.verdicts.sum()) < settings.log_size  # every decision logged
+    names = [Verdict(v).name.lower() for v in log[:, 2]]
+    return tri.reshape(-1, 3), [(int(a), int(b), v) for (a, b, _), v in zip(log, names, strict=True)]
 
 
 @pytest.mark.parametrize("name", ["chair", "venus", "boxes", "cones", "mug"])

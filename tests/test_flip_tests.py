@@ -30,8 +30,10 @@ import numpy as np
 import pytest
 
 from rangemesh import Orthographic
-from rangemesh._core import build_halfedges, disparity_verdict, flip_loop
+from rangemesh._core import FlipSettings, build_halfedges, disparity_verdict, flip_loop
 from rangemesh.paper.flipping import Verdict
+
+from .helpers import core_settings
 
 A, B, C, D, P1, P2, P3, P4 = range(8)
 FACES = np.array([[A, B, C], [B, A, D], [C, B, P1], [A, C, P2], [D, A, P3], [B, D, P4]], np.int64)
@@ -52,9 +54,9 @@ def _verdict(vertices, **params):
         n = np.cross(vertices[b] - vertices[a], vertices[c] - vertices[a])
         normals[t] = n / np.linalg.norm(n)
     assert triangles[0] == A and triangles[1] == B  # half-edge 0 is A -> B
-    v = disparity_verdict(triangles, halfedges, normals, vertices, 0,
-                          math.radians(p["delta"]), math.radians(p["epsilon"]),
-                          math.radians(p["max_angle"]), math.radians(p["min_bend"]))
+    settings = core_settings(FlipSettings, delta=math.radians(p["delta"]), epsilon=math.radians(p["epsilon"]),
+                             max_angle=math.radians(p["max_angle"]), min_bend=math.radians(p["min_bend"]))
+    v = disparity_verdict(triangles, halfedges, normals, vertices, 0, settings)
     return Verdict(v)
 
 
@@ -159,12 +161,12 @@ def _flip_log(vertices, **params):
     triangles, halfedges = build_halfedges(FACES, len(vertices))
     pixels = vertices[:, :2].astype(np.int64)
     depth, valid = np.zeros((5, 3)), np.zeros((5, 3), bool)
-    verdicts, log = np.zeros(len(Verdict), np.int64), np.zeros((2, 3), np.int64)
-    flip_loop(triangles, halfedges, pixels, vertices, depth, valid, Orthographic().as_array(),
-              rule=0, threshold=-np.inf, delta=math.radians(p["delta"]),
-              epsilon=math.radians(p["epsilon"]), max_angle=math.radians(p["max_angle"]),
-              min_bend=math.radians(p["min_bend"]), quantum=2.0**-32, max_edge2=np.inf,
-              verdicts=verdicts, log=log)
+    settings = core_settings(FlipSettings, rule=0, threshold=-np.inf, delta=math.radians(p["delta"]),
+                             epsilon=math.radians(p["epsilon"]), max_angle=math.radians(p["max_angle"]),
+                             min_bend=math.radians(p["min_bend"]), quantum=2.0**-32, max_edge2=np.inf,
+                             log_size=2)
+    cam = Orthographic().as_array()
+    log = flip_loop(triangles, halfedges, pixels, vertices, depth, valid, cam, settings).log
     return [(int(a), int(b), Verdict(v)) for a, b, v in log]
 
 

@@ -19,6 +19,7 @@ run's figures).
 
 from __future__ import annotations
 
+import copy
 import faulthandler
 import json
 import os
@@ -57,9 +58,19 @@ INT_VALUES = [-2, -1, 0, 1, 2**31, 2**62, int(I64.min), int(I64.max)]
 FLOAT_VALUES = [float("nan"), float("inf"), -float("inf"), -1.0, 0.0, 1e300]
 
 
+# Settings objects whose fields are mutated as arguments are (other bound objects are left as they are).
+SETTINGS = (_ext.FlipSettings, _ext.FitSettings)
+
+
+def _fields(settings):
+    return sorted(n for n in dir(type(settings)) if isinstance(getattr(type(settings), n), property))
+
+
 def _copy(x):
     if isinstance(x, np.ndarray):
         return x.copy()
+    if isinstance(x, SETTINGS):
+        return copy.copy(x)
     if isinstance(x, tuple | list):
         return type(x)(_copy(v) for v in x)
     return x
@@ -127,17 +138,18 @@ def _derive(calls):
     derived = {}
     if not {"fit_heights", "flip_by_error", "flip_loop"} <= calls.keys():
         return derived  # (the test of coverage names what is missing)
-    (faces, pixels, image, valid, *_), kw = calls["fit_heights"][0]
+    (faces, pixels, image, valid, _, fit_settings), _ = calls["fit_heights"][0]
     faces = faces.astype(np.int64)
     rows, cols = pixels[:, 0].astype(np.int64), pixels[:, 1].astype(np.int64)
     values, order = image[rows, cols], np.arange(len(faces), dtype=np.int64)
-    mesh = (faces, order, rows, cols, values, image, valid)
+    mesh = (faces, order, pixels.astype(np.int64), values, image, valid)
     derived["face_order"] = [((faces, rows, cols, *image.shape, 8), {})]
-    derived["fit_sample_errors"] = [(mesh + (kw["row_stride"], kw["face_stride"], kw["capacity"]), {})]
+    derived["fit_sample_errors"] = [(mesh + (fit_settings,), {})]
     derived["fit_blocks"] = [(mesh + (np.inf, 2), {})]
     errors = _ext.fit_sample_errors(*derived["fit_sample_errors"][0][0])
     derived["median_inplace"] = [((errors,), {})]
-    ids, block, rhs, _ = _ext.fit_blocks(*derived["fit_blocks"][0][0])
+    blocks = _ext.fit_blocks(*derived["fit_blocks"][0][0])
+    ids, block, rhs = blocks.ids, blocks.block, blocks.rhs
     derived["gather_blocks"] = [((ids, block, rhs, values, 1e-3), {})]
     derived["solve_blocks"] = [((ids, block, rhs, values, 1e-3, 1e-8, 10 * len(values)), {})]
 
@@ -147,15 +159,15 @@ def _derive(calls):
     derived["triangle_error"] = [((*corners[0], *corners[1], *corners[2], True, True, False, depth, valid,
                                    0.0, unit, 1e12), {})]
     derived["error_flips"] = [((vr, vc, tri, depth, valid, unit), {})]
-    abc = (*corners[0][:2], *corners[1][:2], *corners[2][:2])
-    derived["_triangle_rows"] = [((*abc, True, False, True, None, 1), {}),
-                                 ((*abc, True, True, True, int(min(vr[a], vr[b], vr[c])) + 1, 2), {})]
+    abc = np.array([corners[k][:2] for k in range(3)], np.int64)
+    derived["_triangle_rows"] = [((abc, (True, False, True), None, 1), {}),
+                                 ((abc, (True, True, True), int(min(vr[a], vr[b], vr[c])) + 1, 2), {})]
 
-    (triangles, halfedges, pts, vertices, depth, valid, cam), kw = calls["flip_loop"][0]
+    (triangles, halfedges, pts, vertices, depth, valid, cam, flip_settings), _ = calls["flip_loop"][0]
     e0 = int(np.flatnonzero(halfedges >= 0)[0])
     va, vb = int(triangles[e0]), int(triangles[e0 - e0 % 3 + (e0 + 1) % 3])
     derived["disparity_verdict"] = [((triangles, halfedges, _unit_normals(vertices, triangles), vertices, e0,
-                                      kw["delta"], kw["epsilon"], kw["max_angle"], kw["min_bend"]), {})]
+                                      flip_settings), {})]
     derived["edge_error"] = [((va, vb, pts, vertices, depth, valid, cam), {})]
     derived["lift"] = [((int(pts[va, 0]), int(pts[va, 1]), float(depth[pts[va, 0], pts[va, 1]]), cam), {})]
     derived["line_pixel"] = [((*map(int, pts[va]), *map(int, pts[vb]), 1), {})]
@@ -241,12 +253,15 @@ def test_every_kernel_with_a_contract_is_called(captured):
     assert sorted(set(CHECKED) - set(captured)) == []
 
 
-# The arguments as leaves: ('arg', i), ('arg', i, j) inside a tuple argument, ('kw', name).
+# The arguments as leaves: ('arg', i), ('arg', i, j) inside a tuple argument, ('field', i, name) of a
+# settings object, ('kw', name).
 def _leaves(args, kwargs):
     out = []
     for i, a in enumerate(args):
         if isinstance(a, tuple | list) and not (a and isinstance(a[0], tuple)):
             out += [("arg", i, j) for j in range(len(a)) if _mutable(a[j])]
+        elif isinstance(a, SETTINGS):
+            out += [("field", i, name) for name in _fields(a)]
         elif _mutable(a):
             out.append(("arg", i))
     return out + [("kw", k) for k, v in kwargs.items() if _mutable(v)]
@@ -260,6 +275,8 @@ def _mutable(value):
 def _get(args, kwargs, leaf):
     if leaf[0] == "kw":
         return kwargs[leaf[1]]
+    if leaf[0] == "field":
+        return getattr(args[leaf[1]], leaf[2])
     return args[leaf[1]] if len(leaf) == 2 else args[leaf[1]][leaf[2]]
 
 
@@ -267,6 +284,8 @@ def _set(args, kwargs, leaf, value):
     args = list(args)
     if leaf[0] == "kw":
         kwargs = {**kwargs, leaf[1]: value}
+    elif leaf[0] == "field":  # (args are fresh copies: the captured object is left as it was)
+        setattr(args[leaf[1]], leaf[2], value)
     elif len(leaf) == 2:
         args[leaf[1]] = value
     else:
@@ -365,9 +384,10 @@ def test_a_mutated_real_call_is_refused_or_valid(captured, kernel, data):
     args, kwargs = data.draw(st.sampled_from(captured[kernel]), label="call")
     leaf = data.draw(st.sampled_from(_leaves(args, kwargs)), label="argument")
     value, change = data.draw(_mutated(_get(args, kwargs, leaf)), label="change")
-    args, kwargs = _set(_copy(args), _copy(kwargs), leaf, value)  # fresh arrays: kernels write in place
     faulthandler.dump_traceback_later(HANG_SECONDS, exit=True)
     try:
+        # fresh arrays: kernels write in place; a settings field refuses a value its C++ type cannot hold
+        args, kwargs = _set(_copy(args), _copy(kwargs), leaf, value)
         result = getattr(_ext, kernel)(*args, **kwargs)
     except (ValueError, RuntimeError) as e:
         assert "\n" not in str(e), f"{leaf} {change}: {e}"

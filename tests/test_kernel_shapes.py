@@ -43,7 +43,20 @@ def _heap(n=4):
 def _verdict(triangles=TV, halfedges=HE, normals=None, vertices=None, e0=2):
     normals = np.tile([0.0, 0.0, 1.0], (len(triangles) // 3, 1)) if normals is None else normals
     vertices = np.column_stack([VR, VC, np.zeros(4)]).astype(float) if vertices is None else vertices
-    return _core.disparity_verdict(triangles, halfedges, normals, vertices, e0, 0.3, 0.005, 2.8, 0.08)
+    return _core.disparity_verdict(triangles, halfedges, normals, vertices, e0, _flip_settings())
+
+
+def core_settings(cls, **fields):
+    """`tests.helpers.core_settings`: this module is imported on its own too (CHILD)."""
+    settings = cls()
+    for name, value in fields.items():
+        setattr(settings, name, value)
+    return settings
+
+
+def _flip_settings(rule=1, log_size=0):
+    return core_settings(_core.FlipSettings, rule=rule, threshold=-np.inf, delta=0.3, epsilon=0.005,
+                         max_angle=2.8, min_bend=0.08, quantum=2.0**-32, max_edge2=np.inf, log_size=log_size)
 
 
 def _flips(fn, vr=VR, vc=VC, *extra):
@@ -58,9 +71,9 @@ def test_the_well_formed_calls_work():
     assert _core.build_halfedges(FACES, 4)[1].tolist() == HE.tolist()
     assert _core.count_edges(FACES.astype(np.int32), 4) == 5
     assert _core.canonical_faces(TV, 4).tolist() == [[0, 1, 2], [0, 2, 3]]
-    assert _core.valid_range(DEPTH, VALID)[2] == 16
+    assert _core.valid_range(DEPTH, VALID).count == 16
     assert _core.nearest_valid(VALID, 3, 3) == (3, 3)
-    assert len(_core.grid_pixels(VALID, 2, 2, 0, 3, False)[0]) >= 4
+    assert len(_core.grid_pixels(VALID, 2, 2, 0, 3, False).rows) >= 4
     assert _verdict() in _core.FLIP_VERDICTS.values()
     assert _flips(_core.flip_by_error)[1] >= 0
     assert _flips(_core.flip_from_edges, VR, VC, np.array([2], I64))[1] >= 0
@@ -171,7 +184,7 @@ MALFORMED = {
     "prune_dangling/neighbour below -1": lambda: _core.prune_dangling(
         FACES, np.array([[-1, -1, -1], [-2, -1, -1]], I64), np.ones(2, bool), 4),
     "flip_loop/rule": lambda: _flip_loop(rule=2),
-    "flip_loop/verdict count": lambda: _flip_loop(verdicts=np.full(8, np.iinfo(I64).max)),
+    "flip_loop/log size": lambda: _flip_loop(log_size=2**62),
     "flip_loop/twins that do not pair up": lambda: _flip_loop(
         halfedges=np.array([-1, -1, 3, 1, -1, -1], I64)),
     # greedy insertion from a first mesh whose twins do not pair up never ended, its arrays
@@ -200,8 +213,15 @@ MALFORMED = {
                                                               4, 4, 2),
     "face_order/more cells than an image has": lambda: _core.face_order(FACES, VR, VC, 2**40, 2**40, 1),
     "fit_sample_errors/stride 0": lambda: _sample_errors(row_stride=0),
+    "fit_sample_errors/pixels not (V, 2)": lambda: _core.fit_sample_errors(
+        FACES, np.arange(2, dtype=I64), np.column_stack([VR, VC, VC]), DEPTH[VR, VC], DEPTH, VALID,
+        _sampling(1, 1, 16)),
+    "fit_heights/pixels not (V, 2)": lambda: _core.fit_heights(
+        FACES, np.column_stack([VR, VC, VC]), DEPTH, VALID, None, _core.FitSettings()),
+    "fit_blocks/pixels not (V, 2)": lambda: _core.fit_blocks(
+        FACES, np.arange(2, dtype=I64), np.column_stack([VR, VC, VC]), DEPTH[VR, VC], DEPTH, VALID, 1.0),
     "fit_sample_errors/order entry": lambda: _core.fit_sample_errors(
-        FACES, np.array([0, 2], I64), VR, VC, np.zeros(4), DEPTH, VALID, 1, 1, 16),
+        FACES, np.array([0, 2], I64), PTS, np.zeros(4), DEPTH, VALID, _sampling(1, 1, 16)),
     # (a barycentre inside, a corner outside: the squared edge lengths overflowed for far ones)
     "keep_faces/point outside": lambda: _core.keep_faces(
         FACES, np.array([[0, 0], [-3, 0], [6, 3], [0, 3]], I64), VALID, np.inf, np.empty(2, bool)),
@@ -211,16 +231,17 @@ MALFORMED = {
                                                                zs=3),
     "line_pixel/k beyond the line": lambda: _core.line_pixel(0, 0, 3, 1, 4),
     "line_pixel/far endpoint": lambda: _core.line_pixel(0, 0, 2**62, 1, 1),
-    "_triangle_rows/step": lambda: _core._triangle_rows(0, 0, 4, 0, 0, 4, True, True, True, 0, 2**62),
+    "_triangle_rows/corners not (3, 2)": lambda: _core._triangle_rows(np.array([[0, 0], [4, 0]]),
+                                                                      (True,) * 3),
+    "_triangle_rows/step": lambda: _core._triangle_rows(np.array([[0, 0], [4, 0], [0, 4]]), (True,) * 3, 0,
+                                                        2**62),
 }
 
 
-def _flip_loop(halfedges=HE, rule=1, verdicts=None):
+def _flip_loop(halfedges=HE, rule=1, log_size=0):
     return _core.flip_loop(
         TV.copy(), halfedges.copy(), PTS, np.column_stack([VR, VC, np.zeros(4)]).astype(float), DEPTH, VALID,
-        Orthographic().as_array(), rule=rule, threshold=-np.inf, delta=0.3, epsilon=0.005, max_angle=2.8,
-        min_bend=0.08, quantum=2.0**-32, max_edge2=np.inf,
-        verdicts=np.zeros(8, I64) if verdicts is None else verdicts, log=np.zeros((0, 3), I64))
+        Orthographic().as_array(), _flip_settings(rule, log_size))
 
 
 # Two strips of a 4 x 7 image meeting down column 3, each first meshed by its corners' two triangles.
@@ -248,9 +269,18 @@ def _far_depth_strips():
     return [ok]
 
 
+def _sampling(row_stride, face_stride, capacity):
+    return core_settings(_core.FitSettings, row_stride=row_stride, face_stride=face_stride, capacity=capacity)
+
+
 def _sample_errors(row_stride=1, face_stride=1, capacity=16):
-    return _core.fit_sample_errors(FACES, np.arange(2, dtype=I64), VR, VC, DEPTH[VR, VC], DEPTH, VALID,
-                                   row_stride, face_stride, capacity)
+    return _core.fit_sample_errors(FACES, np.arange(2, dtype=I64), PTS, DEPTH[VR, VC], DEPTH, VALID,
+                                   _sampling(row_stride, face_stride, capacity))
+
+
+def _pixel_list(*args):
+    got = _core.grid_pixels(*args)
+    return got.rows, got.cols
 
 
 def _sample_tiles(f, rs=2, zs=2):
@@ -263,7 +293,8 @@ def _sample_tiles(f, rs=2, zs=2):
 NAMED = {"_heap_sift_up": "heap: ", "_heap_rekey": "heap: ", "flip_by_error": "flips: ",
          "flip_from_edges": "flips: ", "error_flips/vertex outside": "flips: ",
          "error_flips/vertex id": "build_halfedges: ", "greedy_insert_sums": "greedy_insert: ",
-         "strip_insert": "greedy_insert: ", "fit_sample_errors": "fit: "}
+         "strip_insert": "greedy_insert: ", "fit_sample_errors": "fit: ", "fit_blocks": "fit: ",
+         "fit_heights": "fit: "}
 
 
 @pytest.mark.parametrize("case", MALFORMED, ids=MALFORMED)
@@ -293,8 +324,7 @@ REFUSED_BY_THE_KERNEL = {
         FACES, np.zeros((1, 3, 3)), np.zeros((2, 3)), np.zeros(4), 1e-3),
     "flip_loop/halfedges length": lambda: _core.flip_loop(
         TV.copy(), HE[:3].copy(), PTS, np.zeros((4, 3)), DEPTH, VALID, Orthographic().as_array(),
-        rule=1, threshold=-np.inf, delta=0.3, epsilon=0.005, max_angle=2.8, min_bend=0.08,
-        quantum=2.0**-32, max_edge2=np.inf, verdicts=np.zeros(8, I64), log=np.zeros((0, 3), I64)),
+        _flip_settings()),
 }
 
 
@@ -335,8 +365,9 @@ def test_a_row_stride_beyond_the_image_samples_its_first_row(big):
     rows = VR + 2
 
     def sample(row_stride, face_stride=1):
-        return _core.fit_sample_errors(FACES, np.arange(2, dtype=I64), rows, VC, depth[rows, VC], depth,
-                                       valid, row_stride, face_stride, 24).tolist()
+        return _core.fit_sample_errors(FACES, np.arange(2, dtype=I64), np.stack([rows, VC], axis=1),
+                                       depth[rows, VC], depth, valid,
+                                       _sampling(row_stride, face_stride, 24)).tolist()
 
     assert sample(big) == sample(6) == []
     assert sample(3) == pytest.approx([0.0, 2.0, 2.0], abs=1e-12)
@@ -398,13 +429,14 @@ except ValueError as e:
 ENDLESS = {
     # F8: a loop over 2^62 grid rows; a grid finer than the pixels has every pixel for a centre:
     # the corners, then rows 0..3 at the centres 1 and 3 of 2 columns (no corner twice)
-    "grid_pixels/2^62 rows": ("_core.grid_pixels(VALID, 2**62, 2, 0, 3, False)",
+    "grid_pixels/2^62 rows": ("_pixel_list(VALID, 2**62, 2, 0, 3, False)",
                               [[0, 3, 3, 0, 0, 1, 1, 2, 2, 3], [0, 0, 3, 3, 1, 1, 3, 1, 3, 1]]),
     # ... and columns 0..3 on rows 1 and 3 of 2
-    "grid_pixels/2^62 columns": ("_core.grid_pixels(VALID, 2, 2**62, 0, 3, False)",
+    "grid_pixels/2^62 columns": ("_pixel_list(VALID, 2, 2**62, 0, 3, False)",
                                  [[0, 3, 3, 0, 1, 1, 1, 1, 3, 3], [0, 0, 3, 3, 0, 1, 2, 3, 1, 2]]),
     # F8: a list of 2^31 rows
-    "_triangle_rows/corner at 2^31": ("_core._triangle_rows(0, 0, 2**31, 0, 0, 4, True, True, True)",
+    "_triangle_rows/corner at 2^31": ("_core._triangle_rows(np.array([[0, 0], [2**31, 0], [0, 4]]), "
+                                      "(True,) * 3)",
                                       "_triangle_rows: corners are pixels within EXACT_SPAN"),
     # the strips' last vertices one at a time: a NaN key (a depth of 1e300) made neither strip
     # go on, and the loop asked them again for ever

@@ -437,15 +437,15 @@ def test_fitted_depths_are_not_pulled_across_a_small_step():
     outcomes = []
 
     def fit(*args, **kwargs):
-        outcome, fitted, system = _core_fit(*args, **kwargs)
-        outcomes.append(outcome)
-        return outcome, fitted, system
+        result = _core_fit(*args, **kwargs)
+        outcomes.append(result.outcome)
+        return result
 
     _core_fit = _core.fit_heights
     with pytest.MonkeyPatch.context() as mp:
         mp.setattr(_core, "fit_heights", fit)
         z = heights.fit_heights(m.pixels, m.faces, depth, valid, m.camera)
-    assert outcomes == ["copied"]
+    assert outcomes == [_core.FitOutcome.COPIED]
     np.testing.assert_array_equal(z, own)
 
 
@@ -484,15 +484,16 @@ def test_block_solver_equals_a_dense_solve(n, n_faces, seed):
         b[ids[t]] += rhs[t]
     ridge = RIDGE * np.maximum(np.diag(dense), 1.0)
     want = np.linalg.solve(dense + np.diag(ridge), b + ridge * h0)
-    got, converged = solve_blocks(ids, block, rhs, h0, RIDGE, 1e-12, 10 * n)
-    assert converged
+    solution = solve_blocks(ids, block, rhs, h0, RIDGE, 1e-12, 10 * n)
+    got = solution.x
+    assert solution.converged
     np.testing.assert_allclose(got, want, rtol=1e-7, atol=1e-7 * np.abs(want).max())
     # the fallback when CG does not converge solves the same system directly
     np.testing.assert_allclose(_direct_solve(ids, block, rhs, h0), want, rtol=1e-9,
                                atol=1e-9 * np.abs(want).max())
     # and CG says so when it is stopped early on a system it has not solved
     if not np.allclose(h0, want, rtol=1e-6):
-        assert not solve_blocks(ids, block, rhs, h0, RIDGE, 1e-12, 0)[1]
+        assert not solve_blocks(ids, block, rhs, h0, RIDGE, 1e-12, 0).converged
 
 
 @pytest.mark.parametrize("vertices", [40, 400])
@@ -501,7 +502,7 @@ def test_the_fit_samples_its_errors_from_every_kth_face_or_row(vertices):
     # order, or of every 4th row: the same errors as a full pass over the faces order[::k]
     # alone, or over the image with every other row masked out (each face owns its pixels
     # by its own edges' orientation, whatever its neighbours).
-    from rangemesh._core import face_order, fit_sample_errors
+    from rangemesh._core import FitSettings, face_order, fit_sample_errors
 
     sc = scenes.make("box", (60, 80), noise=0.5)
     m = triangulate(sc.depth, vertices=vertices, method="refine", heights="pixel")
@@ -512,7 +513,9 @@ def test_the_fit_samples_its_errors_from_every_kth_face_or_row(vertices):
     order = face_order(faces, pr, pc, 60, 80, 8)
 
     def errors(f, o, mask, rows, every):
-        return np.sort(fit_sample_errors(f, o, pr, pc, h0, sc.depth, mask, rows, every, sc.depth.size))
+        sample = FitSettings()
+        sample.row_stride, sample.face_stride, sample.capacity = rows, every, sc.depth.size
+        return np.sort(fit_sample_errors(f, o, m.pixels, h0, sc.depth, mask, sample))
 
     every_row = np.zeros_like(valid)
     every_row[::4] = True

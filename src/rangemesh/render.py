@@ -176,11 +176,12 @@ def relative_error(mesh: Mesh, depth: np.ndarray, valid: np.ndarray) -> float:
     pred, _ = render_depth(mesh, depth.shape)
     depth = np.asarray(depth, np.float64)
     valid = np.asarray(valid, np.bool_)
-    total, n = covered_error(pred, depth, valid)
+    covered = covered_error(pred, depth, valid)
+    total, n = covered.total, covered.count
     if n == 0:
         return float("nan")
-    lo, hi, _ = valid_range(depth, valid)
-    return float(per_span(total / n, float(hi - lo), 100.0))
+    r = valid_range(depth, valid)
+    return float(per_span(total / n, float(r.hi - r.lo), 100.0))
 
 
 def per_span(x, span: float, full: float, *, out=None):

@@ -18,9 +18,9 @@ __all__ = ["curvature", "valid_span"]
 
 def valid_span(depth: np.ndarray, valid: np.ndarray) -> float:
     """Max - min of the valid depths (0 when there is none)."""
-    lo, hi, n = valid_range(np.ascontiguousarray(depth, dtype=np.float64),
-                            np.ascontiguousarray(valid, dtype=np.bool_))
-    return float(hi - lo) if n else 0.0
+    r = valid_range(np.ascontiguousarray(depth, dtype=np.float64),
+                    np.ascontiguousarray(valid, dtype=np.bool_))
+    return float(r.hi - r.lo) if r.count else 0.0
 
 
 def curvature(depth: np.ndarray, valid: np.ndarray, levels: int = 2) -> np.ndarray:

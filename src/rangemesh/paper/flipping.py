@@ -14,7 +14,7 @@ import math
 
 import numpy as np
 
-from .._core import FLIP_RULES, FLIP_VERDICTS, build_halfedges, flip_loop
+from .._core import FLIP_RULES, FLIP_VERDICTS, FlipSettings, build_halfedges, flip_loop
 from ..blocks import astype
 from ..mesh import Mesh
 from ..params import MeshParams
@@ -56,6 +56,36 @@ def _gain_quantum(vertices: np.ndarray) -> float:
     if not np.isfinite(extent) or extent <= 0.0:
         return 2.0**-32
     return math.ldexp(1.0, math.frexp(extent)[1] - 32)
+
+
+def flip_settings(params: MeshParams, vertices: np.ndarray, *, log_size: int = 0) -> FlipSettings:
+    """The core's settings of the flip stage (`rangemesh._core.FlipSettings`) for `params`.
+
+    Parameters
+    ----------
+    params : MeshParams
+        Its ``flips`` rule (not None), angles in degrees, ``gain_threshold`` and ``max_edge``.
+    vertices : (V, 3) ndarray
+        The mesh's 3-D vertices, whose extent sets the gains' quantum.
+    log_size : int, optional
+        How many of the first decisions the core logs (0: none).
+
+    Returns
+    -------
+    FlipSettings
+        Angles in radians, the rule as one of ``FLIP_RULES``' values.
+    """
+    settings = FlipSettings()
+    settings.rule = FLIP_RULES[params.flips]
+    settings.threshold = -np.inf if params.gain_threshold is None else float(params.gain_threshold)
+    settings.delta = math.radians(params.delta)
+    settings.epsilon = math.radians(params.epsilon)
+    settings.max_angle = math.radians(params.max_angle)
+    settings.min_bend = math.radians(params.min_bend)
+    settings.quantum = _gain_quantum(vertices)
+    settings.max_edge2 = np.inf if params.max_edge is None else float(params.max_edge ** 2)
+    settings.log_size = log_size
+    return settings
 
 
 def flip_edges(mesh: Mesh, depth: np.ndarray, valid: np.ndarray,
@@ -123,10 +153,7 @@ def flip_edges(mesh: Mesh, depth: np.ndarray, valid: np.ndarray,
         )
     n_v = len(mesh.vertices)
     triangles, halfedges = build_halfedges(mesh.faces, n_v)
-    threshold = -np.inf if params.gain_threshold is None else params.gain_threshold
-    verdicts = np.zeros(len(Verdict), np.int64)
-    max_edge2 = np.inf if params.max_edge is None else params.max_edge ** 2
-    flips = flip_loop(
+    report = flip_loop(
         triangles,
         halfedges,
         astype(mesh.pixels, np.int64),
@@ -134,18 +161,9 @@ def flip_edges(mesh: Mesh, depth: np.ndarray, valid: np.ndarray,
         np.ascontiguousarray(depth, dtype=np.float64),
         np.ascontiguousarray(valid, dtype=np.bool_),
         mesh.camera.as_array(),
-        rule=FLIP_RULES[params.flips],
-        threshold=float(threshold),
-        delta=math.radians(params.delta),
-        epsilon=math.radians(params.epsilon),
-        max_angle=math.radians(params.max_angle),
-        min_bend=math.radians(params.min_bend),
-        quantum=_gain_quantum(mesh.vertices),
-        max_edge2=float(max_edge2),
-        verdicts=verdicts,
-        log=np.zeros((0, 3), np.int64),  # no decision log
+        flip_settings(params, mesh.vertices),
     )
     faces = astype(triangles.reshape(-1, 3), np.int32)
-    tests = {v.name.lower(): int(verdicts[v]) for v in Verdict}
-    stats = dataclasses.replace(mesh.stats, flipped_edges=int(flips), flip_tests=tests)
+    tests = {v.name.lower(): int(report.verdicts[v]) for v in Verdict}
+    stats = dataclasses.replace(mesh.stats, flipped_edges=int(report.flips), flip_tests=tests)
     return dataclasses.replace(mesh, faces=faces, stats=stats)

@@ -109,10 +109,46 @@ def _direct_solve(ids, block, rhs, h0):
     from scipy.sparse.linalg import spsolve
 
     n = len(h0)
-    _, b, ridge = _core.gather_blocks(ids, block, rhs, h0, RIDGE)
+    system = _core.gather_blocks(ids, block, rhs, h0, RIDGE)
     m = sparse.csr_matrix((block.ravel(), (np.repeat(ids, 3, axis=1).ravel(),
                                            np.tile(ids, (1, 3)).ravel())), shape=(n, n))
-    return spsolve((m + sparse.diags(ridge, format="csr")).tocsc(), b)
+    return spsolve((m + sparse.diags(system.ridge, format="csr")).tocsc(), system.rhs)
+
+
+def fit_settings(lo: float, hi: float, n_faces: int, n_vertices: int, n_valid: int,
+                 threads: int | None = None) -> _core.FitSettings:
+    """The core's settings of the fit (`rangemesh._core.FitSettings`) for a mesh and image.
+
+    Parameters
+    ----------
+    lo, hi : float
+        The fitted values' bounds: the valid pixels' range of the fitted quantity.
+    n_faces, n_vertices : int
+        The mesh's size: its faces set the sample of errors (`sample_strides`)
+        and the threads, its vertices conjugate gradients' steps.
+    n_valid : int
+        The image's valid pixels, at most as many sampled errors.
+    threads : int, optional
+        Threads of the pass over the pixels; by default 1 below
+        ``FIT_SPLIT_MIN_FACES`` faces, else `_default_threads`.
+
+    Returns
+    -------
+    FitSettings
+        This module's rules (read at each call: benchmarks set them).
+    """
+    settings = _core.FitSettings()
+    settings.lo, settings.hi = lo, hi
+    settings.row_stride, settings.face_stride = sample_strides(n_faces)
+    settings.capacity = n_valid
+    settings.outlier_mads = OUTLIER_MADS
+    settings.outlier_floor = OUTLIER_FLOOR
+    settings.ridge = RIDGE
+    settings.rtol = CG_RTOL
+    settings.max_iter = 10 * n_vertices
+    settings.threads = (threads if threads is not None else
+                        1 if n_faces < _core.FIT_SPLIT_MIN_FACES else _default_threads())
+    return settings
 
 
 def fit_heights(pixels: np.ndarray, faces: np.ndarray, depth: np.ndarray, valid: np.ndarray,
@@ -162,29 +198,26 @@ def fit_heights(pixels: np.ndarray, faces: np.ndarray, depth: np.ndarray, valid:
                                  np.ascontiguousarray(pixels[:, 0], dtype=np.int64),
                                  np.ascontiguousarray(pixels[:, 1], dtype=np.int64),
                                  depth.shape[0], depth.shape[1], ORDER_TILE)
-    rows, every = sample_strides(len(faces))
     # A vertex that few pixels pin down can be thrown far off (a negative range was seen on a
     # LiDAR scan at 500 vertices): no fitted value leaves [lo, hi], the valid pixels' values.
-    outcome, fitted, system = _core.fit_heights(
-        faces, pixels, image, valid, order, lo, hi, row_stride=rows, face_stride=every,
-        capacity=int(n_valid), outlier_mads=OUTLIER_MADS, outlier_floor=OUTLIER_FLOOR, ridge=RIDGE,
-        rtol=CG_RTOL, max_iter=10 * len(pixels),
-        threads=threads if threads is not None else
-        1 if len(faces) < _core.FIT_SPLIT_MIN_FACES else _default_threads())
-    if outcome == "not finite":
-        r, c = pixels[fitted]
+    settings = fit_settings(lo, hi, len(faces), len(pixels), int(n_valid), threads)
+    fit = _core.fit_heights(faces, pixels, image, valid, order, settings)
+    if fit.outcome == _core.FitOutcome.NOT_FINITE:
+        r, c = pixels[fit.not_finite]
         if not ortho and depth[r, c] == 0:
             raise ValueError(f"depth 0 at pixel ({r}, {c}) cannot be fitted with a pinhole camera "
                              f"(its inverse depth is infinite): mark missing depth with "
                              f"background=0, or copy the depths with heights='pixel'")
         raise ValueError("fit_heights: every vertex must sit on a valid pixel")
+    fitted = fit.values
     if fitted is None:
         # No valid pixel, or most pixels fit the copied depths exactly and only pixels within
         # rounding of them would be kept: the copied depths are the least-squares solution
         # (quantised disparities and exact scenes at dense budgets).
         return depth[pixels[:, 0], pixels[:, 1]].astype(np.float64)
-    if outcome == "not converged":  # ill-conditioned: a direct sparse solve of the same system
-        fitted = _direct_solve(*system, image[pixels[:, 0], pixels[:, 1]])
+    if fit.outcome == _core.FitOutcome.NOT_CONVERGED:  # ill-conditioned: a direct sparse solve of the system
+        system = fit.system
+        fitted = _direct_solve(system.ids, system.block, system.rhs, image[pixels[:, 0], pixels[:, 1]])
         if not np.isfinite(fitted).all():
             raise RuntimeError("fit_heights: the least-squares solve failed")
         np.minimum(np.maximum(fitted, lo, out=fitted), hi, out=fitted)  # np.clip, without its wrapper

@@ -73,7 +73,8 @@ def first_mesh(depth: np.ndarray, valid: np.ndarray, n_grid: int, scales=(1, 1),
     gr = int(round(np.sqrt(n_grid * h * sr / (w * sc)))) if n_grid >= 4 else 0
     gc = int(round(np.sqrt(n_grid * w * sc / (h * sr)))) if n_grid >= 4 else 0
     # (compiled: on small images NumPy's grid, unique and masks weighed on the call)
-    vr, vc = grid_pixels(valid, gr, gc, c_lo, c_hi, cols is not None)
+    grid = grid_pixels(valid, gr, gc, c_lo, c_hi, cols is not None)
+    vr, vc = grid.rows, grid.cols
     if seam is not None:
         rows, col = seam
         rows = np.asarray(rows, np.int64)

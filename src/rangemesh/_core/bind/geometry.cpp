@@ -1,6 +1,8 @@
 // Python bindings of the shared geometry kernels.
+#include <nanobind/stl/array.h>
 #include <nanobind/stl/optional.h>
 
+#include <array>
 #include <cstdint>
 #include <optional>
 
@@ -127,21 +129,19 @@ void bind_pixels(nb::module_& m) {
         "valid_range",
         [](In2<double> depth, In2<bool> valid) {
             check_input(same_shape(depth, valid), "valid_range: depth and valid must have one shape");
-            const DepthRange d = run_released([&] { return valid_range(grid(depth), grid(valid)); }, work(depth));
-            return nb::make_tuple(d.lo, d.hi, d.count);
+            return run_released([&] { return valid_range(grid(depth), grid(valid)); }, work(depth));
         },
         nb::arg("depth"), nb::arg("valid"),
-        "``(min, max, count)`` of the valid depths; ``(0.0, 0.0, 0)`` when there is none.");
+        "The DepthRange of the valid depths: smallest, largest and count (0.0, 0.0 and 0 when there is none).");
     m.def(
         "covered_error",
         [](In2<double> pred, In2<double> depth, In2<bool> valid) {
             check_input(same_shape(pred, depth) && same_shape(valid, depth),
                         "covered_error: pred, depth and valid must have one shape");
-            const CoveredError e = run_released([&] { return covered_error(grid(pred), grid(depth), grid(valid)); });
-            return nb::make_tuple(e.total, e.count);
+            return run_released([&] { return covered_error(grid(pred), grid(depth), grid(valid)); });
         },
         nb::arg("pred"), nb::arg("depth"), nb::arg("valid"),
-        "``(sum of |pred - depth|, count)`` over the valid pixels where `pred` is finite.");
+        "The CoveredError: the sum of |pred - depth| over the valid pixels where `pred` is finite, and their count.");
     m.def(
         "valid_faces",
         [](In1<index_t> vr, In1<index_t> vc, In1<index_t> tv, In2<bool> valid) {
@@ -170,13 +170,12 @@ void bind_pixels(nb::module_& m) {
         [](In2<bool> valid, index_t n_rows, index_t n_cols, index_t c_lo, index_t c_hi, bool inner) {
             check_input(valid.shape(0) >= 1 && 0 <= c_lo && c_lo <= c_hi && c_hi < static_cast<index_t>(valid.shape(1)),
                         "grid_pixels: columns c_lo <= c_hi of a non-empty image");
-            PixelList p = run_released([&] { return grid_pixels(grid(valid), n_rows, n_cols, c_lo, c_hi, inner); },
-                                       work(valid));
-            return nb::make_tuple(to_numpy(std::move(p.rows)), to_numpy(std::move(p.cols)));
+            return run_released([&] { return grid_pixels(grid(valid), n_rows, n_cols, c_lo, c_hi, inner); },
+                                work(valid));
         },
         nb::arg("valid"), nb::arg("n_rows"), nb::arg("n_cols"), nb::arg("c_lo"), nb::arg("c_hi"), nb::arg("inner"),
-        "``(rows, cols)`` int64: the corners of columns c_lo..c_hi, then row by row the distinct valid "
-        "centres of an n_rows x n_cols grid over them (none on the first or last column with `inner`).");
+        "A PixelList: the corners of columns c_lo..c_hi, then row by row the distinct valid centres of an "
+        "n_rows x n_cols grid over them (none on the first or last column with `inner`).");
     m.def(
         "rasterize",
         [](In2<double> face_r, In2<double> face_c, In2<double> face_val, Out2<double> out_val,
@@ -198,6 +197,28 @@ void bind_pixels(nb::module_& m) {
 void bind_geometry(nb::module_& m) {
     // the widest span of coordinates (pixels times Delaunay scales) the exact predicates take
     m.attr("EXACT_SPAN") = EXACT_SPAN;
+    nb::class_<CoveredError>(m, "CoveredError", "The error of a render over the covered valid pixels (``covered_error``).")
+        .def_ro("total", &CoveredError::total, "The sum of |pred - depth|.")
+        .def_ro("count", &CoveredError::count, "The valid pixels where pred is finite.");
+    nb::class_<PixelList>(m, "PixelList", "Pixels as their rows and columns (``grid_pixels``).")
+        .def_prop_ro("rows", [](PixelList& p) { return view_of(p.rows); }, nb::rv_policy::reference_internal,
+                     "(n,) int64.")
+        .def_prop_ro("cols", [](PixelList& p) { return view_of(p.cols); }, nb::rv_policy::reference_internal,
+                     "(n,) int64.");
+    nb::class_<DepthRange>(m, "DepthRange", "The valid depths' range and count (``valid_range``).")
+        .def_ro("lo", &DepthRange::lo, "The smallest valid depth (0.0 when there is none).")
+        .def_ro("hi", &DepthRange::hi, "The largest (0.0 when there is none).")
+        .def_ro("count", &DepthRange::count, "Valid pixels.")
+        // (an extent (lo, hi, count) as refine.insertion takes it, until it reads the names)
+        .def("__len__", [](const DepthRange&) { return 3; })
+        .def("__getitem__", [](const DepthRange& d, index_t k) -> nb::object {
+            switch (k < 0 ? k + 3 : k) {
+                case 0: return nb::float_(d.lo);
+                case 1: return nb::float_(d.hi);
+                case 2: return nb::int_(d.count);
+            }
+            throw nb::index_error("DepthRange: lo, hi, count are items 0, 1, 2");
+        });
     bind_delaunay(m);
     bind_pixels(m);
     bind_face_lists<index_t>(m);
@@ -254,27 +275,33 @@ void bind_geometry_tests(nb::module_& m) {
     // (every `step`-th row from `first` when given, else every row)
     m.def(
         "_triangle_rows",
-        [](index_t ar, index_t ac, index_t br, index_t bc, index_t cr, index_t cc, bool own_ab, bool own_bc,
-           bool own_ca, std::optional<index_t> first, index_t step) {
+        [](In2<index_t> corners, std::array<bool, 3> owns, std::optional<index_t> first, index_t step) {
+            check_input(corners.shape(0) == 3 && corners.shape(1) == 2, "_triangle_rows: corners are (3, 2)");
             // pixels of an image the predicates take, rows walked from near the triangle: a
             // corner at 2^31 (or a step of 2^62) would walk for ever or overflow
-            for (const index_t x : {ar, ac, br, bc, cr, cc})
-                check_input(0 <= x && x <= EXACT_SPAN, "_triangle_rows: corners are pixels within EXACT_SPAN");
+            for (std::size_t k = 0; k < 6; ++k)
+                check_input(0 <= corners.data()[k] && corners.data()[k] <= EXACT_SPAN,
+                            "_triangle_rows: corners are pixels within EXACT_SPAN");
             check_input(1 <= step && step <= EXACT_SPAN && (!first || (-EXACT_SPAN <= *first && *first <= 2 * EXACT_SPAN)),
                         "_triangle_rows: 1 <= step <= EXACT_SPAN, and the first row within EXACT_SPAN of the image");
+            const index_t ar = corners(0, 0), ac = corners(0, 1), br = corners(1, 0), bc = corners(1, 1),
+                          cr = corners(2, 0), cc = corners(2, 1);
             const TriangleRows top(ar, ac, br, bc, cr, cc);
             const index_t r0 = first.value_or(top.r0);
             TriangleRows rows = first ? TriangleRows(ar, ac, br, bc, cr, cc, r0, step) : top;
-            nb::list out;
+            std::vector<index_t> out;
             for (index_t r = r0; r <= rows.r1; r += first ? step : 1) {
                 if (r > r0) rows.next_row();
-                const RowSpan s = rows.columns(own_ab, own_bc, own_ca);
-                out.append(nb::make_tuple(r, s.first, s.last, s.w0, s.w1, s.w2));
+                const RowSpan s = rows.columns(owns[0], owns[1], owns[2]);
+                out.insert(out.end(), {r, s.first, s.last, s.w0, s.w1, s.w2});
             }
-            return out;
+            const std::size_t n = out.size() / 6;
+            return to_numpy(std::move(out), n, 6);
         },
-        nb::arg("ar"), nb::arg("ac"), nb::arg("br"), nb::arg("bc"), nb::arg("cr"), nb::arg("cc"), nb::arg("own_ab"),
-        nb::arg("own_bc"), nb::arg("own_ca"), nb::arg("first") = nb::none(), nb::arg("step") = 1);
+        nb::arg("corners"), nb::arg("owns"), nb::arg("first") = nb::none(), nb::arg("step") = 1,
+        "The row spans of triangle ``corners`` (A, B, C as (row, col), counter-clockwise), ``owns`` its edges "
+        "AB, BC, CA: an (n, 6) int64 array, a row each: row, first and last column, and the edge functions "
+        "w0, w1, w2 at the first column.");
 }
 
 }  // namespace rangemesh::bind

@@ -27,11 +27,6 @@ using heights::FaceBlock;
 template <class T>
 using In3 = nb::ndarray<const T, nb::ndim<3>, nb::c_contig, nb::device::cpu>;
 
-heights::FitMesh fit_mesh(const In2<index_t>& faces, const In1<index_t>& rows, const In1<index_t>& cols,
-                          const In1<double>& values) {
-    return {grid(faces), span(rows), span(cols), span(values)};
-}
-
 heights::FitImage fit_image(const In2<double>& image, const In2<bool>& valid) { return {grid(image), grid(valid)}; }
 
 // The faces' blocks from the arrays ids (n, 3), block (n, 3, 3) and rhs (n, 3).
@@ -51,8 +46,18 @@ std::vector<FaceBlock> blocks_from_arrays(const In2<index_t>& ids, const In3<dou
     return out;
 }
 
-// The arrays (ids (n, 3), block (n, 3, 3), rhs (n, 3)) of the faces' blocks.
-nb::tuple arrays_from_blocks(const std::vector<FaceBlock>& blocks) {
+template <class T>
+using Array = nb::ndarray<nb::numpy, T>;
+
+// The faces' normal equations as arrays (`FaceBlocks`): a face a row.
+struct BlockArrays {
+    Array<index_t> ids;   // (n, 3): its corners, counter-clockwise
+    Array<double> block;  // (n, 3, 3): the sum of w w^T over its kept pixels
+    Array<double> rhs;    // (n, 3): the sum of w * value
+    index_t used = 0;     // pixels in the system
+};
+
+BlockArrays arrays_from_blocks(const std::vector<FaceBlock>& blocks, index_t used) {
     const std::size_t n = blocks.size();
     std::vector<index_t> ids(3 * n);
     std::vector<double> m(9 * n), rhs(3 * n);
@@ -66,20 +71,113 @@ nb::tuple arrays_from_blocks(const std::vector<FaceBlock>& blocks) {
     auto* owned = new std::vector<double>(std::move(m));
     nb::capsule owner(owned, [](void* p) noexcept { delete static_cast<std::vector<double>*>(p); });
     const std::size_t shape[3] = {n, 3, 3};
-    nb::ndarray<nb::numpy, double> block(owned->data(), 3, shape, owner);
-    return nb::make_tuple(to_numpy(std::move(ids), n, 3), block, to_numpy(std::move(rhs), n, 3));
+    return {to_numpy(std::move(ids), n, 3), Array<double>(owned->data(), 3, shape, owner),
+            to_numpy(std::move(rhs), n, 3), used};
 }
 
-const char* outcome_name(heights::FitOutcome outcome) {
+// fit_heights' outcome: the kernel's, and a value that is not finite (found before it runs).
+enum class FitStatus { no_pixels, copied, fitted, not_converged, not_finite };
+
+FitStatus status_of(heights::FitOutcome outcome) {
     switch (outcome) {
-        case heights::FitOutcome::no_pixels: return "no pixels";
-        case heights::FitOutcome::copied: return "copied";
-        case heights::FitOutcome::fitted: return "fitted";
-        case heights::FitOutcome::not_converged: return "not converged";
+        case heights::FitOutcome::no_pixels: return FitStatus::no_pixels;
+        case heights::FitOutcome::copied: return FitStatus::copied;
+        case heights::FitOutcome::fitted: return FitStatus::fitted;
+        case heights::FitOutcome::not_converged: return FitStatus::not_converged;
     }
-    return "";
+    throw InvariantError("fit_heights: an outcome without a name");
 }
 
+// What fit_heights found.
+struct HeightFit {
+    FitStatus outcome = FitStatus::no_pixels;
+    std::optional<Array<double>> values;    // fitted, not_converged
+    std::optional<BlockArrays> system;      // not_converged
+    std::optional<index_t> not_finite;      // not_finite: the first such vertex
+};
+
+// What solve_blocks found.
+struct BlockSolution {
+    std::vector<double> x;   // the last iterate
+    bool converged = false;  // within rtol
+};
+
+// Each vertex's (row, col) of a (V, 2) array, as the row and column spans the passes take.
+struct VertexPixels {
+    std::vector<index_t> rows, cols;
+    explicit VertexPixels(const In2<index_t>& pixels) {
+        check_input(pixels.shape(1) == 2, "fit: pixels are (V, 2)");
+        const std::size_t n = pixels.shape(0);
+        rows.resize(n);
+        cols.resize(n);
+        for (std::size_t i = 0; i < n; ++i) {
+            rows[i] = pixels.data()[2 * i];
+            cols[i] = pixels.data()[2 * i + 1];
+        }
+    }
+};
+
+heights::FitMesh pixel_mesh(const In2<index_t>& faces, const VertexPixels& at, const In1<double>& values) {
+    const index_t n = static_cast<index_t>(at.rows.size());
+    return {grid(faces), {at.rows.data(), n}, {at.cols.data(), n}, span(values)};
+}
+
+void bind_fit_classes(nb::module_& m) {
+    nb::class_<heights::FitSettings>(m, "FitSettings",
+                                     "The least-squares fit's settings (``fit_heights``, ``fit_sample_errors``); "
+                                     "rangemesh/refine/heights.py holds the library's values and their reasons.")
+        .def(nb::init<>())
+        .def("__copy__", [](const heights::FitSettings& s) { return heights::FitSettings(s); })
+        .def_prop_rw("row_stride", [](const heights::FitSettings& s) { return s.sample.row_stride; },
+                     [](heights::FitSettings& s, index_t v) { s.sample.row_stride = v; },
+                     "The sample of errors: rows that are multiples of this ...")
+        .def_prop_rw("face_stride", [](const heights::FitSettings& s) { return s.sample.face_stride; },
+                     [](heights::FitSettings& s, index_t v) { s.sample.face_stride = v; },
+                     "... of every face_stride-th face in the visiting order.")
+        .def_rw("capacity", &heights::FitSettings::capacity, "At most this many sampled errors (the valid pixels).")
+        .def_rw("outlier_mads", &heights::FitSettings::outlier_mads, "The outlier bound, robust standard deviations.")
+        .def_rw("outlier_floor", &heights::FitSettings::outlier_floor,
+                "The share of the value range at or below which the bound keeps the copied values.")
+        .def_rw("ridge", &heights::FitSettings::ridge, "The pull towards the copied values.")
+        .def_rw("rtol", &heights::FitSettings::rtol, "Conjugate gradients' relative residual ...")
+        .def_rw("max_iter", &heights::FitSettings::max_iter, "... and most steps.")
+        .def_rw("threads", &heights::FitSettings::threads, "Threads of the pass over the pixels.")
+        .def_rw("lo", &heights::FitSettings::lo, "A fitted value below lo is lo ...")
+        .def_rw("hi", &heights::FitSettings::hi, "... one above hi is hi.");
+    nb::enum_<FitStatus>(m, "FitOutcome", "What ``fit_heights`` found.")
+        .value("NO_PIXELS", FitStatus::no_pixels, "The faces own no valid pixel: keep the copied values.")
+        .value("COPIED", FitStatus::copied, "The outlier bound sits at its floor: the copied values are the solution.")
+        .value("FITTED", FitStatus::fitted, "``values`` holds the solution, within [lo, hi].")
+        .value("NOT_CONVERGED", FitStatus::not_converged,
+               "Conjugate gradients did not converge: ``system`` holds the equations for a direct solve.")
+        .value("NOT_FINITE", FitStatus::not_finite, "Vertex ``not_finite``'s copied value is NaN or infinite.");
+    nb::class_<BlockArrays>(m, "FaceBlocks", "The faces' normal equations, a face a row (``fit_blocks``).")
+        .def_prop_ro("ids", [](const BlockArrays& b) { return b.ids; }, nb::rv_policy::move,
+                     "(n, 3) int64: the face's corners, counter-clockwise.")
+        .def_prop_ro("block", [](const BlockArrays& b) { return b.block; }, nb::rv_policy::move,
+                     "(n, 3, 3) float64: the sum of w w^T over its kept pixels.")
+        .def_prop_ro("rhs", [](const BlockArrays& b) { return b.rhs; }, nb::rv_policy::move,
+                     "(n, 3) float64: the sum of w * value.")
+        .def_ro("used", &BlockArrays::used, "Pixels in the system.");
+    nb::class_<HeightFit>(m, "HeightFit", "What ``fit_heights`` found.")
+        .def_ro("outcome", &HeightFit::outcome, "A FitOutcome.")
+        .def_prop_ro("values", [](const HeightFit& f) { return f.values; }, nb::rv_policy::move,
+                     "(V,) float64 (FITTED: clipped to [lo, hi]; NOT_CONVERGED: the last iterate), else None.")
+        .def_prop_ro("system", [](const HeightFit& f) { return f.system; }, nb::rv_policy::move,
+                     "NOT_CONVERGED: the FaceBlocks to solve directly, else None.")
+        .def_ro("not_finite", &HeightFit::not_finite, "NOT_FINITE: the first vertex whose value is not, else None.");
+    nb::class_<BlockSolution>(m, "BlockSolution", "What ``solve_blocks`` found.")
+        .def_prop_ro("x", [](BlockSolution& s) { return view_of(s.x); }, nb::rv_policy::reference_internal,
+                     "(V,) float64: conjugate gradients' last iterate.")
+        .def_ro("converged", &BlockSolution::converged, "Whether the residual reached rtol within max_iter steps.");
+    nb::class_<heights::VertexSystem>(m, "VertexSystem", "The fit's system gathered onto the vertices.")
+        .def_prop_ro("diag", [](heights::VertexSystem& s) { return view_of(s.diag); },
+                     nb::rv_policy::reference_internal, "(V,) float64: diag(M) + ridge.")
+        .def_prop_ro("rhs", [](heights::VertexSystem& s) { return view_of(s.rhs); },
+                     nb::rv_policy::reference_internal, "(V,) float64: b + ridge * h0.")
+        .def_prop_ro("ridge", [](heights::VertexSystem& s) { return view_of(s.ridge); },
+                     nb::rv_policy::reference_internal, "(V,) float64: ridge_share * max(diag(M), 1).");
+}
 
 // The fit of the vertices' values to `image` from the caller's arrays: faces (F, 3) and
 // pixels (V, 2) of an integer type I, each vertex's copied value read from its pixel.
@@ -88,11 +186,8 @@ void bind_fit(nb::module_& m) {
     m.def(
         "fit_heights",
         [](In2<I> faces, In2<I> pixels, In2<double> image, In2<bool> valid, std::optional<In1<index_t>> order,
-           double lo, double hi, index_t row_stride, index_t face_stride, index_t capacity, double outlier_mads,
-           double outlier_floor, double ridge, double rtol, index_t max_iter, int threads) {
-            require(pixels.shape(1) == 2, "fit: pixels are (V, 2)");
-            const heights::FitSettings settings{heights::Sample{row_stride, face_stride}, capacity, outlier_mads,
-                                                outlier_floor, ridge, rtol, max_iter, threads, lo, hi};
+           const heights::FitSettings& settings) {
+            check_input(pixels.shape(1) == 2, "fit: pixels are (V, 2)");
             const index_t n = static_cast<index_t>(pixels.shape(0));
             index_t not_finite = -1;  // the first vertex whose value is not finite
             heights::FitResult fit = run_released([&] {
@@ -134,22 +229,24 @@ void bind_fit(nb::module_& m) {
                                             {copied.data(), n}};
                 return heights::fit_heights(mesh, fit_image(image, valid), visit, settings);
             }, work(image));
-            if (not_finite >= 0) return nb::make_tuple("not finite", not_finite, nb::none());
-            nb::object fitted = nb::none(), system = nb::none();
+            HeightFit out;
+            if (not_finite >= 0) {
+                out.outcome = FitStatus::not_finite;
+                out.not_finite = not_finite;
+                return out;
+            }
+            out.outcome = status_of(fit.outcome);
             if (fit.outcome == heights::FitOutcome::fitted || fit.outcome == heights::FitOutcome::not_converged)
-                fitted = nb::cast(to_numpy(std::move(fit.values)));
-            if (fit.outcome == heights::FitOutcome::not_converged) system = arrays_from_blocks(fit.blocks);
-            return nb::make_tuple(outcome_name(fit.outcome), fitted, system);
+                out.values = to_numpy(std::move(fit.values));
+            if (fit.outcome == heights::FitOutcome::not_converged) out.system = arrays_from_blocks(fit.blocks, fit.used);
+            return out;
         },
         nb::arg("faces"), nb::arg("pixels"), nb::arg("image"), nb::arg("valid"), nb::arg("order").none(),
-        nb::arg("lo"), nb::arg("hi"), nb::arg("row_stride"), nb::arg("face_stride"), nb::arg("capacity"),
-        nb::arg("outlier_mads"), nb::arg("outlier_floor"), nb::arg("ridge"), nb::arg("rtol"), nb::arg("max_iter"),
-        nb::arg("threads"),
+        nb::arg("settings"),
         "The least-squares fit to ``image`` of the values of the vertices at ``pixels`` (row, column), copied "
-        "from their pixels, the faces visited in ``order`` (None: as they come): ``(outcome, fitted, system)``, "
-        "outcome 'no pixels' or 'copied' (keep the values; fitted None), 'fitted' (clipped to [lo, hi]), "
-        "'not converged' (system the ``(ids, block, rhs)`` arrays for a direct solve), or 'not finite' (fitted "
-        "the first vertex whose value is not; ValueError when one lies outside the image).");
+        "from their pixels, the faces visited in ``order`` (None: as they come), under ``settings`` (a "
+        "FitSettings): a HeightFit, whose ``outcome`` says which of its fields hold. ValueError when a vertex "
+        "lies outside the image.");
 }
 
 }  // namespace
@@ -159,6 +256,7 @@ nb::tuple face_block_arrays(const std::vector<heights::FaceBlock>& blocks) { ret
 void bind_heights(nb::module_& m) {
     // below this many faces the fit's pass runs on the calling thread whatever `threads` says
     m.attr("FIT_SPLIT_MIN_FACES") = heights::SPLIT_MIN_FACES;
+    bind_fit_classes(m);
     m.def(
         "face_order",
         [](In2<index_t> faces, In1<index_t> rows, In1<index_t> cols, index_t h, index_t w, index_t tile) {
@@ -176,74 +274,75 @@ void bind_heights(nb::module_& m) {
         "row and column, stable within a cell. ValueError when a vertex lies outside the h x w image.");
     m.def(
         "fit_sample_errors",
-        [](In2<index_t> faces, In1<index_t> order, In1<index_t> rows, In1<index_t> cols, In1<double> values,
-           In2<double> image, In2<bool> valid, index_t row_stride, index_t face_stride, index_t capacity) {
+        [](In2<index_t> faces, In1<index_t> order, In2<index_t> pixels, In1<double> values, In2<double> image,
+           In2<bool> valid, const heights::FitSettings& settings) {
+            const VertexPixels at(pixels);
             // at most an error a pixel: a raw call's capacity of 2^62 would only allocate
-            std::vector<double> errors(std::min(std::max<index_t>(capacity, 0), work(image)));
+            std::vector<double> errors(std::min(std::max<index_t>(settings.capacity, 0), work(image)));
             const index_t used = run_released([&] {
-                const heights::FitMesh mesh = fit_mesh(faces, rows, cols, values);
+                const heights::FitMesh mesh = pixel_mesh(faces, at, values);
                 const heights::FitImage img = fit_image(image, valid);
                 heights::check_mesh(mesh, img);
-                return heights::sample_errors(mesh, img, span(order), heights::Sample{row_stride, face_stride},
+                return heights::sample_errors(mesh, img, span(order), settings.sample,
                                               Span<double>{errors.data(), static_cast<index_t>(errors.size())});
             });
             errors.resize(used);
             return to_numpy(std::move(errors));
         },
-        nb::arg("faces"), nb::arg("order"), nb::arg("rows"), nb::arg("cols"), nb::arg("values"), nb::arg("image"),
-        nb::arg("valid"), nb::arg("row_stride"), nb::arg("face_stride"), nb::arg("capacity"),
-        "``|image - mesh|`` at the owned valid pixels of the rows that are multiples of ``row_stride`` of the "
-        "faces ``order[::face_stride]``, the mesh at the vertices' ``values`` (at most ``capacity`` of them).");
+        nb::arg("faces"), nb::arg("order"), nb::arg("pixels"), nb::arg("values"), nb::arg("image"), nb::arg("valid"),
+        nb::arg("settings"),
+        "``|image - mesh|`` at the owned valid pixels of the rows that are multiples of ``settings.row_stride`` "
+        "of the faces ``order[::settings.face_stride]``, the mesh at the values of the vertices at ``pixels`` "
+        "(at most ``settings.capacity`` of them).");
     m.def(
         "fit_blocks",
-        [](In2<index_t> faces, In1<index_t> order, In1<index_t> rows, In1<index_t> cols, In1<double> values,
-           In2<double> image, In2<bool> valid, double threshold, int threads) {
+        [](In2<index_t> faces, In1<index_t> order, In2<index_t> pixels, In1<double> values, In2<double> image,
+           In2<bool> valid, double threshold, int threads) {
+            const VertexPixels at(pixels);
             std::vector<FaceBlock> blocks(order.shape(0));
             const index_t used = run_released([&] {
-                const heights::FitMesh mesh = fit_mesh(faces, rows, cols, values);
+                const heights::FitMesh mesh = pixel_mesh(faces, at, values);
                 const heights::FitImage img = fit_image(image, valid);
                 heights::check_mesh(mesh, img);
                 return heights::fit_blocks(mesh, img, span(order), threshold, threads,
                                            Span<FaceBlock>{blocks.data(), static_cast<index_t>(blocks.size())});
             });
-            nb::tuple arrays = arrays_from_blocks(blocks);
-            return nb::make_tuple(arrays[0], arrays[1], arrays[2], used);
+            return arrays_from_blocks(blocks, used);
         },
-        nb::arg("faces"), nb::arg("order"), nb::arg("rows"), nb::arg("cols"), nb::arg("values"), nb::arg("image"),
-        nb::arg("valid"), nb::arg("threshold"), nb::arg("threads") = 1,
-        "The normal equations of the faces in ``order``: ``(ids, block, rhs, used)``, row i for face order[i] "
-        "(its corners counter-clockwise, the sums over its pixels whose error is at most ``threshold`` of "
-        "w w^T and w * value), and the number of pixels used.");
+        nb::arg("faces"), nb::arg("order"), nb::arg("pixels"), nb::arg("values"), nb::arg("image"), nb::arg("valid"),
+        nb::arg("threshold"), nb::arg("threads") = 1,
+        "The normal equations of the faces in ``order``, as FaceBlocks: row i for face order[i] (its corners "
+        "counter-clockwise, the sums over its pixels whose error is at most ``threshold`` of w w^T and "
+        "w * value), and the number of pixels used.");
     m.def(
         "gather_blocks",
         [](In2<index_t> ids, In3<double> block, In2<double> rhs, In1<double> h0, double ridge_share) {
             const std::vector<FaceBlock> blocks = blocks_from_arrays(ids, block, rhs);
-            heights::VertexSystem s = run_released([&] {
+            return run_released([&] {
                 return heights::gather_blocks(Span<const FaceBlock>{blocks.data(), static_cast<index_t>(blocks.size())},
                                               span(h0), ridge_share);
             });
-            return nb::make_tuple(to_numpy(std::move(s.diag)), to_numpy(std::move(s.rhs)),
-                                  to_numpy(std::move(s.ridge)));
         },
         nb::arg("ids"), nb::arg("block"), nb::arg("rhs"), nb::arg("h0"), nb::arg("ridge_share"),
-        "``(diag, b, ridge)`` per vertex of the fit's system: ``ridge = ridge_share * max(diag(M), 1)``, the "
+        "The fit's system per vertex, a VertexSystem: ``ridge = ridge_share * max(diag(M), 1)``, the "
         "diagonal ``diag(M) + ridge`` and right-hand side ``b + ridge * h0``.");
     m.def(
         "solve_blocks",
         [](In2<index_t> ids, In3<double> block, In2<double> rhs, In1<double> h0, double ridge_share, double rtol,
            index_t max_iter) {
             const std::vector<FaceBlock> blocks = blocks_from_arrays(ids, block, rhs);
-            std::vector<double> x(h0.shape(0));
-            const bool converged = run_released([&] {
+            BlockSolution out;
+            out.x.resize(h0.shape(0));
+            out.converged = run_released([&] {
                 return heights::solve_blocks(Span<const FaceBlock>{blocks.data(), static_cast<index_t>(blocks.size())},
                                              span(h0), ridge_share, rtol, max_iter,
-                                             Span<double>{x.data(), static_cast<index_t>(x.size())});
+                                             Span<double>{out.x.data(), static_cast<index_t>(out.x.size())});
             });
-            return nb::make_tuple(to_numpy(std::move(x)), converged);
+            return out;
         },
         nb::arg("ids"), nb::arg("block"), nb::arg("rhs"), nb::arg("h0"), nb::arg("ridge_share"), nb::arg("rtol"),
         nb::arg("max_iter"),
-        "``(x, converged)``: ``(M + diag(ridge)) x = b + ridge * h0`` by Jacobi-preconditioned conjugate "
+        "A BlockSolution: ``(M + diag(ridge)) x = b + ridge * h0`` by Jacobi-preconditioned conjugate "
         "gradients from h0, M and b gathered from the faces' blocks onto their vertices ``ids``.");
     m.def(
         "median_inplace",

@@ -22,13 +22,6 @@ using refine::HeightRule;
 using refine::MeshRequest;
 using refine::MeshResult;
 
-// A NumPy view of rows x cols values of a result the Python object keeps alive.
-template <class T>
-nb::ndarray<nb::numpy, T> rows_of(std::vector<T>& v, std::size_t cols) {
-    const std::size_t shape[2] = {v.size() / cols, cols};
-    return nb::ndarray<nb::numpy, T>(v.data(), 2, shape, nb::handle());
-}
-
 void bind_request(nb::module_& m) {
     nb::class_<HeightRule>(m, "HeightRule",
                            "The least-squares heights' rules (refine/heights.py holds their values and reasons).")

@@ -75,4 +75,18 @@ nb::ndarray<nb::numpy, T> to_numpy(std::vector<T>&& values) {
     return to_numpy(std::move(values), n);
 }
 
+// A NumPy view of a result's values, (n) or (n / cols, cols): the Python object that owns the
+// vector keeps it alive (bind it with nb::rv_policy::reference_internal).
+template <class T>
+nb::ndarray<nb::numpy, T> view_of(std::vector<T>& v) {
+    const std::size_t shape[1] = {v.size()};
+    return nb::ndarray<nb::numpy, T>(v.data(), 1, shape, nb::handle());
+}
+
+template <class T>
+nb::ndarray<nb::numpy, T> rows_of(std::vector<T>& v, std::size_t cols) {
+    const std::size_t shape[2] = {v.size() / cols, cols};
+    return nb::ndarray<nb::numpy, T>(v.data(), 2, shape, nb::handle());
+}
+
 }  // namespace rangemesh::bind

@@ -2,6 +2,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
+#include <vector>
 
 #include "../geometry/lines.hpp"
 #include "../paper/flipping.hpp"
@@ -49,6 +50,59 @@ void bind_valid_samples(nb::module_& m) {
         "int64 array; samples outside the image are left out.");
 }
 
+// The decisions a flip loop may log at most (24 bytes each): a raw 2^62 would only allocate.
+constexpr index_t FLIP_LOG_MAX = index_t{1} << 24;
+
+// The flip stage's settings as Python fills them: the rule as an integer (one of FLIP_RULES),
+// checked before it becomes a FlipRule, and the log's length.
+struct FlipOptions {
+    index_t rule = paper::RULE_DISPARITY;
+    paper::DisparityTests tests;
+    double threshold = 0.0;
+    double quantum = 0.0;
+    double max_edge2 = 0.0;
+    index_t log_size = 0;
+};
+
+// What flip_loop did.
+struct FlipReport {
+    index_t flips = 0;
+    std::vector<index_t> verdicts;  // a count per verdict
+    std::vector<index_t> log;       // (n, 3): endpoints (smaller first), verdict
+};
+
+void bind_flip_classes(nb::module_& m) {
+    nb::class_<FlipOptions>(m, "FlipSettings",
+                            "The settings of the paper's flip stage (``flip_loop``, ``disparity_verdict``); "
+                            "rangemesh/paper/flipping.py fills them from MeshParams. Angles in radians.")
+        .def(nb::init<>())
+        .def("__copy__", [](const FlipOptions& o) { return FlipOptions(o); })
+        .def_rw("rule", &FlipOptions::rule, "The flip rule, one of FLIP_RULES' values.")
+        .def_prop_rw("delta", [](const FlipOptions& o) { return o.tests.delta; },
+                     [](FlipOptions& o, double v) { o.tests.delta = v; },
+                     "The largest angle between a span and a triangle that is smooth.")
+        .def_prop_rw("epsilon", [](const FlipOptions& o) { return o.tests.epsilon; },
+                     [](FlipOptions& o, double v) { o.tests.epsilon = v; },
+                     "T2: the least significant change of disparity.")
+        .def_prop_rw("max_angle", [](const FlipOptions& o) { return o.tests.max_angle; },
+                     [](FlipOptions& o, double v) { o.tests.max_angle = v; },
+                     "T3: an internal angle above this makes a triangle degenerate.")
+        .def_prop_rw("min_bend", [](const FlipOptions& o) { return o.tests.min_bend; },
+                     [](FlipOptions& o, double v) { o.tests.min_bend = v; },
+                     "T4: the least noticeable bend between the new triangles.")
+        .def_rw("threshold", &FlipOptions::threshold, "Gains below this are not worth a decision (-inf: none).")
+        .def_rw("quantum", &FlipOptions::quantum, "Gains are rounded to multiples of this power of two.")
+        .def_rw("max_edge2", &FlipOptions::max_edge2, "The squared bound on a new edge's image length (inf: none).")
+        .def_rw("log_size", &FlipOptions::log_size, "The first decisions logged (0 to 2^24; 0: none).");
+    nb::class_<FlipReport>(m, "FlipReport", "What ``flip_loop`` did; arrays are views this object keeps alive.")
+        .def_ro("flips", &FlipReport::flips, "Edges flipped.")
+        .def_prop_ro("verdicts", [](FlipReport& r) { return view_of(r.verdicts); },
+                     nb::rv_policy::reference_internal, "(8,) int64: how often each verdict (FLIP_VERDICTS) was given.")
+        .def_prop_ro("log", [](FlipReport& r) { return rows_of(r.log, 3); }, nb::rv_policy::reference_internal,
+                     "(n, 3) int64: the first decisions, n at most settings.log_size: endpoints (smaller first), "
+                     "verdict.");
+}
+
 }  // namespace
 
 void bind_paper(nb::module_& m) {
@@ -69,31 +123,42 @@ void bind_paper(nb::module_& m) {
     rules["error"] = index_t{RULE_ERROR};
     m.attr("FLIP_RULES") = rules;
 
+    bind_flip_classes(m);
     m.def(
         "flip_loop",
         [](Out1<index_t> triangles, Out1<index_t> halfedges, In2<index_t> pixels, In2<double> vertices,
-           In2<double> depth, In2<bool> valid, In1<double> cam, index_t rule, double threshold, double delta,
-           double epsilon, double max_angle, double min_bend, double quantum, double max_edge2,
-           Out1<index_t> verdicts, Out2<index_t> log) {
-            check_input(rule == RULE_DISPARITY || rule == RULE_ERROR, "flip_loop: rule is one of FLIP_RULES");
+           In2<double> depth, In2<bool> valid, In1<double> cam, const FlipOptions& options) {
+            check_input(options.rule == RULE_DISPARITY || options.rule == RULE_ERROR,
+                        "flip_loop: settings.rule is one of FLIP_RULES");
+            check_input(0 <= options.log_size && options.log_size <= FLIP_LOG_MAX,
+                        "flip_loop: settings.log_size from 0 to 2^24");
             const FlipMesh mesh{span(triangles), span(halfedges), {grid(pixels), grid(vertices)}};
-            const FlipSettings settings{static_cast<FlipRule>(rule), {delta, epsilon, max_angle, min_bend},
-                                        threshold, quantum, max_edge2};
-            const FlipRecord record{span(verdicts), grid(log)};
+            const FlipSettings settings{static_cast<FlipRule>(options.rule), options.tests, options.threshold,
+                                        options.quantum, options.max_edge2};
+            FlipReport report;
+            report.verdicts.assign(N_VERDICTS, 0);
             const RangeImage image = range_image(depth, valid, cam);
-            return run_released([&] { return flip_loop(mesh, image, settings, record); });
+            report.flips = run_released([&] {
+                const FreeLater late(on_throw, report.log);
+                fill_polled(report.log, 3 * static_cast<std::size_t>(options.log_size), index_t{0});
+                const FlipRecord record{{report.verdicts.data(), N_VERDICTS},
+                                        {report.log.data(), options.log_size, 3}};
+                return flip_loop(mesh, image, settings, record);
+            });
+            index_t decisions = 0;
+            for (const index_t count : report.verdicts) decisions += count;
+            report.log.resize(3 * static_cast<std::size_t>(std::min(decisions, options.log_size)));
+            return report;
         },
         nb::arg("triangles"), nb::arg("halfedges"), nb::arg("pixels"), nb::arg("vertices"), nb::arg("depth"),
-        nb::arg("valid"), nb::arg("cam"), nb::kw_only(), nb::arg("rule"), nb::arg("threshold"), nb::arg("delta"),
-        nb::arg("epsilon"), nb::arg("max_angle"), nb::arg("min_bend"), nb::arg("quantum"), nb::arg("max_edge2"),
-        nb::arg("verdicts"), nb::arg("log"),
-        "Stage three (SPEC 3.3-3.6) on int64 half-edge arrays, in place; returns the flips taken. "
-        "Angles in radians; ``verdicts`` (int64, one per verdict) counts in place; the first "
-        "``len(log)`` decisions go to ``log`` (int64, (n, 3)): endpoints (smaller first), verdict.");
+        nb::arg("valid"), nb::arg("cam"), nb::arg("settings"),
+        "Stage three (SPEC 3.3-3.6) on int64 half-edge arrays, in place, under ``settings`` (a FlipSettings); "
+        "returns a FlipReport: the flips taken, the verdicts' counts and the first ``settings.log_size`` "
+        "decisions.");
     m.def(
         "disparity_verdict",
         [](In1<index_t> triangles, In1<index_t> halfedges, In2<double> normals, In2<double> vertices, index_t e0,
-           double delta, double epsilon, double max_angle, double min_bend) {
+           const FlipOptions& options) {
             check_input(halfedges.shape(0) == triangles.shape(0) && triangles.shape(0) % 3 == 0 &&
                             vertices.shape(1) == 3,
                         "disparity_verdict: triangles and halfedges 3F long each, vertices (V, 3)");
@@ -103,14 +168,15 @@ void bind_paper(nb::module_& m) {
                 check_input(0 <= tri[e] && tri[e] < static_cast<index_t>(vertices.shape(0)) &&
                                 (he[e] == -1 || (0 <= he[e] && he[e] < he.size && he[he[e]] == e)),
                             "disparity_verdict: a vertex id out of range or an unpaired twin");
-            const DisparityTests tests{delta, epsilon, max_angle, min_bend};
             return index_t{run_released([&] {
-                return disparity_verdict(span(triangles), span(halfedges), grid(normals), grid(vertices), e0, tests);
+                return disparity_verdict(span(triangles), span(halfedges), grid(normals), grid(vertices), e0,
+                                         options.tests);
             })};
         },
         nb::arg("triangles"), nb::arg("halfedges"), nb::arg("normals"), nb::arg("vertices"), nb::arg("e0"),
-        nb::arg("delta"), nb::arg("epsilon"), nb::arg("max_angle"), nb::arg("min_bend"),
-        "The verdict of the paper's tests T2-T5 and final test on the inner edge of half-edge ``e0``.");
+        nb::arg("settings"),
+        "The verdict of the paper's tests T2-T5 and final test on the inner edge of half-edge ``e0``, with "
+        "the angles of ``settings`` (a FlipSettings; its other fields are not read).");
     m.def(
         "fill_gaps_inplace",
         [](Out2<double> depth, Out2<bool> valid) {
@@ -195,10 +261,11 @@ void bind_paper(nb::module_& m) {
             if (packed.size < CAMERA_HEADER || (rays && !rays_pixel(packed, r, c)))
                 throw nb::value_error("lift: a packed camera, and a pixel of its image for a per-pixel camera");
             const Vec3 p = lift(span(cam), r, c, d);
-            return nb::make_tuple(p.x, p.y, p.z);
+            return to_numpy(std::vector<double>{p.x, p.y, p.z});
         },
         nb::arg("r"), nb::arg("c"), nb::arg("d"), nb::arg("cam"),
-        "The 3-D point of pixel (r, c) with stored depth d under the packed camera ``cam``.");
+        "The 3-D point (x, y, z), a (3,) float64 array, of pixel (r, c) with stored depth d under the packed "
+        "camera ``cam``.");
 }
 
 }  // namespace rangemesh::bind

@@ -251,7 +251,10 @@ void bind_fit(nb::module_& m) {
 
 }  // namespace
 
-nb::tuple face_block_arrays(const std::vector<heights::FaceBlock>& blocks) { return arrays_from_blocks(blocks); }
+nb::tuple face_block_arrays(const std::vector<heights::FaceBlock>& blocks) {
+    BlockArrays a = arrays_from_blocks(blocks, 0);
+    return nb::make_tuple(a.ids, a.block, a.rhs);
+}
 
 void bind_heights(nb::module_& m) {
     // below this many faces the fit's pass runs on the calling thread whatever `threads` says

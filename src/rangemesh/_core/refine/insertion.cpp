@@ -25,7 +25,7 @@ bool Plane::holds(index_t pr, index_t pc, double pz, double span) const {
 Insertion::Insertion(const Image& image, const FirstMesh& first, index_t reserve, index_t sr, index_t sc)
     : image_(image), sr_(sr), sc_(sc) {
     // stopped half way, no destructor runs: the arrays made so far are freed later all the same
-    const FreeLater late(on_throw, vr_, vc_, vz_, vbg_, tv_, he_, keyed_, stamp_, keys_, heap_, slot_);
+    const FreeLater late(on_throw, vr_, vc_, vz_, vbg_, tv_, he_, keyed_, heap_, slot_);
     // (compared by division: (rows - 1) * sr overflows for a huge scale)
     check_input(sr >= 1 && sc >= 1 && image.rows() - 1 <= EXACT_SPAN / sr && image.cols() - 1 <= EXACT_SPAN / sc,
                 "greedy_insert: the image, times its Delaunay scales sr and sc (>= 1), within EXACT_SPAN a side");
@@ -75,7 +75,7 @@ Insertion::Insertion(const Image& image, const FirstMesh& first, index_t reserve
     tv_.assign(first.triangles.begin(), first.triangles.end());
     he_.assign(first.halfedges.begin(), first.halfedges.end());
     resize_triangles(cap_t);
-    const HeapView heap = this->heap();
+    const QuadHeapView heap = this->heap();
     for (index_t t = 0; t < n_t_; ++t) {
         poll_interrupt();
         keyed_[t] = scan(t);
@@ -85,7 +85,7 @@ Insertion::Insertion(const Image& image, const FirstMesh& first, index_t reserve
 }
 
 // Under an error bound the arrays reach gigabytes: freed on a thread of their own.
-Insertion::~Insertion() { free_later(vr_, vc_, vz_, vbg_, tv_, he_, keyed_, stamp_, keys_, heap_, slot_); }
+Insertion::~Insertion() { free_later(vr_, vc_, vz_, vbg_, tv_, he_, keyed_, heap_, slot_); }
 
 TriangleKey Insertion::scan(index_t t) const {
     const index_t e = 3 * t;
@@ -105,8 +105,8 @@ bool Insertion::fit_child(index_t t, TriangleKey& out) const {
     const Pixel p = centroid_pixel(vr_[ia], vc_[ia], vr_[ib], vc_[ib], vr_[ic], vc_[ic], image_.valid);
     if (p.r < 0) return false;
     out.key = spread_key(orient(vr_[ia], vc_[ia], vr_[ib], vc_[ib], vr_[ic], vc_[ic]), image_.rows(), image_.cols());
-    out.r = p.r;
-    out.c = p.c;
+    out.r = static_cast<std::int32_t>(p.r);
+    out.c = static_cast<std::int32_t>(p.c);
     out.sum = 0.0;
     out.fits = true;
     return true;
@@ -132,9 +132,7 @@ void Insertion::resize_triangles(index_t cap_t) {
     grow_polled(tv_, 3 * cap_t, index_t{0});
     grow_polled(he_, 3 * cap_t, index_t{-1});
     grow_polled(keyed_, cap_t);
-    grow_polled(stamp_, cap_t, index_t{0});
-    grow_polled(keys_, cap_t, 0.0);
-    grow_polled(heap_, cap_t, index_t{0});
+    grow_polled(heap_, static_cast<std::size_t>(QuadHeapView::lines_for(cap_t)));
     grow_polled(slot_, cap_t, index_t{0});
 }
 
@@ -272,6 +270,16 @@ bool Insertion::flat_cavity(index_t t, index_t old_t, const Plane& plane) const 
     return true;
 }
 
+// Whether changed_[i] was met before it, visiting the list backwards when `backwards`: a step
+// changes about ten triangles, and a search of that short list stays in cache where a stamp
+// per triangle cost a cache miss a triangle.
+bool Insertion::visited_before(index_t i, bool backwards) const {
+    const index_t s = changed_[i], n = static_cast<index_t>(changed_.size());
+    for (index_t j = backwards ? i + 1 : 0; j < (backwards ? n : i); ++j)
+        if (changed_[j] == s) return true;
+    return false;
+}
+
 void Insertion::rekey(index_t t, const TriangleKey& k) {
     keyed_[t] = k;
     heap().rekey(t, k.key, n_heap_);
@@ -280,7 +288,7 @@ void Insertion::rekey(index_t t, const TriangleKey& k) {
 void Insertion::advance(const Stop& stop) {
     while (n_heap_ > 0 && n_valid_v_ < stop.max_vertices) {
         poll_interrupt();
-        const index_t t = heap_[0];
+        const index_t t = top();
         const double key = keyed_[t].key;
         // (a negative max_sum is no stop: the running sum of huge errors may round below 0)
         if (key < 0.0 || key < stop.min_key || (key <= COVER_KEY && stop.max_sum >= 0.0 && total_ <= stop.max_sum))
@@ -312,21 +320,19 @@ void Insertion::advance(const Stop& stop) {
         // fitted exactly and every corner lies on the split triangle's plane
         const bool flat = split_fit && flat_cavity(t, old_t, plane);
         // new triangles join the heap, last: no key is below -1, and ties go to the smaller id
-        const HeapView h = heap();
+        const QuadHeapView h = heap();
         for (index_t s = old_t; s < n_t_; ++s) {
             keyed_[s].key = -1.0;
             keyed_[s].sum = 0.0;
             h.push(s, -1.0, n_heap_);
         }
-        ++step_;
         const index_t n_changed = static_cast<index_t>(changed_.size());
         for (index_t j = 0; j < n_changed; ++j) {
             // children of an exact split are keyed without a scan unless a flip changed them:
             // the flipped triangles (listed after the three) are visited first
             const index_t i = split_fit ? n_changed - 1 - j : j;
             const index_t s = changed_[i];
-            if (stamp_[s] == step_) continue;  // changed twice in this step: one scan is enough
-            stamp_[s] = step_;
+            if (visited_before(i, split_fit)) continue;  // changed twice in this step: one scan is enough
             TriangleKey k;
             if (!((flat || (split_fit && i < 3)) && fit_child(s, k))) k = scan(s);
             total_ += k.sum - keyed_[s].sum;
@@ -384,15 +390,11 @@ bool Insertion::insert_at(index_t r, index_t c) {
     for (index_t s = old_t; s < n_t_; ++s) {
         keyed_[s].key = -1.0;
         keyed_[s].sum = 0.0;
-        heap_[n_heap_] = s;
-        keys_[n_heap_] = -1.0;
-        slot_[s] = n_heap_;
-        ++n_heap_;
+        heap().push(s, -1.0, n_heap_);
     }
-    ++step_;
-    for (const index_t s : changed_) {
-        if (stamp_[s] == step_) continue;
-        stamp_[s] = step_;
+    for (index_t i = 0; i < static_cast<index_t>(changed_.size()); ++i) {
+        const index_t s = changed_[i];
+        if (visited_before(i, false)) continue;
         const TriangleKey k = scan(s);
         total_ += k.sum - keyed_[s].sum;
         rekey(s, k);

@@ -64,7 +64,7 @@ class alignas(64) Insertion {
     bool insert_at(index_t r, index_t c);
 
     // The key of the triangle `advance` would split next (-1 when none is left).
-    double top_key() const { return n_heap_ > 0 ? keyed_[heap_[0]].key : -1.0; }
+    double top_key() const { return n_heap_ > 0 ? keyed_[top()].key : -1.0; }
 
     index_t n_vertices() const { return static_cast<index_t>(vr_.size()); }
     index_t n_triangles() const { return n_t_; }
@@ -91,13 +91,12 @@ class alignas(64) Insertion {
     void insert(index_t t, index_t p, const Plane* guard);
     void legalize(index_t e0, const Plane* guard);
     bool flat_cavity(index_t t, index_t old_t, const Plane& plane) const;
+    bool visited_before(index_t i, bool backwards) const;
     void rekey(index_t t, const TriangleKey& k);
     index_t locate(index_t r, index_t c);
     // the heap over the arrays as they are now (they move when the triangles' room grows)
-    HeapView heap() {
-        const index_t cap_t = static_cast<index_t>(keyed_.size());
-        return {{keys_.data(), cap_t}, {heap_.data(), cap_t}, {slot_.data(), cap_t}};
-    }
+    QuadHeapView heap() { return {QuadHeapView::entries(heap_.data()), slot_.data()}; }
+    index_t top() const { return heap_[0].e[3].id; }  // (position 0: `QuadHeapView::entries`)
 
     Image image_;
     index_t sr_, sc_;
@@ -109,13 +108,11 @@ class alignas(64) Insertion {
     index_t n_t_ = 0;
     std::vector<index_t> tv_, he_;
     std::vector<TriangleKey> keyed_;
-    std::vector<index_t> stamp_;  // the step that last rescanned a triangle
-    // the heap (`HeapView`): keys at heap positions, ids, each id's position
-    std::vector<double> keys_;
-    std::vector<index_t> heap_, slot_;
+    // the heap (`QuadHeapView`): keys and ids at heap positions, each id's position
+    std::vector<HeapLine> heap_;
+    std::vector<index_t> slot_;
     index_t n_heap_ = 0;
     index_t n_valid_v_ = 0;
-    index_t step_ = 0;
     double total_ = 0.0;
     index_t hint_ = 0;  // where `locate` starts walking: the last triangle it found
     // per step: the triangles it changed (with repeats), the flips still to test

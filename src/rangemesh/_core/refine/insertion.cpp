@@ -25,7 +25,7 @@ bool Plane::holds(index_t pr, index_t pc, double pz, double span) const {
 Insertion::Insertion(const Image& image, const FirstMesh& first, index_t reserve, index_t sr, index_t sc)
     : image_(image), sr_(sr), sc_(sc) {
     // stopped half way, no destructor runs: the arrays made so far are freed later all the same
-    const FreeLater late(on_throw, vr_, vc_, vz_, vbg_, tv_, he_, keyed_, heap_, slot_);
+    const FreeLater late(on_throw, vr_, vc_, vz_, vbg_, vx_, tv_, he_, keyed_, heap_, slot_);
     // (compared by division: (rows - 1) * sr overflows for a huge scale)
     check_input(sr >= 1 && sc >= 1 && image.rows() - 1 <= EXACT_SPAN / sr && image.cols() - 1 <= EXACT_SPAN / sc,
                 "greedy_insert: the image, times its Delaunay scales sr and sc (>= 1), within EXACT_SPAN a side");
@@ -62,14 +62,12 @@ Insertion::Insertion(const Image& image, const FirstMesh& first, index_t reserve
     vc_.reserve(cap_v);
     vz_.reserve(cap_v);
     vbg_.reserve(cap_v);
+    vx_.reserve(cap_v);
     for (index_t i = 0; i < n_v; ++i) {
         const bool background = !image.valid(first.vr[i], first.vc[i]);
         if (background && i >= 4)
             throw std::invalid_argument("greedy_insert: only the first four vertices may be background");
-        vr_.push_back(first.vr[i]);
-        vc_.push_back(first.vc[i]);
-        vz_.push_back(first.vz[i]);
-        vbg_.push_back(background);
+        add_vertex(first.vr[i], first.vc[i], first.vz[i], background);
         if (!background) ++n_valid_v_;
     }
     tv_.assign(first.triangles.begin(), first.triangles.end());
@@ -84,8 +82,16 @@ Insertion::Insertion(const Image& image, const FirstMesh& first, index_t reserve
     }
 }
 
+void Insertion::add_vertex(index_t r, index_t c, double z, bool background) {
+    vr_.push_back(r);
+    vc_.push_back(c);
+    vz_.push_back(z);
+    vbg_.push_back(background);
+    vx_.push_back(Vertex{static_cast<std::int32_t>(r), static_cast<std::int32_t>(c), z});
+}
+
 // Under an error bound the arrays reach gigabytes: freed on a thread of their own.
-Insertion::~Insertion() { free_later(vr_, vc_, vz_, vbg_, tv_, he_, keyed_, heap_, slot_); }
+Insertion::~Insertion() { free_later(vr_, vc_, vz_, vbg_, vx_, tv_, he_, keyed_, heap_, slot_); }
 
 TriangleKey Insertion::scan(index_t t) const {
     const index_t e = 3 * t;
@@ -120,6 +126,7 @@ void Insertion::make_room() {
         reserve_polled(vc_, cap_v);
         reserve_polled(vz_, cap_v);
         reserve_polled(vbg_, cap_v);
+        reserve_polled(vx_, cap_v);
     }
     const index_t cap_t = static_cast<index_t>(keyed_.size());
     if (n_t_ + 2 <= cap_t) return;
@@ -153,7 +160,7 @@ void Insertion::insert(index_t t, index_t p, const Plane* guard) {
     int on = -1;
     for (int k = 0; k < 3; ++k) {
         const index_t a = tv_[e + k], b = tv_[e + (k + 1) % 3];
-        if (orient(vr_[a], vc_[a], vr_[b], vc_[b], pr, pc) == 0) on = k;
+        if (orient<index_t>(vx_[a].r, vx_[a].c, vx_[b].r, vx_[b].c, pr, pc) == 0) on = k;
     }
     changed_.clear();
     if (on < 0) {  // ABC -> ABP, BCP, CAP
@@ -238,12 +245,14 @@ void Insertion::legalize(index_t e0, const Plane* guard) {
         const index_t b = he_[a];
         if (b < 0) continue;
         const index_t al = nxt(a), ar = prv(a), bn = nxt(b), bp = prv(b);
-        const index_t pa = tv_[a], pb = tv_[al], pc = tv_[ar], pd = tv_[bp];
-        if (incircle(sr_ * vr_[pa], sc_ * vc_[pa], sr_ * vr_[pb], sc_ * vc_[pb], sr_ * vr_[pc], sc_ * vc_[pc],
-                     sr_ * vr_[pd], sc_ * vc_[pd]) <= 0)
+        const Vertex& pa = vx_[tv_[a]];
+        const Vertex& pb = vx_[tv_[al]];
+        const Vertex& pc = vx_[tv_[ar]];
+        const Vertex& pd = vx_[tv_[bp]];
+        if (incircle<index_t>(sr_ * pa.r, sc_ * pa.c, sr_ * pb.r, sc_ * pb.c, sr_ * pc.r, sc_ * pc.c, sr_ * pd.r,
+                              sc_ * pd.c) <= 0)
             continue;
-        if (guard && keyed_[b / 3].key < SMALL_KEY && !guard->holds(vr_[pd], vc_[pd], vz_[pd], image_.span))
-            continue;
+        if (guard && keyed_[b / 3].key < SMALL_KEY && !guard->holds(pd.r, pd.c, pd.z, image_.span)) continue;
         require(++flips <= n_t_, "insertion: more flips around a new vertex than triangles");
         flip_quad({tv_.data(), static_cast<index_t>(tv_.size())}, he, a);
         changed_.push_back(a / 3);
@@ -298,10 +307,7 @@ void Insertion::advance(const Stop& stop) {
         require(n_vertices() < image_.rows() * image_.cols(), "insertion: more vertices than pixels");
         make_room();
         const index_t p = n_vertices();
-        vr_.push_back(pr);
-        vc_.push_back(pc);
-        vz_.push_back(image_.depth(pr, pc));
-        vbg_.push_back(0);
+        add_vertex(pr, pc, image_.depth(pr, pc), false);
         ++n_valid_v_;
         const index_t old_t = n_t_;
         // the centroid of a triangle that fits exactly: its three children fit too
@@ -380,10 +386,7 @@ bool Insertion::insert_at(index_t r, index_t c) {
     // as `advance` inserts a worst pixel, without the shortcuts of an exact split
     make_room();
     const index_t p = n_vertices();
-    vr_.push_back(r);
-    vc_.push_back(c);
-    vz_.push_back(image_.depth(r, c));
-    vbg_.push_back(0);
+    add_vertex(r, c, image_.depth(r, c), false);
     ++n_valid_v_;
     const index_t old_t = n_t_;
     insert(t, p, nullptr);

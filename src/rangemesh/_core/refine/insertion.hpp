@@ -7,6 +7,7 @@
 // (rows counting `sr`, columns `sc`), and rescans only the triangles that changed.
 #pragma once
 
+#include <cstdint>
 #include <limits>
 #include <vector>
 
@@ -82,7 +83,9 @@ class alignas(64) Insertion {
     std::vector<double> sums() const;
 
   private:
-    Corner corner(index_t v) const { return {vr_[v], vc_[v], vz_[v], vbg_[v] != 0}; }
+    // (only the first four vertices may be background)
+    Corner corner(index_t v) const { return {vx_[v].r, vx_[v].c, vx_[v].z, v < 4 && vbg_[v] != 0}; }
+    void add_vertex(index_t r, index_t c, double z, bool background);
     TriangleKey scan(index_t t) const;
     bool fit_child(index_t t, TriangleKey& out) const;
     void make_room();
@@ -104,6 +107,12 @@ class alignas(64) Insertion {
     std::vector<index_t> vr_, vc_;
     std::vector<double> vz_;
     std::vector<unsigned char> vbg_;
+    // ... and each vertex's pixel and depth in one place, as the scans and flips read them
+    struct Vertex {
+        std::int32_t r, c;  // (an image side is at most EXACT_SPAN)
+        double z;
+    };
+    std::vector<Vertex> vx_;
     // triangles, `n_t_` of them in arrays that may be longer: corners, twins, standing
     index_t n_t_ = 0;
     std::vector<index_t> tv_, he_;

@@ -103,6 +103,27 @@ TriangleKey Insertion::scan(index_t t) const {
     return scan_triangle(image_, a, b, c, own);
 }
 
+// Ask the caches for the depth and valid rows of triangle t's bounding box: a step rescans
+// about six small triangles scattered over the image, a few rows each, and a scan meets each
+// row's first cache line cold; asked for all at once, the waits overlap.
+void Insertion::prefetch_pixels(index_t t) const {
+#if defined(__GNUC__) || defined(__clang__)
+    const Vertex &a = vx_[tv_[3 * t]], &b = vx_[tv_[3 * t + 1]], &c = vx_[tv_[3 * t + 2]];
+    const index_t r0 = std::min({a.r, b.r, c.r}), r1 = std::max({a.r, b.r, c.r});
+    const index_t c0 = std::min({a.c, b.c, c.c}), c1 = std::max({a.c, b.c, c.c});
+    if (r1 - r0 > 32) return;  // a large triangle: its rows are long, streamed by the hardware
+    for (index_t r = r0; r <= r1; ++r) {
+        const double* d = image_.depth.row(r);
+        __builtin_prefetch(d + c0);
+        __builtin_prefetch(d + c1);
+        __builtin_prefetch(image_.valid.row(r) + c0);
+    }
+    __asm__ __volatile__("");  // a side effect: without it GCC finds the function pure and drops its calls
+#else
+    (void)t;
+#endif
+}
+
 // A child of an exactly fitting triangle split at its centroid fits the parent's plane: its key
 // is `spread_key` and its pixel its centroid, no scan needed. False when that centroid is no
 // valid inside pixel (the child must then be scanned).
@@ -332,6 +353,7 @@ void Insertion::advance(const Stop& stop) {
             keyed_[s].sum = 0.0;
             h.push(s, -1.0, n_heap_);
         }
+        for (const index_t s : changed_) prefetch_pixels(s);
         const index_t n_changed = static_cast<index_t>(changed_.size());
         for (index_t j = 0; j < n_changed; ++j) {
             // children of an exact split are keyed without a scan unless a flip changed them:

@@ -5,6 +5,8 @@
 // array indexed by id, so a comparison reads the heap's own cache lines.
 #pragma once
 
+#include <algorithm>
+
 #include "../views.hpp"
 
 namespace rangemesh {
@@ -80,6 +82,84 @@ struct HeapView {
     void rekey(index_t x, double key, index_t n) const {
         index_t i = slot[x];
         keys[i] = key;
+        i = sift_up(i);
+        sift_down(i, n);
+    }
+};
+
+}  // namespace rangemesh
+
+namespace rangemesh {
+
+// A key and its id, side by side: a comparison reads one place.
+struct HeapEntry {
+    double key;
+    index_t id;
+};
+
+// Four entries, one cache line: a 4-ary heap's siblings when the entries start 3 into the lines.
+struct alignas(64) HeapLine {
+    HeapEntry e[4];
+};
+
+// An indexed 4-ary max-heap over integer ids with `above`'s order, so it pops the ids a
+// `HeapView` pops (the order is strict). Four children share a cache line and the heap is half
+// as deep: a rekey deep in a heap of 10^5 triangles misses the cache about half as often.
+struct QuadHeapView {
+    HeapEntry* at;  // position i at at[i]; at + 1 + 4 i, the first child of i, starts a line
+    index_t* slot;  // each id's position
+
+    // The entries of `lines` (of `HeapLine`s): position 0 three entries in, so siblings share a line.
+    static HeapEntry* entries(HeapLine* lines) { return lines->e + 3; }
+    // Lines that hold `n` positions.
+    static index_t lines_for(index_t n) { return (n + 3 + 3) / 4; }
+
+    index_t sift_up(index_t i) const {
+        const HeapEntry x = at[i];
+        while (i > 0) {
+            const index_t parent = (i - 1) >> 2;
+            const HeapEntry p = at[parent];
+            if (!above(x.key, x.id, p.key, p.id)) break;
+            at[i] = p;
+            slot[p.id] = i;
+            i = parent;
+        }
+        at[i] = x;
+        slot[x.id] = i;
+        return i;
+    }
+
+    void sift_down(index_t i, index_t n) const {
+        const HeapEntry x = at[i];
+        for (;;) {
+            const index_t first = 4 * i + 1;
+            if (first >= n) break;
+            const index_t last = std::min(first + 4, n);
+            index_t best = first;
+            for (index_t c = first + 1; c < last; ++c)
+                if (above(at[c].key, at[c].id, at[best].key, at[best].id)) best = c;
+            const HeapEntry b = at[best];
+            if (!above(b.key, b.id, x.key, x.id)) break;
+            at[i] = b;
+            slot[b.id] = i;
+            i = best;
+        }
+        at[i] = x;
+        slot[x.id] = i;
+    }
+
+    // Add id `x` with `key` to the heap of `n` entries, which then holds one more.
+    void push(index_t x, double key, index_t& n) const {
+        at[n] = {key, x};
+        slot[x] = n;
+        sift_up(n);
+        ++n;
+    }
+
+    // Give id `x` the key `key` and restore the heap of `n` entries.
+    void rekey(index_t x, double key, index_t n) const {
+        index_t i = slot[x];
+        at[i].key = key;
         i = sift_up(i);
         sift_down(i, n);
     }

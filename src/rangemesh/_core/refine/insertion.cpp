@@ -25,7 +25,7 @@ bool Plane::holds(index_t pr, index_t pc, double pz, double span) const {
 Insertion::Insertion(const Image& image, const FirstMesh& first, index_t reserve, index_t sr, index_t sc)
     : image_(image), sr_(sr), sc_(sc) {
     // stopped half way, no destructor runs: the arrays made so far are freed later all the same
-    const FreeLater late(on_throw, vr_, vc_, vz_, vbg_, tv_, he_, keyed_, stamp_, keys_, heap_, slot_);
+    const FreeLater late(on_throw, vr_, vc_, vz_, vbg_, vx_, tv_, he_, keyed_, heap_, slot_);
     // (compared by division: (rows - 1) * sr overflows for a huge scale)
     check_input(sr >= 1 && sc >= 1 && image.rows() - 1 <= EXACT_SPAN / sr && image.cols() - 1 <= EXACT_SPAN / sc,
                 "greedy_insert: the image, times its Delaunay scales sr and sc (>= 1), within EXACT_SPAN a side");
@@ -62,20 +62,18 @@ Insertion::Insertion(const Image& image, const FirstMesh& first, index_t reserve
     vc_.reserve(cap_v);
     vz_.reserve(cap_v);
     vbg_.reserve(cap_v);
+    vx_.reserve(cap_v);
     for (index_t i = 0; i < n_v; ++i) {
         const bool background = !image.valid(first.vr[i], first.vc[i]);
         if (background && i >= 4)
             throw std::invalid_argument("greedy_insert: only the first four vertices may be background");
-        vr_.push_back(first.vr[i]);
-        vc_.push_back(first.vc[i]);
-        vz_.push_back(first.vz[i]);
-        vbg_.push_back(background);
+        add_vertex(first.vr[i], first.vc[i], first.vz[i], background);
         if (!background) ++n_valid_v_;
     }
     tv_.assign(first.triangles.begin(), first.triangles.end());
     he_.assign(first.halfedges.begin(), first.halfedges.end());
     resize_triangles(cap_t);
-    const HeapView heap = this->heap();
+    const QuadHeapView heap = this->heap();
     for (index_t t = 0; t < n_t_; ++t) {
         poll_interrupt();
         keyed_[t] = scan(t);
@@ -84,8 +82,16 @@ Insertion::Insertion(const Image& image, const FirstMesh& first, index_t reserve
     }
 }
 
+void Insertion::add_vertex(index_t r, index_t c, double z, bool background) {
+    vr_.push_back(r);
+    vc_.push_back(c);
+    vz_.push_back(z);
+    vbg_.push_back(background);
+    vx_.push_back(Vertex{static_cast<std::int32_t>(r), static_cast<std::int32_t>(c), z});
+}
+
 // Under an error bound the arrays reach gigabytes: freed on a thread of their own.
-Insertion::~Insertion() { free_later(vr_, vc_, vz_, vbg_, tv_, he_, keyed_, stamp_, keys_, heap_, slot_); }
+Insertion::~Insertion() { free_later(vr_, vc_, vz_, vbg_, vx_, tv_, he_, keyed_, heap_, slot_); }
 
 TriangleKey Insertion::scan(index_t t) const {
     const index_t e = 3 * t;
@@ -97,6 +103,27 @@ TriangleKey Insertion::scan(index_t t) const {
     return scan_triangle(image_, a, b, c, own);
 }
 
+// Ask the caches for the depth and valid rows of triangle t's bounding box: a step rescans
+// about six small triangles scattered over the image, a few rows each, and a scan meets each
+// row's first cache line cold; asked for all at once, the waits overlap.
+void Insertion::prefetch_pixels(index_t t) const {
+#if defined(__GNUC__) || defined(__clang__)
+    const Vertex &a = vx_[tv_[3 * t]], &b = vx_[tv_[3 * t + 1]], &c = vx_[tv_[3 * t + 2]];
+    const index_t r0 = std::min({a.r, b.r, c.r}), r1 = std::max({a.r, b.r, c.r});
+    const index_t c0 = std::min({a.c, b.c, c.c}), c1 = std::max({a.c, b.c, c.c});
+    if (r1 - r0 > 32) return;  // a large triangle: its rows are long, streamed by the hardware
+    for (index_t r = r0; r <= r1; ++r) {
+        const double* d = image_.depth.row(r);
+        __builtin_prefetch(d + c0);
+        __builtin_prefetch(d + c1);
+        __builtin_prefetch(image_.valid.row(r) + c0);
+    }
+    __asm__ __volatile__("");  // a side effect: without it GCC finds the function pure and drops its calls
+#else
+    (void)t;
+#endif
+}
+
 // A child of an exactly fitting triangle split at its centroid fits the parent's plane: its key
 // is `spread_key` and its pixel its centroid, no scan needed. False when that centroid is no
 // valid inside pixel (the child must then be scanned).
@@ -105,8 +132,8 @@ bool Insertion::fit_child(index_t t, TriangleKey& out) const {
     const Pixel p = centroid_pixel(vr_[ia], vc_[ia], vr_[ib], vc_[ib], vr_[ic], vc_[ic], image_.valid);
     if (p.r < 0) return false;
     out.key = spread_key(orient(vr_[ia], vc_[ia], vr_[ib], vc_[ib], vr_[ic], vc_[ic]), image_.rows(), image_.cols());
-    out.r = p.r;
-    out.c = p.c;
+    out.r = static_cast<std::int32_t>(p.r);
+    out.c = static_cast<std::int32_t>(p.c);
     out.sum = 0.0;
     out.fits = true;
     return true;
@@ -120,6 +147,7 @@ void Insertion::make_room() {
         reserve_polled(vc_, cap_v);
         reserve_polled(vz_, cap_v);
         reserve_polled(vbg_, cap_v);
+        reserve_polled(vx_, cap_v);
     }
     const index_t cap_t = static_cast<index_t>(keyed_.size());
     if (n_t_ + 2 <= cap_t) return;
@@ -132,9 +160,7 @@ void Insertion::resize_triangles(index_t cap_t) {
     grow_polled(tv_, 3 * cap_t, index_t{0});
     grow_polled(he_, 3 * cap_t, index_t{-1});
     grow_polled(keyed_, cap_t);
-    grow_polled(stamp_, cap_t, index_t{0});
-    grow_polled(keys_, cap_t, 0.0);
-    grow_polled(heap_, cap_t, index_t{0});
+    grow_polled(heap_, static_cast<std::size_t>(QuadHeapView::lines_for(cap_t)));
     grow_polled(slot_, cap_t, index_t{0});
 }
 
@@ -155,7 +181,7 @@ void Insertion::insert(index_t t, index_t p, const Plane* guard) {
     int on = -1;
     for (int k = 0; k < 3; ++k) {
         const index_t a = tv_[e + k], b = tv_[e + (k + 1) % 3];
-        if (orient(vr_[a], vc_[a], vr_[b], vc_[b], pr, pc) == 0) on = k;
+        if (orient<index_t>(vx_[a].r, vx_[a].c, vx_[b].r, vx_[b].c, pr, pc) == 0) on = k;
     }
     changed_.clear();
     if (on < 0) {  // ABC -> ABP, BCP, CAP
@@ -240,12 +266,14 @@ void Insertion::legalize(index_t e0, const Plane* guard) {
         const index_t b = he_[a];
         if (b < 0) continue;
         const index_t al = nxt(a), ar = prv(a), bn = nxt(b), bp = prv(b);
-        const index_t pa = tv_[a], pb = tv_[al], pc = tv_[ar], pd = tv_[bp];
-        if (incircle(sr_ * vr_[pa], sc_ * vc_[pa], sr_ * vr_[pb], sc_ * vc_[pb], sr_ * vr_[pc], sc_ * vc_[pc],
-                     sr_ * vr_[pd], sc_ * vc_[pd]) <= 0)
+        const Vertex& pa = vx_[tv_[a]];
+        const Vertex& pb = vx_[tv_[al]];
+        const Vertex& pc = vx_[tv_[ar]];
+        const Vertex& pd = vx_[tv_[bp]];
+        if (incircle<index_t>(sr_ * pa.r, sc_ * pa.c, sr_ * pb.r, sc_ * pb.c, sr_ * pc.r, sc_ * pc.c, sr_ * pd.r,
+                              sc_ * pd.c) <= 0)
             continue;
-        if (guard && keyed_[b / 3].key < SMALL_KEY && !guard->holds(vr_[pd], vc_[pd], vz_[pd], image_.span))
-            continue;
+        if (guard && keyed_[b / 3].key < SMALL_KEY && !guard->holds(pd.r, pd.c, pd.z, image_.span)) continue;
         require(++flips <= n_t_, "insertion: more flips around a new vertex than triangles");
         flip_quad({tv_.data(), static_cast<index_t>(tv_.size())}, he, a);
         changed_.push_back(a / 3);
@@ -272,6 +300,16 @@ bool Insertion::flat_cavity(index_t t, index_t old_t, const Plane& plane) const 
     return true;
 }
 
+// Whether changed_[i] was met before it, visiting the list backwards when `backwards`: a step
+// changes about ten triangles, and a search of that short list stays in cache where a stamp
+// per triangle cost a cache miss a triangle.
+bool Insertion::visited_before(index_t i, bool backwards) const {
+    const index_t s = changed_[i], n = static_cast<index_t>(changed_.size());
+    for (index_t j = backwards ? i + 1 : 0; j < (backwards ? n : i); ++j)
+        if (changed_[j] == s) return true;
+    return false;
+}
+
 void Insertion::rekey(index_t t, const TriangleKey& k) {
     keyed_[t] = k;
     heap().rekey(t, k.key, n_heap_);
@@ -280,7 +318,7 @@ void Insertion::rekey(index_t t, const TriangleKey& k) {
 void Insertion::advance(const Stop& stop) {
     while (n_heap_ > 0 && n_valid_v_ < stop.max_vertices) {
         poll_interrupt();
-        const index_t t = heap_[0];
+        const index_t t = top();
         const double key = keyed_[t].key;
         // (a negative max_sum is no stop: the running sum of huge errors may round below 0)
         if (key < 0.0 || key < stop.min_key || (key <= COVER_KEY && stop.max_sum >= 0.0 && total_ <= stop.max_sum))
@@ -290,10 +328,7 @@ void Insertion::advance(const Stop& stop) {
         require(n_vertices() < image_.rows() * image_.cols(), "insertion: more vertices than pixels");
         make_room();
         const index_t p = n_vertices();
-        vr_.push_back(pr);
-        vc_.push_back(pc);
-        vz_.push_back(image_.depth(pr, pc));
-        vbg_.push_back(0);
+        add_vertex(pr, pc, image_.depth(pr, pc), false);
         ++n_valid_v_;
         const index_t old_t = n_t_;
         // the centroid of a triangle that fits exactly: its three children fit too
@@ -312,21 +347,20 @@ void Insertion::advance(const Stop& stop) {
         // fitted exactly and every corner lies on the split triangle's plane
         const bool flat = split_fit && flat_cavity(t, old_t, plane);
         // new triangles join the heap, last: no key is below -1, and ties go to the smaller id
-        const HeapView h = heap();
+        const QuadHeapView h = heap();
         for (index_t s = old_t; s < n_t_; ++s) {
             keyed_[s].key = -1.0;
             keyed_[s].sum = 0.0;
             h.push(s, -1.0, n_heap_);
         }
-        ++step_;
+        for (const index_t s : changed_) prefetch_pixels(s);
         const index_t n_changed = static_cast<index_t>(changed_.size());
         for (index_t j = 0; j < n_changed; ++j) {
             // children of an exact split are keyed without a scan unless a flip changed them:
             // the flipped triangles (listed after the three) are visited first
             const index_t i = split_fit ? n_changed - 1 - j : j;
             const index_t s = changed_[i];
-            if (stamp_[s] == step_) continue;  // changed twice in this step: one scan is enough
-            stamp_[s] = step_;
+            if (visited_before(i, split_fit)) continue;  // changed twice in this step: one scan is enough
             TriangleKey k;
             if (!((flat || (split_fit && i < 3)) && fit_child(s, k))) k = scan(s);
             total_ += k.sum - keyed_[s].sum;
@@ -374,25 +408,18 @@ bool Insertion::insert_at(index_t r, index_t c) {
     // as `advance` inserts a worst pixel, without the shortcuts of an exact split
     make_room();
     const index_t p = n_vertices();
-    vr_.push_back(r);
-    vc_.push_back(c);
-    vz_.push_back(image_.depth(r, c));
-    vbg_.push_back(0);
+    add_vertex(r, c, image_.depth(r, c), false);
     ++n_valid_v_;
     const index_t old_t = n_t_;
     insert(t, p, nullptr);
     for (index_t s = old_t; s < n_t_; ++s) {
         keyed_[s].key = -1.0;
         keyed_[s].sum = 0.0;
-        heap_[n_heap_] = s;
-        keys_[n_heap_] = -1.0;
-        slot_[s] = n_heap_;
-        ++n_heap_;
+        heap().push(s, -1.0, n_heap_);
     }
-    ++step_;
-    for (const index_t s : changed_) {
-        if (stamp_[s] == step_) continue;
-        stamp_[s] = step_;
+    for (index_t i = 0; i < static_cast<index_t>(changed_.size()); ++i) {
+        const index_t s = changed_[i];
+        if (visited_before(i, false)) continue;
         const TriangleKey k = scan(s);
         total_ += k.sum - keyed_[s].sum;
         rekey(s, k);

@@ -7,6 +7,7 @@
 // (rows counting `sr`, columns `sc`), and rescans only the triangles that changed.
 #pragma once
 
+#include <cstdint>
 #include <limits>
 #include <vector>
 
@@ -64,7 +65,7 @@ class alignas(64) Insertion {
     bool insert_at(index_t r, index_t c);
 
     // The key of the triangle `advance` would split next (-1 when none is left).
-    double top_key() const { return n_heap_ > 0 ? keyed_[heap_[0]].key : -1.0; }
+    double top_key() const { return n_heap_ > 0 ? keyed_[top()].key : -1.0; }
 
     index_t n_vertices() const { return static_cast<index_t>(vr_.size()); }
     index_t n_triangles() const { return n_t_; }
@@ -82,8 +83,11 @@ class alignas(64) Insertion {
     std::vector<double> sums() const;
 
   private:
-    Corner corner(index_t v) const { return {vr_[v], vc_[v], vz_[v], vbg_[v] != 0}; }
+    // (only the first four vertices may be background)
+    Corner corner(index_t v) const { return {vx_[v].r, vx_[v].c, vx_[v].z, v < 4 && vbg_[v] != 0}; }
+    void add_vertex(index_t r, index_t c, double z, bool background);
     TriangleKey scan(index_t t) const;
+    void prefetch_pixels(index_t t) const;
     bool fit_child(index_t t, TriangleKey& out) const;
     void make_room();
     void resize_triangles(index_t cap_t);
@@ -91,13 +95,12 @@ class alignas(64) Insertion {
     void insert(index_t t, index_t p, const Plane* guard);
     void legalize(index_t e0, const Plane* guard);
     bool flat_cavity(index_t t, index_t old_t, const Plane& plane) const;
+    bool visited_before(index_t i, bool backwards) const;
     void rekey(index_t t, const TriangleKey& k);
     index_t locate(index_t r, index_t c);
     // the heap over the arrays as they are now (they move when the triangles' room grows)
-    HeapView heap() {
-        const index_t cap_t = static_cast<index_t>(keyed_.size());
-        return {{keys_.data(), cap_t}, {heap_.data(), cap_t}, {slot_.data(), cap_t}};
-    }
+    QuadHeapView heap() { return {QuadHeapView::entries(heap_.data()), slot_.data()}; }
+    index_t top() const { return heap_[0].e[3].id; }  // (position 0: `QuadHeapView::entries`)
 
     Image image_;
     index_t sr_, sc_;
@@ -105,17 +108,21 @@ class alignas(64) Insertion {
     std::vector<index_t> vr_, vc_;
     std::vector<double> vz_;
     std::vector<unsigned char> vbg_;
+    // ... and each vertex's pixel and depth in one place, as the scans and flips read them
+    struct Vertex {
+        std::int32_t r, c;  // (an image side is at most EXACT_SPAN)
+        double z;
+    };
+    std::vector<Vertex> vx_;
     // triangles, `n_t_` of them in arrays that may be longer: corners, twins, standing
     index_t n_t_ = 0;
     std::vector<index_t> tv_, he_;
     std::vector<TriangleKey> keyed_;
-    std::vector<index_t> stamp_;  // the step that last rescanned a triangle
-    // the heap (`HeapView`): keys at heap positions, ids, each id's position
-    std::vector<double> keys_;
-    std::vector<index_t> heap_, slot_;
+    // the heap (`QuadHeapView`): keys and ids at heap positions, each id's position
+    std::vector<HeapLine> heap_;
+    std::vector<index_t> slot_;
     index_t n_heap_ = 0;
     index_t n_valid_v_ = 0;
-    index_t step_ = 0;
     double total_ = 0.0;
     index_t hint_ = 0;  // where `locate` starts walking: the last triangle it found
     // per step: the triangles it changed (with repeats), the flips still to test

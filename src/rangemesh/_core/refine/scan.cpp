@@ -173,8 +173,8 @@ TriangleKey scan_triangle(const Image& image, const Corner& a, const Corner& b, 
         const Cover near = cover_pixel(a, b, cn, own, image.valid);
         if (near.weight >= 0) {
             out.key = COVER_KEY * (1.0 + static_cast<double>(near.weight) / static_cast<double>(area));
-            out.r = near.r;
-            out.c = near.c;
+            out.r = static_cast<std::int32_t>(near.r);
+            out.c = static_cast<std::int32_t>(near.c);
             return out;
         }
         if (!near.seen) return out;
@@ -205,8 +205,8 @@ TriangleKey scan_triangle(const Image& image, const Corner& a, const Corner& b, 
         if (best == 0.0) best = SMALL_KEY;
     }
     out.key = best;
-    out.r = best_r;
-    out.c = best_c;
+    out.r = static_cast<std::int32_t>(best_r);
+    out.c = static_cast<std::int32_t>(best_c);
     out.sum = total;
     return out;
 }

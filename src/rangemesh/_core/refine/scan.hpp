@@ -2,6 +2,8 @@
 // its key in the heap, and the triangle's summed error.
 #pragma once
 
+#include <cstdint>
+
 #include "image.hpp"
 #include "plane.hpp"
 
@@ -17,10 +19,11 @@ struct Corner {
 // A triangle's standing in the heap. `key` is -1 when no pixel can be inserted; `sum` is
 // sum |depth - plane| over the valid pixels it owns (0 for a triangle keyed without a full
 // scan); `fits` says that it fits exactly and (r, c) is its centroid.
-struct TriangleKey {
+// 32 bytes, two to a cache line: the pixel in int32 (an image side is at most EXACT_SPAN).
+struct alignas(32) TriangleKey {
     double key = -1.0;
-    index_t r = -1, c = -1;
     double sum = 0.0;
+    std::int32_t r = -1, c = -1;
     bool fits = false;
 };
 

@@ -314,9 +314,10 @@ class MeshParams:
             "summed pixel error, down to the count; the target is met as with ``'fast'`` "
             "(`rangemesh.refine.insertion.greedy_mesh`). On the cases of docs/benchmarks.md "
             "(\"effort\") 0.55-0.75x ``'fast'``'s error on smooth or noisy frames, a tenth or "
-            "less on planar and layered ones, for 10-35x its time.",
+            "less on planar and layered ones; on the 69 cases of ``benchmarks/peers.py --budgets "
+            "fractions --best`` a median 0.77x its error for a median 25x its time (4-300x).",
         flag=Flag("fast (the default): greedy insertion's mesh; best: a lower error at the "
-                  "same vertex count for 10-35 times the time (insertion to more vertices, "
+                  "same vertex count for a median 25 times the time (insertion to more vertices, "
                   "then the cheapest collapses down to the count)", "choice"))
 
     def __post_init__(self):

@@ -21,23 +21,30 @@ void block_product(Span<const FaceBlock> blocks, const double* ridge, const doub
     }
 }
 
+// The system of `gather_blocks` into diag, rhs and ridge (n each, zeroed by the caller).
+void gather_into(Span<const FaceBlock> blocks, Span<const double> h0, double ridge_share, double* diag, double* rhs,
+                 double* ridge) {
+    const index_t n = h0.size;
+    for (const FaceBlock& f : blocks) {
+        for (int k = 0; k < 3; ++k) {
+            require(0 <= f.ids[k] && f.ids[k] < n, "solve: a block's vertex id is out of range");
+            diag[f.ids[k]] += f.m[k][k];
+            rhs[f.ids[k]] += f.rhs[k];
+        }
+    }
+    for (index_t i = 0; i < n; ++i) {
+        ridge[i] = ridge_share * std::max(diag[i], 1.0);
+        rhs[i] += ridge[i] * h0[i];
+        diag[i] += ridge[i];
+    }
+}
+
 }  // namespace
 
 VertexSystem gather_blocks(Span<const FaceBlock> blocks, Span<const double> h0, double ridge_share) {
     const index_t n = h0.size;
     VertexSystem s{std::vector<double>(n, 0.0), std::vector<double>(n, 0.0), std::vector<double>(n, 0.0)};
-    for (const FaceBlock& f : blocks) {
-        for (int k = 0; k < 3; ++k) {
-            require(0 <= f.ids[k] && f.ids[k] < n, "solve: a block's vertex id is out of range");
-            s.diag[f.ids[k]] += f.m[k][k];
-            s.rhs[f.ids[k]] += f.rhs[k];
-        }
-    }
-    for (index_t i = 0; i < n; ++i) {
-        s.ridge[i] = ridge_share * std::max(s.diag[i], 1.0);
-        s.rhs[i] += s.ridge[i] * h0[i];
-        s.diag[i] += s.ridge[i];
-    }
+    gather_into(blocks, h0, ridge_share, s.diag.data(), s.rhs.data(), s.ridge.data());
     return s;
 }
 
@@ -45,23 +52,27 @@ bool solve_blocks(Span<const FaceBlock> blocks, Span<const double> h0, double ri
                   index_t max_iter, Span<double> x) {
     require(x.size == h0.size, "solve: one unknown a vertex");
     const std::size_t n = static_cast<std::size_t>(h0.size);
-    const VertexSystem s = gather_blocks(blocks, h0, ridge_share);
-    // the iterate, residual, preconditioned residual, direction and product, in one allocation
-    std::vector<double> room(5 * n);
-    double* const xs = room.data();
+    // the system (diagonal, right-hand side, ridge) and the iterate, residual, preconditioned
+    // residual, direction and product, in one allocation: a small mesh's solve is mostly set-up
+    std::vector<double> room(8 * n, 0.0);
+    double* const sdiag = room.data();
+    double* const rhs = sdiag + n;
+    double* const ridge = rhs + n;
+    gather_into(blocks, h0, ridge_share, sdiag, rhs, ridge);
+    double* const xs = ridge + n;
     double* const r = xs + n;
     double* const z = r + n;
     double* const p = z + n;
     double* const q = p + n;
     std::copy(h0.begin(), h0.end(), xs);
-    const double* const diag = s.diag.data();
-    block_product(blocks, s.ridge.data(), xs, r, n);
+    const double* const diag = sdiag;
+    block_product(blocks, ridge, xs, r, n);
     // Every sum runs in index order, as a plain dot product would; sums over one loop are
     // independent chains, so fusing them costs one pass of latency, not three.
     double bb = 0.0, rz = 0.0, rr = 0.0;
     for (std::size_t i = 0; i < n; ++i) {
-        r[i] = s.rhs[i] - r[i];
-        bb += s.rhs[i] * s.rhs[i];
+        r[i] = rhs[i] - r[i];
+        bb += rhs[i] * rhs[i];
         z[i] = r[i] / diag[i];
         p[i] = z[i];
         rz += r[i] * z[i];
@@ -76,7 +87,7 @@ bool solve_blocks(Span<const FaceBlock> blocks, Span<const double> h0, double ri
         }
         if (step >= max_iter) break;
         poll_interrupt();
-        block_product(blocks, s.ridge.data(), p, q, n);
+        block_product(blocks, ridge, p, q, n);
         double pq = 0.0;
         for (std::size_t i = 0; i < n; ++i) pq += p[i] * q[i];
         if (!(pq > 0.0)) break;  // not positive definite along p (the ridge rules it out), or NaN: stop

@@ -384,7 +384,13 @@ FitStatus fitted_depths(const Image& image, bool pinhole, const ValidFaces& f, c
                         std::vector<double>& z, const DirectSolve* direct = nullptr) {
     const index_t n_f = static_cast<index_t>(f.faces.size() / 3), n_v = static_cast<index_t>(f.pixels.size() / 2);
     const FitValues v = fit_values(image, pinhole, req);
-    std::vector<index_t> rows(n_v), cols(n_v);
+    // the vertices' rows and columns, the faces (3 a face) and their order, in one allocation:
+    // a small mesh's fit is mostly set-up
+    std::vector<index_t> ids(2 * n_v + 4 * n_f);
+    index_t* const rows = ids.data();
+    index_t* const cols = rows + n_v;
+    index_t* const faces = cols + n_v;
+    index_t* const order = faces + 3 * n_f;
     std::vector<double> copied(n_v);
     for (index_t i = 0; i < n_v; ++i) {
         poll_every(i);
@@ -393,16 +399,16 @@ FitStatus fitted_depths(const Image& image, bool pinhole, const ValidFaces& f, c
         copied[i] = v.values(rows[i], cols[i]);
         if (!std::isfinite(copied[i])) return {FitStatus::not_finite, i};
     }
-    const std::vector<index_t> faces(f.faces.begin(), f.faces.end());
-    std::vector<index_t> order(n_f);
+    std::copy(f.faces.begin(), f.faces.end(), faces);
+    const Span<const index_t> vrows{rows, n_v}, vcols{cols, n_v};
     if (image.rows() * image.cols() >= req.heights.order_min_pixels)
-        heights::face_order({faces.data(), n_f, 3}, view(rows), view(cols), image.rows(), image.cols(),
-                            req.heights.order_tile, {order.data(), n_f});
+        heights::face_order({faces, n_f, 3}, vrows, vcols, image.rows(), image.cols(), req.heights.order_tile,
+                            {order, n_f});
     else
-        std::iota(order.begin(), order.end(), index_t{0});
-    const heights::FitMesh mesh{{faces.data(), n_f, 3}, view(rows), view(cols), view(copied)};
-    heights::FitResult fit =
-        heights::fit_heights(mesh, {v.values, image.valid}, view(order), fit_settings(req, v, n_f, n_v));
+        std::iota(order, order + n_f, index_t{0});
+    const heights::FitMesh mesh{{faces, n_f, 3}, vrows, vcols, view(copied)};
+    heights::FitResult fit = heights::fit_heights(mesh, {v.values, image.valid}, Span<const index_t>{order, n_f},
+                                                  fit_settings(req, v, n_f, n_v));
     if (fit.outcome == heights::FitOutcome::not_converged) {  // ill-conditioned: a direct solve
         if (direct == nullptr || !*direct) return {FitStatus::not_converged, -1};
         fit.values = (*direct)(fit.blocks, copied);

@@ -55,7 +55,7 @@ struct MeshRequest {
     // deviation a pixel (in depth units) times the valid pixels; the rounds then insert the rest.
     double max_deviation_share = 0.25;
     // max_error: the first insertion stops at a summed error of this many times the bound's
-    // (max_error / 100 * span * n_valid); the fitted heights err less than the copied ones.
+    // (max_error / 100 * span * n_valid): above 1 only with fitted heights, which err less.
     double max_error_stop = 1.0;
 };
 

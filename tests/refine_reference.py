@@ -26,6 +26,7 @@ from rangemesh.mesh import Mesh, Stats, empty_mesh
 from rangemesh.refine.heights import fit_heights
 from rangemesh.refine.insertion import (
     MAX_BISECT_RUNS,
+    MAX_ERROR_STOP,
     MAX_RUNS,
     _count_record,
     _error_record,
@@ -149,7 +150,8 @@ def _greedy(depth, valid, camera, ref, extent, exponent, *, vertices, max_error,
                                          max_vertices)
     strips = strips and first is None
     start = first if first is not None or strips else first_mesh(depth, valid, n_grid, scales)
-    max_sum = -1.0 if max_error is None else float(max_error) / 100.0 * span * n_valid
+    stop = MAX_ERROR_STOP if fit else 1.0  # (the first insertion's stop, fitted heights only)
+    max_sum = -1.0 if max_error is None else stop * float(max_error) / 100.0 * span * n_valid
     runs = 0
     asked = want
     achieved = float("nan")  # the relative error, measured with max_error only

@@ -208,6 +208,23 @@ def test_an_error_bound_stops_at_the_first_mesh_under_it():
     assert before > bound
 
 
+@pytest.mark.parametrize("stop", [1.0, insertion.MAX_ERROR_STOP])
+def test_an_error_bounded_call_stops_its_first_insertion_at_max_error_stop_times_the_bound(stop):
+    # max_error=E: the first insertion is the kernel's own, stopped at a summed error of
+    # stop * E / 100 * span * n_valid; E = 1 % is met by that first meshing at each stop here
+    rng = np.random.default_rng(7)
+    depth = 20 + rng.normal(size=(24, 28)).cumsum(0).cumsum(1) / 10
+    valid = np.ones_like(depth, bool)
+    lo, hi, n = valid_range(depth, valid)
+    req = _refine_request(vertices=n, n_valid=n, lo=lo, hi=hi, n_grid=0, max_error=1.0,
+                          max_error_stop=stop)
+    res = _core.refine_mesh(depth, valid, np.array([0.0, 1, 1, 1, 0, 0]), req)
+    start = insertion.first_mesh(depth, valid, 0)
+    vr, *_ = _core.greedy_insert(depth, valid, *start, n, stop * 1.0 / 100 * (hi - lo) * n, hi - lo)
+    assert res.meshings == 1 and res.achieved <= 1.0
+    assert len(res.pixels) == len(vr)
+
+
 def test_background_beyond_the_corners_is_refused():
     depth = np.ones((4, 4))
     valid = np.ones((4, 4), bool)
@@ -257,6 +274,10 @@ def _refine_request(**fields):
     (lambda d, v, cam: _core.refine_mesh(d, v, cam, _refine_request(), d[:2], v), "ref_depth"),
     (lambda d, v, cam: _core.refine_mesh(d[:1], v[:1], cam, _refine_request()), "2x2"),
     (lambda d, v, cam: _core.refine_mesh(d, v, cam, _refine_request(collapse=0.5)), "collapse"),
+    (lambda d, v, cam: _core.refine_mesh(d, v, cam, _refine_request(max_error_stop=0.0)),
+     "max_error_stop"),
+    (lambda d, v, cam: _core.refine_mesh(d, v, cam, _refine_request(max_error_stop=float("inf"))),
+     "max_error_stop"),
     (lambda d, v, cam: _core.refine_mesh(d, v, cam, _refine_request(collapse=float("nan"))),
      "collapse"),
     (lambda d, v, cam: _core.refine_mesh(d, v,

@@ -37,6 +37,11 @@ MAX_BISECT_RUNS = 5
 # max_deviation=D: the first insertion stops at a summed error of this share of D a valid pixel
 # (the rounds insert the rest: a smaller share over-inserts, a larger one costs more rounds).
 MAX_DEVIATION_SHARE = 0.25
+# max_error=E, fitted heights: the first insertion stops at a summed error (copied depths) of
+# this many times E's, E / 100 * span * n_valid: at 1.0 the fit rendered 0.28-0.36 % for 0.5 %. The
+# largest tried that meets 0.3, 0.5 and 1 % on every real image in one meshing (1.25 misses
+# once: docs/benchmarks.md, "The default target"; benchmarks/error_stop.py).
+MAX_ERROR_STOP = 1.15
 GRID_MAX = 256
 GRID_ERROR_BOUND = 64
 # Rows (or columns) count an integer times more in the Delaunay test once the sensor's rows lie
@@ -402,7 +407,8 @@ def _native(depth, valid, camera, ref, extent, exponent, vertices, max_error, ma
     if effort == "best":
         req.collapse = COLLAPSE_BEST
     if max_error is not None:
-        req.max_error = float(max_error)
+        # (copied heights render about the insertion's own sum: no room to stop later)
+        req.max_error, req.max_error_stop = float(max_error), MAX_ERROR_STOP if fit else 1.0
     cam = _UNIT_ARRAY if camera is _UNIT else camera.as_array()
     res = _core.refine_mesh(depth, valid, cam, req, *((None, None) if ref is None else ref),
                             _heights._direct_solve)

@@ -70,6 +70,8 @@ void bind_request(nb::module_& m) {
                 "The prediction interpolates inverse depth (a pinhole, z-depth rays).")
         .def_rw("max_deviation_share", &MeshRequest::max_deviation_share,
                 "The first insertion's summed error: this share of max_deviation a valid pixel.")
+        .def_rw("max_error_stop", &MeshRequest::max_error_stop,
+                "max_error: the first insertion stops at this many times the bound's summed error.")
         .def_rw("collapse", &MeshRequest::collapse,
                 "effort='best' when above 1: mesh this many times the count, then collapse to it (0: fast).");
 }
@@ -183,6 +185,8 @@ void bind_refine_mesh(nb::module_& m) {
             check_input(req.deviation_scale > 0.0 && std::isfinite(req.deviation_scale) &&
                             req.max_deviation_share > 0.0 && req.max_deviation_share <= 1.0,
                         "refine_mesh: deviation_scale finite and above 0, max_deviation_share in (0, 1]");
+            check_input(req.max_error_stop > 0.0 && std::isfinite(req.max_error_stop),
+                        "refine_mesh: max_error_stop finite and above 0");
             check_input(req.walls || camera(0) != 2.0 || (req.pixel_angle > 0.0 && std::isfinite(req.pixel_angle)),
                         "refine_mesh: walls dropped with a ray camera need a finite pixel_angle above 0");
             check_input(req.threads >= 1 && (!req.strips || depth.shape(1) >= 4),

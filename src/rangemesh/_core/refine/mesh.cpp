@@ -770,7 +770,8 @@ MeshResult Refiner::by_count() {
 // otherwise) the count is bisected between the last miss and `vertices`.
 MeshResult Refiner::by_error() {
     const index_t want = req_.vertices;
-    double max_sum = req_.max_error / 100.0 * (req_.hi - req_.lo) * static_cast<double>(req_.n_valid);
+    double max_sum =
+        req_.max_error_stop * req_.max_error / 100.0 * (req_.hi - req_.lo) * static_cast<double>(req_.n_valid);
     index_t asked = want, few = 0, most = 0;
     bool counted = false;
     Candidate met;  // searching by count: the smallest count that met the bound

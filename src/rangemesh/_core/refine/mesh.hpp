@@ -54,6 +54,9 @@ struct MeshRequest {
     // Deviation targets: the first insertion stops at a summed error of this share of the largest
     // deviation a pixel (in depth units) times the valid pixels; the rounds then insert the rest.
     double max_deviation_share = 0.25;
+    // max_error: the first insertion stops at a summed error of this many times the bound's
+    // (max_error / 100 * span * n_valid): above 1 only with fitted heights, which err less.
+    double max_error_stop = 1.0;
 };
 
 // The image an error bound is measured against (the one before gap filling).

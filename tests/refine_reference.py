@@ -12,11 +12,11 @@ import time
 import numpy as np
 
 from rangemesh._core import (
+    InsertSettings,
     build_halfedges,
     count_edges,
     flip_by_error,
     greedy_insert,
-    greedy_insert_sums,
     neighbors_from_halfedges,
     prune_dangling,
     valid_faces,
@@ -124,13 +124,14 @@ def _refine(depth, valid, start, strips, asked, max_sum, span, scales, n_grid, d
                                                     info=info)
         return vr, vc, tv
     if diagonals != "error":
-        vr, vc, tv, _, info["total"] = greedy_insert(depth, valid, *start, asked, max_sum, span,
-                                                     *scales)
-        return vr, vc, tv
+        out = greedy_insert(depth, valid, start, InsertSettings(asked, max_sum, span, *scales))
+        info["total"] = out.total
+        return out.vr, out.vc, out.tv
     # the insertion's own half-edges and triangle sums: no second pass over the pixels
-    vr, vc, tv, he, tsum = greedy_insert_sums(depth, valid, *start, asked, max_sum, span, *scales)
+    out = greedy_insert(depth, valid, start, InsertSettings(asked, max_sum, span, *scales, sums=True))
+    vr, vc, tv, he, tsum = out.vr, out.vc, out.tv, out.he, out.tsum
     info["total"] = float(tsum.sum())
-    info["flips"] = int(flip_by_error(vr, vc, tv, he, tsum, depth, valid, span)[0])
+    info["flips"] = int(flip_by_error((vr, vc, tv, he, tsum), depth, valid, span)[0])
     return vr, vc, tv
 
 

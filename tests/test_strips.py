@@ -65,12 +65,13 @@ def test_seam_column_by_hand():
 def test_power_laws_by_hand():
     """The rounds' predictions (compiled with the driver, strips.cpp), by hand."""
     # counts against keys: key 100 -> 10 while the count goes 10 -> 100, n ~ key**-1
-    assert _core._strip_power_law([(10, 100.0), (100, 10.0)]) == (100, 10.0, 1.0)
+    law = _core._strip_power_law([(10, 100.0), (100, 10.0)])
+    assert (law.n, law.key, law.e) == (100, 10.0, 1.0)
     # errors against counts: 80 -> 10 while the count goes 10 -> 40, t ~ n**-1.5, so the
     # error reaches 1.25 at 40 * (10 / 1.25) ** (1 / 1.5) = 160 vertices
     assert _core._strip_error_target([(10, 80.0), (40, 10.0)], 1.25) == pytest.approx(160.0)
     # keys that rose: no fit, the default exponent 1; steep falls are held to at most 4
-    assert _core._strip_power_law([(10, 10.0), (20, 30.0)])[2] == 1.0
+    assert _core._strip_power_law([(10, 10.0), (20, 30.0)]).e == 1.0
     assert _core._strip_exponent(1.0, 1.0, 2.0, 1e-9) == 4.0
     # shallow falls to at least 0.75: y halves while x grows 16-fold, e = 0.25
     assert _core._strip_exponent(1.0, 2.0, 16.0, 1.0) == 0.75

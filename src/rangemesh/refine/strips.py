@@ -182,18 +182,19 @@ def strip_insert(depth, valid, vertices, span, scales, n_grid, *, max_sum=-1.0, 
     seam_error = _seam_error(depth[:, m], valid[:, m], rows)
     budget = max(max_sum - seam_error, 0.0) if max_sum >= 0.0 else -1.0
     # (the strips' summed errors stay the insertion's: the flips leave them alone)
-    a, b, n_rounds, capped = _core.strip_insert(depth, valid, left, right, vertices, target, size,
-                                                budget, span, sr, sc, n_threads, rounds,
-                                                diagonals == "error")
+    request = _core.StripRequest(vertices=vertices, target=target, reserve=size, budget=budget, sr=sr,
+                                 sc=sc, threads=n_threads, rounds=rounds, flip=diagonals == "error")
+    out = _core.strip_insert(depth, valid, left, right, span, request)
+    a, b = out.left, out.right
     if info is not None:
         if rounds:
-            info.update(rounds=n_rounds, capped=capped)
-        info["flips"] = a[7] + b[7]
+            info.update(rounds=out.rounds, capped=out.capped)
+        info["flips"] = a.flips + b.flips
     vr, vc, tv, n, total = _join(a, b, m, shared)
     if diagonals == "error":
-        he, seam = _joined_halfedges(a[3], b[3], tv, vc, m)
-        tsum = concat([a[4], b[4]])
-        seam_flips = flip_from_edges(vr, vc, tv, he, tsum, depth, valid, span, seam)[0]
+        he, seam = _joined_halfedges(a.he, b.he, tv, vc, m)
+        tsum = concat([a.tsum, b.tsum])
+        seam_flips = flip_from_edges((vr, vc, tv, he, tsum), depth, valid, span, seam)[0]
         if info is not None:
             info["flips"] += seam_flips
     return vr, vc, tv, n, total + seam_error
@@ -240,11 +241,10 @@ def _joined_halfedges(he_a, he_b, tv, vc, m):
 def _join(ra, rb, m, shared):
     """One mesh from the two strips' results: B's seam vertices become A's.
 
-    `ra`, `rb`: ``vr, vc, tv, he, tsum, n_valid_vertices, total, flips`` of each strip
-    (`rangemesh._core.strip_insert`).
+    `ra`, `rb`: each strip's `rangemesh._core.StripMesh` (`rangemesh._core.strip_insert`).
     """
-    vra, vca, tva, _, _, na, ta, _ = ra
-    vrb, vcb, tvb, _, _, nb, tb, _ = rb
+    vra, vca, tva, na, ta = ra.vr, ra.vc, ra.tv, ra.valid_vertices, ra.total
+    vrb, vcb, tvb, nb, tb = rb.vr, rb.vc, rb.tv, rb.valid_vertices, rb.total
     seam_a = np.nonzero(vca == m)[0]
     order = np.argsort(vra[seam_a])
     seam_a = seam_a[order]

@@ -36,6 +36,7 @@ import rangemesh.refine.heights as refine_heights
 import rangemesh.refine.strips as refine_strips
 from rangemesh._core import _ext
 
+from . import strips_reference
 from .conftest import PHASES
 
 I64 = np.iinfo(np.int64)
@@ -207,8 +208,8 @@ def _python_steps(image):
     relative_error(rangemesh.triangulate(image, vertices=60), depth, valid)  # (an error bound's render)
     with _patched(refine_strips, STRIP_MIN_PIXELS=1000, STRIP_MIN_COLUMNS=16, STRIP_MIN_VERTICES=20):
         for asked, max_sum in ((300, -1.0), (len(pixels), 0.5 / 100.0 * (hi - lo) * valid.sum())):
-            refine_strips.strip_insert(depth, valid, asked, hi - lo, (1, 1), 18, max_sum=max_sum,
-                                       diagonals="error", info={})
+            strips_reference.strip_insert(depth, valid, asked, hi - lo, (1, 1), 18, max_sum=max_sum,
+                                          diagonals="error", info={})
 
 
 def capture():

@@ -47,12 +47,13 @@ def main() -> int:
         depth, valid = prepare(z, MeshParams(), background)
         filled = _filled(depth, valid)  # pydelatin needs every pixel
         lo, hi, _ = valid_range(depth, valid)
-        _core.greedy_insert(depth, valid, *first_mesh(depth, valid, 0), 50, -1.0, hi - lo)
+        _core.greedy_insert(depth, valid, first_mesh(depth, valid, 0),
+                            _core.InsertSettings(50, -1.0, hi - lo))
         z32 = filled.astype(np.float32)
         span = hi - lo
         for n in (1369, 5000):
             ours = median_ms(lambda n=n, d=depth, v=valid, s=span: _core.greedy_insert(
-                d, v, *first_mesh(d, v, min(256, n // 16)), n, -1.0, s))
+                d, v, first_mesh(d, v, min(256, n // 16)), _core.InsertSettings(n, -1.0, s)))
             theirs = median_ms(lambda n=n, z=z32: pydelatin.Delatin(z, max_points=n))
             print(f"| {Path(rel).name} | {n} | {ours:.1f} | {theirs:.1f} | {ours / theirs:.2f} |")
     return 0

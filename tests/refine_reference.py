@@ -12,11 +12,12 @@ import time
 import numpy as np
 
 from rangemesh._core import (
+    InsertSettings,
     build_halfedges,
     count_edges,
+    delaunay_sweep,
     flip_by_error,
     greedy_insert,
-    greedy_insert_sums,
     neighbors_from_halfedges,
     prune_dangling,
     valid_faces,
@@ -32,10 +33,36 @@ from rangemesh.refine.insertion import (
     _error_record,
     _plan,
 )
-from rangemesh.refine.start import first_mesh, hull_mesh, valid_hull
-from rangemesh.refine.strips import strip_insert
+from rangemesh.refine.start import first_mesh, valid_hull
 from rangemesh.refine.walls import drop_walls
 from rangemesh.render import relative_error
+
+from .strips_reference import strip_insert
+
+
+def hull_mesh(depth: np.ndarray, valid: np.ndarray, limit: int, scales=(1, 1)):
+    """A first mesh of valid pixels only: at most `limit` corners of their convex hull.
+
+    The start when the image corners' mesh leaves no triangle of valid
+    corners (valid pixels far apart in a large background): its triangles
+    hold only valid vertices, and insertion refines within them.
+
+    Returns
+    -------
+    vr, vc, vz, tv, he : ndarrays, or None
+        As `rangemesh.refine.start.first_mesh`; None when the valid pixels are fewer than 3 or
+        collinear (no triangle exists), or `limit` is under 3.
+    """
+    hull = valid_hull(valid)
+    if len(hull) < 3 or limit < 3:
+        return None
+    if len(hull) > limit:  # evenly spread corners of a convex polygon: still one
+        hull = hull[np.linspace(0, len(hull), int(limit), endpoint=False).astype(np.int64)]
+    vr, vc = hull[:, 0].copy(), hull[:, 1].copy()
+    tv, he = delaunay_sweep(vr * scales[0], vc * scales[1])
+    if len(tv) == 0:
+        raise RuntimeError("hull_mesh: the hull's corners cannot be collinear")
+    return vr, vc, depth[vr, vc], tv, he
 
 
 def _assemble(vr, vc, tv, depth, valid, camera, walls, jump):
@@ -125,13 +152,14 @@ def _refine(depth, valid, start, strips, asked, max_sum, span, scales, n_grid, d
                                                     info=info)
         return vr, vc, tv
     if diagonals != "error":
-        vr, vc, tv, _, info["total"] = greedy_insert(depth, valid, *start, asked, max_sum, span,
-                                                     *scales)
-        return vr, vc, tv
+        out = greedy_insert(depth, valid, start, InsertSettings(asked, max_sum, span, *scales))
+        info["total"] = out.total
+        return out.vr, out.vc, out.tv
     # the insertion's own half-edges and triangle sums: no second pass over the pixels
-    vr, vc, tv, he, tsum = greedy_insert_sums(depth, valid, *start, asked, max_sum, span, *scales)
+    out = greedy_insert(depth, valid, start, InsertSettings(asked, max_sum, span, *scales, sums=True))
+    vr, vc, tv, he, tsum = out.vr, out.vc, out.tv, out.he, out.tsum
     info["total"] = float(tsum.sum())
-    info["flips"] = int(flip_by_error(vr, vc, tv, he, tsum, depth, valid, span)[0])
+    info["flips"] = int(flip_by_error((vr, vc, tv, he, tsum), depth, valid, span)[0])
     return vr, vc, tv
 
 

@@ -22,7 +22,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from rangemesh import _core
-from rangemesh._core import valid_range
+from rangemesh._core import InsertSettings, valid_range
 from rangemesh.refine import insertion, threads
 
 STEPS = 2.0**32
@@ -90,8 +90,8 @@ def noisy_images(draw):
 def _insert(depth, valid, n, sums=False, scales=(1, 1)):
     lo, hi, _ = valid_range(depth, valid)
     start = insertion.first_mesh(depth, valid, 0, scales)
-    fn = _core.greedy_insert_sums if sums else _core.greedy_insert
-    return fn(depth, valid, *start, n, -1.0, float(hi - lo), *scales), float(hi - lo)
+    request = InsertSettings(n, -1.0, float(hi - lo), *scales, sums=sums)
+    return _core.greedy_insert(depth, valid, start, request), float(hi - lo)
 
 
 @settings(max_examples=40, deadline=None)
@@ -99,7 +99,8 @@ def _insert(depth, valid, n, sums=False, scales=(1, 1)):
 def test_each_step_inserts_the_pixel_of_the_largest_key(image, extra):
     depth, valid = image
     n = min(4 + extra, depth.size - 1)
-    (vr, vc, tri, he, tsum), span = _insert(depth, valid, n, sums=True)
+    out, span = _insert(depth, valid, n, sums=True)
+    vr, vc, tri, he, tsum = out.vr, out.vc, out.tv, out.he, out.tsum
     ranked = []
     for t in range(len(tri) // 3):
         corners, pixels = _owned_pixels(tri, he, t, vr, vc)
@@ -119,7 +120,8 @@ def test_each_step_inserts_the_pixel_of_the_largest_key(image, extra):
     if keys[-1] <= 0 or (len(keys) > 1 and keys[-1] == keys[-2]):
         return  # nothing to insert, or a tie the definition leaves to the triangles' ids
     best = max(ranked, key=lambda kp: kp[0])[1]
-    (vr2, vc2, _, _, _), _ = _insert(depth, valid, n + 1)
+    more = _insert(depth, valid, n + 1)[0]
+    vr2, vc2 = more.vr, more.vc
     assert len(vr2) == len(vr) + 1
     assert (vr2[-1], vc2[-1]) == best
 
@@ -128,7 +130,8 @@ def test_each_step_inserts_the_pixel_of_the_largest_key(image, extra):
 @given(noisy_images(), st.integers(0, 40), st.sampled_from([(1, 1), (2, 1), (1, 3)]))
 def test_the_mesh_is_delaunay_in_the_scaled_units(image, extra, scales):
     depth, valid = image
-    (vr, vc, tri, he, _), _ = _insert(depth, valid, 4 + extra, sums=True, scales=scales)
+    out = _insert(depth, valid, 4 + extra, sums=True, scales=scales)[0]
+    vr, vc, tri, he = out.vr, out.vc, out.tv, out.he
     sr, sc = scales
     for e in range(len(tri)):
         f = he[e]
@@ -150,11 +153,13 @@ def test_a_spike_is_inserted_first():
     depth = 0.5 * r + 0.25 * c
     depth[2, 6] += 3.0
     valid = np.ones_like(depth, bool)
-    (vr, vc, tv, n_valid, total), span = _insert(depth, valid, 5)
+    out, span = _insert(depth, valid, 5)
+    vr, vc, tv, n_valid, total = out.vr, out.vc, out.tv, out.valid_vertices, out.total
     assert (vr[-1], vc[-1]) == (2, 6) and n_valid == 5
     assert len(tv) == 3 * 4  # the spike inside a triangle: 2 -> 4 triangles
     # the summed error is that of the planes through the new triangles, over their own pixels
-    (vr, vc, tri, he, _), _ = _insert(depth, valid, 5, sums=True)
+    out = _insert(depth, valid, 5, sums=True)[0]
+    vr, vc, tri, he = out.vr, out.vc, out.tv, out.he
     expected = 0.0
     for t in range(4):
         corners, pixels = _owned_pixels(tri, he, t, vr, vc)
@@ -190,7 +195,8 @@ def test_the_first_pixel_of_the_largest_key_wins_near_ties(seed, step):
     keys = {p: math.floor(depth[p] / span * STEPS + 0.5) for p in inner}
     top = max(keys.values())
     expected = min(p for p in inner if keys[p] == top)  # tuples sort row-major
-    (vr, vc, _, _, _), _ = _insert(depth, valid, 5)
+    out = _insert(depth, valid, 5)[0]
+    vr, vc = out.vr, out.vc
     assert (int(vr[-1]), int(vc[-1])) == expected
 
 
@@ -201,10 +207,11 @@ def test_an_error_bound_stops_at_the_first_mesh_under_it():
     lo, hi, n = valid_range(depth, valid)
     start = insertion.first_mesh(depth, valid, 0)
     bound = 0.02 * (hi - lo) * n
-    vr, vc, tv, n_valid, total = _core.greedy_insert(depth, valid, *start, n, bound, hi - lo)
+    out = _core.greedy_insert(depth, valid, start, InsertSettings(n, bound, hi - lo))
+    n_valid, total = out.valid_vertices, out.total
     assert total <= bound
     # one vertex fewer (a count, no bound): its summed error is still above the bound
-    _, _, _, _, before = _core.greedy_insert(depth, valid, *start, n_valid - 1, -1.0, hi - lo)
+    before = _core.greedy_insert(depth, valid, start, InsertSettings(n_valid - 1, -1.0, hi - lo)).total
     assert before > bound
 
 
@@ -234,7 +241,7 @@ def test_background_beyond_the_corners_is_refused():
     tv = np.array([0, 1, 2, 0, 2, 3], np.int64)
     he = np.array([-1, -1, 3, 2, -1, -1], np.int64)
     with pytest.raises(ValueError, match="first four"):
-        _core.greedy_insert(depth, valid, vr, vc, np.ones(5), tv, he, 10, -1.0, 1.0)
+        _core.greedy_insert(depth, valid, (vr, vc, np.ones(5), tv, he), InsertSettings(10, -1.0, 1.0))
 
 
 def test_threads_setting(monkeypatch):

@@ -16,7 +16,7 @@ from hypothesis import strategies as st
 
 import rangemesh
 from rangemesh import _core, evaluate, triangulate
-from rangemesh._core import error_flips, flip_by_error, triangle_error, valid_range
+from rangemesh._core import ErrorScan, InsertSettings, error_flips, flip_by_error, triangle_error, valid_range
 from rangemesh.refine import insertion
 
 from .helpers import assert_valid_mesh
@@ -56,7 +56,7 @@ def test_triangle_error_is_the_sum_over_its_pixels(seed, coords, own):
     depth = rng.uniform(0, 10, (12, 12))
     valid = rng.uniform(size=(12, 12)) > 0.2
     z = rng.uniform(0, 10, 3)
-    got = triangle_error(*a, z[0], *b, z[1], *c, z[2], *own, depth, valid)
+    got = triangle_error((a[0], b[0], c[0]), (a[1], b[1], c[1]), tuple(z), depth, valid, ErrorScan(*own))
     assert got == pytest.approx(_brute_sum((a, b, c), z, own, depth, valid), rel=1e-9, abs=1e-9)
 
 
@@ -70,17 +70,18 @@ def test_triangle_error_stops_once_the_key_is_reached():
     depth = np.zeros((5, 5))
     depth[[1, 3]] = 1.0
     valid = np.ones((5, 5), bool)
-    tri = (0, 0, 0.0, 4, 0, 0.0, 0, 4, 0.0, True, True, True, depth, valid)
+    tri = ((0, 4, 0), (0, 0, 4), (0.0, 0.0, 0.0), depth, valid)
 
     def key(x):
         return float(np.floor(x * 2.0**32 + 0.5))
 
     assert triangle_error(*tri) == 6.0
-    assert triangle_error(*tri, 0.0, 1.0, key(10.0)) == 6.0  # never reached: the whole sum
-    assert triangle_error(*tri, 0.0, 1.0, key(3.5)) == 4.0  # reached on row 1: left there
-    assert triangle_error(*tri, 0.0, 1.0, key(4.0)) == 4.0  # reached exactly
-    assert triangle_error(*tri, 0.0, 1.0, key(4.5)) == 6.0  # only on row 3
-    assert triangle_error(*tri, 3.0, 1.0, key(6.5)) == 4.0  # `base` counts: 3 + 4 >= 6.5
+    assert triangle_error(*tri, ErrorScan(span=1.0, stop=key(10.0))) == 6.0  # never reached: the whole sum
+    assert triangle_error(*tri, ErrorScan(span=1.0, stop=key(3.5))) == 4.0  # reached on row 1: left there
+    assert triangle_error(*tri, ErrorScan(span=1.0, stop=key(4.0))) == 4.0  # reached exactly
+    assert triangle_error(*tri, ErrorScan(span=1.0, stop=key(4.5))) == 6.0  # only on row 3
+    # `base` counts: 3 + 4 >= 6.5
+    assert triangle_error(*tri, ErrorScan(base=3.0, span=1.0, stop=key(6.5))) == 4.0
 
 
 def _square(depth, diagonal):
@@ -101,12 +102,14 @@ def test_a_valley_along_the_other_diagonal_is_flipped_onto_it():
     depth = np.abs(r - c).astype(float)
     valid = np.ones_like(depth, bool)
     vr, vc, tv = _square(depth, "anti")
-    tri, flips, tests = error_flips(vr, vc, tv, depth, valid, 4.0)
+    out = error_flips(vr, vc, tv, depth, valid, 4.0)
+    tri, flips, tests = out.triangles, out.flips, out.tests
     assert (flips, tests) == (1, 1)
     assert sorted(map(sorted, tri.reshape(-1, 3).tolist())) == [[0, 1, 2], [0, 2, 3]]
     # and the right diagonal stays
     vr, vc, tv = _square(depth, "main")
-    tri, flips, tests = error_flips(vr, vc, tv, depth, valid, 4.0)
+    out = error_flips(vr, vc, tv, depth, valid, 4.0)
+    tri, flips, tests = out.triangles, out.flips, out.tests
     assert flips == 0 and np.array_equal(tri, tv)
 
 
@@ -116,8 +119,8 @@ def test_a_plane_is_never_flipped():
     valid = np.ones_like(depth, bool)
     for diagonal in ("main", "anti"):
         vr, vc, tv = _square(depth, diagonal)
-        tri, flips, tests = error_flips(vr, vc, tv, depth, valid, float(np.ptp(depth)))
-        assert flips == tests == 0 and np.array_equal(tri, tv)
+        out = error_flips(vr, vc, tv, depth, valid, float(np.ptp(depth)))
+        assert out.flips == out.tests == 0 and np.array_equal(out.triangles, tv)
 
 
 def test_a_quad_with_a_background_corner_is_never_flipped():
@@ -126,8 +129,8 @@ def test_a_quad_with_a_background_corner_is_never_flipped():
     valid = np.ones_like(depth, bool)
     valid[4, 0] = False  # corner 1: the valley's flip would be taken otherwise (test above)
     vr, vc, tv = _square(depth, "anti")
-    tri, flips, tests = error_flips(vr, vc, tv, depth, valid, 4.0)
-    assert flips == tests == 0 and np.array_equal(tri, tv)
+    out = error_flips(vr, vc, tv, depth, valid, 4.0)
+    assert out.flips == out.tests == 0 and np.array_equal(out.triangles, tv)
 
 
 @pytest.mark.parametrize("name", ["chair", "venus", "tum", "nyu"])
@@ -139,11 +142,12 @@ def test_the_insertions_sums_give_the_flips_of_a_fresh_count(name, n):
     depth, valid = rangemesh.pipeline.prepare(image, rangemesh.MeshParams(), background)
     lo, hi, n_valid = valid_range(depth, valid)
     start = insertion.first_mesh(depth, valid, insertion.grid_size(n, n_valid, False))
-    vr, vc, tv, he, tsum = _core.greedy_insert_sums(depth, valid, *start, n, -1.0, hi - lo)
-    fresh, flips, _ = error_flips(vr, vc, tv, depth, valid, hi - lo)
-    assert flips > 0  # (else the comparison below says nothing)
-    flip_by_error(vr, vc, tv, he, tsum, depth, valid, hi - lo)
-    assert np.array_equal(tv, fresh)
+    out = _core.greedy_insert(depth, valid, start, InsertSettings(n, -1.0, hi - lo, sums=True))
+    vr, vc, tv, he, tsum = out.vr, out.vc, out.tv, out.he, out.tsum
+    fresh = error_flips(vr, vc, tv, depth, valid, hi - lo)
+    assert fresh.flips > 0  # (else the comparison below says nothing)
+    flip_by_error((vr, vc, tv, he, tsum), depth, valid, hi - lo)
+    assert np.array_equal(tv, fresh.triangles)
 
 
 def _errors(image, background=None, **kw):
@@ -199,7 +203,7 @@ def test_delaunay_keeps_the_insertions_mesh():
     depth, valid = rangemesh.pipeline.prepare(image, rangemesh.MeshParams(), None)
     lo, hi, n_valid = valid_range(depth, valid)
     start = insertion.first_mesh(depth, valid, insertion.grid_size(200, n_valid, False))
-    vr, vc, tv, _, _ = _core.greedy_insert(depth, valid, *start, 200, -1.0, hi - lo)
+    tv = _core.greedy_insert(depth, valid, start, InsertSettings(200, -1.0, hi - lo)).tv
     assert np.array_equal(m.faces, tv.reshape(-1, 3))  # venus is all valid: no renumbering
 
 

@@ -36,6 +36,7 @@ import rangemesh.refine.heights as refine_heights
 import rangemesh.refine.strips as refine_strips
 from rangemesh._core import _ext
 
+from . import strips_reference
 from .conftest import PHASES
 
 I64 = np.iinfo(np.int64)
@@ -59,7 +60,7 @@ FLOAT_VALUES = [float("nan"), float("inf"), -float("inf"), -1.0, 0.0, 1e300]
 
 
 # Settings objects whose fields are mutated as arguments are (other bound objects are left as they are).
-SETTINGS = (_ext.FlipSettings, _ext.FitSettings)
+SETTINGS = (_ext.FlipSettings, _ext.FitSettings, _ext.InsertSettings, _ext.ErrorScan, _ext.StripRequest)
 
 
 def _fields(settings):
@@ -153,11 +154,12 @@ def _derive(calls):
     derived["gather_blocks"] = [((ids, block, rhs, values, 1e-3), {})]
     derived["solve_blocks"] = [((ids, block, rhs, values, 1e-3, 1e-8, 10 * len(values)), {})]
 
-    (vr, vc, tri, he, _, depth, valid, unit), _ = calls["flip_by_error"][0]
+    ((vr, vc, tri, he, _), depth, valid, unit), _ = calls["flip_by_error"][0]
     a, b, c = tri[:3]
     corners = [(vr[v], vc[v], depth[vr[v], vc[v]] if valid[vr[v], vc[v]] else 0.0) for v in (a, b, c)]
-    derived["triangle_error"] = [((*corners[0], *corners[1], *corners[2], True, True, False, depth, valid,
-                                   0.0, unit, 1e12), {})]
+    rows, cols, z = (tuple(np.asarray(x).item() for x in k) for k in zip(*corners, strict=True))
+    scan = _ext.ErrorScan(own_ca=False, base=0.0, span=unit, stop=1e12)
+    derived["triangle_error"] = [((rows, cols, z, depth, valid, scan), {})]
     derived["error_flips"] = [((vr, vc, tri, depth, valid, unit), {})]
     abc = np.array([corners[k][:2] for k in range(3)], np.int64)
     derived["_triangle_rows"] = [((abc, (True, False, True), None, 1), {}),
@@ -190,9 +192,10 @@ def _python_steps(image):
     depth, valid = to_depth_and_mask(image)
     lo, hi, _ = core.valid_range(depth, valid)
     start = first_mesh(depth, valid, 4)
-    core.greedy_insert(depth, valid, *start, 60, -1.0, hi - lo, 1, 1)
-    vr, vc, tv, he, tsum = core.greedy_insert_sums(depth, valid, *start, 60, -1.0, hi - lo, 1, 1)
-    core.flip_by_error(vr, vc, tv, he, tsum, depth, valid, hi - lo)
+    core.greedy_insert(depth, valid, start, core.InsertSettings(60, -1.0, hi - lo, 1, 1))
+    out = core.greedy_insert(depth, valid, start, core.InsertSettings(60, -1.0, hi - lo, 1, 1, sums=True))
+    vr, vc, tv, he, tsum = out.vr.copy(), out.vc.copy(), out.tv.copy(), out.he.copy(), out.tsum.copy()
+    core.flip_by_error((vr, vc, tv, he, tsum), depth, valid, hi - lo)
     faces, pixels = core.valid_faces(vr, vc, tv, valid)
     f = faces.astype(np.int64)
     _, halfedges = core.build_halfedges(f, len(pixels))
@@ -205,8 +208,8 @@ def _python_steps(image):
     relative_error(rangemesh.triangulate(image, vertices=60), depth, valid)  # (an error bound's render)
     with _patched(refine_strips, STRIP_MIN_PIXELS=1000, STRIP_MIN_COLUMNS=16, STRIP_MIN_VERTICES=20):
         for asked, max_sum in ((300, -1.0), (len(pixels), 0.5 / 100.0 * (hi - lo) * valid.sum())):
-            refine_strips.strip_insert(depth, valid, asked, hi - lo, (1, 1), 18, max_sum=max_sum,
-                                       diagonals="error", info={})
+            strips_reference.strip_insert(depth, valid, asked, hi - lo, (1, 1), 18, max_sum=max_sum,
+                                          diagonals="error", info={})
 
 
 def capture():
@@ -354,21 +357,23 @@ def _halfedges_ok(triangles, halfedges, n_vertices):
 def _check_result(kernel, args, result):
     """What a returned call must still hold: its meshes well formed, on the image."""
     if kernel in ("flip_by_error", "flip_from_edges"):
-        vr, vc, tri, he = args[:4]
+        vr, vc, tri, he = args[0][:4]
         assert _halfedges_ok(tri, he, len(vr))
     elif kernel == "legalize_all":
         assert _halfedges_ok(args[0], args[1], len(args[2]))
     elif kernel == "delaunay_sweep":
         assert _halfedges_ok(result[0], result[1], len(args[0]))
-    elif kernel == "greedy_insert_sums":
-        vr, vc, tv, he, tsum = result
+    elif kernel == "greedy_insert":
         h, w = args[0].shape
-        assert _halfedges_ok(tv, he, len(vr)) and len(tsum) * 3 == len(tv)
-        assert ((0 <= vr) & (vr < h) & (0 <= vc) & (vc < w)).all()
+        vr, vc, tv = result.vr, result.vc, result.tv
+        assert len(tv) % 3 == 0 and ((0 <= vr) & (vr < h) & (0 <= vc) & (vc < w)).all()
+        if args[3].sums:
+            assert _halfedges_ok(tv, result.he, len(vr)) and len(result.tsum) * 3 == len(tv)
     elif kernel == "strip_insert":
         h, w = args[0].shape
-        for vr, vc, tv, he, tsum, *_ in result[:2]:
-            assert _halfedges_ok(tv, he, len(vr)) and len(tsum) * 3 == len(tv)
+        for strip in (result.left, result.right):
+            vr, vc, tv = strip.vr, strip.vc, strip.tv
+            assert _halfedges_ok(tv, strip.he, len(vr)) and len(strip.tsum) * 3 == len(tv)
             assert ((0 <= vr) & (vr < h) & (0 <= vc) & (vc < w)).all()
 
 

@@ -60,7 +60,12 @@ def _flip_settings(rule=1, log_size=0):
 
 
 def _flips(fn, vr=VR, vc=VC, *extra):
-    return fn(vr, vc, TV.copy(), HE.copy(), np.zeros(2), DEPTH, VALID, 1.0, *extra)
+    return fn((vr, vc, TV.copy(), HE.copy(), np.zeros(2)), DEPTH, VALID, 1.0, *extra)
+
+
+def _insert(depth, valid, vr, vc, vz, tv, he, n, max_sum, span, sr=1, sc=1, sums=False):
+    return _core.greedy_insert(depth, valid, (vr, vc, vz, tv, he),
+                               _core.InsertSettings(n, max_sum, span, sr, sc, sums))
 
 
 def test_the_well_formed_calls_work():
@@ -77,8 +82,8 @@ def test_the_well_formed_calls_work():
     assert _verdict() in _core.FLIP_VERDICTS.values()
     assert _flips(_core.flip_by_error)[1] >= 0
     assert _flips(_core.flip_from_edges, VR, VC, np.array([2], I64))[1] >= 0
-    assert _core.error_flips(VR, VC, TV, DEPTH, VALID, 1.0)[0].shape == (6,)
-    assert _core.triangle_error(0, 0, 0.0, 3, 0, 3.0, 3, 3, 12.0, True, True, True, DEPTH, VALID) >= 0
+    assert _core.error_flips(VR, VC, TV, DEPTH, VALID, 1.0).triangles.shape == (6,)
+    assert _core.triangle_error((0, 3, 3), (0, 0, 3), (0.0, 3.0, 12.0), DEPTH, VALID) >= 0
     assert len(_core.face_order(FACES, VR, VC, 4, 4, 2)) == 2
     alive = np.empty(2, bool)
     _core.keep_faces(FACES, PTS, VALID, np.inf, alive)
@@ -162,7 +167,7 @@ MALFORMED = {
     "face_order/negative image size": lambda: _core.face_order(FACES[:0], VR, VC, -4, 4, 2),
     # refine
     "triangle_error/corner outside": lambda: _core.triangle_error(
-        0, 0, 0.0, 4, 0, 3.0, 3, 3, 12.0, True, True, True, DEPTH, VALID),
+        (0, 4, 3), (0, 0, 3), (0.0, 3.0, 12.0), DEPTH, VALID),
     "flip_by_error/vertex outside": lambda: _flips(_core.flip_by_error, VR + 1),
     "flip_from_edges/vertex outside": lambda: _flips(_core.flip_from_edges, VR, VC - 1,
                                                      np.array([2], I64)),
@@ -170,12 +175,12 @@ MALFORMED = {
     "error_flips/vertex id": lambda: _core.error_flips(VR[:3], VC[:3], TV, DEPTH, VALID, 1.0),
     # a flip writes through the twins: a twin of -2 wrote 8 bytes before the array (F1)
     "flip_by_error/twin below -1": lambda: _core.flip_by_error(
-        VR, VC, TV.copy(), np.array([-1, -1, -2, 2, -1, -1], I64), np.zeros(2), DEPTH, VALID, 1.0),
+        (VR, VC, TV.copy(), np.array([-1, -1, -2, 2, -1, -1], I64), np.zeros(2)), DEPTH, VALID, 1.0),
     "flip_from_edges/twin below -1": lambda: _core.flip_from_edges(
-        VR, VC, TV.copy(), np.array([-1, -1, 3, -2, -1, -1], I64), np.zeros(2), DEPTH, VALID, 1.0,
+        (VR, VC, TV.copy(), np.array([-1, -1, 3, -2, -1, -1], I64), np.zeros(2)), DEPTH, VALID, 1.0,
         np.array([3], I64)),
     "flip_by_error/twins that do not pair up": lambda: _core.flip_by_error(
-        VR, VC, TV.copy(), HE.astype(bool).astype(I64), np.zeros(2), DEPTH, VALID, 1.0),
+        (VR, VC, TV.copy(), HE.astype(bool).astype(I64), np.zeros(2)), DEPTH, VALID, 1.0),
     "flip_from_edges/first half-edge": lambda: _flips(_core.flip_from_edges, VR, VC, np.array([6], I64)),
     "legalize_all/twins that do not pair up": lambda: _core.legalize_all(
         TV.copy(), np.array([-1, -1, 3, 1, -1, -1], I64), VR, VC),
@@ -189,23 +194,24 @@ MALFORMED = {
         halfedges=np.array([-1, -1, 3, 1, -1, -1], I64)),
     # greedy insertion from a first mesh whose twins do not pair up never ended, its arrays
     # growing without bound (F5)
-    "greedy_insert/twin below -1": lambda: _core.greedy_insert(
+    "greedy_insert/twin below -1": lambda: _insert(
         DEPTH, VALID, VR, VC, np.zeros(4), TV, np.array([-2, -1, 3, 2, -1, -1], I64), 5, -1.0, 1.0),
-    "greedy_insert/twins that do not pair up": lambda: _core.greedy_insert(
+    "greedy_insert/twins that do not pair up": lambda: _insert(
         DEPTH, VALID, VR, VC, np.zeros(4), TV, HE.astype(bool).astype(I64), 5, -1.0, 1.0),
-    "greedy_insert_sums/twins that do not pair up": lambda: _core.greedy_insert_sums(
-        DEPTH, VALID, VR, VC, np.zeros(4), TV, np.array([-1, -1, 3, 1, -1, -1], I64), 5, -1.0, 1.0),
-    "greedy_insert/clockwise triangle": lambda: _core.greedy_insert(
+    "greedy_insert/twins that do not pair up, with sums": lambda: _insert(
+        DEPTH, VALID, VR, VC, np.zeros(4), TV, np.array([-1, -1, 3, 1, -1, -1], I64), 5, -1.0, 1.0,
+        sums=True),
+    "greedy_insert/clockwise triangle": lambda: _insert(
         DEPTH, VALID, VR, VC, np.zeros(4), np.array([0, 2, 1, 0, 3, 2], I64),
         np.array([-1, -1, -1, -1, -1, -1], I64), 5, -1.0, 1.0),
     "strip_insert/twins that do not pair up": lambda: _strips(left_he=HE.astype(bool).astype(I64)),
     # (rows - 1) * sr overflowed int64 and passed the EXACT_SPAN check (F6)
-    "greedy_insert/Delaunay scale beyond EXACT_SPAN": lambda: _core.greedy_insert(
+    "greedy_insert/Delaunay scale beyond EXACT_SPAN": lambda: _insert(
         DEPTH, VALID, VR, VC, np.zeros(4), TV, HE, 5, -1.0, 1.0, 2**62, 1),
-    "greedy_insert_sums/Delaunay scale beyond EXACT_SPAN": lambda: _core.greedy_insert_sums(
-        DEPTH, VALID, VR, VC, np.zeros(4), TV, HE, 5, -1.0, 1.0, 1, 2**62),
+    "greedy_insert/Delaunay scale beyond EXACT_SPAN, with sums": lambda: _insert(
+        DEPTH, VALID, VR, VC, np.zeros(4), TV, HE, 5, -1.0, 1.0, 1, 2**62, sums=True),
     "strip_insert/Delaunay scale beyond EXACT_SPAN": lambda: _strips(sr=2**62),
-    "greedy_insert/Delaunay scale 0": lambda: _core.greedy_insert(
+    "greedy_insert/Delaunay scale 0": lambda: _insert(
         DEPTH, VALID, VR, VC, np.zeros(4), TV, HE, 5, -1.0, 1.0, 0, 1),
     # every vertex is checked, not only each face's smallest row and column (F9)
     "face_order/vertex outside": lambda: _core.face_order(FACES, np.array([0, 3, 10, 0], I64), VC, 4, 4, 2),
@@ -252,8 +258,16 @@ STRIP_VALID = np.ones((4, 7), bool)
 def _strips(left_he=HE, sr=1, target=22):
     left = (VR, VC, np.zeros(4), TV, left_he)
     right = (VR, VC + 3, np.zeros(4), TV, HE)
-    return _core.strip_insert(STRIP_DEPTH, STRIP_VALID, left, right, 20, target, 20, -1.0, 45.0, sr, 1, 2,
-                              True, True)
+    return _core.strip_insert(STRIP_DEPTH, STRIP_VALID, left, right, 45.0, _core.StripRequest(
+        vertices=20, target=target, reserve=20, budget=-1.0, sr=sr, sc=1, threads=2, rounds=True, flip=True))
+
+
+STRIP = "vr vc tv he tsum"  # a StripMesh's arrays
+
+
+def _arrays(result, names):
+    """A result's arrays named in `names`, as lists."""
+    return [getattr(result, n).tolist() for n in names.split()]
 
 
 def _far_depth_strips():
@@ -261,9 +275,11 @@ def _far_depth_strips():
     depth = STRIP_DEPTH.copy()
     depth[1, 1] = 1e300  # keys and sums of inf and NaN
     left, right = (VR, VC, np.zeros(4), TV, HE), (VR, VC + 3, np.zeros(4), TV, HE)
-    out = _core.strip_insert(depth, STRIP_VALID, left, right, 20, 22, 20, -1.0, 45.0, 1, 1, 2, True, True)
-    ok = out[0][5] + out[1][5] <= 22
-    for vr, vc, tv, he, *_ in out[:2]:
+    out = _core.strip_insert(depth, STRIP_VALID, left, right, 45.0, _core.StripRequest(
+        vertices=20, target=22, reserve=20, budget=-1.0, sr=1, sc=1, threads=2, rounds=True, flip=True))
+    ok = out.left.valid_vertices + out.right.valid_vertices <= 22
+    for strip in (out.left, out.right):
+        vr, vc, tv, he = strip.vr, strip.vc, strip.tv, strip.he
         _, twins = _core.build_halfedges(tv.reshape(-1, 3), len(vr))
         ok &= twins.tolist() == he.tolist() and bool(((0 <= vr) & (vr < 4) & (0 <= vc) & (vc < 7)).all())
     return [ok]
@@ -292,7 +308,7 @@ def _sample_tiles(f, rs=2, zs=2):
 # the message's start where it is not the kernel's own name
 NAMED = {"_heap_sift_up": "heap: ", "_heap_rekey": "heap: ", "flip_by_error": "flips: ",
          "flip_from_edges": "flips: ", "error_flips/vertex outside": "flips: ",
-         "error_flips/vertex id": "build_halfedges: ", "greedy_insert_sums": "greedy_insert: ",
+         "error_flips/vertex id": "build_halfedges: ",
          "strip_insert": "greedy_insert: ", "fit_sample_errors": "fit: ", "fit_blocks": "fit: ",
          "fit_heights": "fit: "}
 
@@ -314,12 +330,12 @@ REFUSED_BY_THE_KERNEL = {
     "fill_gaps_inplace/shapes": lambda: _core.fill_gaps_inplace(DEPTH.copy(), VALID[:3].copy()),
     "add_curvature/shapes": lambda: _core.add_curvature(DEPTH, VALID, 1.0, 2, np.zeros((4, 3))),
     "seam_rows/lengths": lambda: _core.seam_rows(DEPTH[:, 0].copy(), VALID[:3, 0].copy(), 2, -1.0, 1.0),
-    "greedy_insert/vr and vc lengths": lambda: _core.greedy_insert(
+    "greedy_insert/vr and vc lengths": lambda: _insert(
         DEPTH, VALID, VR, VC[:3], np.zeros(4), TV, HE, 5, -1.0, 1.0),
-    "greedy_insert/depth and valid": lambda: _core.greedy_insert(
+    "greedy_insert/depth and valid": lambda: _insert(
         DEPTH, VALID[:3], VR, VC, np.zeros(4), TV, HE, 5, -1.0, 1.0),
     "flip_by_error/halfedges length": lambda: _core.flip_by_error(
-        VR, VC, TV.copy(), HE[:3].copy(), np.zeros(2), DEPTH, VALID, 1.0),
+        (VR, VC, TV.copy(), HE[:3].copy(), np.zeros(2)), DEPTH, VALID, 1.0),
     "gather_blocks/shapes": lambda: _core.gather_blocks(
         FACES, np.zeros((1, 3, 3)), np.zeros((2, 3)), np.zeros(4), 1e-3),
     "flip_loop/halfedges length": lambda: _core.flip_loop(
@@ -387,18 +403,18 @@ def test_a_capacity_beyond_the_pixels_is_the_pixels(big):
 
 @pytest.mark.parametrize("big", BIG)
 def test_a_vertex_count_beyond_the_pixels_inserts_every_pixel(big):
-    every = _core.greedy_insert(DEPTH, VALID, VR, VC, DEPTH[VR, VC], TV, HE, big, -1.0, 12.0)
-    assert every[3] == 16  # all 16 pixels are vertices
-    assert [a.tolist() for a in every[:3]] == [a.tolist() for a in _core.greedy_insert(
-        DEPTH, VALID, VR, VC, DEPTH[VR, VC], TV, HE, 16, -1.0, 12.0)[:3]]
+    every = _insert(DEPTH, VALID, VR, VC, DEPTH[VR, VC], TV, HE, big, -1.0, 12.0)
+    assert every.valid_vertices == 16  # all 16 pixels are vertices
+    assert _arrays(every, "vr vc tv") == _arrays(_insert(DEPTH, VALID, VR, VC, DEPTH[VR, VC], TV, HE, 16,
+                                                         -1.0, 12.0), "vr vc tv")
     # (target - count overflowed for a target of INT64_MIN)
     least = _strips(target=-big - 1)
-    assert [a.tolist() for a in least[0][:5]] == [a.tolist() for a in _strips(target=0)[0][:5]]
+    assert _arrays(least.left, STRIP) == _arrays(_strips(target=0).left, STRIP)
     strips = _strips(target=big)
     # every pixel, the seam's four twice, but its two inner ones (fixed beforehand: a first mesh
     # of a strip holds them)
-    assert strips[0][5] + strips[1][5] == 28 + 4 - 4
-    assert [a.tolist() for a in strips[0][:5]] == [a.tolist() for a in _strips(target=56)[0][:5]]
+    assert strips.left.valid_vertices + strips.right.valid_vertices == 28 + 4 - 4
+    assert _arrays(strips.left, STRIP) == _arrays(_strips(target=56).left, STRIP)
 
 
 @pytest.mark.parametrize("n_vertices", BIG)

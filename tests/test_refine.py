@@ -72,8 +72,8 @@ def test_max_error_is_met_with_few_vertices_to_spare():
     depth, valid = rangemesh.pipeline.prepare(image, rangemesh.MeshParams(), None)
     lo, hi, n_valid = valid_range(depth, valid)
     start = insertion.first_mesh(depth, valid, insertion.grid_size(n_valid, n_valid, True))
-    vr, vc, tv, _, _ = _core.greedy_insert(depth, valid, *start, m.stats.vertices - 1, -1.0,
-                                           hi - lo)
+    out = _core.greedy_insert(depth, valid, start, _core.InsertSettings(m.stats.vertices - 1, -1.0, hi - lo))
+    vr, vc, tv = out.vr, out.vc, out.tv
     faces = tv.reshape(-1, 3)
     pixels = np.stack([vr, vc], axis=1).astype(np.int32)
     fewer = rangemesh.Mesh(np.c_[pixels.astype(float), depth[vr, vc]], faces.astype(np.int32),

@@ -19,6 +19,7 @@ from rangemesh._core import valid_range
 from rangemesh.pipeline import prepare
 from rangemesh.refine import insertion, strips
 
+from . import strips_reference as reference
 from .helpers import assert_valid_mesh
 from .images import load, rgbd_frame
 
@@ -29,7 +30,7 @@ def _insert(image, background, n, **kw):
     d, v = prepare(image, MeshParams(), background)
     lo, hi, nv = valid_range(d, v)
     grid = insertion.grid_size(n, nv, False)
-    return strips.strip_insert(d, v, n, float(hi - lo), (1, 1), grid, **kw), v
+    return reference.strip_insert(d, v, n, float(hi - lo), (1, 1), grid, **kw), v
 
 
 def _same(a, b):
@@ -44,33 +45,34 @@ def test_seam_rows_by_hand():
     # is farthest (10 - 30/7 = 5.71); then row 2 (line 0 -> 10 over rows 0..3: 6.67 at row 2)
     z = np.array([0, 0, 0, 10, 10, 10, 10, 10], float)
     ok = np.ones(8, bool)
-    assert strips.seam_rows(z, ok, 4).tolist() == [0, 2, 3, 7]
+    assert reference.seam_rows(z, ok, 4).tolist() == [0, 2, 3, 7]
     # every pixel on the lines: the middle of the longest gap (rows 3-7: row 5), then the
     # first of the equally long ones (rows 0-2: row 1)
-    assert strips.seam_rows(z, ok, 6).tolist() == [0, 1, 2, 3, 5, 7]
+    assert reference.seam_rows(z, ok, 6).tolist() == [0, 1, 2, 3, 5, 7]
     # the first and last valid pixels always; background never
     ok[[0, 1, 7]] = False
-    assert strips.seam_rows(z, ok, 2).tolist() == [2, 6]
-    assert strips.seam_rows(z, ok, 3).tolist() == [2, 3, 6]
-    assert strips.seam_rows(z, np.zeros(8, bool), 5).tolist() == []
+    assert reference.seam_rows(z, ok, 2).tolist() == [2, 6]
+    assert reference.seam_rows(z, ok, 3).tolist() == [2, 3, 6]
+    assert reference.seam_rows(z, np.zeros(8, bool), 5).tolist() == []
 
 
 def test_seam_column_by_hand():
     valid = np.ones((10, 100), bool)
-    assert strips.seam_column(valid) == 49  # 500 of 1000 valid pixels in columns 0-49
+    assert reference.seam_column(valid) == 49  # 500 of 1000 valid pixels in columns 0-49
     valid[:, 30:] = False
-    assert strips.seam_column(valid) == 25  # 150 in columns 0-14, kept in the middle half
+    assert reference.seam_column(valid) == 25  # 150 in columns 0-14, kept in the middle half
 
 
 def test_power_laws_by_hand():
     """The rounds' predictions (compiled with the driver, strips.cpp), by hand."""
     # counts against keys: key 100 -> 10 while the count goes 10 -> 100, n ~ key**-1
-    assert _core._strip_power_law([(10, 100.0), (100, 10.0)]) == (100, 10.0, 1.0)
+    law = _core._strip_power_law([(10, 100.0), (100, 10.0)])
+    assert (law.n, law.key, law.e) == (100, 10.0, 1.0)
     # errors against counts: 80 -> 10 while the count goes 10 -> 40, t ~ n**-1.5, so the
     # error reaches 1.25 at 40 * (10 / 1.25) ** (1 / 1.5) = 160 vertices
     assert _core._strip_error_target([(10, 80.0), (40, 10.0)], 1.25) == pytest.approx(160.0)
     # keys that rose: no fit, the default exponent 1; steep falls are held to at most 4
-    assert _core._strip_power_law([(10, 10.0), (20, 30.0)])[2] == 1.0
+    assert _core._strip_power_law([(10, 10.0), (20, 30.0)]).e == 1.0
     assert _core._strip_exponent(1.0, 1.0, 2.0, 1e-9) == 4.0
     # shallow falls to at least 0.75: y halves while x grows 16-fold, e = 0.25
     assert _core._strip_exponent(1.0, 2.0, 16.0, 1.0) == 0.75
@@ -146,7 +148,7 @@ def _strip_mesh(image, background, n, **kw):
 
 def _check_seam(mesh, valid):
     """The insertion's own mesh (with ``diagonals='error'`` the flips that follow may cross)."""
-    m = strips.seam_column(valid)
+    m = reference.seam_column(valid)
     cols = mesh.pixels[mesh.faces, 1]
     # no triangle crosses the seam column
     assert ((cols <= m).all(axis=1) | (cols >= m).all(axis=1)).all()
@@ -211,14 +213,14 @@ def test_error_bound_on_strips():
     lo, hi, nv = valid_range(d, v)
     max_sum = 0.3 / 100.0 * float(hi - lo) * nv
     grid = insertion.grid_size(nv, nv, True)
-    two = strips.strip_insert(d, v, nv, float(hi - lo), (1, 1), grid, max_sum=max_sum, threads=2)
-    one = strips.strip_insert(d, v, nv, float(hi - lo), (1, 1), grid, max_sum=max_sum, threads=1)
+    two = reference.strip_insert(d, v, nv, float(hi - lo), (1, 1), grid, max_sum=max_sum, threads=2)
+    one = reference.strip_insert(d, v, nv, float(hi - lo), (1, 1), grid, max_sum=max_sum, threads=1)
     assert _same(two, one)
-    m = strips.seam_column(v)
+    m = reference.seam_column(v)
     rows = np.unique(two[0][two[1] == m])
     rows = rows[v[rows, m]]  # (a strip's corner on the seam may be background)
     assert two[4] <= max_sum  # (the seam's own error included)
-    assert two[4] > strips._seam_error(d[:, m], v[:, m], rows) > 0.0
+    assert two[4] > reference._seam_error(d[:, m], v[:, m], rows) > 0.0
 
 
 def test_fit_on_two_threads_is_the_fit_on_one():
@@ -269,7 +271,7 @@ def test_flipped_strips_are_the_same_on_one_thread_or_two(name, background, monk
     from rangemesh._core import build_halfedges
 
     seams = []
-    joined = strips._joined_halfedges
+    joined = reference._joined_halfedges
 
     def checked(a, b, tv, vc, m):
         he, seam = joined(a, b, tv, vc, m)
@@ -278,7 +280,7 @@ def test_flipped_strips_are_the_same_on_one_thread_or_two(name, background, monk
         seams.append(len(seam))
         return he, seam
 
-    monkeypatch.setattr(strips, "_joined_halfedges", checked)
+    monkeypatch.setattr(reference, "_joined_halfedges", checked)
     two, valid = _insert(CROPS[name], background, 1500, threads=2, diagonals="error")
     one, _ = _insert(CROPS[name], background, 1500, threads=1, diagonals="error")
     assert _same(two, one)
@@ -308,14 +310,14 @@ def test_the_seams_flips_lower_the_error(monkeypatch):
     image = CROPS["nyu"].astype(float)
     valid = rangemesh.fill_gaps(*rangemesh.to_depth_and_mask(image, 2047))[1]
     seen = np.where(valid, image, np.nan)
-    m = strips.seam_column(valid)
+    m = reference.seam_column(valid)
 
     def crossing(mesh):
         cols = mesh.pixels[mesh.faces, 1]
         return int(((cols < m).any(axis=1) & (cols > m).any(axis=1)).sum())
 
     with_seam = _strip_mesh(image, 2047, 1500, diagonals="error", heights="pixel")
-    monkeypatch.setattr(strips, "flip_from_edges", lambda *args: (0, 0))
+    monkeypatch.setattr(_core, "flip_from_edges", lambda *args: (0, 0))
     monkeypatch.setattr(insertion, "_native", _python_steps)
     without = _strip_mesh(image, 2047, 1500, diagonals="error", heights="pixel")
     assert crossing(without) == 0 and crossing(with_seam) > 0

@@ -38,7 +38,7 @@ Every edge is tested: filters that test fewer gave back too much of the gain
 
 The kernels are compiled (``src/rangemesh/_core/refine/diagonals.cpp``):
 `rangemesh._core.flip_by_error` on a mesh whose half-edges and triangle sums
-greedy insertion kept (`rangemesh._core.greedy_insert_sums`),
+greedy insertion kept (`rangemesh._core.greedy_insert` with ``InsertSettings.sums``),
 `rangemesh._core.flip_from_edges` from given half-edges (a seam),
 `rangemesh._core.error_flips` from scratch, and `rangemesh._core.triangle_error`,
 the sum over one triangle's pixels.

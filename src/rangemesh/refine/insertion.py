@@ -214,7 +214,7 @@ def greedy_mesh(depth: np.ndarray, valid: np.ndarray, camera, *, vertices: int |
     are refined until they hold no valid pixel, then dropped, so the mesh
     covers the valid pixels without spending vertices on the background.
     When that leaves no triangle, insertion starts again from the valid
-    pixels' convex hull (`hull_mesh`).
+    pixels' convex hull (``hull_mesh``, ``refine/mesh.cpp``).
 
     A pixel's deviation (`deviation_scale`) is ``|predicted - measured|``
     depth, the prediction `rangemesh.render.render_depth`'s, times the

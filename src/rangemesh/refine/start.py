@@ -6,7 +6,7 @@ import numpy as np
 
 from .._core import delaunay_sweep, grid_pixels, nearest_valid
 
-__all__ = ["corner_depths", "first_mesh", "valid_hull", "hull_mesh"]
+__all__ = ["corner_depths", "first_mesh", "valid_hull"]
 
 # The image rectangle cut in two, (0,0) (H-1,0) (H-1,W-1) and (0,0) (H-1,W-1) (0,W-1):
 # counter-clockwise in (r, c); its triangles and twin half-edges.
@@ -127,28 +127,3 @@ def valid_hull(valid: np.ndarray) -> np.ndarray:
     if len(hull) < 3:
         return np.zeros((0, 2), np.int64)
     return np.array(hull, np.int64)
-
-
-def hull_mesh(depth: np.ndarray, valid: np.ndarray, limit: int, scales=(1, 1)):
-    """A first mesh of valid pixels only: at most `limit` corners of their convex hull.
-
-    The start when the image corners' mesh leaves no triangle of valid
-    corners (valid pixels far apart in a large background): its triangles
-    hold only valid vertices, and insertion refines within them.
-
-    Returns
-    -------
-    vr, vc, vz, tv, he : ndarrays, or None
-        As `first_mesh`; None when the valid pixels are fewer than 3 or
-        collinear (no triangle exists), or `limit` is under 3.
-    """
-    hull = valid_hull(valid)
-    if len(hull) < 3 or limit < 3:
-        return None
-    if len(hull) > limit:  # evenly spread corners of a convex polygon: still one
-        hull = hull[np.linspace(0, len(hull), int(limit), endpoint=False).astype(np.int64)]
-    vr, vc = hull[:, 0].copy(), hull[:, 1].copy()
-    tv, he = delaunay_sweep(vr * scales[0], vc * scales[1])
-    if len(tv) == 0:
-        raise RuntimeError("hull_mesh: the hull's corners cannot be collinear")
-    return vr, vc, depth[vr, vc], tv, he

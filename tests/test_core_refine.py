@@ -227,9 +227,10 @@ def test_an_error_bounded_call_stops_its_first_insertion_at_max_error_stop_times
                           max_error_stop=stop)
     res = _core.refine_mesh(depth, valid, np.array([0.0, 1, 1, 1, 0, 0]), req)
     start = insertion.first_mesh(depth, valid, 0)
-    vr, *_ = _core.greedy_insert(depth, valid, *start, n, stop * 1.0 / 100 * (hi - lo) * n, hi - lo)
+    bound = stop * 1.0 / 100 * (hi - lo) * n
+    out = _core.greedy_insert(depth, valid, start, InsertSettings(n, bound, hi - lo))
     assert res.meshings == 1 and res.achieved <= 1.0
-    assert len(res.pixels) == len(vr)
+    assert len(res.pixels) == len(out.vr)
 
 
 def test_background_beyond_the_corners_is_refused():

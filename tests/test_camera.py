@@ -95,6 +95,21 @@ def test_a_calibration_file_without_distortion_gives_its_pinhole(tmp_path, write
     assert cam == Pinhole(52.09, 52.1, 32.51, 24.97, depth_scale=0.001)
 
 
+def test_a_camera_info_yaml_in_flow_style_reads_as_in_block_style(tmp_path):
+    # YAML's flow style ({rows: 3, ...}), as yaml.dump and hand-written files give it, is the same
+    # mapping: the same camera as the block style of `ros_yaml`; expected values are K, PLUMB
+    path = tmp_path / "flow.yaml"
+    fx, fy, cx, cy = K
+    path.write_text(
+        f"{{image_width: {SHAPE[1]}, image_height: {SHAPE[0]}, distortion_model: plumb_bob,\n"
+        f" camera_matrix: {{rows: 3, cols: 3, data: [{fx}, 0, {cx}, 0, {fy}, {cy}, 0, 0, 1]}},\n"
+        f" distortion_coefficients: {{rows: 1, cols: 5, data: {PLUMB}}}}}\n")
+    flow = read_camera(path, depth_scale=0.001)
+    block = read_camera(ros_yaml(tmp_path / "block.yaml", PLUMB), depth_scale=0.001)
+    assert isinstance(flow, Rays) and flow == block
+    assert read_camera(ros_yaml(tmp_path / "k.yaml", [0.0] * 5)) == Pinhole(fx, fy, cx, cy)
+
+
 def test_an_open3d_intrinsics_json_is_read_column_major(tmp_path):
     path = tmp_path / "intrinsic.json"
     # PinholeCameraIntrinsic(640, 480, fx=525, fy=526, cx=319.5, cy=239.5) as Open3D writes it

@@ -177,10 +177,15 @@ def distortion_rays(k, d, model: str, shape, *, depth_scale: float = 1.0, where:
 # ---------------------------------------------------------------------------- the file formats
 
 def _number_list(text, where, field):
+    """Numbers from a parsed list (YAML) or a text of numbers (XML, "[...]")."""
     try:
-        return [float(v) for v in re.split(r"[\s,]+", text.strip().strip("[]").strip()) if v]
-    except ValueError:
-        raise ValueError(f"{where}: {field} must hold numbers, got {text.strip()!r:.60}") from None
+        if isinstance(text, (list, tuple)):
+            if any(isinstance(v, bool) for v in text):
+                raise ValueError
+            return [float(v) for v in text]
+        return [float(v) for v in re.split(r"[\s,]+", str(text).strip().strip("[]").strip()) if v]
+    except (TypeError, ValueError):
+        raise ValueError(f"{where}: {field} must hold numbers, got {str(text).strip()!r:.60}") from None
 
 
 def _yaml_scalar(text: str):
@@ -191,49 +196,34 @@ def _yaml_scalar(text: str):
 
 
 def _read_yaml(text: str, where: str) -> dict:
-    """The mappings of a ROS camera_info YAML or an OpenCV FileStorage YAML (``%YAML:1.0``).
+    """The top-level mapping of a ROS camera_info YAML or an OpenCV FileStorage YAML, by PyYAML.
 
-    Only what calibration files hold: top-level ``key: scalar``, ``key: [flow list]``
-    and one level of nested ``key:`` blocks (``rows``, ``cols``, ``dt``, ``data``), with
-    OpenCV's ``!!opencv-matrix`` tags; flow lists may span lines.
+    OpenCV writes a ``%YAML:1.0`` directive and ``!!opencv-matrix`` tags, which YAML
+    1.1 does not know: the directive is dropped and any unknown tag read as its plain
+    mapping, list or scalar.
     """
-    lines = []
-    for line in text.splitlines():
-        if line.startswith(("%", "---", "...")):
-            continue
-        if "#" in line and "\"" not in line and "'" not in line:
-            line = line[:line.index("#")]
-        if line.strip():
-            lines.append(line.replace("\t", "    "))
-    out: dict = {}
-    block = None
-    i = 0
-    while i < len(lines):
-        line = lines[i]
-        m = re.match(r"^(\s*)([A-Za-z_][\w.-]*)\s*:(.*)$", line)
-        if m is None:
-            raise ValueError(f"{where}: line {line.strip()!r:.60} is not 'key: value' (not a "
-                             f"camera_info or OpenCV YAML file)")
-        indent, key, rest = m.groups()
-        rest = re.sub(r"^\s*!(!opencv-matrix|<[^>]*>|\S*)", "", rest).strip()
-        if rest.startswith("[") and "]" not in rest:
-            while "]" not in rest and i + 1 < len(lines):
-                i += 1
-                rest += " " + lines[i].strip()
-            if "]" not in rest:
-                raise ValueError(f"{where}: {key} has a '[' list with no ']'")
-        i += 1
-        if indent and block is not None:
-            block[key] = rest if rest.startswith("[") else _yaml_scalar(rest)
-            continue
-        if indent:
-            raise ValueError(f"{where}: {key} is indented under nothing")
-        if rest:
-            out[key] = rest if rest.startswith("[") else _yaml_scalar(rest)
-            block = None
-        else:
-            block = out[key] = {}
-    return out
+    import yaml
+
+    class Loader(yaml.SafeLoader):
+        """SafeLoader that reads nodes of unknown tags as untagged ones."""
+
+    def untagged(loader, suffix, node):
+        if isinstance(node, yaml.MappingNode):
+            return loader.construct_mapping(node, deep=True)
+        if isinstance(node, yaml.SequenceNode):
+            return loader.construct_sequence(node, deep=True)
+        return loader.construct_scalar(node)
+
+    Loader.add_multi_constructor("", untagged)
+    text = re.sub(r"\A\s*%YAML:[^\n]*\n", "", text)
+    try:
+        fields = yaml.load(text, Loader=Loader)  # noqa: S506 (a SafeLoader)
+    except yaml.YAMLError as e:
+        problem = str(e).splitlines()[0] if str(e) else type(e).__name__
+        raise ValueError(f"{where}: not a camera_info or OpenCV YAML file ({problem})") from None
+    if not isinstance(fields, dict):
+        raise ValueError(f"{where}: not a camera_info or OpenCV YAML file (no mapping at the top)")
+    return fields
 
 
 def _read_xml(text: str, where: str) -> dict:
@@ -341,7 +331,7 @@ def read_camera(path, *, depth_scale: float = 1.0, image_shape=None):
     except OSError as exc:
         raise ValueError(f"{where}: cannot read the calibration file ({exc})") from None
     head = text.lstrip()
-    if head.startswith("{"):
+    if head.startswith("{") and "intrinsic_matrix" in text:  # (a flow-style YAML starts so too)
         try:
             data = json.loads(text)
         except (ValueError, RecursionError) as exc:

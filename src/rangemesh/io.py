@@ -394,12 +394,7 @@ def read_range_image(path: str | os.PathLike) -> np.ndarray:
     they read byte-swapped, as in every standard reader.
     """
     path = Path(path)
-    _check_readable(path)
-    suffix = _suffix(path)
-    fmt = FORMATS.get(suffix)
-    if fmt is None or fmt.kind != "image":
-        raise ValueError(f"{path}: unknown image type {suffix!r}; known: "
-                         f"{', '.join(_suffixes('image'))}")
+    fmt = _readable_format(path, "image", "image type")
     with _reading(path, "a range image"):
         arr = fmt.read(path)
     arr = np.asarray(arr)
@@ -980,14 +975,9 @@ def read_mesh(path: str | os.PathLike, *, camera=None, image_shape=None) -> Mesh
         differs from `image_shape`.
     """
     path = Path(path)
-    _check_readable(path)
-    suffix = _suffix(path)
-    fmt = FORMATS.get(suffix)
-    if fmt is None or fmt.kind != "mesh":
-        raise ValueError(f"{path}: unknown mesh format {suffix!r}; known: "
-                         f"{', '.join(_suffixes('mesh'))}")
+    fmt = _readable_format(path, "mesh", "mesh format")
     if fmt.reader_needs is not None:  # a missing extra is said as such, not as a bad file
-        require(fmt.reader_needs, f"reading {suffix} meshes")
+        require(fmt.reader_needs, f"reading {_suffix(path)} meshes")
     try:
         got = fmt.read(path, camera, image_shape)
     except Exception as exc:  # readers raise many kinds of errors on bad files
@@ -1067,6 +1057,16 @@ FORMATS = {
 
 def _suffixes(kind: str) -> tuple[str, ...]:
     return tuple(suffix for suffix, fmt in FORMATS.items() if fmt.kind == kind)
+
+
+def _readable_format(path: Path, kind: str, noun: str) -> Format:
+    """The table's `Format` of a file to read, once the file is known readable; else ValueError."""
+    _check_readable(path)
+    suffix = _suffix(path)
+    fmt = FORMATS.get(suffix)
+    if fmt is None or fmt.kind != kind:
+        raise ValueError(f"{path}: unknown {noun} {suffix!r}; known: {', '.join(_suffixes(kind))}")
+    return fmt
 
 
 IMAGE_SUFFIXES = _suffixes("image")

@@ -355,6 +355,20 @@ def test_p2_unit_invariance(s, diagonals, effort):
     np.testing.assert_allclose(a.vertices, b.vertices, rtol=1e-12)
 
 
+@pytest.mark.parametrize("target", [{}, {"max_error": 0.3}])
+@pytest.mark.parametrize("s", [10.0, 0.001])
+def test_p1_p2_hold_for_error_bounded_targets(s, target):
+    """SPEC P1 and P2 for the error search (the default target, max_error): its first stop at
+    MAX_ERROR_STOP times the bound, its render and its fitted heights see no marker and no unit."""
+    depth = np.load(CROPS)["chair"].astype(float)
+    a = triangulate(depth, background=0, method="refine", **target)
+    b = triangulate(depth * s, background=0, method="refine", camera=(1, 1, 1 / s), **target)
+    c = triangulate(np.where(depth == 0, np.nan, depth), method="refine", **target)
+    for m in (b, c):
+        assert np.array_equal(a.pixels, m.pixels) and np.array_equal(a.faces, m.faces)
+    np.testing.assert_allclose(a.vertices, b.vertices, rtol=1e-12)
+
+
 # --------------------------------------------------------------------------
 # least-squares vertex depths (heights='fit', greedy's default)
 # --------------------------------------------------------------------------

@@ -151,8 +151,7 @@ void free_later(std::vector<T>&... v) noexcept {
     if (bytes < LATE_FREE_BYTES) return;  // their owners free them as usual
     try {
         std::thread([held = std::make_tuple(std::move(v)...)]() mutable {
-            std::apply([](auto&... x) { (give_back_pages(x.data(), x.capacity() * sizeof(*x.data())), ...); },
-                       held);
+            std::apply([](auto&... x) { (give_back_pages(x.data(), x.capacity() * sizeof(*x.data())), ...); }, held);
         }).detach();
     } catch (...) {  // no thread to be had: the moved vectors were freed while unwinding
     }

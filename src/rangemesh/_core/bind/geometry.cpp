@@ -10,8 +10,8 @@
 #include "../geometry/fans.hpp"
 #include "../geometry/halfedges.hpp"
 #include "../geometry/heap.hpp"
-#include "../geometry/raster.hpp"
 #include "../geometry/pixels.hpp"
+#include "../geometry/raster.hpp"
 #include "../geometry/rasterize.hpp"
 #include "bindings.hpp"
 #include "numpy.hpp"
@@ -75,13 +75,12 @@ void bind_delaunay(nb::module_& m) {
         "each starts at its smallest vertex, keeping its turn; sorted by first, second, third vertex.");
     m.def(
         "prune_dangling",
-        [](In2<index_t> simplices, In2<index_t> neighbors, Out1<bool> alive, index_t n_vertices,
-           bool drop_lone) {
+        [](In2<index_t> simplices, In2<index_t> neighbors, Out1<bool> alive, index_t n_vertices, bool drop_lone) {
             check_input(simplices.shape(1) == 3 && neighbors.shape(1) == 3 && n_vertices >= 0,
                         "prune_dangling: simplices and neighbors are (F, 3), n_vertices not negative");
             return run_released([&] {
-                return prune_dangling(LiveTriangles{grid(simplices), grid(neighbors), span(alive)},
-                                      n_vertices, drop_lone);
+                return prune_dangling(LiveTriangles{grid(simplices), grid(neighbors), span(alive)}, n_vertices,
+                                      drop_lone);
             });
         },
         nb::arg("simplices"), nb::arg("neighbors"), nb::arg("alive"), nb::arg("n_vertices"),
@@ -96,7 +95,8 @@ void bind_face_lists(nb::module_& m) {
     m.def(
         "build_halfedges",
         [](In2<T> faces, index_t n_vertices) {
-            check_input(faces.shape(1) == 3 && n_vertices >= 0, "build_halfedges: faces are (F, 3), n_vertices not negative");
+            check_input(faces.shape(1) == 3 && n_vertices >= 0,
+                        "build_halfedges: faces are (F, 3), n_vertices not negative");
             std::vector<index_t> triangles, halfedges;
             run_released([&] { build_halfedges(grid(faces), n_vertices, triangles, halfedges); }, work(faces));
             return nb::make_tuple(to_numpy(std::move(triangles)), to_numpy(std::move(halfedges)));
@@ -107,7 +107,8 @@ void bind_face_lists(nb::module_& m) {
     m.def(
         "count_edges",
         [](In2<T> faces, index_t n_vertices) {
-            check_input(faces.shape(1) == 3 && n_vertices >= 0, "count_edges: faces are (F, 3), n_vertices not negative");
+            check_input(faces.shape(1) == 3 && n_vertices >= 0,
+                        "count_edges: faces are (F, 3), n_vertices not negative");
             return run_released([&] { return count_edges(grid(faces), n_vertices); }, work(faces));
         },
         nb::arg("faces"), nb::arg("n_vertices"),
@@ -178,8 +179,7 @@ void bind_pixels(nb::module_& m) {
         "n_rows x n_cols grid over them (none on the first or last column with `inner`).");
     m.def(
         "rasterize",
-        [](In2<double> face_r, In2<double> face_c, In2<double> face_val, Out2<double> out_val,
-           Out2<index_t> out_face) {
+        [](In2<double> face_r, In2<double> face_c, In2<double> face_val, Out2<double> out_val, Out2<index_t> out_face) {
             check_input(face_r.shape(1) == 3 && face_c.shape(1) == 3 && face_val.shape(1) == 3,
                         "rasterize: face_r, face_c and face_val are (F, 3)");
             run_released([&] {
@@ -197,14 +197,15 @@ void bind_pixels(nb::module_& m) {
 void bind_geometry(nb::module_& m) {
     // the widest span of coordinates (pixels times Delaunay scales) the exact predicates take
     m.attr("EXACT_SPAN") = EXACT_SPAN;
-    nb::class_<CoveredError>(m, "CoveredError", "The error of a render over the covered valid pixels (``covered_error``).")
+    nb::class_<CoveredError>(m, "CoveredError",
+                             "The error of a render over the covered valid pixels (``covered_error``).")
         .def_ro("total", &CoveredError::total, "The sum of |pred - depth|.")
         .def_ro("count", &CoveredError::count, "The valid pixels where pred is finite.");
     nb::class_<PixelList>(m, "PixelList", "Pixels as their rows and columns (``grid_pixels``).")
-        .def_prop_ro("rows", [](PixelList& p) { return view_of(p.rows); }, nb::rv_policy::reference_internal,
-                     "(n,) int64.")
-        .def_prop_ro("cols", [](PixelList& p) { return view_of(p.cols); }, nb::rv_policy::reference_internal,
-                     "(n,) int64.");
+        .def_prop_ro(
+            "rows", [](PixelList& p) { return view_of(p.rows); }, nb::rv_policy::reference_internal, "(n,) int64.")
+        .def_prop_ro(
+            "cols", [](PixelList& p) { return view_of(p.cols); }, nb::rv_policy::reference_internal, "(n,) int64.");
     nb::class_<DepthRange>(m, "DepthRange", "The valid depths' range and count (``valid_range``).")
         .def_ro("lo", &DepthRange::lo, "The smallest valid depth (0.0 when there is none).")
         .def_ro("hi", &DepthRange::hi, "The largest (0.0 when there is none).")
@@ -213,9 +214,12 @@ void bind_geometry(nb::module_& m) {
         .def("__len__", [](const DepthRange&) { return 3; })
         .def("__getitem__", [](const DepthRange& d, index_t k) -> nb::object {
             switch (k < 0 ? k + 3 : k) {
-                case 0: return nb::float_(d.lo);
-                case 1: return nb::float_(d.hi);
-                case 2: return nb::int_(d.count);
+                case 0:
+                    return nb::float_(d.lo);
+                case 1:
+                    return nb::float_(d.hi);
+                case 2:
+                    return nb::int_(d.count);
             }
             throw nb::index_error("DepthRange: lo, hi, count are items 0, 1, 2");
         });
@@ -244,7 +248,6 @@ void bind_geometry(nb::module_& m) {
         "corner k, -1 on the border.");
 }
 
-
 namespace {
 
 // A heap of `n` entries on these arrays: keys and ids beside each other, ids with a slot each.
@@ -265,13 +268,13 @@ void bind_geometry_tests(nb::module_& m) {
         check_input(0 <= i && i < static_cast<index_t>(heap.shape(0)), "heap: the position is in the heap");
         return HeapView{span(keys), span(heap), span(slot)}.sift_up(i);
     });
-    m.def("_heap_rekey", [](Out1<double> keys, Out1<index_t> heap, Out1<index_t> slot, index_t x,
-                            double key, index_t n) {
-        check_heap(keys, heap, slot, n);
-        check_input(0 <= x && x < static_cast<index_t>(slot.shape(0)) && 0 <= slot(x) && slot(x) < n,
-                    "heap: the id is in the heap");
-        HeapView{span(keys), span(heap), span(slot)}.rekey(x, key, n);
-    });
+    m.def("_heap_rekey",
+          [](Out1<double> keys, Out1<index_t> heap, Out1<index_t> slot, index_t x, double key, index_t n) {
+              check_heap(keys, heap, slot, n);
+              check_input(0 <= x && x < static_cast<index_t>(slot.shape(0)) && 0 <= slot(x) && slot(x) < n,
+                          "heap: the id is in the heap");
+              HeapView{span(keys), span(heap), span(slot)}.rekey(x, key, n);
+          });
     // (every `step`-th row from `first` when given, else every row)
     m.def(
         "_triangle_rows",
@@ -282,8 +285,9 @@ void bind_geometry_tests(nb::module_& m) {
             for (std::size_t k = 0; k < 6; ++k)
                 check_input(0 <= corners.data()[k] && corners.data()[k] <= EXACT_SPAN,
                             "_triangle_rows: corners are pixels within EXACT_SPAN");
-            check_input(1 <= step && step <= EXACT_SPAN && (!first || (-EXACT_SPAN <= *first && *first <= 2 * EXACT_SPAN)),
-                        "_triangle_rows: 1 <= step <= EXACT_SPAN, and the first row within EXACT_SPAN of the image");
+            check_input(
+                1 <= step && step <= EXACT_SPAN && (!first || (-EXACT_SPAN <= *first && *first <= 2 * EXACT_SPAN)),
+                "_triangle_rows: 1 <= step <= EXACT_SPAN, and the first row within EXACT_SPAN of the image");
             const index_t ar = corners(0, 0), ac = corners(0, 1), br = corners(1, 0), bc = corners(1, 1),
                           cr = corners(2, 0), cc = corners(2, 1);
             const TriangleRows top(ar, ac, br, bc, cr, cc);

@@ -80,10 +80,14 @@ enum class FitStatus { no_pixels, copied, fitted, not_converged, not_finite };
 
 FitStatus status_of(heights::FitOutcome outcome) {
     switch (outcome) {
-        case heights::FitOutcome::no_pixels: return FitStatus::no_pixels;
-        case heights::FitOutcome::copied: return FitStatus::copied;
-        case heights::FitOutcome::fitted: return FitStatus::fitted;
-        case heights::FitOutcome::not_converged: return FitStatus::not_converged;
+        case heights::FitOutcome::no_pixels:
+            return FitStatus::no_pixels;
+        case heights::FitOutcome::copied:
+            return FitStatus::copied;
+        case heights::FitOutcome::fitted:
+            return FitStatus::fitted;
+        case heights::FitOutcome::not_converged:
+            return FitStatus::not_converged;
     }
     throw InvariantError("fit_heights: an outcome without a name");
 }
@@ -128,12 +132,14 @@ void bind_fit_classes(nb::module_& m) {
                                      "rangemesh/refine/heights.py holds the library's values and their reasons.")
         .def(nb::init<>())
         .def("__copy__", [](const heights::FitSettings& s) { return heights::FitSettings(s); })
-        .def_prop_rw("row_stride", [](const heights::FitSettings& s) { return s.sample.row_stride; },
-                     [](heights::FitSettings& s, index_t v) { s.sample.row_stride = v; },
-                     "The sample of errors: rows that are multiples of this ...")
-        .def_prop_rw("face_stride", [](const heights::FitSettings& s) { return s.sample.face_stride; },
-                     [](heights::FitSettings& s, index_t v) { s.sample.face_stride = v; },
-                     "... of every face_stride-th face in the visiting order.")
+        .def_prop_rw(
+            "row_stride", [](const heights::FitSettings& s) { return s.sample.row_stride; },
+            [](heights::FitSettings& s, index_t v) { s.sample.row_stride = v; },
+            "The sample of errors: rows that are multiples of this ...")
+        .def_prop_rw(
+            "face_stride", [](const heights::FitSettings& s) { return s.sample.face_stride; },
+            [](heights::FitSettings& s, index_t v) { s.sample.face_stride = v; },
+            "... of every face_stride-th face in the visiting order.")
         .def_rw("capacity", &heights::FitSettings::capacity, "At most this many sampled errors (the valid pixels).")
         .def_rw("outlier_mads", &heights::FitSettings::outlier_mads, "The outlier bound, robust standard deviations.")
         .def_rw("outlier_floor", &heights::FitSettings::outlier_floor,
@@ -152,31 +158,40 @@ void bind_fit_classes(nb::module_& m) {
                "Conjugate gradients did not converge: ``system`` holds the equations for a direct solve.")
         .value("NOT_FINITE", FitStatus::not_finite, "Vertex ``not_finite``'s copied value is NaN or infinite.");
     nb::class_<BlockArrays>(m, "FaceBlocks", "The faces' normal equations, a face a row (``fit_blocks``).")
-        .def_prop_ro("ids", [](const BlockArrays& b) { return b.ids; }, nb::rv_policy::move,
-                     "(n, 3) int64: the face's corners, counter-clockwise.")
-        .def_prop_ro("block", [](const BlockArrays& b) { return b.block; }, nb::rv_policy::move,
-                     "(n, 3, 3) float64: the sum of w w^T over its kept pixels.")
-        .def_prop_ro("rhs", [](const BlockArrays& b) { return b.rhs; }, nb::rv_policy::move,
-                     "(n, 3) float64: the sum of w * value.")
+        .def_prop_ro(
+            "ids", [](const BlockArrays& b) { return b.ids; }, nb::rv_policy::move,
+            "(n, 3) int64: the face's corners, counter-clockwise.")
+        .def_prop_ro(
+            "block", [](const BlockArrays& b) { return b.block; }, nb::rv_policy::move,
+            "(n, 3, 3) float64: the sum of w w^T over its kept pixels.")
+        .def_prop_ro(
+            "rhs", [](const BlockArrays& b) { return b.rhs; }, nb::rv_policy::move,
+            "(n, 3) float64: the sum of w * value.")
         .def_ro("used", &BlockArrays::used, "Pixels in the system.");
     nb::class_<HeightFit>(m, "HeightFit", "What ``fit_heights`` found.")
         .def_ro("outcome", &HeightFit::outcome, "A FitOutcome.")
-        .def_prop_ro("values", [](const HeightFit& f) { return f.values; }, nb::rv_policy::move,
-                     "(V,) float64 (FITTED: clipped to [lo, hi]; NOT_CONVERGED: the last iterate), else None.")
-        .def_prop_ro("system", [](const HeightFit& f) { return f.system; }, nb::rv_policy::move,
-                     "NOT_CONVERGED: the FaceBlocks to solve directly, else None.")
+        .def_prop_ro(
+            "values", [](const HeightFit& f) { return f.values; }, nb::rv_policy::move,
+            "(V,) float64 (FITTED: clipped to [lo, hi]; NOT_CONVERGED: the last iterate), else None.")
+        .def_prop_ro(
+            "system", [](const HeightFit& f) { return f.system; }, nb::rv_policy::move,
+            "NOT_CONVERGED: the FaceBlocks to solve directly, else None.")
         .def_ro("not_finite", &HeightFit::not_finite, "NOT_FINITE: the first vertex whose value is not, else None.");
     nb::class_<BlockSolution>(m, "BlockSolution", "What ``solve_blocks`` found.")
-        .def_prop_ro("x", [](BlockSolution& s) { return view_of(s.x); }, nb::rv_policy::reference_internal,
-                     "(V,) float64: conjugate gradients' last iterate.")
+        .def_prop_ro(
+            "x", [](BlockSolution& s) { return view_of(s.x); }, nb::rv_policy::reference_internal,
+            "(V,) float64: conjugate gradients' last iterate.")
         .def_ro("converged", &BlockSolution::converged, "Whether the residual reached rtol within max_iter steps.");
     nb::class_<heights::VertexSystem>(m, "VertexSystem", "The fit's system gathered onto the vertices.")
-        .def_prop_ro("diag", [](heights::VertexSystem& s) { return view_of(s.diag); },
-                     nb::rv_policy::reference_internal, "(V,) float64: diag(M) + ridge.")
-        .def_prop_ro("rhs", [](heights::VertexSystem& s) { return view_of(s.rhs); },
-                     nb::rv_policy::reference_internal, "(V,) float64: b + ridge * h0.")
-        .def_prop_ro("ridge", [](heights::VertexSystem& s) { return view_of(s.ridge); },
-                     nb::rv_policy::reference_internal, "(V,) float64: ridge_share * max(diag(M), 1).");
+        .def_prop_ro(
+            "diag", [](heights::VertexSystem& s) { return view_of(s.diag); }, nb::rv_policy::reference_internal,
+            "(V,) float64: diag(M) + ridge.")
+        .def_prop_ro(
+            "rhs", [](heights::VertexSystem& s) { return view_of(s.rhs); }, nb::rv_policy::reference_internal,
+            "(V,) float64: b + ridge * h0.")
+        .def_prop_ro(
+            "ridge", [](heights::VertexSystem& s) { return view_of(s.ridge); }, nb::rv_policy::reference_internal,
+            "(V,) float64: ridge_share * max(diag(M), 1).");
 }
 
 // The fit of the vertices' values to `image` from the caller's arrays: faces (F, 3) and
@@ -190,45 +205,47 @@ void bind_fit(nb::module_& m) {
             check_input(pixels.shape(1) == 2, "fit: pixels are (V, 2)");
             const index_t n = static_cast<index_t>(pixels.shape(0));
             index_t not_finite = -1;  // the first vertex whose value is not finite
-            heights::FitResult fit = run_released([&] {
-                const Grid<const double> values = grid(image);
-                std::vector<index_t> rows(n), cols(n);
-                std::vector<double> copied(n);
-                for (index_t i = 0; i < n; ++i) {
-                    rows[i] = static_cast<index_t>(pixels.data()[2 * i]);
-                    cols[i] = static_cast<index_t>(pixels.data()[2 * i + 1]);
-                    if (rows[i] < 0 || rows[i] >= values.rows || cols[i] < 0 || cols[i] >= values.cols)
-                        throw std::invalid_argument("fit: a vertex lies outside the image");
-                }
-                for (index_t i = 0; i < n && not_finite < 0; ++i) {
-                    copied[i] = values(rows[i], cols[i]);
-                    if (!std::isfinite(copied[i])) not_finite = i;
-                }
-                if (not_finite >= 0) return heights::FitResult{};
-                std::vector<index_t> wide;  // the faces in 64 bits, unless they came so
-                const index_t* ids;
-                if constexpr (std::is_same_v<I, index_t>) {
-                    ids = faces.data();
-                } else {
-                    wide.assign(faces.data(), faces.data() + faces.size());
-                    ids = wide.data();
-                }
-                const index_t n_faces = static_cast<index_t>(faces.shape(0));
-                std::vector<index_t> identity;  // the faces as they come, when no order is given
-                Span<const index_t> visit;
-                if (order) {
-                    visit = span(*order);
-                } else {
-                    identity.resize(n_faces);
-                    std::iota(identity.begin(), identity.end(), index_t{0});
-                    visit = Span<const index_t>{identity.data(), n_faces};
-                }
-                const heights::FitMesh mesh{{ids, n_faces, static_cast<index_t>(faces.shape(1))},
-                                            {rows.data(), n},
-                                            {cols.data(), n},
-                                            {copied.data(), n}};
-                return heights::fit_heights(mesh, fit_image(image, valid), visit, settings);
-            }, work(image));
+            heights::FitResult fit = run_released(
+                [&] {
+                    const Grid<const double> values = grid(image);
+                    std::vector<index_t> rows(n), cols(n);
+                    std::vector<double> copied(n);
+                    for (index_t i = 0; i < n; ++i) {
+                        rows[i] = static_cast<index_t>(pixels.data()[2 * i]);
+                        cols[i] = static_cast<index_t>(pixels.data()[2 * i + 1]);
+                        if (rows[i] < 0 || rows[i] >= values.rows || cols[i] < 0 || cols[i] >= values.cols)
+                            throw std::invalid_argument("fit: a vertex lies outside the image");
+                    }
+                    for (index_t i = 0; i < n && not_finite < 0; ++i) {
+                        copied[i] = values(rows[i], cols[i]);
+                        if (!std::isfinite(copied[i])) not_finite = i;
+                    }
+                    if (not_finite >= 0) return heights::FitResult{};
+                    std::vector<index_t> wide;  // the faces in 64 bits, unless they came so
+                    const index_t* ids;
+                    if constexpr (std::is_same_v<I, index_t>) {
+                        ids = faces.data();
+                    } else {
+                        wide.assign(faces.data(), faces.data() + faces.size());
+                        ids = wide.data();
+                    }
+                    const index_t n_faces = static_cast<index_t>(faces.shape(0));
+                    std::vector<index_t> identity;  // the faces as they come, when no order is given
+                    Span<const index_t> visit;
+                    if (order) {
+                        visit = span(*order);
+                    } else {
+                        identity.resize(n_faces);
+                        std::iota(identity.begin(), identity.end(), index_t{0});
+                        visit = Span<const index_t>{identity.data(), n_faces};
+                    }
+                    const heights::FitMesh mesh{{ids, n_faces, static_cast<index_t>(faces.shape(1))},
+                                                {rows.data(), n},
+                                                {cols.data(), n},
+                                                {copied.data(), n}};
+                    return heights::fit_heights(mesh, fit_image(image, valid), visit, settings);
+                },
+                work(image));
             HeightFit out;
             if (not_finite >= 0) {
                 out.outcome = FitStatus::not_finite;
@@ -238,7 +255,8 @@ void bind_fit(nb::module_& m) {
             out.outcome = status_of(fit.outcome);
             if (fit.outcome == heights::FitOutcome::fitted || fit.outcome == heights::FitOutcome::not_converged)
                 out.values = to_numpy(std::move(fit.values));
-            if (fit.outcome == heights::FitOutcome::not_converged) out.system = arrays_from_blocks(fit.blocks, fit.used);
+            if (fit.outcome == heights::FitOutcome::not_converged)
+                out.system = arrays_from_blocks(fit.blocks, fit.used);
             return out;
         },
         nb::arg("faces"), nb::arg("pixels"), nb::arg("image"), nb::arg("valid"), nb::arg("order").none(),
@@ -353,8 +371,7 @@ void bind_heights(nb::module_& m) {
             require(x.shape(0) > 0, "median: an empty array has no median");
             return run_released([&] { return heights::median_inplace(span(x)); });
         },
-        nb::arg("x"),
-        "``np.median(x)`` of a non-empty float64 array, bit for bit; overwrites ``x``.");
+        nb::arg("x"), "``np.median(x)`` of a non-empty float64 array, bit for bit; overwrites ``x``.");
     // int64 first: other integer arrays are widened to it, never narrowed to int32
     bind_fit<index_t>(m);
     bind_fit<std::int32_t>(m);

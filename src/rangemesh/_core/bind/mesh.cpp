@@ -78,16 +78,21 @@ void bind_request(nb::module_& m) {
 
 void bind_result(nb::module_& m) {
     nb::class_<MeshResult>(m, "RefineResult", "What ``refine_mesh`` made; arrays are views this object keeps alive.")
-        .def_prop_ro("done", [](const MeshResult& r) { return r.outcome == refine::MeshOutcome::done; },
-                     "False when the call declined: a fit that did not converge with no direct_solve given. "
-                     "No face (done): no triangle of valid pixels, walls_dropped says whether walls took them.")
-        .def_prop_ro("faces", [](MeshResult& r) { return rows_of(r.faces, 3); }, nb::rv_policy::reference_internal,
-                     "(F, 3) int32, counter-clockwise.")
-        .def_prop_ro("pixels", [](MeshResult& r) { return rows_of(r.pixels, 2); }, nb::rv_policy::reference_internal,
-                     "(V, 2) int32: each vertex's (row, col).")
-        .def_prop_ro("vertices", [](MeshResult& r) { return rows_of(r.vertices, 3); },
-                     nb::rv_policy::reference_internal, "(V, 3) float64, lifted by the camera.")
-        .def_prop_ro("vertex_count", [](const MeshResult& r) { return r.pixels.size() / 2; }, "Vertices of the mesh.")
+        .def_prop_ro(
+            "done", [](const MeshResult& r) { return r.outcome == refine::MeshOutcome::done; },
+            "False when the call declined: a fit that did not converge with no direct_solve given. "
+            "No face (done): no triangle of valid pixels, walls_dropped says whether walls took them.")
+        .def_prop_ro(
+            "faces", [](MeshResult& r) { return rows_of(r.faces, 3); }, nb::rv_policy::reference_internal,
+            "(F, 3) int32, counter-clockwise.")
+        .def_prop_ro(
+            "pixels", [](MeshResult& r) { return rows_of(r.pixels, 2); }, nb::rv_policy::reference_internal,
+            "(V, 2) int32: each vertex's (row, col).")
+        .def_prop_ro(
+            "vertices", [](MeshResult& r) { return rows_of(r.vertices, 3); }, nb::rv_policy::reference_internal,
+            "(V, 3) float64, lifted by the camera.")
+        .def_prop_ro(
+            "vertex_count", [](const MeshResult& r) { return r.pixels.size() / 2; }, "Vertices of the mesh.")
         .def_ro("edges", &MeshResult::edges, "Distinct edges of the faces.")
         .def_ro("insertions", &MeshResult::insertions, "Vertices of the last insertion, background corners included.")
         .def_ro("flips", &MeshResult::flips, "Edges the last insertion's diagonals flipped.")
@@ -95,7 +100,8 @@ void bind_result(nb::module_& m) {
         .def_ro("meshings", &MeshResult::meshings, "Meshings the search ran.")
         .def_ro("walls_dropped", &MeshResult::walls_dropped, "Walls dropped from the mesh (walls false).")
         .def_ro("asked", &MeshResult::asked, "The last meshing's vertex request.")
-        .def_ro("achieved", &MeshResult::achieved, "With max_error: the relative error reached (NaN: no valid "
+        .def_ro("achieved", &MeshResult::achieved,
+                "With max_error: the relative error reached (NaN: no valid "
                 "pixel covered).")
         .def_ro("deviation_max", &MeshResult::deviation_max, "After rounds: the largest deviation reached.")
         .def_ro("deviation_mean", &MeshResult::deviation_mean, "... and the mean one.")
@@ -125,10 +131,12 @@ void bind_refine_mesh(nb::module_& m) {
             const index_t n_f = static_cast<index_t>(faces.shape(0));
             auto* out = new bool[n_f];
             nb::capsule owner(out, [](void* p) noexcept { delete[] static_cast<bool*>(p); });
-            run_released([&] {
-                refine::wall_faces(grid(faces), grid(pixels), span(z), jump,
-                                   lengths ? grid(*lengths) : Grid<const double>{}, {out, n_f});
-            }, work(faces));
+            run_released(
+                [&] {
+                    refine::wall_faces(grid(faces), grid(pixels), span(z), jump,
+                                       lengths ? grid(*lengths) : Grid<const double>{}, {out, n_f});
+                },
+                work(faces));
             const std::size_t shape[1] = {static_cast<std::size_t>(n_f)};
             return nb::ndarray<nb::numpy, bool>(out, 1, shape, owner);
         },
@@ -141,18 +149,22 @@ void bind_refine_mesh(nb::module_& m) {
             check_input(camera.shape(0) >= 6 && camera(0) == 2.0 && camera(1) >= 1 && camera(2) >= 1 &&
                             static_cast<double>(camera.shape(0)) == 6 + 3 * camera(1) * camera(2),
                         "ray_lengths: camera is a ray camera's Camera.as_array()");
-            check_input(pixels.shape(1) == 2 && a.shape(0) == b.shape(0), "ray_lengths: pixels (V, 2), a and b of one length");
+            check_input(pixels.shape(1) == 2 && a.shape(0) == b.shape(0),
+                        "ray_lengths: pixels (V, 2), a and b of one length");
             check_input(pixel_angle > 0.0 && std::isfinite(pixel_angle), "ray_lengths: pixel_angle finite and above 0");
             const index_t n_v = static_cast<index_t>(pixels.shape(0)), n_e = static_cast<index_t>(a.shape(0));
             for (index_t i = 0; i < n_v; ++i)
-                check_input(0 <= pixels(i, 0) && pixels(i, 0) < camera(1) && 0 <= pixels(i, 1) && pixels(i, 1) < camera(2),
-                            "ray_lengths: a pixel is outside the camera's image");
+                check_input(
+                    0 <= pixels(i, 0) && pixels(i, 0) < camera(1) && 0 <= pixels(i, 1) && pixels(i, 1) < camera(2),
+                    "ray_lengths: a pixel is outside the camera's image");
             for (index_t i = 0; i < n_e; ++i)
-                check_input(0 <= a(i) && a(i) < n_v && 0 <= b(i) && b(i) < n_v, "ray_lengths: a vertex id is out of range");
+                check_input(0 <= a(i) && a(i) < n_v && 0 <= b(i) && b(i) < n_v,
+                            "ray_lengths: a vertex id is out of range");
             auto* out = new double[n_e];
             nb::capsule owner(out, [](void* p) noexcept { delete[] static_cast<double*>(p); });
-            run_released([&] { refine::ray_lengths(span(camera), grid(pixels), span(a), span(b), pixel_angle, {out, n_e}); },
-                         work(a));
+            run_released(
+                [&] { refine::ray_lengths(span(camera), grid(pixels), span(a), span(b), pixel_angle, {out, n_e}); },
+                work(a));
             const std::size_t shape[1] = {static_cast<std::size_t>(n_e)};
             return nb::ndarray<nb::numpy, double>(out, 1, shape, owner);
         },
@@ -168,9 +180,9 @@ void bind_refine_mesh(nb::module_& m) {
                             (!ref_depth || (same_shape(*ref_depth, depth) && same_shape(*ref_valid, depth))),
                         "refine_mesh: ref_depth and ref_valid both or neither, of the image's shape");
             check_input(depth.shape(0) >= 2 && depth.shape(1) >= 2, "refine_mesh: an image of at least 2x2 pixels");
-            check_input(0 < req.vertices && req.vertices <= req.n_valid &&
-                            req.n_valid <= static_cast<index_t>(depth.size()),
-                        "refine_mesh: 0 < vertices <= n_valid <= the image's pixels");
+            check_input(
+                0 < req.vertices && req.vertices <= req.n_valid && req.n_valid <= static_cast<index_t>(depth.size()),
+                "refine_mesh: 0 < vertices <= n_valid <= the image's pixels");
             check_input(req.max_error < 0.0 || (req.max_error > 0.0 && std::isfinite(req.max_error)),
                         "refine_mesh: max_error negative (none) or a finite positive percentage");
             check_input((req.max_deviation < 0.0 && req.mean_deviation < 0.0) ||
@@ -195,11 +207,11 @@ void bind_refine_mesh(nb::module_& m) {
                         "refine_mesh: sr, sc, max_runs and max_bisect_runs at least 1");
             check_input(req.collapse == 0.0 || (req.collapse >= 1.0 && req.collapse <= 16.0),
                         "refine_mesh: collapse 0 (effort='fast') or a factor from 1 to 16");
-            check_input(camera.shape(0) >= 6 && (camera(0) == 0.0 || camera(0) == 1.0 ||
-                                                  (camera(0) == 2.0 && camera(1) == depth.shape(0) &&
-                                                   camera(2) == depth.shape(1) &&
-                                                   camera.shape(0) == 6 + 3 * depth.size())),
-                        "refine_mesh: camera is a Camera.as_array() for the image's shape");
+            check_input(
+                camera.shape(0) >= 6 && (camera(0) == 0.0 || camera(0) == 1.0 ||
+                                         (camera(0) == 2.0 && camera(1) == depth.shape(0) &&
+                                          camera(2) == depth.shape(1) && camera.shape(0) == 6 + 3 * depth.size())),
+                "refine_mesh: camera is a Camera.as_array() for the image's shape");
             const refine::Image image{grid(depth), grid(valid), req.hi - req.lo};
             const refine::Reference ref = ref_depth ? refine::Reference{grid(*ref_depth), grid(*ref_valid)}
                                                     : refine::Reference{image.depth, image.valid};
@@ -208,14 +220,17 @@ void bind_refine_mesh(nb::module_& m) {
                 direct = [direct_solve](const std::vector<heights::FaceBlock>& blocks, const std::vector<double>& h0) {
                     nb::gil_scoped_acquire gil;
                     const nb::tuple system = face_block_arrays(blocks);
-                    const nb::object out = direct_solve(system[0], system[1], system[2], to_numpy(std::vector<double>(h0)));
+                    const nb::object out =
+                        direct_solve(system[0], system[1], system[2], to_numpy(std::vector<double>(h0)));
                     const auto x = nb::cast<nb::ndarray<const double, nb::ndim<1>, nb::c_contig, nb::device::cpu>>(out);
                     return std::vector<double>(x.data(), x.data() + x.shape(0));
                 };
-            return run_released([&] { return refine::refine_mesh(image, span(camera), ref, req, direct); }, work(depth));
+            return run_released([&] { return refine::refine_mesh(image, span(camera), ref, req, direct); },
+                                work(depth));
         },
-        nb::arg("depth"), nb::arg("valid"), nb::arg("camera"), nb::arg("request"), nb::arg("ref_depth").none() = nb::none(),
-        nb::arg("ref_valid").none() = nb::none(), nb::arg("direct_solve").none() = nb::none(),
+        nb::arg("depth"), nb::arg("valid"), nb::arg("camera"), nb::arg("request"),
+        nb::arg("ref_depth").none() = nb::none(), nb::arg("ref_valid").none() = nb::none(),
+        nb::arg("direct_solve").none() = nb::none(),
         "The whole refine call on one strip or two: first mesh, insertion, diagonals, valid faces with one fan "
         "each, heights and the lift by ``camera`` (``Camera.as_array()``), searched until "
         "``request.vertices`` vertices or, with ``request.max_error``, the relative error against "

@@ -12,7 +12,6 @@
 #include "numpy.hpp"
 #include "release.hpp"
 
-
 namespace rangemesh::bind {
 
 namespace {
@@ -78,29 +77,34 @@ void bind_flip_classes(nb::module_& m) {
         .def(nb::init<>())
         .def("__copy__", [](const FlipOptions& o) { return FlipOptions(o); })
         .def_rw("rule", &FlipOptions::rule, "The flip rule, one of FLIP_RULES' values.")
-        .def_prop_rw("delta", [](const FlipOptions& o) { return o.tests.delta; },
-                     [](FlipOptions& o, double v) { o.tests.delta = v; },
-                     "The largest angle between a span and a triangle that is smooth.")
-        .def_prop_rw("epsilon", [](const FlipOptions& o) { return o.tests.epsilon; },
-                     [](FlipOptions& o, double v) { o.tests.epsilon = v; },
-                     "T2: the least significant change of disparity.")
-        .def_prop_rw("max_angle", [](const FlipOptions& o) { return o.tests.max_angle; },
-                     [](FlipOptions& o, double v) { o.tests.max_angle = v; },
-                     "T3: an internal angle above this makes a triangle degenerate.")
-        .def_prop_rw("min_bend", [](const FlipOptions& o) { return o.tests.min_bend; },
-                     [](FlipOptions& o, double v) { o.tests.min_bend = v; },
-                     "T4: the least noticeable bend between the new triangles.")
+        .def_prop_rw(
+            "delta", [](const FlipOptions& o) { return o.tests.delta; },
+            [](FlipOptions& o, double v) { o.tests.delta = v; },
+            "The largest angle between a span and a triangle that is smooth.")
+        .def_prop_rw(
+            "epsilon", [](const FlipOptions& o) { return o.tests.epsilon; },
+            [](FlipOptions& o, double v) { o.tests.epsilon = v; }, "T2: the least significant change of disparity.")
+        .def_prop_rw(
+            "max_angle", [](const FlipOptions& o) { return o.tests.max_angle; },
+            [](FlipOptions& o, double v) { o.tests.max_angle = v; },
+            "T3: an internal angle above this makes a triangle degenerate.")
+        .def_prop_rw(
+            "min_bend", [](const FlipOptions& o) { return o.tests.min_bend; },
+            [](FlipOptions& o, double v) { o.tests.min_bend = v; },
+            "T4: the least noticeable bend between the new triangles.")
         .def_rw("threshold", &FlipOptions::threshold, "Gains below this are not worth a decision (-inf: none).")
         .def_rw("quantum", &FlipOptions::quantum, "Gains are rounded to multiples of this power of two.")
         .def_rw("max_edge2", &FlipOptions::max_edge2, "The squared bound on a new edge's image length (inf: none).")
         .def_rw("log_size", &FlipOptions::log_size, "The first decisions logged (0 to 2^24; 0: none).");
     nb::class_<FlipReport>(m, "FlipReport", "What ``flip_loop`` did; arrays are views this object keeps alive.")
         .def_ro("flips", &FlipReport::flips, "Edges flipped.")
-        .def_prop_ro("verdicts", [](FlipReport& r) { return view_of(r.verdicts); },
-                     nb::rv_policy::reference_internal, "(8,) int64: how often each verdict (FLIP_VERDICTS) was given.")
-        .def_prop_ro("log", [](FlipReport& r) { return rows_of(r.log, 3); }, nb::rv_policy::reference_internal,
-                     "(n, 3) int64: the first decisions, n at most settings.log_size: endpoints (smaller first), "
-                     "verdict.");
+        .def_prop_ro(
+            "verdicts", [](FlipReport& r) { return view_of(r.verdicts); }, nb::rv_policy::reference_internal,
+            "(8,) int64: how often each verdict (FLIP_VERDICTS) was given.")
+        .def_prop_ro(
+            "log", [](FlipReport& r) { return rows_of(r.log, 3); }, nb::rv_policy::reference_internal,
+            "(n, 3) int64: the first decisions, n at most settings.log_size: endpoints (smaller first), "
+            "verdict.");
 }
 
 }  // namespace
@@ -141,8 +145,7 @@ void bind_paper(nb::module_& m) {
             report.flips = run_released([&] {
                 const FreeLater late(on_throw, report.log);
                 fill_polled(report.log, 3 * static_cast<std::size_t>(options.log_size), index_t{0});
-                const FlipRecord record{{report.verdicts.data(), N_VERDICTS},
-                                        {report.log.data(), options.log_size, 3}};
+                const FlipRecord record{{report.verdicts.data(), N_VERDICTS}, {report.log.data(), options.log_size, 3}};
                 return flip_loop(mesh, image, settings, record);
             });
             index_t decisions = 0;
@@ -159,9 +162,9 @@ void bind_paper(nb::module_& m) {
         "disparity_verdict",
         [](In1<index_t> triangles, In1<index_t> halfedges, In2<double> normals, In2<double> vertices, index_t e0,
            const FlipOptions& options) {
-            check_input(halfedges.shape(0) == triangles.shape(0) && triangles.shape(0) % 3 == 0 &&
-                            vertices.shape(1) == 3,
-                        "disparity_verdict: triangles and halfedges 3F long each, vertices (V, 3)");
+            check_input(
+                halfedges.shape(0) == triangles.shape(0) && triangles.shape(0) % 3 == 0 && vertices.shape(1) == 3,
+                "disparity_verdict: triangles and halfedges 3F long each, vertices (V, 3)");
             // the fans' walks follow the twins: every id in range, every twin paired
             const Span<const index_t> tri = span(triangles), he = span(halfedges);
             for (index_t e = 0; e < tri.size; ++e)
@@ -219,8 +222,8 @@ void bind_paper(nb::module_& m) {
     m.def(
         "compact_faces",
         [](In2<index_t> faces, In1<bool> alive, In2<index_t> points) {
-            CompactMesh c = run_released([&] { return compact_faces(grid(faces), span(alive), grid(points)); },
-                                         work(faces));
+            CompactMesh c =
+                run_released([&] { return compact_faces(grid(faces), span(alive), grid(points)); }, work(faces));
             const std::size_t n_f = c.faces.size() / 3, n_v = c.pixels.size() / 2;
             return nb::make_tuple(to_numpy(std::move(c.faces), n_f, 3), to_numpy(std::move(c.pixels), n_v, 2));
         },

@@ -30,8 +30,7 @@ using refine::Insertion;
 using refine::Stop;
 
 Image image_of(const In2<double>& depth, const In2<bool>& valid, double span) {
-    require(depth.shape(0) == valid.shape(0) && depth.shape(1) == valid.shape(1),
-            "depth and valid: one shape");
+    require(depth.shape(0) == valid.shape(0) && depth.shape(1) == valid.shape(1), "depth and valid: one shape");
     return Image{grid(depth), grid(valid), span};
 }
 
@@ -67,8 +66,8 @@ struct ErrorFlips {
 };
 
 // Greedy insertion from a first mesh until the stop: the finished state.
-Insertion insert_all(const Image& image, const FirstMesh& first, index_t max_vertices, double max_sum,
-                     index_t sr, index_t sc) {
+Insertion insert_all(const Image& image, const FirstMesh& first, index_t max_vertices, double max_sum, index_t sr,
+                     index_t sc) {
     // arrays sized for `max_vertices` when it is the stop; grown as needed under an error bound
     Insertion ins(image, first, max_sum < 0.0 ? max_vertices : 0, sr, sc);
     ins.advance(Stop{max_vertices, max_sum});
@@ -150,8 +149,8 @@ void bind_refine(nb::module_& m) {
     nb::class_<refine::StripRequest>(m, "StripRequest", "What ``strip_insert`` inserts, and how.")
         .def(
             "__init__",
-            [](refine::StripRequest* r, index_t vertices, index_t target, index_t reserve, double budget,
-               index_t sr, index_t sc, int threads, bool rounds, bool flip) {
+            [](refine::StripRequest* r, index_t vertices, index_t target, index_t reserve, double budget, index_t sr,
+               index_t sc, int threads, bool rounds, bool flip) {
                 new (r) refine::StripRequest{vertices, target, reserve, budget, sr, sc, threads, rounds, flip};
             },
             nb::arg("vertices") = 0, nb::arg("target") = 0, nb::arg("reserve") = 0, nb::arg("budget") = -1.0,
@@ -171,8 +170,7 @@ void bind_refine(nb::module_& m) {
     nb::class_<StripMesh>(m, "StripMesh", "One strip's mesh once inserted (and flipped).")
         .def_prop_ro("vr", array_of<StripMesh>(&StripMesh::vr), nb::rv_policy::reference_internal,
                      "The vertices' rows ...")
-        .def_prop_ro("vc", array_of<StripMesh>(&StripMesh::vc), nb::rv_policy::reference_internal,
-                     "... and columns.")
+        .def_prop_ro("vc", array_of<StripMesh>(&StripMesh::vc), nb::rv_policy::reference_internal, "... and columns.")
         .def_prop_ro("tv", array_of<StripMesh>(&StripMesh::triangles), nb::rv_policy::reference_internal,
                      "3T vertex ids.")
         .def_prop_ro("he", array_of<StripMesh>(&StripMesh::halfedges), nb::rv_policy::reference_internal,
@@ -206,10 +204,9 @@ void bind_refine(nb::module_& m) {
                 check_input(0 <= rows[k] && rows[k] < image.rows() && 0 <= cols[k] && cols[k] < image.cols(),
                             "triangle_error: the corners must be pixels of the image");
             return run_released([&] {
-                return refine::triangle_error(image, {rows[0], cols[0], z[0]}, {rows[1], cols[1], z[1]},
-                                              {rows[2], cols[2], z[2]},
-                                              EdgeOwnership{scan.own_ab, scan.own_bc, scan.own_ca}, scan.base,
-                                              scan.stop);
+                return refine::triangle_error(
+                    image, {rows[0], cols[0], z[0]}, {rows[1], cols[1], z[1]}, {rows[2], cols[2], z[2]},
+                    EdgeOwnership{scan.own_ab, scan.own_bc, scan.own_ca}, scan.base, scan.stop);
             });
         },
         nb::arg("rows"), nb::arg("cols"), nb::arg("z"), nb::arg("depth"), nb::arg("valid"),
@@ -293,8 +290,8 @@ void bind_refine(nb::module_& m) {
                 build_halfedges(Grid<const index_t>{tv.data(), n_t, 3}, static_cast<index_t>(vr.shape(0)),
                                 out.triangles, he);
                 std::vector<double> sums(n_t, 0.0);
-                const FlipMesh mesh{span(vr), span(vc), {out.triangles.data(), 3 * n_t}, {he.data(), 3 * n_t},
-                                    {sums.data(), n_t}};
+                const FlipMesh mesh{
+                    span(vr), span(vc), {out.triangles.data(), 3 * n_t}, {he.data(), 3 * n_t}, {sums.data(), n_t}};
                 refine::face_errors(image, mesh);
                 const FlipCount c = refine::flip_by_error(image, mesh);
                 out.flips = c.flips;
@@ -312,18 +309,20 @@ void bind_refine(nb::module_& m) {
             const Image image = image_of(depth, valid, s.span);
             const FirstMesh start = first_of(first);
             InsertResult out;
-            run_released([&] {
-                Insertion ins = insert_all(image, start, s.max_vertices, s.max_sum, s.sr, s.sc);
-                out.vr = copy_polled(ins.vertex_rows());
-                out.vc = copy_polled(ins.vertex_cols());
-                out.tv = copy_polled(ins.triangles());
-                out.valid_vertices = ins.valid_vertices();
-                out.total = ins.total();
-                if (s.sums) {
-                    out.he = copy_polled(ins.halfedges());
-                    out.tsum = ins.sums();
-                }
-            }, work(depth));
+            run_released(
+                [&] {
+                    Insertion ins = insert_all(image, start, s.max_vertices, s.max_sum, s.sr, s.sc);
+                    out.vr = copy_polled(ins.vertex_rows());
+                    out.vc = copy_polled(ins.vertex_cols());
+                    out.tv = copy_polled(ins.triangles());
+                    out.valid_vertices = ins.valid_vertices();
+                    out.total = ins.total();
+                    if (s.sums) {
+                        out.he = copy_polled(ins.halfedges());
+                        out.tsum = ins.sums();
+                    }
+                },
+                work(depth));
             return out;
         },
         nb::arg("depth"), nb::arg("valid"), nb::arg("first"), nb::arg("settings"),

@@ -17,8 +17,7 @@ void bind_regions(nb::module_& m) {
                         "label_regions: depth, valid and labels must have one shape");
             check_input(std::isfinite(share) && share >= 0.0, "label_regions: share must be finite and >= 0");
             std::vector<std::int64_t> sizes =
-                run_released([&] { return label_regions(grid(depth), grid(valid), share, grid(labels)); },
-                             work(depth));
+                run_released([&] { return label_regions(grid(depth), grid(valid), share, grid(labels)); }, work(depth));
             return to_numpy(std::move(sizes));
         },
         nb::arg("depth"), nb::arg("valid"), nb::arg("share"), nb::arg("labels").noconvert(),

@@ -32,7 +32,7 @@ bool install() {
 
 void restore() { std::signal(SIGINT, previous); }
 #else
-struct sigaction previous {};
+struct sigaction previous{};
 
 extern "C" void on_sigint(int signum, siginfo_t* info, void* context) {
     interrupt_flag().store(true, std::memory_order_relaxed);
@@ -45,7 +45,7 @@ extern "C" void on_sigint(int signum, siginfo_t* info, void* context) {
 }
 
 bool install() {
-    struct sigaction action {};
+    struct sigaction action{};
     action.sa_sigaction = on_sigint;
     sigemptyset(&action.sa_mask);
     action.sa_flags = SA_SIGINFO;

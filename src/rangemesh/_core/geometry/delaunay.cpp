@@ -356,8 +356,7 @@ index_t legalize_all(Span<index_t> triangles, Span<index_t> halfedges, const Poi
         const index_t e = stack.back();
         stack.pop_back();
         const index_t t = halfedges[e];
-        if (t == -1 || !pts.illegal(triangles[e], triangles[nxt(e)], triangles[prv(e)], triangles[prv(t)]))
-            continue;
+        if (t == -1 || !pts.illegal(triangles[e], triangles[nxt(e)], triangles[prv(e)], triangles[prv(t)])) continue;
         require(flips < max_flips, "legalize_all: more flips than point pairs (a mesh that is no triangulation)");
         flip_quad(triangles, halfedges, e);
         ++flips;

@@ -29,8 +29,8 @@ inline void link(Span<index_t> halfedges, index_t a, index_t b) {
 inline bool twin_ok(Span<const index_t> triangles, Span<const index_t> halfedges, index_t e) {
     const index_t g = halfedges[e];
     if (g == -1) return true;
-    return 0 <= g && g < halfedges.size && halfedges[g] == e && g / 3 != e / 3 &&
-           triangles[g] == triangles[nxt(e)] && triangles[nxt(g)] == triangles[e];
+    return 0 <= g && g < halfedges.size && halfedges[g] == e && g / 3 != e / 3 && triangles[g] == triangles[nxt(e)] &&
+           triangles[nxt(g)] == triangles[e];
 }
 
 // The half-edges of the quad around e0's edge. With e0 = A->B in triangle ABC and its twin

@@ -40,8 +40,7 @@ CoveredError covered_error(Grid<const double> pred, Grid<const double> depth, Gr
     return out;
 }
 
-ValidFaces valid_faces(Span<const index_t> vr, Span<const index_t> vc, Span<const index_t> tv,
-                       Grid<const bool> valid) {
+ValidFaces valid_faces(Span<const index_t> vr, Span<const index_t> vc, Span<const index_t> tv, Grid<const bool> valid) {
     const index_t n_t = tv.size / 3, n_v = vr.size;
     require(vc.size == n_v, "valid_faces: vr and vc differ in length");
     std::vector<unsigned char> on_valid, keep, used;
@@ -123,8 +122,8 @@ namespace {
 std::vector<index_t> grid_centres(index_t lo, index_t extent, index_t n) {
     std::vector<index_t> out;
     for (index_t i = 0; i < n; ++i) {
-        const index_t x = lo + static_cast<index_t>((static_cast<double>(i) + 0.5) *
-                                                    static_cast<double>(extent) / static_cast<double>(n));
+        const index_t x = lo + static_cast<index_t>((static_cast<double>(i) + 0.5) * static_cast<double>(extent) /
+                                                    static_cast<double>(n));
         if (out.empty() || x != out.back()) out.push_back(x);
     }
     return out;
@@ -132,8 +131,7 @@ std::vector<index_t> grid_centres(index_t lo, index_t extent, index_t n) {
 
 }  // namespace
 
-PixelList grid_pixels(Grid<const bool> valid, index_t n_rows, index_t n_cols, index_t c_lo, index_t c_hi,
-                      bool inner) {
+PixelList grid_pixels(Grid<const bool> valid, index_t n_rows, index_t n_cols, index_t c_lo, index_t c_hi, bool inner) {
     const index_t h = valid.rows;
     if (n_rows < 2 || n_cols < 2) n_rows = n_cols = 0;  // no grid, the corners alone
     // a grid finer than the pixels has every pixel for a centre, as one of exactly the pixels

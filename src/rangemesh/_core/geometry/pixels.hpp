@@ -34,8 +34,7 @@ struct IntegerMarker {
 };
 
 template <class T>
-void mask_image(Grid<const T> image, bool has_background, double background, Grid<double> depth,
-                Grid<bool> valid) {
+void mask_image(Grid<const T> image, bool has_background, double background, Grid<double> depth, Grid<bool> valid) {
     // NaN as the marker when there is none: x != NaN holds for every x. Written without
     // branches, each loop over a row vectorises (a mixed bool and double store in one loop did
     // not, and mispredicted on scattered holes).
@@ -123,8 +122,7 @@ struct ValidFaces {
     std::vector<std::int32_t> faces;   // 3 per kept triangle
     std::vector<std::int32_t> pixels;  // (row, col) per used vertex
 };
-ValidFaces valid_faces(Span<const index_t> vr, Span<const index_t> vc, Span<const index_t> tv,
-                       Grid<const bool> valid);
+ValidFaces valid_faces(Span<const index_t> vr, Span<const index_t> vc, Span<const index_t> tv, Grid<const bool> valid);
 
 // Face t's corners as (row, col) doubles, and whether it is a wrap-around seam face (clockwise and
 // wider than half the image's `width`), which covers no pixel centre: every render of ValidFaces skips it.
@@ -155,7 +153,6 @@ Pixel nearest_valid(Grid<const bool> valid, index_t r, index_t c);
 struct PixelList {
     std::vector<index_t> rows, cols;
 };
-PixelList grid_pixels(Grid<const bool> valid, index_t n_rows, index_t n_cols, index_t c_lo, index_t c_hi,
-                      bool inner);
+PixelList grid_pixels(Grid<const bool> valid, index_t n_rows, index_t n_cols, index_t c_lo, index_t c_hi, bool inner);
 
 }  // namespace rangemesh

@@ -73,8 +73,8 @@ struct PointSet {
         const auto [c0, c1] = std::minmax_element(c.begin(), c.end());
         check_input(exact_span(*r0, *r1) && exact_span(*c0, *c1) && -EXACT_COORDINATE <= std::min(*r0, *c0) &&
                         std::max(*r1, *c1) <= EXACT_COORDINATE,
-                "Delaunay: points span more than EXACT_SPAN (or lie beyond 2^31), where the int64 predicates "
-                "overflow");
+                    "Delaunay: points span more than EXACT_SPAN (or lie beyond 2^31), where the int64 predicates "
+                    "overflow");
     }
 
     // Twice the signed area of points a, b, c; > 0 counter-clockwise.

@@ -18,8 +18,7 @@ namespace rangemesh {
 struct EdgeWalk {
     index_t s, v, q, m, dv, dq, dm, d;
 
-    static EdgeWalk start(index_t pr, index_t pc, index_t qr, index_t qc, index_t r0, index_t c0,
-                          index_t step = 1) {
+    static EdgeWalk start(index_t pr, index_t pc, index_t qr, index_t qc, index_t r0, index_t c0, index_t step = 1) {
         EdgeWalk e;
         e.s = qr - pr;
         e.dv = (pc - qc) * step;
@@ -94,8 +93,7 @@ struct TriangleRows {
         : TriangleRows(ar, ac, br, bc_, cr, cc, std::min(ar, std::min(br, cr)), 1) {}
 
     // The rows first, first + step, first + 2 step, ... only: next_row() moves `step` rows down.
-    TriangleRows(index_t ar, index_t ac, index_t br, index_t bc_, index_t cr, index_t cc, index_t first,
-                 index_t step)
+    TriangleRows(index_t ar, index_t ac, index_t br, index_t bc_, index_t cr, index_t cc, index_t first, index_t step)
         : r0(std::min(ar, std::min(br, cr))),
           r1(std::max(ar, std::max(br, cr))),
           c0(std::min(ac, std::min(bc_, cc))),

@@ -24,9 +24,7 @@ struct Triangle {
 };
 
 // Whether x is a pixel centre's coordinate on an axis of n pixels: whole and in [0, n - 1].
-bool on_pixel(double x, index_t n) {
-    return 0.0 <= x && x <= static_cast<double>(n - 1) && x == std::floor(x);
-}
+bool on_pixel(double x, index_t n) { return 0.0 <= x && x <= static_cast<double>(n - 1) && x == std::floor(x); }
 
 // The first pixel index >= x on an axis of n pixels; n when there is none. (Only pixels of the
 // image matter, and the bounds keep a far-off corner from overflowing the conversion.)
@@ -103,8 +101,8 @@ void raster_box(const Triangle k, index_t rmin, index_t rmax, index_t cmin, inde
 
 // One row of the span walk: columns s.first..s.last from weights w0, w1, w2 growing by d0, d1, d2.
 template <bool corners, class Claim>
-void raster_row(RenderRow<Claim> line, const Triangle& k, index_t first, index_t last, double w0, double w1,
-                double w2, double d0, double d1, double d2) {
+void raster_row(RenderRow<Claim> line, const Triangle& k, index_t first, index_t last, double w0, double w1, double w2,
+                double d0, double d1, double d2) {
     for (index_t col = first; col <= last; ++col) {
         put<corners>(line, col, k, w0, w1, w2);
         w0 += d0;
@@ -126,8 +124,8 @@ void raster_spans(const Triangle k, Grid<double> value, Grid<Claim> claim) {
     // as 0, 2, 1 (edges 0->2, 2->1, 1->0 weigh corners 1, 0, 2). w0, w1, w2 are the weights of
     // corners 0, 1, 2 and d0, d1, d2 their growth a column.
     const bool ccw = k.sign > 0;
-    TriangleRows rows = ccw ? TriangleRows(r[0], c[0], r[1], c[1], r[2], c[2])
-                            : TriangleRows(r[0], c[0], r[2], c[2], r[1], c[1]);
+    TriangleRows rows =
+        ccw ? TriangleRows(r[0], c[0], r[1], c[1], r[2], c[2]) : TriangleRows(r[0], c[0], r[2], c[2], r[1], c[1]);
     const double d0 = static_cast<double>(ccw ? r[2] - r[1] : r[1] - r[2]);
     const double d1 = static_cast<double>(ccw ? r[0] - r[2] : r[2] - r[0]);
     const double d2 = static_cast<double>(ccw ? r[1] - r[0] : r[0] - r[1]);

@@ -22,9 +22,9 @@ inline bool joined(double za, double zb, double step) {
 
 std::vector<std::int64_t> label_regions(Grid<const double> depth, Grid<const bool> valid, double share,
                                         Grid<std::int32_t> labels) {
-    require(valid.rows == depth.rows && valid.cols == depth.cols && labels.rows == depth.rows &&
-                labels.cols == depth.cols,
-            "label_regions: valid and labels must have depth's shape");
+    require(
+        valid.rows == depth.rows && valid.cols == depth.cols && labels.rows == depth.rows && labels.cols == depth.cols,
+        "label_regions: valid and labels must have depth's shape");
     const double diagonal = share * std::sqrt(2.0);
     std::vector<std::int64_t> sizes;
     std::vector<index_t> stack;

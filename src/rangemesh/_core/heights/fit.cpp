@@ -19,8 +19,7 @@ FitResult fit_heights(const FitMesh& mesh, const FitImage& image, Span<const ind
     // room for an error a valid pixel, left uninitialised: a sample writes a few thousand of
     // them, and zeroing would touch every page
     // (at most an error a pixel: a larger capacity, a raw call's 2^62, would only allocate)
-    const index_t capacity =
-        std::min(std::max<index_t>(settings.capacity, 0), image.values.rows * image.values.cols);
+    const index_t capacity = std::min(std::max<index_t>(settings.capacity, 0), image.values.rows * image.values.cols);
     const std::unique_ptr<double[]> errors(new double[capacity]);
     const Span<double> room{errors.get(), capacity};
     index_t sampled = sample_errors(mesh, image, order, settings.sample, room);
@@ -44,9 +43,9 @@ FitResult fit_heights(const FitMesh& mesh, const FitImage& image, Span<const ind
     const Span<FaceBlock> blocks{result.blocks.data(), order.size};
     result.used = fit_blocks(mesh, image, order, result.threshold, settings.threads, blocks);
     result.values.resize(mesh.values.size);
-    const bool converged = solve_blocks(Span<const FaceBlock>{blocks.data, blocks.size}, mesh.values, settings.ridge,
-                                        settings.rtol, settings.max_iter,
-                                        Span<double>{result.values.data(), mesh.values.size});
+    const bool converged =
+        solve_blocks(Span<const FaceBlock>{blocks.data, blocks.size}, mesh.values, settings.ridge, settings.rtol,
+                     settings.max_iter, Span<double>{result.values.data(), mesh.values.size});
     if (converged)
         for (double& v : result.values) {
             require(std::isfinite(v), "fit: a converged solve is finite");

@@ -17,8 +17,8 @@ constexpr index_t MAX_CELLS = index_t{1} << 26;
 
 }  // namespace
 
-void face_order(Grid<const index_t> faces, Span<const index_t> rows, Span<const index_t> cols,
-                index_t h, index_t w, index_t tile, Span<index_t> order) {
+void face_order(Grid<const index_t> faces, Span<const index_t> rows, Span<const index_t> cols, index_t h, index_t w,
+                index_t tile, Span<index_t> order) {
     require(order.size == faces.rows && tile > 0 && h > 0 && w > 0, "face_order: one order entry a face");
     // ceil(w / tile) without w + tile - 1, which overflows for a raw call's tile of INT64_MAX
     const index_t across = (w - 1) / tile + 1, down = (h - 1) / tile + 1;

@@ -5,11 +5,11 @@
 #include <stdexcept>
 #include <utility>
 
+#include "../geometry/ownership.hpp"
 #include "../geometry/predicates.hpp"
 #include "../geometry/raster.hpp"
 #include "../interrupt.hpp"
 #include "../parallel.hpp"
-#include "../geometry/ownership.hpp"
 
 namespace rangemesh::heights {
 
@@ -144,8 +144,8 @@ index_t sample_errors(const FitMesh& mesh, const FitImage& image, Span<const ind
     return k;
 }
 
-index_t fit_blocks(const FitMesh& mesh, const FitImage& image, Span<const index_t> order, double threshold,
-                   int threads, Span<FaceBlock> blocks) {
+index_t fit_blocks(const FitMesh& mesh, const FitImage& image, Span<const index_t> order, double threshold, int threads,
+                   Span<FaceBlock> blocks) {
     check_order(mesh, order);
     require(blocks.size == order.size, "fit: one block a visited face");
     const index_t n = order.size;

@@ -16,13 +16,13 @@ constexpr index_t SPLIT_MIN_FACES = 4000;
 
 // Each sampled pixel's |value - mesh value| (the mesh at the vertices' copied values) into
 // `errors`, at most errors.size of them; returns how many.
-index_t sample_errors(const FitMesh& mesh, const FitImage& image, Span<const index_t> order,
-                      Sample sample, Span<double> errors);
+index_t sample_errors(const FitMesh& mesh, const FitImage& image, Span<const index_t> order, Sample sample,
+                      Span<double> errors);
 
 // The normal equations of every face, visited in `order`: blocks[i] gathers the pixels of face
 // order[i] whose error is at most `threshold`. On up to `threads` threads; returns the number
 // of pixels used.
-index_t fit_blocks(const FitMesh& mesh, const FitImage& image, Span<const index_t> order,
-                   double threshold, int threads, Span<FaceBlock> blocks);
+index_t fit_blocks(const FitMesh& mesh, const FitImage& image, Span<const index_t> order, double threshold, int threads,
+                   Span<FaceBlock> blocks);
 
 }  // namespace rangemesh::heights

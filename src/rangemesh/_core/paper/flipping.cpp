@@ -30,8 +30,7 @@ Span<const T> read_only(Span<T> s) {
 // NS_V: the sum of the unit normals of the triangles around V = triangles[start] but t0 and t1.
 // `start` is a half-edge leaving V; the walk turns one way until it closes the fan or meets the
 // border, and from a border walks the other way too.
-Vec3 span_normal(Span<const index_t> halfedges, Grid<const double> normals, index_t start,
-                 index_t t0, index_t t1) {
+Vec3 span_normal(Span<const index_t> halfedges, Grid<const double> normals, index_t start, index_t t0, index_t t1) {
     Vec3 s;
     auto add = [&](index_t t) {
         if (t == t0 || t == t1) return;
@@ -234,8 +233,8 @@ Verdict FlipStage::decide(index_t x) const {
     if (static_cast<double>(dr * dr + dc * dc) > settings_.max_edge2) return MAX_EDGE;
     if (former_.contains(vc, vd)) return T1_DEADLOCK;
     if (settings_.rule == RULE_ERROR) return FLIPPED;
-    return disparity_verdict(read_only(mesh_.triangles), read_only(mesh_.halfedges), normals(),
-                             mesh_.points.vertices, e0, settings_.tests);
+    return disparity_verdict(read_only(mesh_.triangles), read_only(mesh_.halfedges), normals(), mesh_.points.vertices,
+                             e0, settings_.tests);
 }
 
 // Flip edge x (AB -> CD): move the outer edges' ids with their half-edges, then renew the two
@@ -302,9 +301,8 @@ index_t FlipStage::run(const FlipRecord& record) {
 
 }  // namespace
 
-Verdict disparity_verdict(Span<const index_t> triangles, Span<const index_t> halfedges,
-                          Grid<const double> normals, Grid<const double> vertices, index_t e0,
-                          const DisparityTests& tests) {
+Verdict disparity_verdict(Span<const index_t> triangles, Span<const index_t> halfedges, Grid<const double> normals,
+                          Grid<const double> vertices, index_t e0, const DisparityTests& tests) {
     require(0 <= e0 && e0 < halfedges.size && halfedges[e0] != -1, "disparity_verdict: e0 must be an inner half-edge");
     require(normals.rows * 3 == triangles.size && normals.cols == 3, "disparity_verdict: one normal a triangle");
     // Spans and normals are computed as late as the tests allow: a value a test does not need is
@@ -316,8 +314,8 @@ Verdict disparity_verdict(Span<const index_t> triangles, Span<const index_t> hal
     const Vec3 ns_d = span_normal(halfedges, normals, q.c1, t0, t1);  // D -> B leaves D
     const Vec3 n_dca = unit_normal(vertices, vd, vc, va);
     const Vec3 n_cdb = unit_normal(vertices, vc, vd, vb);
-    const double disp_ab = py_max(disparity(ns_c, row3(normals, t0), tests.delta),
-                                  disparity(ns_d, row3(normals, t1), tests.delta));
+    const double disp_ab =
+        py_max(disparity(ns_c, row3(normals, t0), tests.delta), disparity(ns_d, row3(normals, t1), tests.delta));
     const Vec3 ns_a = span_normal(halfedges, normals, q.b1, t0, t1);  // A -> D leaves A
     double disp_cd = disparity(ns_a, n_dca, tests.delta);
     Vec3 ns_b;

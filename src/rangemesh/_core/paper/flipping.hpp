@@ -77,8 +77,7 @@ index_t flip_loop(const FlipMesh& mesh, const RangeImage& image, const FlipSetti
 // The paper's tests T2-T5 and its final test on the edge of half-edge e0 (SPEC 3.3-3.5):
 // FLIPPED when the final test accepts the flip, else the first test that rejects it.
 // `normals` (F x 3) holds the triangles' unit normals.
-Verdict disparity_verdict(Span<const index_t> triangles, Span<const index_t> halfedges,
-                          Grid<const double> normals, Grid<const double> vertices, index_t e0,
-                          const DisparityTests& tests);
+Verdict disparity_verdict(Span<const index_t> triangles, Span<const index_t> halfedges, Grid<const double> normals,
+                          Grid<const double> vertices, index_t e0, const DisparityTests& tests);
 
 }  // namespace rangemesh::paper

@@ -65,8 +65,7 @@ inline double second_diff(double a, double b, double c, bool va, bool vb, bool v
 }
 
 // Adds level `level`'s second differences (hs x ws samples, one pixel in `step`) to `k`.
-void add_second_diffs(Grid<const double> d, Grid<const bool> v, double jump, index_t step,
-                      Grid<double> k) {
+void add_second_diffs(Grid<const double> d, Grid<const bool> v, double jump, index_t step, Grid<double> k) {
     const index_t hs = k.rows, ws = k.cols;
     for (index_t i = 1; i < hs - 1; ++i) {  // along rows (axis 0)
         poll_interrupt();
@@ -129,7 +128,8 @@ void invert_cdf(const std::vector<double>& cum, index_t n, index_t count, std::v
         const double lo = cum[k], hi = cum[k + 1];
         const double x = static_cast<double>(k) + (y - lo) / (hi - lo);
         // (weights that are not positive can put x anywhere, past the row's end)
-        check_input(x >= 0.0 && x <= static_cast<double>(n - 1), "sample_tiles: the weights must be positive and finite");
+        check_input(x >= 0.0 && x <= static_cast<double>(n - 1),
+                    "sample_tiles: the weights must be positive and finite");
         out[j] = static_cast<index_t>(x + 0.5);  // floor(x + 0.5): x >= 0, so truncation (no libm call)
     }
 }
@@ -144,8 +144,7 @@ struct TileScratch {
 // Tile (v, h): its pixel rows sampled at zs columns, then the zs curves at rs rows. A tile writes
 // its last row and column of samples only at the grid's edge: inside, its neighbour writes them
 // (the same samples: the same pixels and weights give the same positions).
-void sample_tile(Grid<const double> f, const Tiling& t, index_t v, index_t h, const SampleGrid& grid,
-                 TileScratch& s) {
+void sample_tile(Grid<const double> f, const Tiling& t, index_t v, index_t h, const SampleGrid& grid, TileScratch& s) {
     const index_t r0 = t.row_bounds[v], nr = t.row_bounds[v + 1] - r0 + 1;
     const index_t c0 = t.col_bounds[h], nc = t.col_bounds[h + 1] - c0 + 1;
     const index_t rs = t.rs, zs = t.zs;
@@ -174,8 +173,7 @@ void sample_tile(Grid<const double> f, const Tiling& t, index_t v, index_t h, co
 }
 
 // Tiles first..last-1 in row-major order.
-void sample_tile_range(Grid<const double> f, const Tiling& t, const SampleGrid& grid, index_t first,
-                       index_t last) {
+void sample_tile_range(Grid<const double> f, const Tiling& t, const SampleGrid& grid, index_t first, index_t last) {
     TileScratch scratch;
     for (index_t tile = first; tile < last; ++tile) {
         poll_interrupt();
@@ -204,9 +202,8 @@ void sample_tiles(Grid<const double> f, const Tiling& tiling, const SampleGrid& 
     const index_t n_tiles = tiling.n_rows() * tiling.n_cols();
     const index_t n_threads = std::clamp<index_t>(workers, 1, n_tiles);
     // a fixed split: thread k takes tiles [k T / n, (k + 1) T / n); each sample has one writer
-    split_run(n_threads, n_tiles, [&](index_t, index_t begin, index_t end) {
-        sample_tile_range(f, tiling, grid, begin, end);
-    });
+    split_run(n_threads, n_tiles,
+              [&](index_t, index_t begin, index_t end) { sample_tile_range(f, tiling, grid, begin, end); });
 }
 
 }  // namespace rangemesh::paper

@@ -49,8 +49,9 @@ void keep_faces(Grid<const index_t> faces, Grid<const index_t> points, Grid<cons
         check_input(std::min({a, b, c}) >= 0 && std::max({a, b, c}) < n, "keep_faces: a point id is out of range");
         // pixels of the image: the sums and squares below stay far from int64's end
         for (const index_t p : {a, b, c})
-            check_input(0 <= points(p, 0) && points(p, 0) < valid.rows && 0 <= points(p, 1) && points(p, 1) < valid.cols,
-                        "keep_faces: a face's point lies outside the image");
+            check_input(
+                0 <= points(p, 0) && points(p, 0) < valid.rows && 0 <= points(p, 1) && points(p, 1) < valid.cols,
+                "keep_faces: a face's point lies outside the image");
         const index_t br = floor_div(points(a, 0) + points(b, 0) + points(c, 0) + 1, 3);
         const index_t bc = floor_div(points(a, 1) + points(b, 1) + points(c, 1) + 1, 3);
         check_input(0 <= br && br < valid.rows && 0 <= bc && bc < valid.cols,

@@ -6,11 +6,11 @@
 
 #include "../geometry/halfedges.hpp"
 #include "../geometry/heap.hpp"
+#include "../geometry/ownership.hpp"
 #include "../geometry/predicates.hpp"
 #include "../geometry/raster.hpp"
 #include "../interrupt.hpp"
 #include "diagonals.hpp"
-#include "../geometry/ownership.hpp"
 #include "keys.hpp"
 #include "plane.hpp"
 
@@ -139,7 +139,8 @@ void targets(const Work& w, index_t v, const Fan& f, std::vector<index_t>& out) 
         return;
     }
     const index_t first = w.tri[nxt(f.edges[0])], last = w.tri[prv(f.edges[k - 1])];
-    const index_t dot = (w.vr[first] - w.vr[v]) * (w.vr[last] - w.vr[v]) + (w.vc[first] - w.vc[v]) * (w.vc[last] - w.vc[v]);
+    const index_t dot =
+        (w.vr[first] - w.vr[v]) * (w.vr[last] - w.vr[v]) + (w.vc[first] - w.vc[v]) * (w.vc[last] - w.vc[v]);
     if (k >= 2 && orientation(w, last, v, first) == 0 && dot < 0) out = {first, last};
 }
 

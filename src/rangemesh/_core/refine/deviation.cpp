@@ -105,7 +105,8 @@ index_t edge_middle(const Image& image, const ValidFaces& f, index_t t, const st
         const double len = std::hypot(static_cast<double>(br - ar), static_cast<double>(bc - ac));
         if (len <= longest) continue;
         longest = len;
-        const index_t r = static_cast<index_t>(std::floor((ar + br) / 2.0)), c = static_cast<index_t>(std::floor((ac + bc) / 2.0));
+        const index_t r = static_cast<index_t>(std::floor((ar + br) / 2.0)),
+                      c = static_cast<index_t>(std::floor((ac + bc) / 2.0));
         best = image.valid(r, c) && !vertex[r * w + c] ? r * w + c : -1;
     }
     return best;
@@ -128,13 +129,15 @@ std::vector<index_t> round_additions(const Image& image, const ValidFaces& f, co
     for (index_t t = 0; t < n_f; ++t) {
         poll_every(t);
         if (b.max_deviation >= 0.0 && d.worst[t] > b.max_deviation) add(d.pick[t]);
-        if (b.max_edge > 0.0 && d.edge[t] > b.max_edge) add(d.pick[t] >= 0 ? d.pick[t] : edge_middle(image, f, t, vertex));
+        if (b.max_edge > 0.0 && d.edge[t] > b.max_edge)
+            add(d.pick[t] >= 0 ? d.pick[t] : edge_middle(image, f, t, vertex));
     }
     if (b.mean_deviation >= 0.0 && d.mean() > b.mean_deviation) {
         // the faces of the largest summed deviation first, until they hold twice the excess
         std::vector<index_t> order(n_f);
         std::iota(order.begin(), order.end(), index_t{0});
-        std::stable_sort(order.begin(), order.end(), [&](index_t x, index_t y) { return d.face_sum[x] > d.face_sum[y]; });
+        std::stable_sort(order.begin(), order.end(),
+                         [&](index_t x, index_t y) { return d.face_sum[x] > d.face_sum[y]; });
         const double excess = (d.mean() - b.mean_deviation) * static_cast<double>(d.covered);
         double held = 0.0;
         for (const index_t t : order) {

@@ -55,7 +55,6 @@ bool deviation_met(const Deviation& d, const RoundBounds& b);
 // `max_deviation` or with an edge longer than `max_edge` (or, when such a face has no pick, the
 // pixel nearest the middle of its longest edge); under a mean bound missed, the picks of the faces
 // of the largest summed deviation until they hold twice the excess.
-std::vector<index_t> round_additions(const Image& image, const ValidFaces& f, const Deviation& d,
-                                     const RoundBounds& b);
+std::vector<index_t> round_additions(const Image& image, const ValidFaces& f, const Deviation& d, const RoundBounds& b);
 
 }  // namespace rangemesh::refine

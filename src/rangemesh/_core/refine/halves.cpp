@@ -48,7 +48,7 @@ double strip_corner(const Image& image, index_t r, index_t c, index_t c_lo, inde
 }
 
 StartArrays strip_start(const Image& image, index_t n_grid, const HalvesRequest& req, index_t c_lo, index_t c_hi,
-                       const std::vector<index_t>& seam, index_t seam_col) {
+                        const std::vector<index_t>& seam, index_t seam_col) {
     const index_t h = image.rows(), w = c_hi - c_lo + 1, sr = req.sr, sc = req.sc;
     StartArrays s;
     s.vz = {strip_corner(image, 0, c_lo, c_lo, c_hi), strip_corner(image, h - 1, c_lo, c_lo, c_hi),
@@ -185,15 +185,23 @@ Halves insert_halves(const Image& image, const HalvesRequest& req) {
         rows = seam_rows(zs, oks, std::max<index_t>(2, round_even(req.seam_density * std::sqrt(n))), -1.0, image.span);
     }
     const double share = static_cast<double>(m) / static_cast<double>(w - 1);
-    const StartArrays left = strip_start(image, static_cast<index_t>(static_cast<double>(req.n_grid) * share), req, 0, m, rows, m);
+    const StartArrays left =
+        strip_start(image, static_cast<index_t>(static_cast<double>(req.n_grid) * share), req, 0, m, rows, m);
     const StartArrays right =
         strip_start(image, static_cast<index_t>(static_cast<double>(req.n_grid) * (1 - share)), req, m, w - 1, rows, m);
     index_t shared = 0;  // the seam's valid vertices, in both strips
     for (std::size_t i = 0; i < left.vr.size(); ++i) shared += left.vc[i] == m && image.valid(left.vr[i], m);
     const double seam = seam_error(z, ok.get(), rows);
     const double budget = req.max_sum >= 0.0 ? std::max(req.max_sum - seam, 0.0) : -1.0;
-    const StripRequest sreq{req.vertices, req.vertices + shared, req.max_sum < 0.0 ? req.vertices : 0, budget,
-                            req.sr, req.sc, req.threads, true, req.flip};
+    const StripRequest sreq{req.vertices,
+                            req.vertices + shared,
+                            req.max_sum < 0.0 ? req.vertices : 0,
+                            budget,
+                            req.sr,
+                            req.sc,
+                            req.threads,
+                            true,
+                            req.flip};
     const Strips s = strip_insert(image, left.view(), right.view(), sreq);
     Halves out = join(s.left, s.right, m);
     out.flips = s.left.flips + s.right.flips;
@@ -203,8 +211,11 @@ Halves insert_halves(const Image& image, const HalvesRequest& req) {
         const std::vector<index_t> first = join_halfedges(s.left, s.right, out, m, he);
         std::vector<double> sums = s.left.sums;
         sums.insert(sums.end(), s.right.sums.begin(), s.right.sums.end());
-        const FlipMesh mesh{view(out.vr), view(out.vc), {out.triangles.data(), static_cast<index_t>(out.triangles.size())},
-                            {he.data(), static_cast<index_t>(he.size())}, {sums.data(), static_cast<index_t>(sums.size())}};
+        const FlipMesh mesh{view(out.vr),
+                            view(out.vc),
+                            {out.triangles.data(), static_cast<index_t>(out.triangles.size())},
+                            {he.data(), static_cast<index_t>(he.size())},
+                            {sums.data(), static_cast<index_t>(sums.size())}};
         out.flips += flip_from_edges(image, mesh, view(first)).flips;
     }
     return out;

@@ -6,8 +6,8 @@
 #include <stdexcept>
 
 #include "../geometry/halfedges.hpp"
-#include "../geometry/ownership.hpp"
 #include "../geometry/heap.hpp"
+#include "../geometry/ownership.hpp"
 #include "../geometry/predicates.hpp"
 #include "../interrupt.hpp"
 #include "keys.hpp"

@@ -2,8 +2,8 @@
 
 #include <algorithm>
 #include <chrono>
-#include <limits>
 #include <cmath>
+#include <limits>
 #include <memory>
 #include <numeric>
 #include <optional>
@@ -20,8 +20,8 @@
 #include "../heights/order.hpp"
 #include "../heights/pass.hpp"
 #include "../interrupt.hpp"
-#include "deviation.hpp"
 #include "collapse.hpp"
+#include "deviation.hpp"
 #include "diagonals.hpp"
 #include "halves.hpp"
 #include "insertion.hpp"
@@ -59,8 +59,8 @@ StartArrays first_mesh(const Image& image, index_t n_grid, index_t sr, index_t s
         f.rectangle();
         return f;
     }
-    PixelList grid = grid_pixels(image.valid, grid_side(n_grid * h * sr, w * sc), grid_side(n_grid * w * sc, h * sr),
-                                 0, w - 1, false);
+    PixelList grid = grid_pixels(image.valid, grid_side(n_grid * h * sr, w * sc), grid_side(n_grid * w * sc, h * sr), 0,
+                                 w - 1, false);
     f.vr = std::move(grid.rows);
     f.vc = std::move(grid.cols);
     f.triangulate(image, sr, sc);
@@ -185,8 +185,8 @@ Meshing meshing_of(const Image& image, Span<const double> camera, Insertion& ins
     if (req.flip) {
         std::vector<double> sums = ins.sums();
         out.error_left = std::any_of(sums.begin(), sums.end(), [](double x) { return x > 0.0; });
-        const FlipMesh mesh{view(ins.vertex_rows()), view(ins.vertex_cols()), tv, he,
-                            {sums.data(), static_cast<index_t>(sums.size())}};
+        const FlipMesh mesh{
+            view(ins.vertex_rows()), view(ins.vertex_cols()), tv, he, {sums.data(), static_cast<index_t>(sums.size())}};
         out.flips = flip_by_error(image, mesh).flips;
     }
     out.mesh = assemble(image, camera, view(ins.vertex_rows()), view(ins.vertex_cols()), view(tv), req, out.n_walls);
@@ -210,9 +210,10 @@ Meshing mesh_once(const Image& image, Span<const double> camera, const FirstMesh
 }
 
 // The same on two strips (`insert_halves`).
-Meshing mesh_halves(const Image& image, Span<const double> camera, index_t asked, double max_sum, const MeshRequest& req) {
-    const HalvesRequest hreq{asked, max_sum, req.n_grid, req.n_valid, req.sr, req.sc, req.seam_density,
-                             req.seam_error_share, req.threads, req.flip};
+Meshing mesh_halves(const Image& image, Span<const double> camera, index_t asked, double max_sum,
+                    const MeshRequest& req) {
+    const HalvesRequest hreq{asked,  max_sum,          req.n_grid,           req.n_valid, req.sr,
+                             req.sc, req.seam_density, req.seam_error_share, req.threads, req.flip};
     const Halves halves = insert_halves(image, hreq);
     Meshing out;
     out.insertions = static_cast<index_t>(halves.vr.size());
@@ -365,8 +366,8 @@ heights::FitSettings fit_settings(const MeshRequest& req, const FitValues& v, in
     if (n_faces >= rule.residual_stride * rule.residual_min)
         sample = {1, std::max(rule.residual_stride, n_faces / rule.residual_sample)};
     const int threads = n_faces < heights::SPLIT_MIN_FACES ? 1 : rule.threads;
-    return {sample, req.n_valid, rule.outlier_mads, rule.outlier_floor, rule.ridge, rule.rtol,
-            10 * n_vertices, threads, v.lo, v.hi};
+    return {sample, req.n_valid, rule.outlier_mads, rule.outlier_floor, rule.ridge, rule.rtol, 10 * n_vertices, threads,
+            v.lo,   v.hi};
 }
 
 // How a fit of the vertices' depths ended: `z` set (fitted, or the copied depths as the
@@ -412,7 +413,8 @@ FitStatus fitted_depths(const Image& image, bool pinhole, const ValidFaces& f, c
     if (fit.outcome == heights::FitOutcome::not_converged) {  // ill-conditioned: a direct solve
         if (direct == nullptr || !*direct) return {FitStatus::not_converged, -1};
         fit.values = (*direct)(fit.blocks, copied);
-        require(static_cast<index_t>(fit.values.size()) == n_v, "fitted_depths: the direct solve's values, one a vertex");
+        require(static_cast<index_t>(fit.values.size()) == n_v,
+                "fitted_depths: the direct solve's values, one a vertex");
         for (double& x : fit.values) {
             if (!std::isfinite(x)) throw InvariantError("fit_heights: the least-squares solve failed");
             x = std::min(std::max(x, v.lo), v.hi);  // (np.minimum(np.maximum(x, lo), hi): NaN-free here)
@@ -483,9 +485,12 @@ class ErrorMeasure {
         const Grid<const double> pred{pred_.data(), ref_.depth.rows, w};
         const double scale = camera_[5];
         const CoveredError e =
-            !inverse ? covered_error(pred, ref_.depth, ref_.valid, [](double p) { return p; }, range)
-            : stored ? covered_error(pred, ref_.depth, ref_.valid, [](double p) { return 1.0 / p; }, range)
-                     : covered_error(pred, ref_.depth, ref_.valid, [scale](double p) { return 1.0 / p / scale; }, range);
+            !inverse ? covered_error(
+                           pred, ref_.depth, ref_.valid, [](double p) { return p; }, range)
+            : stored
+                ? covered_error(
+                      pred, ref_.depth, ref_.valid, [](double p) { return 1.0 / p; }, range)
+                : covered_error(pred, ref_.depth, ref_.valid, [scale](double p) { return 1.0 / p / scale; }, range);
         has_range_ = true;
         if (e.count == 0) return std::numeric_limits<double>::quiet_NaN();
         return per_span(e.total / static_cast<double>(e.count), range_.hi - range_.lo);
@@ -541,7 +546,12 @@ class Refiner {
   public:
     Refiner(const Image& image, Span<const double> camera, const Reference& ref, const MeshRequest& req,
             const DirectSolve& direct)
-        : image_(image), camera_(camera), req_(req), ref_(ref), measure_(camera, ref), direct_(direct),
+        : image_(image),
+          camera_(camera),
+          req_(req),
+          ref_(ref),
+          measure_(camera, ref),
+          direct_(direct),
           strips_(req.strips && !needs_rounds(req)) {}
 
     // The search; when it leaves no face (every triangle keeps a background image corner), once
@@ -626,7 +636,7 @@ Meshing Refiner::mesh(index_t asked, double max_sum) {
     out_.asked = asked;
     if (!strips_ && !first_) first_ = first_mesh(image_, req_.n_grid, req_.sr, req_.sc);
     Meshing m = strips_ ? mesh_halves(image_, camera_, asked, max_sum, req_)
-                         : mesh_once(image_, camera_, first_->view(), asked, max_sum, req_);
+                        : mesh_once(image_, camera_, first_->view(), asked, max_sum, req_);
     insertions_ = m.insertions;
     flips_ = m.flips;
     return m;

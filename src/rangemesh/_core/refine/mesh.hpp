@@ -5,7 +5,8 @@
 //
 // The rules and their reasons are those of rangemesh/refine/insertion.py, which checks the
 // arguments and wraps the result; every step is a kernel of its own family (Insertion,
-// flip_by_error, valid_faces, prune_dangling, fit_heights, lift), in the arithmetic and order of the Python steps it stands for, so the mesh is the same bit for bit.
+// flip_by_error, valid_faces, prune_dangling, fit_heights, lift), in the arithmetic and order of the Python steps it
+// stands for, so the mesh is the same bit for bit.
 #pragma once
 
 #include <cstdint>

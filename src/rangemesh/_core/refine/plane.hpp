@@ -26,8 +26,8 @@ struct Point {
 // The plane's depth at a pixel is (w1 zA + w2 zB + w0 zC) / area, its edge functions w as
 // float64 (integers, held exactly): the one formula every sum that is compared uses.
 template <class Visit, class RowDone>
-void plane_errors(const Image& image, const Point& a, const Point& b, const Point& c, EdgeOwnership own,
-                  Visit&& visit, RowDone&& row_done) {
+void plane_errors(const Image& image, const Point& a, const Point& b, const Point& c, EdgeOwnership own, Visit&& visit,
+                  RowDone&& row_done) {
     const index_t area = orient(a.r, a.c, b.r, b.c, c.r, c.c);
     const double inv = 1.0 / static_cast<double>(area);
     // in locals: read through the references, the compiler reloads them every pixel
@@ -39,8 +39,7 @@ void plane_errors(const Image& image, const Point& a, const Point& b, const Poin
     owned_rows(rows, own, [&](index_t r, const RowSpan& span) {
         const double* drow = image.depth.row(r);
         const bool* vrow = image.valid.row(r);
-        double w0 = static_cast<double>(span.w0), w1 = static_cast<double>(span.w1),
-               w2 = static_cast<double>(span.w2);
+        double w0 = static_cast<double>(span.w0), w1 = static_cast<double>(span.w1), w2 = static_cast<double>(span.w2);
         for (index_t col = span.first; col <= span.last; ++col) {
             if (vrow[col]) visit(r, col, std::abs(drow[col] - (w1 * az + w2 * bz + w0 * cz) * inv));
             w0 += f0;

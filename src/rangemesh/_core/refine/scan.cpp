@@ -15,12 +15,11 @@ double spread_key(index_t area, index_t h, index_t w) {
     return SMALL_KEY * static_cast<double>(area) / (2.0 * static_cast<double>(h) * static_cast<double>(w) + 1.0);
 }
 
-Pixel centroid_pixel(index_t ar, index_t ac, index_t br, index_t bc, index_t cr, index_t cc,
-                     Grid<const bool> valid) {
+Pixel centroid_pixel(index_t ar, index_t ac, index_t br, index_t bc, index_t cr, index_t cc, Grid<const bool> valid) {
     const index_t r = floor_div(ar + br + cr + 1, 3);
     const index_t c = floor_div(ac + bc + cc + 1, 3);
-    if (orient(ar, ac, br, bc, r, c) > 0 && orient(br, bc, cr, cc, r, c) > 0 &&
-        orient(cr, cc, ar, ac, r, c) > 0 && valid(r, c))
+    if (orient(ar, ac, br, bc, r, c) > 0 && orient(br, bc, cr, cc, r, c) > 0 && orient(cr, cc, ar, ac, r, c) > 0 &&
+        valid(r, c))
         return {r, c};
     return {-1, -1};
 }
@@ -44,8 +43,7 @@ struct Cover {
 // so a straight silhouette costs one vertex, not one per pixel. The weight is an exact
 // integer; ties go to the first pixel in row-major order. A valid pixel on an edge between
 // two valid corners (`lost` false) competes by its error instead, in a full scan.
-Cover cover_pixel(const Corner& a, const Corner& b, const Corner& cn, EdgeOwnership own,
-                  Grid<const bool> valid) {
+Cover cover_pixel(const Corner& a, const Corner& b, const Corner& cn, EdgeOwnership own, Grid<const bool> valid) {
     const bool lost0 = a.background || b.background;
     const bool lost1 = b.background || cn.background;
     const bool lost2 = cn.background || a.background;
@@ -162,8 +160,7 @@ class Records {
 
 }  // namespace
 
-TriangleKey scan_triangle(const Image& image, const Corner& a, const Corner& b, const Corner& cn,
-                          EdgeOwnership own) {
+TriangleKey scan_triangle(const Image& image, const Corner& a, const Corner& b, const Corner& cn, EdgeOwnership own) {
     const index_t area = orient(a.r, a.c, b.r, b.c, cn.r, cn.c);
     TriangleKey out;
     if (a.background || b.background || cn.background) {

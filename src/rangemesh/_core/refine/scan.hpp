@@ -37,13 +37,11 @@ struct Pixel {
 
 // The pixel nearest the centroid of ABC when it is valid and strictly inside (on no edge, so
 // inserting it splits ABC in three), else {-1, -1}.
-Pixel centroid_pixel(index_t ar, index_t ac, index_t br, index_t bc, index_t cr, index_t cc,
-                     Grid<const bool> valid);
+Pixel centroid_pixel(index_t ar, index_t ac, index_t br, index_t bc, index_t cr, index_t cc, Grid<const bool> valid);
 
 // Rasterise triangle ABC (counter-clockwise): the pixel to insert, its key, the error sum.
 // A triangle with a background corner is keyed by the valid pixel that covers it best (above
 // every error key); any other by sqrt(worst error * error sum / pixels) in key units.
-TriangleKey scan_triangle(const Image& image, const Corner& a, const Corner& b, const Corner& c,
-                          EdgeOwnership own);
+TriangleKey scan_triangle(const Image& image, const Corner& a, const Corner& b, const Corner& c, EdgeOwnership own);
 
 }  // namespace rangemesh::refine

@@ -35,8 +35,7 @@ struct StartArrays {
     std::vector<double> vz;  // the four corners' depths, set by the caller; the others added here
 
     FirstMesh view() const {
-        return {refine::view(vr), refine::view(vc), refine::view(vz), refine::view(triangles),
-                refine::view(halfedges)};
+        return {refine::view(vr), refine::view(vc), refine::view(vz), refine::view(triangles), refine::view(halfedges)};
     }
 
     // The image rectangle cut in two, (0,0) (H-1,0) (H-1,W-1) and (0,0) (H-1,W-1) (0,W-1).

@@ -122,15 +122,15 @@ double strip_exponent(double x0, double y0, double x1, double y1) {
 
 PowerLaw strip_power_law(const std::vector<std::pair<double, double>>& hist) {
     const auto [n1, k1] = hist.back();
-    const double e = hist.size() >= 2 ? strip_exponent(hist[hist.size() - 2].second, hist[hist.size() - 2].first, k1, n1)
-                                      : EXPONENT;
+    const double e =
+        hist.size() >= 2 ? strip_exponent(hist[hist.size() - 2].second, hist[hist.size() - 2].first, k1, n1) : EXPONENT;
     return {n1, k1, e};
 }
 
 double strip_error_target(const std::vector<std::pair<double, double>>& hist, double budget) {
     const auto [n1, t1] = hist.back();
-    const double e = hist.size() >= 2 ? strip_exponent(hist[hist.size() - 2].first, hist[hist.size() - 2].second, n1, t1)
-                                      : EXPONENT;
+    const double e =
+        hist.size() >= 2 ? strip_exponent(hist[hist.size() - 2].first, hist[hist.size() - 2].second, n1, t1) : EXPONENT;
     if (t1 <= budget || t1 <= 0.0) return n1;
     return n1 * std::pow(t1 / std::max(budget, 1e-300), 1.0 / e);
 }
@@ -176,7 +176,8 @@ std::pair<index_t, bool> rounds(Insertion& a, Insertion& b, const StripRequest& 
             const double total = a.total() + b.total();
             errors.emplace_back(static_cast<double>(sum), total);
             if (total <= req.budget) break;
-            stop = static_cast<index_t>(std::min(static_cast<double>(req.target), strip_error_target(errors, req.budget)));
+            stop =
+                static_cast<index_t>(std::min(static_cast<double>(req.target), strip_error_target(errors, req.budget)));
         }
         const index_t rem = stop - sum;
         if (rem <= std::max(TAIL_MIN, static_cast<index_t>(TAIL_SHARE * static_cast<double>(stop)))) break;
@@ -194,13 +195,13 @@ std::pair<index_t, bool> rounds(Insertion& a, Insertion& b, const StripRequest& 
         // caps that add up to what is left, shared as the predicted growth
         double grow[2] = {1.0, 1.0};
         if (fitted)
-            for (int i = 0; i < 2; ++i) grow[i] = std::max(laws[i].count_at(*key) - static_cast<double>(counts[i]), 0.0);
+            for (int i = 0; i < 2; ++i)
+                grow[i] = std::max(laws[i].count_at(*key) - static_cast<double>(counts[i]), 0.0);
         const double f = grow[0] + grow[1] > 0.0 ? grow[0] / (grow[0] + grow[1]) : 0.5;
         const index_t cap_a = counts[0] + static_cast<index_t>(std::nearbyint(f * static_cast<double>(rem)));
         const index_t caps[2] = {cap_a, counts[1] + rem - (cap_a - counts[0])};
         const double k = *key;
-        run_both(worker, [&] { a.advance(Stop{caps[0], -1.0, k}); },
-                 [&] { b.advance(Stop{caps[1], -1.0, k}); });
+        run_both(worker, [&] { a.advance(Stop{caps[0], -1.0, k}); }, [&] { b.advance(Stop{caps[1], -1.0, k}); });
         ++n_rounds;
         capped = false;
         for (int i = 0; i < 2; ++i)
@@ -221,7 +222,9 @@ StripMesh finish(Insertion& s, const Image& image, bool flip) {
     out.sums = s.sums();
     if (flip) {
         const Span<index_t> vr = s.vertex_rows(), vc = s.vertex_cols();
-        out.flips = flip_by_error(image, FlipMesh{{vr.data, vr.size}, {vc.data, vc.size}, s.triangles(),
+        out.flips = flip_by_error(image, FlipMesh{{vr.data, vr.size},
+                                                  {vc.data, vc.size},
+                                                  s.triangles(),
                                                   s.halfedges(),
                                                   {out.sums.data(), static_cast<index_t>(out.sums.size())}})
                         .flips;
@@ -248,8 +251,9 @@ Strips strip_insert(const Image& image, const FirstMesh& left, const FirstMesh& 
     Worker* const second = worker ? &*worker : nullptr;
     std::optional<Insertion> a, b;
     // the first scans visit every pixel: half each
-    run_both(second, [&] { a.emplace(image, left, req.reserve, req.sr, req.sc); },
-             [&] { b.emplace(image, right, req.reserve, req.sr, req.sc); });
+    run_both(
+        second, [&] { a.emplace(image, left, req.reserve, req.sr, req.sc); },
+        [&] { b.emplace(image, right, req.reserve, req.sr, req.sc); });
     Strips out;
     if (req.rounds) std::tie(out.rounds, out.capped) = rounds(*a, *b, req, second);
     merge_tail(*a, *b, req.target, req.budget);

@@ -13,9 +13,10 @@ void wall_faces(Grid<const index_t> faces, Grid<const index_t> pixels, Span<cons
         bool wall = false;
         for (int k = 0; k < 3; ++k) {
             const index_t a = faces(t, k), b = faces(t, (k + 1) % 3);
-            double length = lengths.rows > 0 ? lengths(t, k)
-                                             : std::hypot(static_cast<double>(pixels(a, 0)) - static_cast<double>(pixels(b, 0)),
-                                                          static_cast<double>(pixels(a, 1)) - static_cast<double>(pixels(b, 1)));
+            double length = lengths.rows > 0
+                                ? lengths(t, k)
+                                : std::hypot(static_cast<double>(pixels(a, 0)) - static_cast<double>(pixels(b, 0)),
+                                             static_cast<double>(pixels(a, 1)) - static_cast<double>(pixels(b, 1)));
             length = length < 1.0 ? 1.0 : length;  // np.maximum(length, 1.0) (a NaN stays)
             const double za = std::abs(z[a]), zb = std::abs(z[b]);
             // np.minimum: a NaN wins; a threshold beyond the float range is inf (no wall)

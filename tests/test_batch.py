@@ -205,6 +205,19 @@ def test_cli_batch_output_that_is_an_input_or_a_file_is_one_line(tmp_path, capsy
     assert a.read_bytes() == data and (tmp_path / "notes.txt").read_text() == "mine"
 
 
+def test_mesh_many_refuses_a_file_as_out_dir_and_arrays_as_paths(tmp_path):
+    # mesh_many(out_dir=<a file>) said only "[Errno 17] File exists"; an array among the paths
+    # said "expected str, bytes or os.PathLike object" (found after issue 42)
+    a = tmp_path / "a.npy"
+    np.save(a, scenes.dome((40, 50)).depth)
+    (tmp_path / "notes.txt").write_text("mine")
+    with pytest.raises(ValueError, match="out_dir .*notes.txt is a file: the meshes go to a folder"):
+        mesh_many([a], tmp_path / "notes.txt", workers=1)
+    assert (tmp_path / "notes.txt").read_text() == "mine"
+    with pytest.raises(TypeError, match="paths must name files, .* got ndarray"):
+        mesh_many([np.ones((8, 8))], tmp_path / "out", workers=1)
+
+
 def test_one_worker_meshes_in_this_process_without_dask(tmp_path, monkeypatch):
     """workers=1: no cluster is started (Dask need not be installed); the same files come out."""
     import rangemesh.batch as batch

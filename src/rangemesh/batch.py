@@ -150,6 +150,9 @@ def expand_inputs(inputs: Iterable[str | os.PathLike], *, scans: bool = False) -
     """
     out = []
     for item in inputs:
+        if not isinstance(item, (str, os.PathLike)):
+            raise TypeError(f"paths must name files, folders or glob patterns (str or os.PathLike), "
+                            f"got {type(item).__name__}: triangulate meshes an array")
         p = Path(item)
         if p.is_dir():
             kinds = (*IMAGE_SUFFIXES, SCAN_SUFFIX) if scans else IMAGE_SUFFIXES
@@ -513,6 +516,8 @@ def mesh_many(paths, out_dir, params: MeshParams | None = None, *,
     if beams is not None and any(f.suffix.lower() == SCAN_SUFFIX for f in files):
         layout = bin_layout(beams)  # checked before any work
     out_dir = Path(out_dir)
+    if out_dir.exists() and not out_dir.is_dir():
+        raise ValueError(f"out_dir {out_dir} is a file: the meshes go to a folder")
     record = _options_record(call, background, camera, fmt, beams)
     if colors is not None:  # (only when given: the records of batches without colour stay)
         if isinstance(colors, str):

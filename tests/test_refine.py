@@ -1014,6 +1014,18 @@ def test_best_effort_finds_the_exact_mesh_of_a_planar_layered_scene(name, shape,
     assert error <= evaluate(fast, depth).relative_error + 1e-12
 
 
+@settings(max_examples=30, deadline=None)
+@given(st.sampled_from(sorted(scenes.SCENES)), st.sampled_from([0.0, 0.5]), st.integers(20, 400))
+def test_best_effort_never_errs_more_than_fast(name, noise, n):
+    # effort='best' erred more than effort='fast' on the noiseless stairs at 3 and 10 % and the
+    # crease, pyramid and box at 1-3 % (peers.py at 22c1066, up to 1.09x): its collapses rank by
+    # planes, and the render decides between the two now
+    depth = scenes.make(name, (60, 75), noise=noise).depth
+    best = triangulate(depth, vertices=n, effort="best")
+    fast = triangulate(depth, vertices=n)
+    assert evaluate(best, depth).relative_error <= evaluate(fast, depth).relative_error
+
+
 def test_best_effort_lowers_the_error_of_real_images(data_or_crops):
     # the study's cases, cropped: a lower error at the same count on each
     for rel, background in [("odetics/chair-range.npy", 0), ("middlebury/venus_disp2.npy", None),

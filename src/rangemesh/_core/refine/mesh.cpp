@@ -561,6 +561,7 @@ class Refiner {
   private:
     MeshResult search();
     MeshResult by_count();
+    MeshResult best_by_count();
     MeshResult by_error();
     MeshResult by_deviation();
     void rounds(Candidate& c);
@@ -764,7 +765,43 @@ MeshResult Refiner::finish_bounded(Candidate&& c) {
     return finish(std::move(c));
 }
 
+// effort="best" by count: the mesh collapsed from a denser one, or effort="fast"'s own when its
+// render errs less (the collapses rank by the fitted values' planes; the render decides), so
+// "best" never errs more than "fast" at the same request.
+MeshResult Refiner::best_by_count() {
+    const index_t want = req_.vertices, asked = dense_count(want);
+    Candidate dense{};
+    bool has_dense = false;
+    index_t dense_ins = 0, dense_flips = 0;
+    if (asked > want) {
+        dense.meshing = counted(asked);
+        has_dense = collapsed(dense.meshing, want) && lift(dense.meshing.mesh, req_.fit, dense.vertices);
+        dense_ins = insertions_;
+        dense_flips = flips_;
+    }
+    const index_t dense_asked = out_.asked;
+    Candidate c{counted(want), {}, 0.0};
+    if (c.meshing.mesh.faces.empty() && !has_dense) return no_face(c.meshing);
+    const auto t = std::chrono::steady_clock::now();
+    const bool fast_lifted = !c.meshing.mesh.faces.empty() && lift(c.meshing.mesh, req_.fit, c.vertices);
+    if (req_.fit) out_.fit_seconds = seconds_since(t);
+    if (!fast_lifted && !has_dense) return MeshResult{};
+    const double nan = std::numeric_limits<double>::quiet_NaN();
+    const double fast_error = fast_lifted ? measure_(c.meshing.mesh, c.vertices) : nan;
+    const double dense_error = has_dense ? measure_(dense.meshing.mesh, dense.vertices) : nan;
+    const bool keep_fast = fast_lifted && (!has_dense || fast_error < dense_error ||
+                                           (std::isnan(dense_error) && !std::isnan(fast_error)));
+    if (!keep_fast) {
+        insertions_ = dense_ins;  // (the record is the kept mesh's)
+        flips_ = dense_flips;
+        out_.asked = dense_asked;
+        return finish(std::move(dense));
+    }
+    return finish(std::move(c));
+}
+
 MeshResult Refiner::by_count() {
+    if (req_.collapse > 1.0 && !needs_rounds(req_)) return best_by_count();
     Candidate c{req_.collapse > 1.0 ? best_of(req_.vertices) : counted(req_.vertices), {}, 0.0};
     if (c.meshing.mesh.faces.empty()) return no_face(c.meshing);
     if (needs_rounds(req_)) return finish(std::move(c));  // (the rounds lift the vertices)

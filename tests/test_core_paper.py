@@ -1,5 +1,6 @@
 """The paper's compiled kernels refuse views that disagree and stop cleanly on Ctrl-C."""
 
+import copy
 import signal
 import subprocess
 import sys
@@ -21,6 +22,13 @@ def _flip(pixels, faces=((0, 1, 2),), shape=(4, 4)):
                              max_angle=2.8, min_bend=0.08, quantum=2.0**-32, max_edge2=np.inf)
     return _core.flip_loop(tri, he, np.array(pixels, np.int64), vertices, np.zeros(shape),
                            np.ones(shape, bool), Orthographic().as_array(), settings).flips
+
+
+def test_flip_settings_hold_each_test_angle_apart():
+    # the four angles are properties over FlipSettings' tests: each reads back what it was set to
+    settings = core_settings(_core.FlipSettings, delta=0.1, epsilon=0.2, max_angle=0.3, min_bend=0.4)
+    for s in (settings, copy.copy(settings)):
+        assert (s.delta, s.epsilon, s.max_angle, s.min_bend) == (0.1, 0.2, 0.3, 0.4)
 
 
 def test_flip_loop_takes_a_sound_mesh():

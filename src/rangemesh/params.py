@@ -107,7 +107,16 @@ FLIP_CHOICES = ("disparity", "error", None)
 HEIGHT_CHOICES = (None, "fit", "pixel")
 EFFORT_CHOICES = ("fast", "best")
 DIAGONAL_CHOICES = (None, "error", "delaunay")
-EFFORT_CHOICES = ("fast", "best")
+
+
+def _angle(default: float, *, low_open: bool, doc: str, flag: str):
+    """A flip test's angle of the paper's method, in degrees: the `option` of each of the four.
+
+    `low_open`: 0 is refused (the range is ``(0, 180]``, else ``[0, 180]``); `flag` is the
+    flag's help, to which the default is added.
+    """
+    return option(default, methods=PAPER, type="float", check=degrees(low_open=low_open),
+                  doc=doc, flag=Flag(flag + " (default {default})"))
 
 
 @dataclass(frozen=True)
@@ -192,28 +201,25 @@ class MeshParams:
             "mean of the neighbours first, as the paper's first step does.",
         flag=Flag("keep single-pixel holes instead of filling them with the 8-neighbour "
                   "mean (both methods)", "off"))
-    delta: float = option(
-        20.0, methods=PAPER, type="float", check=degrees(low_open=True),
+    delta: float = _angle(
+        20.0, low_open=True,
         doc="Upper disparity threshold, degrees (the paper's Delta): above it a triangle is "
             "off its surroundings.",
-        flag=Flag("upper disparity threshold Delta: above it a triangle is off its "
-                  "surroundings, degrees (default {default})"))
-    epsilon: float = option(
-        0.3, methods=PAPER, type="float", check=degrees(low_open=False),
+        flag="upper disparity threshold Delta: above it a triangle is off its surroundings, "
+             "degrees")
+    epsilon: float = _angle(
+        0.3, low_open=False,
         doc="Lower disparity threshold of test 2, degrees: the smallest disparity change "
             "worth a flip.",
-        flag=Flag("test 2: smallest disparity change worth a flip, degrees "
-                  "(default {default})"))
-    max_angle: float = option(
-        160.0, methods=PAPER, type="float", check=degrees(low_open=True),
+        flag="test 2: smallest disparity change worth a flip, degrees")
+    max_angle: float = _angle(
+        160.0, low_open=True,
         doc="Internal 3-D angle above which test 3 calls a triangle degenerate, degrees.",
-        flag=Flag("test 3: a triangle with an angle above this is degenerate, degrees "
-                  "(default {default})"))
-    min_bend: float = option(
-        5.0, methods=PAPER, type="float", check=degrees(low_open=False),
+        flag="test 3: a triangle with an angle above this is degenerate, degrees")
+    min_bend: float = _angle(
+        5.0, low_open=False,
         doc="Test 4: the two new triangles' normals must differ by more than this, degrees.",
-        flag=Flag("test 4: new triangles must bend more than this, degrees "
-                  "(default {default})"))
+        flag="test 4: new triangles must bend more than this, degrees")
     gain_threshold: float | None = option(
         None, methods=PAPER, type="float or None", check=number_or_none,
         doc="Stop flipping when the head of the queue has a gain below this. None means "

@@ -202,10 +202,8 @@ void bind_geometry(nb::module_& m) {
         .def_ro("total", &CoveredError::total, "The sum of |pred - depth|.")
         .def_ro("count", &CoveredError::count, "The valid pixels where pred is finite.");
     nb::class_<PixelList>(m, "PixelList", "Pixels as their rows and columns (``grid_pixels``).")
-        .def_prop_ro(
-            "rows", [](PixelList& p) { return view_of(p.rows); }, nb::rv_policy::reference_internal, "(n,) int64.")
-        .def_prop_ro(
-            "cols", [](PixelList& p) { return view_of(p.cols); }, nb::rv_policy::reference_internal, "(n,) int64.");
+        .def_prop_ro("rows", array_of(&PixelList::rows), nb::rv_policy::reference_internal, "(n,) int64.")
+        .def_prop_ro("cols", array_of(&PixelList::cols), nb::rv_policy::reference_internal, "(n,) int64.");
     nb::class_<DepthRange>(m, "DepthRange", "The valid depths' range and count (``valid_range``).")
         .def_ro("lo", &DepthRange::lo, "The smallest valid depth (0.0 when there is none).")
         .def_ro("hi", &DepthRange::hi, "The largest (0.0 when there is none).")

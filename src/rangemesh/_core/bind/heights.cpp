@@ -158,40 +158,30 @@ void bind_fit_classes(nb::module_& m) {
                "Conjugate gradients did not converge: ``system`` holds the equations for a direct solve.")
         .value("NOT_FINITE", FitStatus::not_finite, "Vertex ``not_finite``'s copied value is NaN or infinite.");
     nb::class_<BlockArrays>(m, "FaceBlocks", "The faces' normal equations, a face a row (``fit_blocks``).")
-        .def_prop_ro(
-            "ids", [](const BlockArrays& b) { return b.ids; }, nb::rv_policy::move,
-            "(n, 3) int64: the face's corners, counter-clockwise.")
-        .def_prop_ro(
-            "block", [](const BlockArrays& b) { return b.block; }, nb::rv_policy::move,
-            "(n, 3, 3) float64: the sum of w w^T over its kept pixels.")
-        .def_prop_ro(
-            "rhs", [](const BlockArrays& b) { return b.rhs; }, nb::rv_policy::move,
-            "(n, 3) float64: the sum of w * value.")
+        .def_prop_ro("ids", value_of(&BlockArrays::ids), nb::rv_policy::move,
+                     "(n, 3) int64: the face's corners, counter-clockwise.")
+        .def_prop_ro("block", value_of(&BlockArrays::block), nb::rv_policy::move,
+                     "(n, 3, 3) float64: the sum of w w^T over its kept pixels.")
+        .def_prop_ro("rhs", value_of(&BlockArrays::rhs), nb::rv_policy::move, "(n, 3) float64: the sum of w * value.")
         .def_ro("used", &BlockArrays::used, "Pixels in the system.");
     nb::class_<HeightFit>(m, "HeightFit", "What ``fit_heights`` found.")
         .def_ro("outcome", &HeightFit::outcome, "A FitOutcome.")
-        .def_prop_ro(
-            "values", [](const HeightFit& f) { return f.values; }, nb::rv_policy::move,
-            "(V,) float64 (FITTED: clipped to [lo, hi]; NOT_CONVERGED: the last iterate), else None.")
-        .def_prop_ro(
-            "system", [](const HeightFit& f) { return f.system; }, nb::rv_policy::move,
-            "NOT_CONVERGED: the FaceBlocks to solve directly, else None.")
+        .def_prop_ro("values", value_of(&HeightFit::values), nb::rv_policy::move,
+                     "(V,) float64 (FITTED: clipped to [lo, hi]; NOT_CONVERGED: the last iterate), else None.")
+        .def_prop_ro("system", value_of(&HeightFit::system), nb::rv_policy::move,
+                     "NOT_CONVERGED: the FaceBlocks to solve directly, else None.")
         .def_ro("not_finite", &HeightFit::not_finite, "NOT_FINITE: the first vertex whose value is not, else None.");
     nb::class_<BlockSolution>(m, "BlockSolution", "What ``solve_blocks`` found.")
-        .def_prop_ro(
-            "x", [](BlockSolution& s) { return view_of(s.x); }, nb::rv_policy::reference_internal,
-            "(V,) float64: conjugate gradients' last iterate.")
+        .def_prop_ro("x", array_of(&BlockSolution::x), nb::rv_policy::reference_internal,
+                     "(V,) float64: conjugate gradients' last iterate.")
         .def_ro("converged", &BlockSolution::converged, "Whether the residual reached rtol within max_iter steps.");
     nb::class_<heights::VertexSystem>(m, "VertexSystem", "The fit's system gathered onto the vertices.")
-        .def_prop_ro(
-            "diag", [](heights::VertexSystem& s) { return view_of(s.diag); }, nb::rv_policy::reference_internal,
-            "(V,) float64: diag(M) + ridge.")
-        .def_prop_ro(
-            "rhs", [](heights::VertexSystem& s) { return view_of(s.rhs); }, nb::rv_policy::reference_internal,
-            "(V,) float64: b + ridge * h0.")
-        .def_prop_ro(
-            "ridge", [](heights::VertexSystem& s) { return view_of(s.ridge); }, nb::rv_policy::reference_internal,
-            "(V,) float64: ridge_share * max(diag(M), 1).");
+        .def_prop_ro("diag", array_of(&heights::VertexSystem::diag), nb::rv_policy::reference_internal,
+                     "(V,) float64: diag(M) + ridge.")
+        .def_prop_ro("rhs", array_of(&heights::VertexSystem::rhs), nb::rv_policy::reference_internal,
+                     "(V,) float64: b + ridge * h0.")
+        .def_prop_ro("ridge", array_of(&heights::VertexSystem::ridge), nb::rv_policy::reference_internal,
+                     "(V,) float64: ridge_share * max(diag(M), 1).");
 }
 
 // The fit of the vertices' values to `image` from the caller's arrays: faces (F, 3) and

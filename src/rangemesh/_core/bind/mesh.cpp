@@ -82,15 +82,12 @@ void bind_result(nb::module_& m) {
             "done", [](const MeshResult& r) { return r.outcome == refine::MeshOutcome::done; },
             "False when the call declined: a fit that did not converge with no direct_solve given. "
             "No face (done): no triangle of valid pixels, walls_dropped says whether walls took them.")
-        .def_prop_ro(
-            "faces", [](MeshResult& r) { return rows_of(r.faces, 3); }, nb::rv_policy::reference_internal,
-            "(F, 3) int32, counter-clockwise.")
-        .def_prop_ro(
-            "pixels", [](MeshResult& r) { return rows_of(r.pixels, 2); }, nb::rv_policy::reference_internal,
-            "(V, 2) int32: each vertex's (row, col).")
-        .def_prop_ro(
-            "vertices", [](MeshResult& r) { return rows_of(r.vertices, 3); }, nb::rv_policy::reference_internal,
-            "(V, 3) float64, lifted by the camera.")
+        .def_prop_ro("faces", array_of(&MeshResult::faces, 3), nb::rv_policy::reference_internal,
+                     "(F, 3) int32, counter-clockwise.")
+        .def_prop_ro("pixels", array_of(&MeshResult::pixels, 2), nb::rv_policy::reference_internal,
+                     "(V, 2) int32: each vertex's (row, col).")
+        .def_prop_ro("vertices", array_of(&MeshResult::vertices, 3), nb::rv_policy::reference_internal,
+                     "(V, 3) float64, lifted by the camera.")
         .def_prop_ro(
             "vertex_count", [](const MeshResult& r) { return r.pixels.size() / 2; }, "Vertices of the mesh.")
         .def_ro("edges", &MeshResult::edges, "Distinct edges of the faces.")

@@ -89,4 +89,18 @@ nb::ndarray<nb::numpy, T> rows_of(std::vector<T>& v, std::size_t cols) {
     return nb::ndarray<nb::numpy, T>(v.data(), 2, shape, nb::handle());
 }
 
+// A property's getter of a vector member of C as a NumPy view, (n) or (n / cols, cols): bind it
+// with nb::rv_policy::reference_internal, so that the Python object keeps the vector alive.
+template <class C, class V>
+auto array_of(V C::* member, std::size_t cols = 0) {
+    return [member, cols](C& owner) { return cols == 0 ? view_of(owner.*member) : rows_of(owner.*member, cols); };
+}
+
+// A property's getter of a member by value, an array (or an optional one) the result holds: bind
+// it with nb::rv_policy::move.
+template <class C, class V>
+auto value_of(V C::* member) {
+    return [member](const C& owner) { return owner.*member; };
+}
+
 }  // namespace rangemesh::bind

@@ -70,41 +70,40 @@ struct FlipReport {
     std::vector<index_t> log;       // (n, 3): endpoints (smaller first), verdict
 };
 
+// The disparity tests' angles: properties of FlipSettings, fields of its `tests`.
+struct TestAngle {
+    const char* name;
+    double paper::DisparityTests::* field;
+    const char* doc;
+};
+constexpr TestAngle TEST_ANGLES[] = {
+    {"delta", &paper::DisparityTests::delta, "The largest angle between a span and a triangle that is smooth."},
+    {"epsilon", &paper::DisparityTests::epsilon, "T2: the least significant change of disparity."},
+    {"max_angle", &paper::DisparityTests::max_angle, "T3: an internal angle above this makes a triangle degenerate."},
+    {"min_bend", &paper::DisparityTests::min_bend, "T4: the least noticeable bend between the new triangles."}};
+
 void bind_flip_classes(nb::module_& m) {
-    nb::class_<FlipOptions>(m, "FlipSettings",
-                            "The settings of the paper's flip stage (``flip_loop``, ``disparity_verdict``); "
-                            "rangemesh/paper/flipping.py fills them from MeshParams. Angles in radians.")
-        .def(nb::init<>())
+    nb::class_<FlipOptions> settings(m, "FlipSettings",
+                                     "The settings of the paper's flip stage (``flip_loop``, ``disparity_verdict``); "
+                                     "rangemesh/paper/flipping.py fills them from MeshParams. Angles in radians.");
+    settings.def(nb::init<>())
         .def("__copy__", [](const FlipOptions& o) { return FlipOptions(o); })
-        .def_rw("rule", &FlipOptions::rule, "The flip rule, one of FLIP_RULES' values.")
-        .def_prop_rw(
-            "delta", [](const FlipOptions& o) { return o.tests.delta; },
-            [](FlipOptions& o, double v) { o.tests.delta = v; },
-            "The largest angle between a span and a triangle that is smooth.")
-        .def_prop_rw(
-            "epsilon", [](const FlipOptions& o) { return o.tests.epsilon; },
-            [](FlipOptions& o, double v) { o.tests.epsilon = v; }, "T2: the least significant change of disparity.")
-        .def_prop_rw(
-            "max_angle", [](const FlipOptions& o) { return o.tests.max_angle; },
-            [](FlipOptions& o, double v) { o.tests.max_angle = v; },
-            "T3: an internal angle above this makes a triangle degenerate.")
-        .def_prop_rw(
-            "min_bend", [](const FlipOptions& o) { return o.tests.min_bend; },
-            [](FlipOptions& o, double v) { o.tests.min_bend = v; },
-            "T4: the least noticeable bend between the new triangles.")
-        .def_rw("threshold", &FlipOptions::threshold, "Gains below this are not worth a decision (-inf: none).")
+        .def_rw("rule", &FlipOptions::rule, "The flip rule, one of FLIP_RULES' values.");
+    for (const TestAngle& a : TEST_ANGLES)
+        settings.def_prop_rw(
+            a.name, [field = a.field](const FlipOptions& o) { return o.tests.*field; },
+            [field = a.field](FlipOptions& o, double v) { o.tests.*field = v; }, a.doc);
+    settings.def_rw("threshold", &FlipOptions::threshold, "Gains below this are not worth a decision (-inf: none).")
         .def_rw("quantum", &FlipOptions::quantum, "Gains are rounded to multiples of this power of two.")
         .def_rw("max_edge2", &FlipOptions::max_edge2, "The squared bound on a new edge's image length (inf: none).")
         .def_rw("log_size", &FlipOptions::log_size, "The first decisions logged (0 to 2^24; 0: none).");
     nb::class_<FlipReport>(m, "FlipReport", "What ``flip_loop`` did; arrays are views this object keeps alive.")
         .def_ro("flips", &FlipReport::flips, "Edges flipped.")
-        .def_prop_ro(
-            "verdicts", [](FlipReport& r) { return view_of(r.verdicts); }, nb::rv_policy::reference_internal,
-            "(8,) int64: how often each verdict (FLIP_VERDICTS) was given.")
-        .def_prop_ro(
-            "log", [](FlipReport& r) { return rows_of(r.log, 3); }, nb::rv_policy::reference_internal,
-            "(n, 3) int64: the first decisions, n at most settings.log_size: endpoints (smaller first), "
-            "verdict.");
+        .def_prop_ro("verdicts", array_of(&FlipReport::verdicts), nb::rv_policy::reference_internal,
+                     "(8,) int64: how often each verdict (FLIP_VERDICTS) was given.")
+        .def_prop_ro("log", array_of(&FlipReport::log, 3), nb::rv_policy::reference_internal,
+                     "(n, 3) int64: the first decisions, n at most settings.log_size: endpoints (smaller first), "
+                     "verdict.");
 }
 
 }  // namespace

@@ -92,11 +92,6 @@ FirstMesh first_of(const FirstArrays& a) {
                      span(std::get<4>(a))};
 }
 
-template <class T, class V>
-auto array_of(V member) {
-    return [member](T& owner) { return view_of(owner.*member); };
-}
-
 }  // namespace
 
 void bind_refine(nb::module_& m) {

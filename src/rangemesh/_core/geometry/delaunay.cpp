@@ -37,6 +37,23 @@ struct Circle {
     double radius2() const { return dr * dr + dc * dc; }
 };
 
+// The id in [0, n) whose key(i) is smallest, ties to the smaller id; `none` when no key is
+// below infinity (a key of infinity leaves a point out).
+template <class Key>
+index_t smallest(index_t n, index_t none, Key key) {
+    index_t out = none;
+    double best = INFINITY;
+    for (index_t i = 0; i < n; ++i) {
+        poll_every(i);
+        const double d = key(i);
+        if (d < best) {
+            best = d;
+            out = i;
+        }
+    }
+    return out;
+}
+
 // i0 nearest the bounding box's centre, i1 nearest i0, i2 making the smallest circumcircle
 // with them; ties to the smaller id.
 Seed sweep_seed(const PointSet& pts, const std::vector<double>& fr, const std::vector<double>& fc) {
@@ -52,36 +69,15 @@ Seed sweep_seed(const PointSet& pts, const std::vector<double>& fr, const std::v
         hi_c = std::max(hi_c, fc[i]);
     }
     const double mr = 0.5 * (lo_r + hi_r), mc = 0.5 * (lo_c + hi_c);
-    s.i0 = 0;
-    double best = INFINITY;
-    for (index_t i = 0; i < n; ++i) {
-        poll_every(i);
-        const double d = sq(fr[i] - mr) + sq(fc[i] - mc);
-        if (d < best) {
-            best = d;
-            s.i0 = i;
-        }
-    }
-    best = INFINITY;
-    for (index_t i = 0; i < n; ++i) {
-        poll_every(i);
-        if (i == s.i0) continue;
-        const double d = sq(fr[i] - fr[s.i0]) + sq(fc[i] - fc[s.i0]);
-        if (d < best) {
-            best = d;
-            s.i1 = i;
-        }
-    }
-    best = INFINITY;
-    for (index_t i = 0; i < n; ++i) {
-        poll_every(i);
-        if (i == s.i0 || i == s.i1 || pts.orient(s.i0, s.i1, i) == 0) continue;
-        const double rr = Circle(fr, fc, s.i0, s.i1, i).radius2();
-        if (rr < best) {
-            best = rr;
-            s.i2 = i;
-        }
-    }
+    s.i0 = smallest(n, 0, [&](index_t i) { return sq(fr[i] - mr) + sq(fc[i] - mc); });
+    s.i1 = smallest(n, -1, [&](index_t i) -> double {
+        if (i == s.i0) return INFINITY;
+        return sq(fr[i] - fr[s.i0]) + sq(fc[i] - fc[s.i0]);
+    });
+    s.i2 = smallest(n, -1, [&](index_t i) -> double {
+        if (i == s.i0 || i == s.i1 || pts.orient(s.i0, s.i1, i) == 0) return INFINITY;
+        return Circle(fr, fc, s.i0, s.i1, i).radius2();
+    });
     if (s.i2 == -1) return s;  // all collinear
     if (pts.orient(s.i0, s.i1, s.i2) < 0) std::swap(s.i1, s.i2);
     const Circle centre(fr, fc, s.i0, s.i1, s.i2);

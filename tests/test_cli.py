@@ -439,6 +439,20 @@ def test_rangemesh_alone_prints_the_usage_and_exits_2(capsys):
     assert p.returncode == 2 and p.stdout == "" and p.stderr.startswith("usage: rangemesh ")
 
 
+def test_rangemesh_alone_names_every_command_in_the_order_help_lists_them(capsys):
+    # issue 43: the message was a third hand-kept list ("batch, live, info or eval" against -h's
+    # "batch, info, eval, live"); it is written from the one tuple of command declarations now
+    from rangemesh.cli import build_parser
+
+    with pytest.raises(SystemExit):
+        main([])
+    error = capsys.readouterr().err.strip().splitlines()[-1]
+    assert error == ("rangemesh: error: give a command: mesh, demo, batch, info, eval or live "
+                     "(rangemesh -h says more)")
+    sub = next(a for a in build_parser()._actions if a.dest == "command")
+    assert list(sub.choices) == ["mesh", "demo", "batch", "info", "eval", "live"]
+
+
 def test_quiet_mesh_imports_no_progress_bar(tmp_path):
     # issue 41: tqdm was imported (and a disabled bar built) even with --quiet
     src = tmp_path / "chair.npy"

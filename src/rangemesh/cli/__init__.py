@@ -4,9 +4,11 @@ User errors print one line on stderr (``rangemesh: error: ...``) and exit
 with status 2; no traceback. Outputs are written atomically.
 
 One module a command (``mesh``, ``demo``, ``batch``, ``info``, ``eval``,
-``live``: its flags in ``add_parser``, its work in ``_cmd_<name>``); the flags
-they share in `rangemesh.cli.options`, the rest they share in
-`rangemesh.cli.common`.
+``live``), which declares it once: its ``NAME``, its line in ``rangemesh -h``
+(``HELP``), the top of its own ``-h`` (``DESCRIPTION``), its flags
+(``add_arguments(parser)``) and its work (``handle(args)``, the exit status).
+`COMMANDS` lists them once; the flags they share are in
+`rangemesh.cli.options`, the rest they share in `rangemesh.cli.common`.
 """
 
 from __future__ import annotations
@@ -25,6 +27,8 @@ from .options import _Parser
 
 __all__ = ["main", "build_parser", "Terminated", "UserError"]
 
+COMMANDS = (mesh, demo, batch, info, eval_, live)  # the order `rangemesh -h` lists them
+
 
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of the ``rangemesh`` command."""
@@ -35,8 +39,9 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--version", action="version", version=f"rangemesh {__version__}")
     sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
-    for command in (mesh, demo, batch, info, eval_, live):  # the order `rangemesh -h` lists them
-        command.add_parser(sub)
+    for command in COMMANDS:  # argparse refills the text: DESCRIPTION's line breaks do not show
+        command.add_arguments(sub.add_parser(command.NAME, help=command.HELP,
+                                             description=command.DESCRIPTION))
     return p
 
 
@@ -53,14 +58,14 @@ def main(argv=None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     if not argv:  # `rangemesh` alone: the usage, then argparse's missing-command error (status 2)
         parser.print_usage(sys.stderr)
-        parser.error("give a command: mesh, demo, batch, live, info or eval (rangemesh -h says more)")
+        *others, last = (command.NAME for command in COMMANDS)
+        parser.error(f"give a command: {', '.join(others)} or {last} (rangemesh -h says more)")
     args = parser.parse_args(argv)
-    commands = {"mesh": mesh._cmd_mesh, "demo": demo._cmd_demo, "info": info._cmd_info,
-                "eval": eval_._cmd_eval, "batch": batch._cmd_batch, "live": live._cmd_live}
+    handle = next(command.handle for command in COMMANDS if command.NAME == args.command)
     clock = timed()
     try:
         with _signals_raise():
-            return commands[args.command](args)
+            return handle(args)
     except BrokenPipeError:  # the reader went away (`rangemesh ... --json | head`): stop quietly
         sys.stdout = open(os.devnull, "w")  # noqa: SIM115 - Python flushes stdout at exit
         return 128 + 13  # SIGPIPE's status, as a shell reports a killed writer

@@ -23,7 +23,8 @@ from .options import _add_image_options, _add_mesh_options, _add_output_options,
 from .ouster import add_ouster_options, check_no_camera
 
 
-def _cmd_batch(args):
+def handle(args):
+    """`rangemesh batch INPUTS -o DIR`: every input meshed into DIR; 1 when some failed."""
     from ..batch import mesh_many, summarize
 
     params, method, _ = _resolve(args)
@@ -200,13 +201,17 @@ def _mesh_recording(args, path, params, method):
     return results, report
 
 
-def add_parser(sub) -> None:
+NAME = "batch"
+HELP = "mesh many images (files, folders, globs) in parallel"
+DESCRIPTION = """\
+Mesh many range images into a folder, in parallel through Dask: a local cluster of worker
+processes, or an existing cluster (--scheduler). Bad files are reported and the rest go on;
+outputs already there are skipped unless --overwrite.
+"""
+
+
+def add_arguments(b) -> None:
     """The ``batch`` subcommand's flags."""
-    b = sub.add_parser("batch", help="mesh many images (files, folders, globs) in parallel",
-                       description="Mesh many range images into a folder, in parallel through Dask: "
-                                   "a local cluster of worker processes, or an existing cluster "
-                                   "(--scheduler). Bad files are reported and the rest go on; "
-                                   "outputs already there are skipped unless --overwrite.")
     b.add_argument("inputs", nargs="*", help="image files, folders or quoted glob patterns "
                                              "(LiDAR .bin scans with --beams); or one ROS "
                                              "recording (.bag, .db3, .mcap, ROS 2 bag folder) "

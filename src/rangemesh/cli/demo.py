@@ -12,7 +12,8 @@ from .mesh import _run_mesh
 from .options import _add_mesh_options, _add_output_options, _add_overwrite_option, _add_ply_options
 
 
-def _cmd_demo(args):
+def handle(args):
+    """`rangemesh demo`: the built-in scene meshed, with its preview picture."""
     for opt, name, option in (("output", "demo.ply", "-o FILE"),
                               ("preview", "demo-preview.png", "--preview FILE")):
         if getattr(args, opt) is None:
@@ -27,11 +28,13 @@ def _cmd_demo(args):
     return _run_mesh(args, depth, "demo scene", None, (args.output, args.preview))
 
 
-def add_parser(sub) -> None:
+NAME = "demo"
+HELP = "mesh a built-in synthetic scene (no input needed)"
+DESCRIPTION = "Mesh a built-in scene (a box and a pyramid) and write the mesh and a preview picture."
+
+
+def add_arguments(d) -> None:
     """The ``demo`` subcommand's flags."""
-    d = sub.add_parser("demo", help="mesh a built-in synthetic scene (no input needed)",
-                       description="Mesh a built-in scene (a box and a pyramid) and write the "
-                                   "mesh and a preview picture.")
     d.add_argument("-o", "--output", default=None, help="mesh file (default demo.ply)")
     d.add_argument("--preview", default=None, help="PNG picture (default demo-preview.png)")
     _add_ply_options(d)

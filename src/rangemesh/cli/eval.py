@@ -18,7 +18,8 @@ from .common import (
 from .options import _add_camera_options, _add_cleanup_options, _add_image_options
 
 
-def _cmd_eval(args):
+def handle(args):
+    """`rangemesh eval IMAGE MESH`: the mesh's errors against the image."""
     image = _read_scan(args)  # an image file, or a LiDAR .bin with --beams, as `mesh` reads
     given = any(x is not None for x in (args.scale, args.intrinsics, args.depth_scale, args.beams,
                                          args.camera, args.sensor))
@@ -45,14 +46,17 @@ def _cmd_eval(args):
     return 0
 
 
-def add_parser(sub) -> None:
+NAME = "eval"
+HELP = "the paper's relative error of any mesh file"
+DESCRIPTION = """\
+Compare a mesh file with its range image: relative error (mean |depth - mesh| / depth range),
+RMS, max, edge band, uncovered share. PLY files written by rangemesh record their camera; for
+other files give the camera the mesh was made with.
+"""
+
+
+def add_arguments(e) -> None:
     """The ``eval`` subcommand's flags."""
-    e = sub.add_parser("eval", help="the paper's relative error of any mesh file",
-                       description="Compare a mesh file with its range image: relative error "
-                                   "(mean |depth - mesh| / depth range), RMS, max, edge band, "
-                                   "uncovered share. PLY files written by rangemesh record "
-                                   "their camera; for other files give the camera the mesh was "
-                                   "made with.")
     e.add_argument("image")
     e.add_argument("mesh", help=f"mesh file ({' '.join(MESH_SUFFIXES)})")
     _add_image_options(e)

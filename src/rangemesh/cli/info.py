@@ -15,7 +15,8 @@ from .options import _add_camera_options, _add_cleanup_options, _add_image_optio
 from .ouster import add_ouster_options, info_ouster, is_ouster_input
 
 
-def _cmd_info(args):
+def handle(args):
+    """`rangemesh info FILE`: what the image, cloud or recording holds."""
     from ..recordings import is_recording
 
     if is_ouster_input(args, args.image):
@@ -200,13 +201,17 @@ def _info_recording(args):
     return 0
 
 
-def add_parser(sub) -> None:
+NAME = "info"
+HELP = "describe a range image or a recording's depth topics"
+DESCRIPTION = """\
+Size, dtype, valid share, depth range and what marks missing depth; for a ROS recording its
+depth topics with size, encoding, count and camera; for an Ouster recording the sensor, its
+scans and one scan's valid pixels.
+"""
+
+
+def add_arguments(i) -> None:
     """The ``info`` subcommand's flags."""
-    i = sub.add_parser("info", help="describe a range image or a recording's depth topics",
-                       description="Size, dtype, valid share, depth range and what marks "
-                                   "missing depth; for a ROS recording its depth topics with "
-                                   "size, encoding, count and camera; for an Ouster recording "
-                                   "the sensor, its scans and one scan's valid pixels.")
     i.add_argument("image")
     add_ouster_options(i)
     _add_image_options(i)

@@ -10,7 +10,7 @@ from .common import UserError, _one_line
 from .options import _add_mesh_options, _resolve
 
 
-def _cmd_live(args):
+def handle(args):
     """`rangemesh live SOURCE`: meshes as the sensor (or a paced recording) gives frames."""
     from ..live import run
     from ..live.session import check_apart
@@ -42,13 +42,17 @@ def _cmd_live(args):
     return 0
 
 
-def add_parser(sub) -> None:
+NAME = "live"
+HELP = "mesh a depth camera, a LiDAR or a paced recording as it runs"
+DESCRIPTION = """\
+Mesh frames as a sensor gives them (a RealSense, an Ouster) or as a recording plays; publish
+each mesh to a Foxglove server, an MCAP file or a folder. When meshing falls behind, the newest
+frame wins. Ctrl-C ends the run.
+"""
+
+
+def add_arguments(lv) -> None:
     """The ``live`` subcommand's flags."""
-    lv = sub.add_parser("live", help="mesh a depth camera, a LiDAR or a paced recording as it runs",
-                        description="Mesh frames as a sensor gives them (a RealSense, an Ouster) "
-                                    "or as a recording plays; publish each mesh to a Foxglove "
-                                    "server, an MCAP file or a folder. When meshing falls "
-                                    "behind, the newest frame wins. Ctrl-C ends the run.")
     lv.add_argument("source", help="realsense or realsense:SERIAL (a camera), a RealSense .bag, an "
                                    "Ouster .pcap/.osf (with --meta) or hostname, or a ROS "
                                    "recording (.bag, .db3, .mcap)")

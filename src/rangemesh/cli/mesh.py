@@ -174,17 +174,21 @@ def _default_output(args) -> None:
     args.output_defaulted = True
 
 
-def _cmd_mesh(args):
+def handle(args):
+    """`rangemesh mesh IMAGE`: the image meshed into one file, its figures on stderr."""
     _default_output(args)
     _check_outputs(args, [a for a in (args.image, args.color, args.intensity) if a])
     image = _read_scan(args)
     return _run_mesh(args, image, args.image, args.background, (args.output, args.preview))
 
 
-def add_parser(sub) -> None:
+NAME = "mesh"
+HELP = "mesh one range image"
+DESCRIPTION = "Mesh one range image; print the figures on stderr."
+
+
+def add_arguments(m) -> None:
     """The ``mesh`` subcommand's flags."""
-    m = sub.add_parser("mesh", help="mesh one range image",
-                       description="Mesh one range image; print the figures on stderr.")
     m.add_argument("image", help=f"range image ({' '.join(IMAGE_SUFFIXES)}), a KITTI-style "
                                  f"LiDAR .bin with --beams or --sensor, or an Ouster .pcap/.osf "
                                  f"with --meta (one scan: --frame)")

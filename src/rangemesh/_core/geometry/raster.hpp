@@ -127,7 +127,8 @@ struct TriangleRows {
 // (running up, s < 0), both at the row of the corner where two edges of a side meet, and an
 // edge along a row only on its own row. A triangle is convex, so the edges TriangleRows also
 // clips by bound no row more tightly, and the spans are the same; each row costs two edge steps
-// instead of three steps and three clips.
+// instead of three steps and three clips. Only for a counter-clockwise triangle of area > 0
+// (each side then has an edge, and every span lies within the bounding box).
 class TriangleSpans {
   public:
     TriangleSpans(index_t ar, index_t ac, index_t br, index_t bc, index_t cr, index_t cc, bool own_ab, bool own_bc,

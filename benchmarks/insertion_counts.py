@@ -165,7 +165,7 @@ def _inclusive(path):
                          capture_output=True, text=True)
     got = {}
     for line in res.stdout.splitlines():
-        m = re.match(r"\s*([\d,]+) \([^)]*\)\s+\S+:(.*)", line)
+        m = re.match(r"\s*([\d,]+) \([^)]*\)\s+(.*)", line)
         if not m:
             continue
         for f in FUNCTIONS:
@@ -176,7 +176,8 @@ def _inclusive(path):
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--data", type=Path, default=Path(os.environ.get("RANGEMESH_DATA", HERE.parent.parent / "shared/data")))
+    data = os.environ.get("RANGEMESH_DATA", HERE.parent.parent / "shared/data")
+    ap.add_argument("--data", type=Path, default=Path(data))
     ap.add_argument("--ext", help="the rangemesh extension to load (a build with symbols)")
     ap.add_argument("--cache", type=Path, default=Path(tempfile.gettempdir()) / "insertion_counts_cases.json")
     ap.add_argument("--which", choices=["ours", "theirs", "both"], default="both")
@@ -195,11 +196,13 @@ def main(argv=None):
     if args.only:
         cases = [c for c in cases if args.only in f"{c['name']} {c['frac']}"]
     counts = {w: count(w, args.data, cases, args.ext, args.functions, args.keep) for w in whiches}
-    print(f"{'frame':5s} {'budget':>6s} {'vertices':>8s} " + " ".join(f"{w + ' Minstr':>14s}" for w in whiches)
+    head = " ".join(f"{w + ' Minstr':>14s}" for w in whiches)
+    print(f"{'frame':5s} {'budget':>6s} {'vertices':>8s} " + head
           + ("  ours/theirs" if len(whiches) == 2 else ""))
     for i, c in enumerate(cases):
         vals = [counts[w][i]["total"] for w in whiches]
-        line = f"{c['name']:5s} {c['frac']:6.0%} {c['n_mine']:8d} " + " ".join(f"{v / 1e6:14.2f}" for v in vals)
+        line = f"{c['name']:5s} {c['frac']:6.0%} {c['n_mine']:8d} " + " ".join(f"{v / 1e6:14.2f}"
+                                                                                for v in vals)
         if len(whiches) == 2:
             line += f"  {vals[0] / vals[1]:11.3f}"
         print(line)

@@ -103,7 +103,7 @@ def test_span_walk_by_hand():
         return {r: list(range(lo, hi + 1))
                 for r, lo, hi, *_ in _core._triangle_rows(np.array([a, b, c]), owns, spans=True).tolist()}
 
-    assert cols((0, 0), (4, 0), (0, 4), (True, True, False)) == {r: list(range(0, 5 - r)) for r in range(1, 5)}
+    assert cols((0, 0), (4, 0), (0, 4), (True, True, False)) == {r: list(range(5 - r)) for r in range(1, 5)}
     assert cols((0, 2), (4, 0), (4, 4), (True, True, True)) == {0: [2], 1: [2], 2: [1, 2, 3], 3: [1, 2, 3],
                                                                4: [0, 1, 2, 3, 4]}
     assert cols((0, 2), (4, 0), (4, 4), (True, False, True)) == {0: [2], 1: [2], 2: [1, 2, 3], 3: [1, 2, 3]}

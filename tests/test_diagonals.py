@@ -60,6 +60,22 @@ def test_triangle_error_is_the_sum_over_its_pixels(seed, coords, own):
     assert got == pytest.approx(_brute_sum((a, b, c), z, own, depth, valid), rel=1e-9, abs=1e-9)
 
 
+@given(st.lists(st.integers(0, 11), min_size=6, max_size=6))
+def test_triangle_error_of_a_clockwise_triangle_is_zero(coords):
+    # A raw call may pass a triangle turned the wrong way: its three edge functions sum to its
+    # (negative) doubled area at every pixel, so none is >= 0 on all three and no pixel is its own.
+    a, b, c = (coords[0], coords[1]), (coords[2], coords[3]), (coords[4], coords[5])
+    area = _orient(np.array(a), np.array(b), np.array(c))
+    if area == 0:
+        return
+    if area > 0:
+        b, c = c, b
+    depth = np.ones((12, 12))
+    valid = np.ones((12, 12), bool)
+    assert triangle_error((a[0], b[0], c[0]), (a[1], b[1], c[1]), (0.0, 0.0, 0.0), depth, valid,
+                          ErrorScan(True, True, True)) == 0.0
+
+
 def test_triangle_error_stops_once_the_key_is_reached():
     """With a `stop` key the sum is left after the first row that reaches it, by hand.
 

@@ -69,6 +69,48 @@ def test_walked_row_spans_hold_exactly_the_pixels_inside(pts, owns):
 
 
 @given(st.lists(st.tuples(coord, coord), min_size=3, max_size=3, unique=True),
+       st.tuples(st.booleans(), st.booleans(), st.booleans()))
+def test_span_walk_holds_exactly_the_pixels_inside(pts, owns):
+    # refine's scans walk each row by one edge a side (`TriangleSpans`); against the same
+    # independent reference as the row walk: every pixel of the bounding box tested by its
+    # three edge functions (w > 0, or w == 0 on an edge whose pixels the triangle owns).
+    a, b, c = pts
+    if orient(*a, *b, *c) == 0:
+        return
+    if orient(*a, *b, *c) < 0:
+        b, c = c, b
+
+    def inside(r, col):
+        return all(orient(*p, *q, r, col) > 0 or (orient(*p, *q, r, col) == 0 and own)
+                   for (p, q), own in zip(((a, b), (b, c), (c, a)), owns, strict=True))
+
+    got = _core._triangle_rows(np.array([a, b, c]), owns, spans=True).tolist()
+    want = {}
+    for r in range(0, 41):
+        cols = [col for col in range(0, 41) if inside(r, col)]
+        if cols:
+            want[r] = cols
+    assert [r for r, *_ in got] == sorted(want)
+    for r, lo, hi, w0, w1, w2 in got:
+        assert list(range(lo, hi + 1)) == want[r]
+        assert (w0, w1, w2) == tuple(orient(*p, *q, r, lo) for p, q in ((a, b), (b, c), (c, a)))
+
+
+def test_span_walk_by_hand():
+    # (0,0) (4,0) (0,4) as in test_walked_row_spans_by_hand, and (0,2) (4,0) (4,4) (row 4 along
+    # B -> C): a row along an edge the triangle does not own holds none of its pixels.
+    def cols(a, b, c, owns):
+        return {r: list(range(lo, hi + 1))
+                for r, lo, hi, *_ in _core._triangle_rows(np.array([a, b, c]), owns, spans=True).tolist()}
+
+    assert cols((0, 0), (4, 0), (0, 4), (True, True, False)) == {r: list(range(5 - r)) for r in range(1, 5)}
+    assert cols((0, 2), (4, 0), (4, 4), (True, True, True)) == {0: [2], 1: [2], 2: [1, 2, 3], 3: [1, 2, 3],
+                                                               4: [0, 1, 2, 3, 4]}
+    assert cols((0, 2), (4, 0), (4, 4), (True, False, True)) == {0: [2], 1: [2], 2: [1, 2, 3], 3: [1, 2, 3]}
+    assert cols((0, 2), (4, 0), (4, 4), (False, True, False)) == {1: [2], 2: [2], 3: [1, 2, 3], 4: [1, 2, 3]}
+
+
+@given(st.lists(st.tuples(coord, coord), min_size=3, max_size=3, unique=True),
        st.tuples(st.booleans(), st.booleans(), st.booleans()), st.integers(1, 5), st.integers(0, 4))
 def test_a_walk_by_steps_of_rows_visits_those_rows_of_the_full_walk(pts, owns, step, skip):
     # From any row on, every step-th row: the spans and edge functions of the row-by-row walk

@@ -276,7 +276,7 @@ void bind_geometry_tests(nb::module_& m) {
     // (every `step`-th row from `first` when given, else every row)
     m.def(
         "_triangle_rows",
-        [](In2<index_t> corners, std::array<bool, 3> owns, std::optional<index_t> first, index_t step) {
+        [](In2<index_t> corners, std::array<bool, 3> owns, std::optional<index_t> first, index_t step, bool spans) {
             check_input(corners.shape(0) == 3 && corners.shape(1) == 2, "_triangle_rows: corners are (3, 2)");
             // pixels of an image the predicates take, rows walked from near the triangle: a
             // corner at 2^31 (or a step of 2^62) would walk for ever or overflow
@@ -288,10 +288,23 @@ void bind_geometry_tests(nb::module_& m) {
                 "_triangle_rows: 1 <= step <= EXACT_SPAN, and the first row within EXACT_SPAN of the image");
             const index_t ar = corners(0, 0), ac = corners(0, 1), br = corners(1, 0), bc = corners(1, 1),
                           cr = corners(2, 0), cc = corners(2, 1);
+            std::vector<index_t> out;
+            if (spans) {  // TriangleSpans' walk: its rows that hold pixels, every row from the top
+                check_input(!first && step == 1, "_triangle_rows: spans walk every row (no first, step 1)");
+                check_input(orient(ar, ac, br, bc, cr, cc) > 0,
+                            "_triangle_rows: spans of a counter-clockwise triangle");
+                TriangleSpans(ar, ac, br, bc, cr, cc, owns[0], owns[1], owns[2])
+                    .walk([&](index_t r, index_t lo, index_t hi) {
+                        out.insert(out.end(), {r, lo, hi, orient(ar, ac, br, bc, r, lo), orient(br, bc, cr, cc, r, lo),
+                                               orient(cr, cc, ar, ac, r, lo)});
+                        return true;
+                    });
+                const std::size_t n = out.size() / 6;
+                return to_numpy(std::move(out), n, 6);
+            }
             const TriangleRows top(ar, ac, br, bc, cr, cc);
             const index_t r0 = first.value_or(top.r0);
             TriangleRows rows = first ? TriangleRows(ar, ac, br, bc, cr, cc, r0, step) : top;
-            std::vector<index_t> out;
             for (index_t r = r0; r <= rows.r1; r += first ? step : 1) {
                 if (r > r0) rows.next_row();
                 const RowSpan s = rows.columns(owns[0], owns[1], owns[2]);
@@ -301,9 +314,11 @@ void bind_geometry_tests(nb::module_& m) {
             return to_numpy(std::move(out), n, 6);
         },
         nb::arg("corners"), nb::arg("owns"), nb::arg("first") = nb::none(), nb::arg("step") = 1,
+        nb::arg("spans") = false,
         "The row spans of triangle ``corners`` (A, B, C as (row, col), counter-clockwise), ``owns`` its edges "
         "AB, BC, CA: an (n, 6) int64 array, a row each: row, first and last column, and the edge functions "
-        "w0, w1, w2 at the first column.");
+        "w0, w1, w2 at the first column. With ``spans`` the rows that hold pixels as ``TriangleSpans`` walks "
+        "them (refine's scans).");
 }
 
 }  // namespace rangemesh::bind

@@ -346,25 +346,30 @@ void Insertion::advance(const Stop& stop) {
         // ... and so does every triangle the flips made, when each triangle they replaced
         // fitted exactly and every corner lies on the split triangle's plane
         const bool flat = split_fit && flat_cavity(t, old_t, plane);
-        // new triangles join the heap, last: no key is below -1, and ties go to the smaller id
-        const QuadHeapView h = heap();
-        for (index_t s = old_t; s < n_t_; ++s) {
-            keyed_[s].key = -1.0;
-            keyed_[s].sum = 0.0;
-            h.push(s, -1.0, n_heap_);
-        }
-        for (const index_t s : changed_) prefetch_pixels(s);
+        // new triangles join the heap once keyed below (its order is strict, so when an entry
+        // joins does not change what it pops); their sums start at 0 for the running total
+        for (index_t s = old_t; s < n_t_; ++s) keyed_[s].sum = 0.0;
+        // each changed triangle once, in the order the scans add to the running total: the
+        // flipped triangles (listed after the three) first after an exact split, whose
+        // children are keyed without a scan unless a flip changed them
         const index_t n_changed = static_cast<index_t>(changed_.size());
+        once_.clear();
         for (index_t j = 0; j < n_changed; ++j) {
-            // children of an exact split are keyed without a scan unless a flip changed them:
-            // the flipped triangles (listed after the three) are visited first
             const index_t i = split_fit ? n_changed - 1 - j : j;
+            if (!visited_before(i, split_fit)) once_.push_back(i);  // changed twice: one scan is enough
+        }
+        for (const index_t i : once_) prefetch_pixels(changed_[i]);
+        const QuadHeapView h = heap();
+        for (const index_t i : once_) {
             const index_t s = changed_[i];
-            if (visited_before(i, split_fit)) continue;  // changed twice in this step: one scan is enough
             TriangleKey k;
             if (!((flat || (split_fit && i < 3)) && fit_child(s, k))) k = scan(s);
             total_ += k.sum - keyed_[s].sum;
-            rekey(s, k);
+            keyed_[s] = k;
+            if (s >= old_t)
+                h.push(s, k.key, n_heap_);
+            else
+                h.rekey(s, k.key, n_heap_);
         }
     }
 }

@@ -127,6 +127,7 @@ class alignas(64) Insertion {
     index_t hint_ = 0;  // where `locate` starts walking: the last triangle it found
     // per step: the triangles it changed (with repeats), the flips still to test
     std::vector<index_t> changed_, stack_;
+    std::vector<index_t> once_;  // the positions in `changed_` of its distinct triangles, in scan order
 };
 
 }  // namespace rangemesh::refine

@@ -35,12 +35,34 @@ void plane_errors(const Image& image, const Point& a, const Point& b, const Poin
     const double f0 = static_cast<double>(b.r - a.r);
     const double f1 = static_cast<double>(c.r - b.r);
     const double f2 = static_cast<double>(a.r - c.r);
-    TriangleRows rows(a.r, a.c, b.r, b.c, c.r, c.c);
-    owned_rows(rows, own, [&](index_t r, const RowSpan& span) {
+    if (area <= 0) {  // (a raw call's triangle turned the wrong way or flat: the walk that clips by all edges)
+        TriangleRows rows(a.r, a.c, b.r, b.c, c.r, c.c);
+        owned_rows(rows, own, [&](index_t r, const RowSpan& span) {
+            const double* drow = image.depth.row(r);
+            const bool* vrow = image.valid.row(r);
+            double w0 = static_cast<double>(span.w0), w1 = static_cast<double>(span.w1),
+                   w2 = static_cast<double>(span.w2);
+            for (index_t col = span.first; col <= span.last; ++col) {
+                if (vrow[col]) visit(r, col, std::abs(drow[col] - (w1 * az + w2 * bz + w0 * cz) * inv));
+                w0 += f0;
+                w1 += f1;
+                w2 += f2;
+            }
+            return row_done();
+        });
+        return;
+    }
+    // the edge functions at (r, col): w = s col - t r + k for edge P -> Q (s = qr - pr, t = qc - pc)
+    const index_t s0 = b.r - a.r, t0 = b.c - a.c, s1 = c.r - b.r, t1 = c.c - b.c, s2 = a.r - c.r, t2 = a.c - c.c;
+    const index_t k0 = t0 * a.r - s0 * a.c, k1 = t1 * b.r - s1 * b.c, k2 = t2 * c.r - s2 * c.c;
+    TriangleSpans spans(a.r, a.c, b.r, b.c, c.r, c.c, own.ab, own.bc, own.ca);
+    spans.walk([&](index_t r, index_t first, index_t last) {
         const double* drow = image.depth.row(r);
         const bool* vrow = image.valid.row(r);
-        double w0 = static_cast<double>(span.w0), w1 = static_cast<double>(span.w1), w2 = static_cast<double>(span.w2);
-        for (index_t col = span.first; col <= span.last; ++col) {
+        double w0 = static_cast<double>(s0 * first - t0 * r + k0);
+        double w1 = static_cast<double>(s1 * first - t1 * r + k1);
+        double w2 = static_cast<double>(s2 * first - t2 * r + k2);
+        for (index_t col = first; col <= last; ++col) {
             if (vrow[col]) visit(r, col, std::abs(drow[col] - (w1 * az + w2 * bz + w0 * cz) * inv));
             w0 += f0;
             w1 += f1;

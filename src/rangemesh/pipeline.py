@@ -206,7 +206,10 @@ def run(image, params: MeshParams, *, background="auto", camera=None, vertices=N
     depth, valid = _prepare_checked(image, params, background, workspace, (method, budget),
                                     camera=camera, cleaned=cleaned)
     check_shape(camera, depth.shape)
-    lo, hi, n_valid = valid_range(depth, valid)
+    # (by name: unpacking the DepthRange ends in an IndexError its binding throws, ~15K
+    # instructions a call)
+    span = valid_range(depth, valid)
+    lo, hi, n_valid = span.lo, span.hi, span.count
     if n_valid and lo <= 0.0 <= hi and isinstance(camera, Orthographic):  # (else: no zero)
         warn_zero_marker(depth, valid)
     if n_valid:

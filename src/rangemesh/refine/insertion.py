@@ -233,7 +233,9 @@ def greedy_mesh(depth: np.ndarray, valid: np.ndarray, camera, *, vertices: int |
     if h < 2 or w < 2:
         raise ValueError(f"greedy insertion needs an image of at least 2x2 pixels, got {h}x{w}")
     ref = (depth, valid) if reference is None else reference
-    extent = valid_range(depth, valid) if extent is None else extent
+    if extent is None:
+        span = valid_range(depth, valid)
+        extent = (span.lo, span.hi, span.count)
     exponent = depth_exponent(extent[0], extent[1])
     if exponent:  # exact: the mesh of depth * 2**k is the same for every k
         depth = np.ldexp(depth, -exponent)

@@ -127,8 +127,8 @@ def _prepare_checked(arr, params: MeshParams, background, workspace, need=("pape
     """
     if workspace is None:
         memory.check_memory(arr.shape, *need)
-        depth = np.zeros(arr.shape, np.float64)
-        valid = np.zeros(arr.shape, np.bool_)
+        depth = np.empty(arr.shape, np.float64)  # (mask_into writes every pixel)
+        valid = np.empty(arr.shape, np.bool_)
     else:
         depth, valid = workspace.depth, workspace.valid
     mask_into(arr, background, depth, valid)
@@ -299,8 +299,7 @@ def run(image, params: MeshParams, *, background="auto", camera=None, vertices=N
         (v, h), (rs, z) = record.tiles, record.samples
         changes["grid_shape"] = ((rs - 1) * v + 1, (z - 1) * h + 1)
     stats = object.__new__(Stats)  # (`with_fields` without its keyword arguments: every call)
-    stats.__dict__.update(mesh.stats.__dict__)
-    stats.__dict__.update(changes)
+    object.__setattr__(stats, "__dict__", {**mesh.stats.__dict__, **changes})
     return with_fields(mesh, stats=stats)
 
 

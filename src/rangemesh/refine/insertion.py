@@ -428,16 +428,16 @@ def _native(depth, valid, camera, ref, extent, exponent, vertices, max_error, ma
     # (from templates, their instance dicts filled directly: the frozen classes' own __init__,
     # and keyword arguments, weigh on a call on a small image)
     stats = object.__new__(Stats)
-    fields = stats.__dict__
-    fields.update(_NATIVE_STATS.__dict__)
+    fields = _NATIVE_STATS.__dict__.copy()  # (set as the instance dict: no update of an empty one)
+    object.__setattr__(stats, "__dict__", fields)
     fields["vertices"] = fields["sampled_points"] = got
     fields["triangles"], fields["edges"], fields["seconds"] = len(faces), res.edges, seconds
     fields["flip_tests"], fields["flipped_edges"] = {}, res.flips
     fields["insertions"], fields["strips"] = res.insertions, res.strips
     fields["heights"] = "fit" if fit and res.fitted else "pixel"
     mesh = object.__new__(Mesh)
-    fields = mesh.__dict__
-    fields.update(_NATIVE_MESH.__dict__)
+    fields = _NATIVE_MESH.__dict__.copy()
+    object.__setattr__(mesh, "__dict__", fields)
     fields["vertices"], fields["faces"], fields["pixels"] = res.vertices, faces, res.pixels
     fields["camera"], fields["image_shape"], fields["stats"] = camera, (h, w), stats
     fields["attributes"] = {}

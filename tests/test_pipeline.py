@@ -354,3 +354,21 @@ def test_run_leaves_a_methods_stats_as_it_made_them(monkeypatch):
     ((mesh, seconds),) = made
     assert mesh.stats.seconds == seconds and "seam" not in mesh.stats.seconds
     assert "seam" in out.stats.seconds and out.stats.seconds["sampling"] >= seconds["sampling"]
+
+
+def test_a_refine_call_reads_the_valid_depth_range_by_name(monkeypatch):
+    # issue 44: unpacking the DepthRange (lo, hi, count = ...) asks its binding for a fourth item,
+    # an IndexError thrown in C++: 15K instructions of a 16 x 16 call's 390K
+    from rangemesh import pipeline
+
+    real = pipeline.valid_range
+
+    class ByNameOnly:
+        def __init__(self, span):
+            self.lo, self.hi, self.count = span.lo, span.hi, span.count
+
+    monkeypatch.setattr(pipeline, "valid_range", lambda depth, valid: ByNameOnly(real(depth, valid)))
+    r, c = np.mgrid[0:16, 0:16]
+    depth = 100.0 + r + 0.5 * c + ((r - 8) ** 2 + (c - 8) ** 2) * 0.1
+    assert triangulate(depth, vertices=10).stats.vertices == 10
+    assert triangulate(depth).stats.target.met  # the default target

@@ -127,8 +127,8 @@ def _prepare_checked(arr, params: MeshParams, background, workspace, need=("pape
     """
     if workspace is None:
         memory.check_memory(arr.shape, *need)
-        depth = np.zeros(arr.shape, np.float64)
-        valid = np.zeros(arr.shape, np.bool_)
+        depth = np.empty(arr.shape, np.float64)  # (mask_into writes every pixel)
+        valid = np.empty(arr.shape, np.bool_)
     else:
         depth, valid = workspace.depth, workspace.valid
     mask_into(arr, background, depth, valid)
@@ -206,7 +206,10 @@ def run(image, params: MeshParams, *, background="auto", camera=None, vertices=N
     depth, valid = _prepare_checked(image, params, background, workspace, (method, budget),
                                     camera=camera, cleaned=cleaned)
     check_shape(camera, depth.shape)
-    lo, hi, n_valid = valid_range(depth, valid)
+    # (by name: unpacking the DepthRange ends in an IndexError its binding throws, ~15K
+    # instructions a call)
+    span = valid_range(depth, valid)
+    lo, hi, n_valid = span.lo, span.hi, span.count
     if n_valid and lo <= 0.0 <= hi and isinstance(camera, Orthographic):  # (else: no zero)
         warn_zero_marker(depth, valid)
     if n_valid:
@@ -296,8 +299,7 @@ def run(image, params: MeshParams, *, background="auto", camera=None, vertices=N
         (v, h), (rs, z) = record.tiles, record.samples
         changes["grid_shape"] = ((rs - 1) * v + 1, (z - 1) * h + 1)
     stats = object.__new__(Stats)  # (`with_fields` without its keyword arguments: every call)
-    stats.__dict__.update(mesh.stats.__dict__)
-    stats.__dict__.update(changes)
+    object.__setattr__(stats, "__dict__", {**mesh.stats.__dict__, **changes})
     return with_fields(mesh, stats=stats)
 
 

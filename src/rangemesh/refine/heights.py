@@ -180,7 +180,10 @@ def fit_heights(pixels: np.ndarray, faces: np.ndarray, depth: np.ndarray, valid:
         touches keep the depth of their pixel.
     """
     ortho = not isinstance(camera, Pinhole)  # a pinhole's flat triangles are linear in 1/depth
-    lo, hi, n_valid = _core.valid_range(depth, valid) if extent is None else extent
+    if extent is None:
+        span = _core.valid_range(depth, valid)
+        extent = (span.lo, span.hi, span.count)
+    lo, hi, n_valid = extent
     if ortho:
         image = depth  # the interpolated quantity
     else:

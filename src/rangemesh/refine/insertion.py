@@ -233,7 +233,9 @@ def greedy_mesh(depth: np.ndarray, valid: np.ndarray, camera, *, vertices: int |
     if h < 2 or w < 2:
         raise ValueError(f"greedy insertion needs an image of at least 2x2 pixels, got {h}x{w}")
     ref = (depth, valid) if reference is None else reference
-    extent = valid_range(depth, valid) if extent is None else extent
+    if extent is None:
+        span = valid_range(depth, valid)
+        extent = (span.lo, span.hi, span.count)
     exponent = depth_exponent(extent[0], extent[1])
     if exponent:  # exact: the mesh of depth * 2**k is the same for every k
         depth = np.ldexp(depth, -exponent)
@@ -426,16 +428,16 @@ def _native(depth, valid, camera, ref, extent, exponent, vertices, max_error, ma
     # (from templates, their instance dicts filled directly: the frozen classes' own __init__,
     # and keyword arguments, weigh on a call on a small image)
     stats = object.__new__(Stats)
-    fields = stats.__dict__
-    fields.update(_NATIVE_STATS.__dict__)
+    fields = _NATIVE_STATS.__dict__.copy()  # (set as the instance dict: no update of an empty one)
+    object.__setattr__(stats, "__dict__", fields)
     fields["vertices"] = fields["sampled_points"] = got
     fields["triangles"], fields["edges"], fields["seconds"] = len(faces), res.edges, seconds
     fields["flip_tests"], fields["flipped_edges"] = {}, res.flips
     fields["insertions"], fields["strips"] = res.insertions, res.strips
     fields["heights"] = "fit" if fit and res.fitted else "pixel"
     mesh = object.__new__(Mesh)
-    fields = mesh.__dict__
-    fields.update(_NATIVE_MESH.__dict__)
+    fields = _NATIVE_MESH.__dict__.copy()
+    object.__setattr__(mesh, "__dict__", fields)
     fields["vertices"], fields["faces"], fields["pixels"] = res.vertices, faces, res.pixels
     fields["camera"], fields["image_shape"], fields["stats"] = camera, (h, w), stats
     fields["attributes"] = {}

@@ -140,6 +140,8 @@ def test_valid_range_and_covered_error_by_plain_loops(seed, h, w, share):
     want = (min(inside), max(inside), len(inside)) if inside else (0.0, 0.0, 0)
     got = _core.valid_range(depth, valid)
     assert (got.lo, got.hi, got.count) == want
+    # unpacked through __iter__: by __getitem__ it ended in an IndexError thrown in C++ (fixed44)
+    assert "__iter__" in vars(type(got)) and tuple(got) == want
     total, n = 0.0, 0  # the same row-major order of additions
     for r in range(h):
         for c in range(w):

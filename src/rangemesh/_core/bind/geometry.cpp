@@ -210,6 +210,8 @@ void bind_geometry(nb::module_& m) {
         .def_ro("count", &DepthRange::count, "Valid pixels.")
         // (an extent (lo, hi, count) as refine.insertion takes it, until it reads the names)
         .def("__len__", [](const DepthRange&) { return 3; })
+        // (unpacking through __getitem__ ends in an IndexError thrown and caught: ~15K instructions)
+        .def("__iter__", [](const DepthRange& d) { return nb::iter(nb::make_tuple(d.lo, d.hi, d.count)); })
         .def("__getitem__", [](const DepthRange& d, index_t k) -> nb::object {
             switch (k < 0 ? k + 3 : k) {
                 case 0:

@@ -789,8 +789,8 @@ MeshResult Refiner::best_by_count() {
     const double nan = std::numeric_limits<double>::quiet_NaN();
     const double fast_error = fast_lifted ? measure_(c.meshing.mesh, c.vertices) : nan;
     const double dense_error = has_dense ? measure_(dense.meshing.mesh, dense.vertices) : nan;
-    const bool keep_fast = fast_lifted && (!has_dense || fast_error < dense_error ||
-                                           (std::isnan(dense_error) && !std::isnan(fast_error)));
+    const bool keep_fast =
+        fast_lifted && (!has_dense || fast_error < dense_error || (std::isnan(dense_error) && !std::isnan(fast_error)));
     if (!keep_fast) {
         insertions_ = dense_ins;  // (the record is the kept mesh's)
         flips_ = dense_flips;

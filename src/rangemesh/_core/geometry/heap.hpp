@@ -22,6 +22,13 @@ struct HeapView {
     Span<index_t> heap;
     Span<index_t> slot;
 
+    // Id `x` with the key `k` at position `i`.
+    void put(index_t i, double k, index_t x) const {
+        keys[i] = k;
+        heap[i] = x;
+        slot[x] = i;
+    }
+
     // Move the entry at position `i` up until its parent is above it; returns its new position.
     index_t sift_up(index_t i) const {
         const double k = keys[i];
@@ -31,14 +38,10 @@ struct HeapView {
             const double kp = keys[parent];
             const index_t y = heap[parent];
             if (!above(k, x, kp, y)) break;
-            keys[i] = kp;
-            heap[i] = y;
-            slot[y] = i;
+            put(i, kp, y);
             i = parent;
         }
-        keys[i] = k;
-        heap[i] = x;
-        slot[x] = i;
+        put(i, k, x);
         return i;
     }
 
@@ -58,22 +61,16 @@ struct HeapView {
             }
             const index_t y = heap[best];
             if (!above(kb, y, k, x)) break;
-            keys[i] = kb;
-            heap[i] = y;
-            slot[y] = i;
+            put(i, kb, y);
             i = best;
         }
-        keys[i] = k;
-        heap[i] = x;
-        slot[x] = i;
+        put(i, k, x);
     }
 
     // Add id `x` with the key `key` to the heap of `n` entries, which then holds one more:
     // O(log n). The arrays must have room for position n.
     void push(index_t x, double key, index_t& n) const {
-        keys[n] = key;
-        heap[n] = x;
-        slot[x] = n;
+        put(n, key, x);
         sift_up(n);
         ++n;
     }

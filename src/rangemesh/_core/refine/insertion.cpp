@@ -171,6 +171,18 @@ void Insertion::new_triangle(index_t t, index_t a, index_t b, index_t c) {
     he_[3 * t] = he_[3 * t + 1] = he_[3 * t + 2] = -1;
 }
 
+// One side of an edge A -> B split at `p`: triangle `x` (was ABC) becomes APC and `y` is PBC,
+// linked to the outer half-edges `h_bc` (B -> C's twin) and `h_ca` and to each other.
+void Insertion::split_side(index_t x, index_t y, const Corners& abc, index_t p, index_t h_bc, index_t h_ca) {
+    const Span<index_t> he{he_.data(), static_cast<index_t>(he_.size())};
+    new_triangle(x, abc.a, p, abc.c);
+    new_triangle(y, p, abc.b, abc.c);
+    link(he, 3 * x + 2, h_ca);
+    link(he, 3 * y + 1, h_bc);
+    link(he, 3 * x + 1, 3 * y + 2);
+    changed_.insert(changed_.end(), {x, y});
+}
+
 // Insert vertex `p`, inside triangle `t` or on one of its edges, then legalize the edges
 // opposite p. Records the triangles made or flipped in `changed_`; `n_t_` grows by 2 (inside,
 // or on an inner edge) or 1 (on a hull edge).
@@ -208,12 +220,7 @@ void Insertion::insert(index_t t, index_t p, const Plane* guard) {
     const index_t h_bc = he_[e + (on + 1) % 3], h_ca = he_[e + (on + 2) % 3];
     const index_t tw = he_[ea];
     const index_t t1 = n_t_;
-    new_triangle(t, a, p, c);
-    new_triangle(t1, p, b, c);
-    link(he, 3 * t + 2, h_ca);
-    link(he, 3 * t1 + 1, h_bc);
-    link(he, 3 * t + 1, 3 * t1 + 2);
-    changed_.insert(changed_.end(), {t, t1});
+    split_side(t, t1, {a, b, c}, p, h_bc, h_ca);
     index_t outer[4] = {3 * t + 2, 3 * t1 + 1, -1, -1};
     int n_outer = 2;
     n_t_ += 1;
@@ -222,14 +229,9 @@ void Insertion::insert(index_t t, index_t p, const Plane* guard) {
         const index_t d = tv_[prv(tw)];
         const index_t h_ad = he_[nxt(tw)], h_db = he_[prv(tw)];
         const index_t t3 = n_t_;
-        new_triangle(u, b, p, d);
-        new_triangle(t3, p, a, d);
-        link(he, 3 * u + 2, h_db);
-        link(he, 3 * t3 + 1, h_ad);
-        link(he, 3 * u + 1, 3 * t3 + 2);
+        split_side(u, t3, {b, a, d}, p, h_ad, h_db);
         link(he, 3 * u, 3 * t1);  // B -> P with P -> B
         link(he, 3 * t3, 3 * t);  // P -> A with A -> P
-        changed_.insert(changed_.end(), {u, t3});
         outer[2] = 3 * u + 2;
         outer[3] = 3 * t3 + 1;
         n_outer = 4;

@@ -92,6 +92,10 @@ class alignas(64) Insertion {
     void make_room();
     void resize_triangles(index_t cap_t);
     void new_triangle(index_t t, index_t a, index_t b, index_t c);
+    struct Corners {
+        index_t a, b, c;
+    };
+    void split_side(index_t x, index_t y, const Corners& abc, index_t p, index_t h_bc, index_t h_ca);
     void insert(index_t t, index_t p, const Plane* guard);
     void legalize(index_t e0, const Plane* guard);
     bool flat_cavity(index_t t, index_t old_t, const Plane& plane) const;

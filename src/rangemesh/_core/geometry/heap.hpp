@@ -111,18 +111,22 @@ struct QuadHeapView {
     // Lines that hold `n` positions.
     static index_t lines_for(index_t n) { return (n + 3 + 3) / 4; }
 
+    // Entry `e` at position `i`.
+    void put(index_t i, const HeapEntry& e) const {
+        at[i] = e;
+        slot[e.id] = i;
+    }
+
     index_t sift_up(index_t i) const {
         const HeapEntry x = at[i];
         while (i > 0) {
             const index_t parent = (i - 1) >> 2;
             const HeapEntry p = at[parent];
             if (!above(x.key, x.id, p.key, p.id)) break;
-            at[i] = p;
-            slot[p.id] = i;
+            put(i, p);
             i = parent;
         }
-        at[i] = x;
-        slot[x.id] = i;
+        put(i, x);
         return i;
     }
 
@@ -137,18 +141,15 @@ struct QuadHeapView {
                 if (above(at[c].key, at[c].id, at[best].key, at[best].id)) best = c;
             const HeapEntry b = at[best];
             if (!above(b.key, b.id, x.key, x.id)) break;
-            at[i] = b;
-            slot[b.id] = i;
+            put(i, b);
             i = best;
         }
-        at[i] = x;
-        slot[x.id] = i;
+        put(i, x);
     }
 
     // Add id `x` with `key` to the heap of `n` entries, which then holds one more.
     void push(index_t x, double key, index_t& n) const {
-        at[n] = {key, x};
-        slot[x] = n;
+        put(n, {key, x});
         sift_up(n);
         ++n;
     }

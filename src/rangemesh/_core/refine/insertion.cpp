@@ -171,6 +171,17 @@ void Insertion::new_triangle(index_t t, index_t a, index_t b, index_t c) {
     he_[3 * t] = he_[3 * t + 1] = he_[3 * t + 2] = -1;
 }
 
+// A new vertex at valid pixel (r, c), with room made for the triangles its insertion adds.
+index_t Insertion::add_pixel_vertex(index_t r, index_t c) {
+    // vertices are distinct pixels: one more than the pixels is a mesh gone wrong
+    require(n_vertices() < image_.rows() * image_.cols(), "insertion: more vertices than pixels");
+    make_room();
+    const index_t p = n_vertices();
+    add_vertex(r, c, image_.depth(r, c), false);
+    ++n_valid_v_;
+    return p;
+}
+
 // One side of an edge A -> B split at `p`: triangle `x` (was ABC) becomes APC and `y` is PBC,
 // linked to the outer half-edges `h_bc` (B -> C's twin) and `h_ca` and to each other.
 void Insertion::split_side(index_t x, index_t y, const Corners& abc, index_t p, index_t h_bc, index_t h_ca) {
@@ -325,13 +336,7 @@ void Insertion::advance(const Stop& stop) {
         // (a negative max_sum is no stop: the running sum of huge errors may round below 0)
         if (key < 0.0 || key < stop.min_key || (key <= COVER_KEY && stop.max_sum >= 0.0 && total_ <= stop.max_sum))
             break;
-        const index_t pr = keyed_[t].r, pc = keyed_[t].c;
-        // vertices are distinct pixels: one more than the pixels is a mesh gone wrong
-        require(n_vertices() < image_.rows() * image_.cols(), "insertion: more vertices than pixels");
-        make_room();
-        const index_t p = n_vertices();
-        add_vertex(pr, pc, image_.depth(pr, pc), false);
-        ++n_valid_v_;
+        const index_t p = add_pixel_vertex(keyed_[t].r, keyed_[t].c);
         const index_t old_t = n_t_;
         // the centroid of a triangle that fits exactly: its three children fit too
         const bool split_fit = keyed_[t].fits;
@@ -411,12 +416,8 @@ bool Insertion::insert_at(index_t r, index_t c) {
     if (t < 0) return false;
     for (int k = 0; k < 3; ++k)
         if (vr_[tv_[3 * t + k]] == r && vc_[tv_[3 * t + k]] == c) return false;
-    require(n_vertices() < image_.rows() * image_.cols(), "insertion: more vertices than pixels");
     // as `advance` inserts a worst pixel, without the shortcuts of an exact split
-    make_room();
-    const index_t p = n_vertices();
-    add_vertex(r, c, image_.depth(r, c), false);
-    ++n_valid_v_;
+    const index_t p = add_pixel_vertex(r, c);
     const index_t old_t = n_t_;
     insert(t, p, nullptr);
     for (index_t s = old_t; s < n_t_; ++s) {

@@ -95,6 +95,7 @@ class alignas(64) Insertion {
     struct Corners {
         index_t a, b, c;
     };
+    index_t add_pixel_vertex(index_t r, index_t c);
     void split_side(index_t x, index_t y, const Corners& abc, index_t p, index_t h_bc, index_t h_ca);
     void insert(index_t t, index_t p, const Plane* guard);
     void legalize(index_t e0, const Plane* guard);

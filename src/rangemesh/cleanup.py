@@ -107,7 +107,9 @@ def zeros_like_a_marker(depth: np.ndarray, valid: np.ndarray) -> int:
     Parameters
     ----------
     depth : (H, W) ndarray of float64
+        The depths, zeros among them.
     valid : (H, W) ndarray of bool
+        The pixels that hold data; the zeros looked at are among them.
 
     Returns
     -------

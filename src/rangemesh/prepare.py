@@ -221,7 +221,9 @@ def fill_gaps(depth: np.ndarray, valid: np.ndarray) -> tuple[np.ndarray, np.ndar
     Parameters
     ----------
     depth : (H, W) ndarray of float64
+        The depths; a background pixel's value is not read.
     valid : (H, W) ndarray of bool
+        The pixels that hold data.
 
     Returns
     -------

@@ -15,6 +15,16 @@
 
 namespace rangemesh {
 
+// Quotient `q` and remainder `m` (0 <= m < d) of a / d moved to those of (a + dq d + dm) / d, for
+// 0 <= dm < d. The carry without a branch: it follows the slope's pattern, which mispredicted.
+inline void add_steps(index_t& q, index_t& m, index_t dq, index_t dm, index_t d) {
+    q += dq;
+    m += dm;
+    const index_t carry = static_cast<index_t>(m >= d);
+    m -= carry * d;
+    q += carry;
+}
+
 struct EdgeWalk {
     index_t s, v, q, m, dv, dq, dm, d;
 
@@ -51,12 +61,7 @@ struct EdgeWalk {
 
     // One row (or step) down.
     void next() {
-        q += dq;
-        m += dm;
-        // the carry without a branch: it follows the slope's pattern, which mispredicted
-        const index_t carry = static_cast<index_t>(m >= d);
-        m -= carry * d;
-        q += carry;
+        add_steps(q, m, dq, dm, d);
         v += dv;
     }
 
@@ -184,13 +189,7 @@ class TriangleSpans {
     struct Walk {
         index_t q, m, dq, dm, d;
 
-        void step() {
-            q += dq;
-            m += dm;
-            const index_t carry = static_cast<index_t>(m >= d);
-            m -= carry * d;
-            q += carry;
-        }
+        void step() { add_steps(q, m, dq, dm, d); }
     };
 
     // One side's edges (one or two), the upper first; `turn` the row where the second starts.

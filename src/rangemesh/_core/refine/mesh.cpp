@@ -465,6 +465,9 @@ class ErrorMeasure {
         const std::vector<double> val = corner_values(vertices, stored);
         const index_t n_f = static_cast<index_t>(f.faces.size() / 3), w = ref_.depth.cols;
         std::vector<double> fr, fc, fv;
+        fr.reserve(3 * n_f);
+        fc.reserve(3 * n_f);
+        fv.reserve(3 * n_f);
         for (index_t t = 0; t < n_f; ++t) {
             poll_every(t);
             const FaceCorners corners = face_corners(f, t);
@@ -475,22 +478,25 @@ class ErrorMeasure {
                 fv.push_back(val[f.faces[3 * t + k]]);
             }
         }
-        fill_polled(pred_, static_cast<std::size_t>(n_), std::numeric_limits<double>::quiet_NaN());
+        // the render's values are read only where claimed: they need no NaN fill (one write of
+        // 8 bytes a pixel less), and the buffer is the search's, made on its first render
+        if (!pred_) pred_.reset(new double[static_cast<std::size_t>(n_)]);
         fill_polled(claimed_, static_cast<std::size_t>(n_), static_cast<unsigned char>(0));
         const index_t n_kept = static_cast<index_t>(fr.size() / 3);
         rasterize({{fr.data(), n_kept, 3}, {fc.data(), n_kept, 3}, {fv.data(), n_kept, 3}},
-                  ValueTarget{{pred_.data(), ref_.depth.rows, w}, {claimed_.data(), ref_.depth.rows, w}});
+                  ValueTarget{{pred_.get(), ref_.depth.rows, w}, {claimed_.data(), ref_.depth.rows, w}});
         // the valid range on the first render's pass (only an error bound measures: a count's call makes none)
         DepthRange* range = has_range_ ? nullptr : &range_;
-        const Grid<const double> pred{pred_.data(), ref_.depth.rows, w};
+        const Grid<const double> pred{pred_.get(), ref_.depth.rows, w};
+        const Grid<const unsigned char> claimed{claimed_.data(), ref_.depth.rows, w};
         const double scale = camera_[5];
         const CoveredError e =
             !inverse ? covered_error(
-                           pred, ref_.depth, ref_.valid, [](double p) { return p; }, range)
-            : stored
-                ? covered_error(
-                      pred, ref_.depth, ref_.valid, [](double p) { return 1.0 / p; }, range)
-                : covered_error(pred, ref_.depth, ref_.valid, [scale](double p) { return 1.0 / p / scale; }, range);
+                           pred, claimed, ref_.depth, ref_.valid, [](double p) { return p; }, range)
+            : stored ? covered_error(
+                           pred, claimed, ref_.depth, ref_.valid, [](double p) { return 1.0 / p; }, range)
+                     : covered_error(
+                           pred, claimed, ref_.depth, ref_.valid, [scale](double p) { return 1.0 / p / scale; }, range);
         has_range_ = true;
         if (e.count == 0) return std::numeric_limits<double>::quiet_NaN();
         return per_span(e.total / static_cast<double>(e.count), range_.hi - range_.lo);
@@ -530,7 +536,7 @@ class ErrorMeasure {
     DepthRange range_;
     bool has_range_ = false;
     index_t n_;
-    std::vector<double> pred_;
+    std::unique_ptr<double[]> pred_;  // set where `claimed_` is 1
     std::vector<unsigned char> claimed_;
 };
 

@@ -452,12 +452,35 @@ std::vector<double> lifted(Span<const double> camera, const ValidFaces& f, const
     return out;
 }
 
+// A render's buffers: its values (set where claimed) and its claims.
+struct RenderBuffers {
+    std::unique_ptr<double[]> pred;
+    std::vector<unsigned char> claimed;
+    index_t size = 0;   // the values `pred` holds room for
+    bool busy = false;  // a measure of this thread renders into them
+};
+
+// Renders of at most KEPT_PIXELS pixels use their thread's buffers, kept from call to call: a
+// stream's frames then render into pages already mapped (a 640 x 480 frame's 2.7 MB, new each
+// call, were faulted in again each time); at most 19 MB a thread stays. Larger ones are the call's.
+constexpr index_t KEPT_PIXELS = index_t{1} << 21;
+
+RenderBuffers& thread_buffers() {
+    static thread_local RenderBuffers kept;
+    return kept;
+}
+
 // The relative error of a mesh against the reference (render.py's `relative_error`): percent of
 // the reference's valid depth range, mean over its valid pixels the mesh covers; NaN when none.
 class ErrorMeasure {
   public:
     ErrorMeasure(Span<const double> camera, const Reference& ref)
         : camera_(camera), ref_(ref), n_(ref.depth.rows * ref.depth.cols) {}
+    ~ErrorMeasure() {
+        if (buffers_ != nullptr && buffers_ != &own_) buffers_->busy = false;
+    }
+    ErrorMeasure(const ErrorMeasure&) = delete;
+    ErrorMeasure& operator=(const ErrorMeasure&) = delete;
 
     double operator()(const ValidFaces& f, const std::vector<double>& vertices) {
         const bool inverse = camera_[0] == PINHOLE;
@@ -479,16 +502,16 @@ class ErrorMeasure {
             }
         }
         // the render's values are read only where claimed: they need no NaN fill (one write of
-        // 8 bytes a pixel less), and the buffer is the search's, made on its first render
-        if (!pred_) pred_.reset(new double[static_cast<std::size_t>(n_)]);
-        fill_polled(claimed_, static_cast<std::size_t>(n_), static_cast<unsigned char>(0));
+        // 8 bytes a pixel less)
+        RenderBuffers& b = buffers();
+        fill_polled(b.claimed, static_cast<std::size_t>(n_), static_cast<unsigned char>(0));
         const index_t n_kept = static_cast<index_t>(fr.size() / 3);
         rasterize({{fr.data(), n_kept, 3}, {fc.data(), n_kept, 3}, {fv.data(), n_kept, 3}},
-                  ValueTarget{{pred_.get(), ref_.depth.rows, w}, {claimed_.data(), ref_.depth.rows, w}});
+                  ValueTarget{{b.pred.get(), ref_.depth.rows, w}, {b.claimed.data(), ref_.depth.rows, w}});
         // the valid range on the first render's pass (only an error bound measures: a count's call makes none)
         DepthRange* range = has_range_ ? nullptr : &range_;
-        const Grid<const double> pred{pred_.get(), ref_.depth.rows, w};
-        const Grid<const unsigned char> claimed{claimed_.data(), ref_.depth.rows, w};
+        const Grid<const double> pred{b.pred.get(), ref_.depth.rows, w};
+        const Grid<const unsigned char> claimed{b.claimed.data(), ref_.depth.rows, w};
         const double scale = camera_[5];
         const CoveredError e =
             !inverse ? covered_error(
@@ -503,6 +526,21 @@ class ErrorMeasure {
     }
 
   private:
+    // The render's buffers: the thread's when they are free and hold the image, else the
+    // measure's own; room for the image's values made on the first render.
+    RenderBuffers& buffers() {
+        if (buffers_ == nullptr) {
+            RenderBuffers& kept = thread_buffers();
+            buffers_ = n_ <= KEPT_PIXELS && !kept.busy ? &kept : &own_;
+            buffers_->busy = true;
+        }
+        if (buffers_->size < n_) {
+            buffers_->pred.reset(new double[static_cast<std::size_t>(n_)]);
+            buffers_->size = n_;
+        }
+        return *buffers_;
+    }
+
     // The value each vertex interpolates: depth (orthographic), inverse depth (pinhole), range.
     std::vector<double> corner_values(const std::vector<double>& vertices, bool& stored) const {
         const index_t n_v = static_cast<index_t>(vertices.size() / 3);
@@ -536,8 +574,8 @@ class ErrorMeasure {
     DepthRange range_;
     bool has_range_ = false;
     index_t n_;
-    std::unique_ptr<double[]> pred_;  // set where `claimed_` is 1
-    std::vector<unsigned char> claimed_;
+    RenderBuffers own_;
+    RenderBuffers* buffers_ = nullptr;  // own_ or the thread's, from the first render
 };
 
 // A meshing with its vertices lifted and, under an error bound, the error they reach.

@@ -933,11 +933,12 @@ void Refiner::rounds(Candidate& c) {
     bool fit = req_.fit && req_.max_deviation < 0.0;
     bool copied_only = false;  // fitted depths missed a bound with no pixel left to insert
     const bool capped = req_.max_deviation >= 0.0 || req_.mean_deviation >= 0.0;
+    DeviationBuffers deviation_buffers;  // (each round renders the whole image again)
     for (;;) {
         poll_interrupt();
         bool fitted = false;
         std::vector<double> z = depths(c.meshing.mesh, fit, fitted);
-        const Deviation d = measure_deviation(image_, ref_, rule, c.meshing.mesh, z);
+        const Deviation d = measure_deviation(image_, ref_, rule, c.meshing.mesh, z, &deviation_buffers);
         std::vector<index_t> adds = round_additions(image_, c.meshing.mesh, d, bounds);
         if (capped && c.meshing.ins) {  // a deviation target stops at the vertex cap
             const index_t room = std::max<index_t>(req_.vertices - c.meshing.ins->valid_vertices(), 0);

@@ -123,7 +123,7 @@ def _prepare_checked(arr, params: MeshParams, background, workspace, need=("pape
     `need`: the method and vertex count `check_memory` checks the image for;
     `camera`: the units of ``params.depth_limits`` (`rangemesh.cleanup`);
     `cleaned`: a list that gets the mask after the clean-up, before gaps are filled (when
-    there is one: the error bound's reference drops the same pixels, `reference`).
+    there is a clean-up or a fill: the error bound's reference, `reference`, `refine_reference`).
     """
     if workspace is None:
         memory.check_memory(arr.shape, *need)
@@ -136,6 +136,8 @@ def _prepare_checked(arr, params: MeshParams, background, workspace, need=("pape
             and clean_inplace(depth, valid, params, camera) and cleaned is not None:  # before gaps fill
         cleaned.append(valid.copy())
     if params.fill_gaps:
+        if cleaned is not None and not cleaned:  # (the reference's mask, 1/8 of the depths' bytes)
+            cleaned.append(valid.copy())
         # the arrays are ours and hold 0.0 on background: fill in place, no copies
         fill_gaps_inplace(depth, valid)
     return depth, valid
@@ -202,7 +204,8 @@ def run(image, params: MeshParams, *, background="auto", camera=None, vertices=N
         and not deviation
     # refine's need grows with its vertices: those asked, or the default target's cap at most
     budget = default_vertex_cap(image.size) if default_target else vertices
-    cleaned = []
+    bounded = max_error is not None or deviation or params.max_edge is not None or default_target
+    cleaned = [] if bounded else None  # (the mask before gaps fill: only an error bound reads it)
     depth, valid = _prepare_checked(image, params, background, workspace, (method, budget),
                                     camera=camera, cleaned=cleaned)
     check_shape(camera, depth.shape)
@@ -242,8 +245,7 @@ def run(image, params: MeshParams, *, background="auto", camera=None, vertices=N
             ceiling = memory.vertex_ceiling(depth.shape)
             if ceiling is not None and ceiling < min(cap or n_valid, n_valid):
                 cap = memory_cap = max(ceiling, 3)
-        ref = reference(image, background, cleaned) \
-            if max_error is not None or deviation or params.max_edge is not None else None
+        ref = refine_reference(depth, cleaned) if bounded else None
         mesh, target = greedy_mesh(depth, valid, camera, vertices=vertices, max_error=max_error,
                                    reference=ref,
                                    fit=(params.heights or NONE_MEANS["heights"]) == "fit",
@@ -301,6 +303,16 @@ def run(image, params: MeshParams, *, background="auto", camera=None, vertices=N
     stats = object.__new__(Stats)  # (`with_fields` without its keyword arguments: every call)
     object.__setattr__(stats, "__dict__", {**mesh.stats.__dict__, **changes})
     return with_fields(mesh, stats=stats)
+
+
+def refine_reference(depth, cleaned):
+    """`reference` as refine reads it: the prepared depths, valid where `cleaned` (if any) says.
+
+    Gap filling writes only pixels invalid before it and the clean-up only drops pixels, so the
+    prepared depths equal the reference's on its valid pixels, the only ones refine reads: the
+    image is not masked a second time. None: the prepared image is the reference.
+    """
+    return (depth, cleaned[0]) if cleaned else None
 
 
 def reference(image, background, cleaned=()):

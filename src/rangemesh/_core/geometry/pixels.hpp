@@ -77,17 +77,19 @@ struct CoveredError {
 };
 CoveredError covered_error(Grid<const double> pred, Grid<const double> depth, Grid<const bool> valid);
 
-// The same, each valid pixel's prediction read as map(pred) (a render's stored values in depth
-// units), and with `range`, `valid_range(depth, valid)` in the same pass: one read of the image.
+// The same over the pixels a render `claimed` (its other values unread, unset), each valid
+// pixel's prediction read as map(pred) (a render's stored values in depth units), and with
+// `range`, `valid_range(depth, valid)` in the same pass: one read of the image.
 template <class Map>
-CoveredError covered_error(Grid<const double> pred, Grid<const double> depth, Grid<const bool> valid, Map&& map,
-                           DepthRange* range) {
+CoveredError covered_error(Grid<const double> pred, Grid<const unsigned char> claimed, Grid<const double> depth,
+                           Grid<const bool> valid, Map&& map, DepthRange* range) {
     CoveredError out;
     double lo = INFINITY, hi = -INFINITY;
     index_t n_valid = 0;
     for (index_t r = 0; r < depth.rows; ++r) {
         poll_interrupt();
         const double* prow = pred.row(r);
+        const unsigned char* crow = claimed.row(r);
         const double* drow = depth.row(r);
         const bool* vrow = valid.row(r);
         for (index_t c = 0; c < depth.cols; ++c) {
@@ -98,6 +100,7 @@ CoveredError covered_error(Grid<const double> pred, Grid<const double> depth, Gr
                 if (x < lo) lo = x;
                 if (x > hi) hi = x;
             }
+            if (!crow[c]) continue;  // (a NaN prediction: not finite)
             const double p = map(prow[c]);
             if (std::isfinite(p)) {
                 out.total += std::abs(p - x);

@@ -11,7 +11,7 @@
 namespace rangemesh::refine {
 
 Deviation measure_deviation(const Image& image, const Reference& ref, DeviationRule rule, const ValidFaces& f,
-                            const std::vector<double>& z) {
+                            const std::vector<double>& z, DeviationBuffers* buffers) {
     const index_t h = image.rows(), w = image.cols(), n = h * w;
     const index_t n_f = static_cast<index_t>(f.faces.size() / 3), n_v = static_cast<index_t>(f.pixels.size() / 2);
     require(static_cast<index_t>(z.size()) == n_v, "measure_deviation: one depth a vertex");
@@ -43,12 +43,20 @@ Deviation measure_deviation(const Image& image, const Reference& ref, DeviationR
             fv.push_back(rule.inverse ? 1.0 / z[v] : z[v]);
         }
     }
-    std::vector<double> pred(static_cast<std::size_t>(n), std::numeric_limits<double>::quiet_NaN());
-    std::vector<index_t> face(static_cast<std::size_t>(n), -1);
+    DeviationBuffers own;
+    DeviationBuffers& b = buffers != nullptr ? *buffers : own;
+    if (b.size < n) {  // (the render's values are read only where it wrote a face: no NaN fill)
+        b.pred.reset(new double[static_cast<std::size_t>(n)]);
+        b.size = n;
+    }
+    fill_polled(b.vertex, static_cast<std::size_t>(n), index_t{-1});
+    fill_polled(b.face, static_cast<std::size_t>(n), index_t{-1});
+    const double* const pred = b.pred.get();
+    const index_t* const face = b.face.data();
+    index_t* const vertex = b.vertex.data();  // the vertex on each pixel
     const index_t n_kept = static_cast<index_t>(kept.size());
     rasterize({{fr.data(), n_kept, 3}, {fc.data(), n_kept, 3}, {fv.data(), n_kept, 3}},
-              {{pred.data(), h, w}, {face.data(), h, w}});
-    std::vector<index_t> vertex(static_cast<std::size_t>(n), -1);  // the vertex on each pixel
+              {{b.pred.get(), h, w}, {b.face.data(), h, w}});
     for (index_t i = 0; i < n_v; ++i) vertex[f.pixels[2 * i] * w + f.pixels[2 * i + 1]] = i;
     std::vector<double> near(n_f, std::numeric_limits<double>::infinity());  // the pick's distance to the centroid
     for (index_t r = 0; r < h; ++r) {

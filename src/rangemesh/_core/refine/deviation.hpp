@@ -9,6 +9,7 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 #include "../geometry/pixels.hpp"
@@ -37,9 +38,19 @@ struct Deviation {
     double mean() const { return covered ? sum / static_cast<double>(covered) : 0.0; }
 };
 
-// The deviation of mesh `f` whose vertices have stored depths `z` (one a vertex).
+// The per-pixel buffers `measure_deviation` renders into, kept by a caller that measures again
+// (the rounds): a 640 x 480 image's 7.4 MB are then not made and faulted in again each round.
+struct DeviationBuffers {
+    std::unique_ptr<double[]> pred;  // the render's values, set where `face` holds a face
+    std::vector<index_t> face;       // the render's faces
+    std::vector<index_t> vertex;     // the vertex on each pixel
+    index_t size = 0;                // the pixels `pred` holds
+};
+
+// The deviation of mesh `f` whose vertices have stored depths `z` (one a vertex); `buffers`, when
+// given, are rendered into (else the call's own).
 Deviation measure_deviation(const Image& image, const Reference& ref, DeviationRule rule, const ValidFaces& f,
-                            const std::vector<double>& z);
+                            const std::vector<double>& z, DeviationBuffers* buffers = nullptr);
 
 // What a round must still reach: a largest deviation (`max_deviation`), a mean one
 // (`mean_deviation`), each negative for none; faces with a longer edge than `max_edge` pixels (0:

@@ -452,12 +452,35 @@ std::vector<double> lifted(Span<const double> camera, const ValidFaces& f, const
     return out;
 }
 
+// A render's buffers: its values (set where claimed) and its claims.
+struct RenderBuffers {
+    std::unique_ptr<double[]> pred;
+    std::vector<unsigned char> claimed;
+    index_t size = 0;   // the values `pred` holds room for
+    bool busy = false;  // a measure of this thread renders into them
+};
+
+// Renders of at most KEPT_PIXELS pixels use their thread's buffers, kept from call to call: a
+// stream's frames then render into pages already mapped (a 640 x 480 frame's 2.7 MB, new each
+// call, were faulted in again each time); at most 19 MB a thread stays. Larger ones are the call's.
+constexpr index_t KEPT_PIXELS = index_t{1} << 21;
+
+RenderBuffers& thread_buffers() {
+    static thread_local RenderBuffers kept;
+    return kept;
+}
+
 // The relative error of a mesh against the reference (render.py's `relative_error`): percent of
 // the reference's valid depth range, mean over its valid pixels the mesh covers; NaN when none.
 class ErrorMeasure {
   public:
     ErrorMeasure(Span<const double> camera, const Reference& ref)
         : camera_(camera), ref_(ref), n_(ref.depth.rows * ref.depth.cols) {}
+    ~ErrorMeasure() {
+        if (buffers_ != nullptr && buffers_ != &own_) buffers_->busy = false;
+    }
+    ErrorMeasure(const ErrorMeasure&) = delete;
+    ErrorMeasure& operator=(const ErrorMeasure&) = delete;
 
     double operator()(const ValidFaces& f, const std::vector<double>& vertices) {
         const bool inverse = camera_[0] == PINHOLE;
@@ -465,6 +488,9 @@ class ErrorMeasure {
         const std::vector<double> val = corner_values(vertices, stored);
         const index_t n_f = static_cast<index_t>(f.faces.size() / 3), w = ref_.depth.cols;
         std::vector<double> fr, fc, fv;
+        fr.reserve(3 * n_f);
+        fc.reserve(3 * n_f);
+        fv.reserve(3 * n_f);
         for (index_t t = 0; t < n_f; ++t) {
             poll_every(t);
             const FaceCorners corners = face_corners(f, t);
@@ -475,28 +501,46 @@ class ErrorMeasure {
                 fv.push_back(val[f.faces[3 * t + k]]);
             }
         }
-        fill_polled(pred_, static_cast<std::size_t>(n_), std::numeric_limits<double>::quiet_NaN());
-        fill_polled(claimed_, static_cast<std::size_t>(n_), static_cast<unsigned char>(0));
+        // the render's values are read only where claimed: they need no NaN fill (one write of
+        // 8 bytes a pixel less)
+        RenderBuffers& b = buffers();
+        fill_polled(b.claimed, static_cast<std::size_t>(n_), static_cast<unsigned char>(0));
         const index_t n_kept = static_cast<index_t>(fr.size() / 3);
         rasterize({{fr.data(), n_kept, 3}, {fc.data(), n_kept, 3}, {fv.data(), n_kept, 3}},
-                  ValueTarget{{pred_.data(), ref_.depth.rows, w}, {claimed_.data(), ref_.depth.rows, w}});
+                  ValueTarget{{b.pred.get(), ref_.depth.rows, w}, {b.claimed.data(), ref_.depth.rows, w}});
         // the valid range on the first render's pass (only an error bound measures: a count's call makes none)
         DepthRange* range = has_range_ ? nullptr : &range_;
-        const Grid<const double> pred{pred_.data(), ref_.depth.rows, w};
+        const Grid<const double> pred{b.pred.get(), ref_.depth.rows, w};
+        const Grid<const unsigned char> claimed{b.claimed.data(), ref_.depth.rows, w};
         const double scale = camera_[5];
         const CoveredError e =
             !inverse ? covered_error(
-                           pred, ref_.depth, ref_.valid, [](double p) { return p; }, range)
-            : stored
-                ? covered_error(
-                      pred, ref_.depth, ref_.valid, [](double p) { return 1.0 / p; }, range)
-                : covered_error(pred, ref_.depth, ref_.valid, [scale](double p) { return 1.0 / p / scale; }, range);
+                           pred, claimed, ref_.depth, ref_.valid, [](double p) { return p; }, range)
+            : stored ? covered_error(
+                           pred, claimed, ref_.depth, ref_.valid, [](double p) { return 1.0 / p; }, range)
+                     : covered_error(
+                           pred, claimed, ref_.depth, ref_.valid, [scale](double p) { return 1.0 / p / scale; }, range);
         has_range_ = true;
         if (e.count == 0) return std::numeric_limits<double>::quiet_NaN();
         return per_span(e.total / static_cast<double>(e.count), range_.hi - range_.lo);
     }
 
   private:
+    // The render's buffers: the thread's when they are free and hold the image, else the
+    // measure's own; room for the image's values made on the first render.
+    RenderBuffers& buffers() {
+        if (buffers_ == nullptr) {
+            RenderBuffers& kept = thread_buffers();
+            buffers_ = n_ <= KEPT_PIXELS && !kept.busy ? &kept : &own_;
+            buffers_->busy = true;
+        }
+        if (buffers_->size < n_) {
+            buffers_->pred.reset(new double[static_cast<std::size_t>(n_)]);
+            buffers_->size = n_;
+        }
+        return *buffers_;
+    }
+
     // The value each vertex interpolates: depth (orthographic), inverse depth (pinhole), range.
     std::vector<double> corner_values(const std::vector<double>& vertices, bool& stored) const {
         const index_t n_v = static_cast<index_t>(vertices.size() / 3);
@@ -530,8 +574,8 @@ class ErrorMeasure {
     DepthRange range_;
     bool has_range_ = false;
     index_t n_;
-    std::vector<double> pred_;
-    std::vector<unsigned char> claimed_;
+    RenderBuffers own_;
+    RenderBuffers* buffers_ = nullptr;  // own_ or the thread's, from the first render
 };
 
 // A meshing with its vertices lifted and, under an error bound, the error they reach.
@@ -926,11 +970,12 @@ void Refiner::rounds(Candidate& c) {
     bool fit = req_.fit && req_.max_deviation < 0.0;
     bool copied_only = false;  // fitted depths missed a bound with no pixel left to insert
     const bool capped = req_.max_deviation >= 0.0 || req_.mean_deviation >= 0.0;
+    DeviationBuffers deviation_buffers;  // (each round renders the whole image again)
     for (;;) {
         poll_interrupt();
         bool fitted = false;
         std::vector<double> z = depths(c.meshing.mesh, fit, fitted);
-        const Deviation d = measure_deviation(image_, ref_, rule, c.meshing.mesh, z);
+        const Deviation d = measure_deviation(image_, ref_, rule, c.meshing.mesh, z, &deviation_buffers);
         std::vector<index_t> adds = round_additions(image_, c.meshing.mesh, d, bounds);
         if (capped && c.meshing.ins) {  // a deviation target stops at the vertex cap
             const index_t room = std::max<index_t>(req_.vertices - c.meshing.ins->valid_vertices(), 0);

@@ -216,7 +216,7 @@ Halves insert_halves(const Image& image, const HalvesRequest& req) {
                             {out.triangles.data(), static_cast<index_t>(out.triangles.size())},
                             {he.data(), static_cast<index_t>(he.size())},
                             {sums.data(), static_cast<index_t>(sums.size())}};
-        out.flips += flip_from_edges(image, mesh, view(first)).flips;
+        out.flips += flip_from_edges(image, mesh, view(first), false).flips;  // (checked as made)
     }
     return out;
 }

@@ -199,6 +199,54 @@ def test_prune_dangling_equals_the_definition(mesh):
     assert np.array_equal(got, want)
 
 
+@st.composite
+def cut_triangulations(draw):
+    """A Delaunay triangulation with some triangles cut away: its faces and twins (build_halfedges)."""
+    n = draw(st.integers(3, 60))
+    rng = np.random.default_rng(draw(st.integers(0, 2**32 - 1)))
+    pts = np.unique(rng.integers(0, 12, size=(n, 2)), axis=0)
+    if len(pts) < 3 or np.linalg.matrix_rank(pts[1:] - pts[0]) < 2:
+        return None
+    faces = Delaunay(pts.astype(float)).simplices.astype(np.int64)
+    faces = np.ascontiguousarray(faces[rng.random(len(faces)) > draw(st.floats(0, 0.8))])
+    if len(faces) == 0:
+        return None
+    triangles, he = _core.build_halfedges(faces, len(pts))
+    return faces, triangles, he, len(pts)
+
+
+@settings(max_examples=150, deadline=None)
+@given(cut_triangulations())
+def test_prune_cut_fans_drops_what_prune_dangling_drops(mesh):
+    # the border-walking pruning the assembly uses against the round-by-round definition
+    if mesh is None:
+        return
+    faces, triangles, he, n = mesh
+    want = np.ones(len(faces), bool)
+    removed = _core.prune_dangling(faces, _core.neighbors_from_halfedges(he), want, n, drop_lone=False)
+    got = np.zeros(len(faces), bool)
+    assert _core.prune_cut_fans(triangles, he, got, n) == removed
+    assert np.array_equal(got, want)
+
+
+def test_prune_cut_fans_by_hand():
+    # a bow tie at vertex 2 (fans {0, 1} and {2}, triangle 3 beside 2): the smaller fan goes, and
+    # triangle 3, left alone, stays (lone triangles are kept); a tie of one-triangle fans at
+    # vertex 0 keeps the one holding corner slot 0, and triangle 3 beside the dropped one stays
+    faces = np.array([[0, 1, 2], [1, 3, 2], [2, 4, 5], [5, 4, 6]], np.int64)
+    triangles, he = _core.build_halfedges(faces, 7)
+    alive = np.zeros(4, bool)
+    assert _core.prune_cut_fans(triangles, he, alive, 7) == 1
+    assert alive.tolist() == [True, True, False, True]
+    faces = np.array([[0, 1, 2], [0, 3, 4], [1, 5, 2], [3, 6, 4]], np.int64)
+    triangles, he = _core.build_halfedges(faces, 7)
+    alive = np.zeros(4, bool)
+    assert _core.prune_cut_fans(triangles, he, alive, 7) == 1
+    assert alive.tolist() == [True, False, True, True]
+    with pytest.raises(ValueError, match="prune_cut_fans"):
+        _core.prune_cut_fans(triangles, np.zeros_like(he), alive, 7)
+
+
 # --- Delaunay -------------------------------------------------------------------------------
 
 @settings(max_examples=80, deadline=None)

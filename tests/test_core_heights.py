@@ -101,7 +101,8 @@ def test_a_triangulation_of_the_whole_image_visits_each_pixel_once():
 
 
 def test_the_pass_on_two_threads_is_the_pass_on_one():
-    # Past 4000 faces the pass is split between two threads; each face writes its own rows.
+    # Past 4000 faces the pass is split between the threads (one a 2000 faces: three here at 3
+    # threads or more); each face writes its own rows.
     sc = scenes.make("box", (300, 300), noise=0.5)
     m = triangulate(sc.depth, vertices=3000, method="refine", heights="pixel")
     faces = np.ascontiguousarray(m.faces, np.int64)
@@ -112,13 +113,35 @@ def test_the_pass_on_two_threads_is_the_pass_on_one():
     values = np.ascontiguousarray(sc.depth[rows, cols])
     args = (faces, order, _pixels(rows, cols), values, sc.depth, valid, 1.0)
     one = _core.fit_blocks(*args, threads=1)
-    two = _core.fit_blocks(*args, threads=2)
-    for name in ("ids", "block", "rhs", "used"):
-        assert np.array_equal(getattr(one, name), getattr(two, name))
+    for threads in (2, 3, 8):
+        more = _core.fit_blocks(*args, threads=threads)
+        for name in ("ids", "block", "rhs", "used"):
+            assert np.array_equal(getattr(one, name), getattr(more, name))
     z1 = heights.fit_heights(m.pixels, m.faces, sc.depth, valid, m.camera, threads=1)
     z2 = heights.fit_heights(m.pixels, m.faces, sc.depth, valid, m.camera, threads=2)
     assert np.array_equal(z1.view(np.int64), z2.view(np.int64))
     assert not np.array_equal(z1, sc.depth[rows, cols])  # the fit moved the depths
+
+
+def test_the_sample_on_several_threads_is_the_sample_on_one():
+    # From 1000 sampled faces the sample is split between the threads into lists joined in
+    # order: the same errors in the same order, and the same first `capacity` of them.
+    sc = scenes.make("box", (300, 300), noise=0.5)
+    m = triangulate(sc.depth, vertices=3000, method="refine", heights="pixel")
+    faces = np.ascontiguousarray(m.faces, np.int64)
+    rows, cols = (np.ascontiguousarray(m.pixels[:, k], dtype=np.int64) for k in (0, 1))
+    valid = np.ones(sc.depth.shape, bool)
+    order = _core.face_order(faces, rows, cols, 300, 300, 8)
+    values = np.ascontiguousarray(sc.depth[rows, cols])
+    args = (faces, order, _pixels(rows, cols), values, sc.depth, valid)
+    for capacity in (valid.size, 5000):
+        one = _core.fit_sample_errors(*args, _sampling(4, 1, capacity))
+        assert len(faces) >= 2000 and len(one) == min(capacity, len(one)) and len(one) > 4000
+        for threads in (2, 3, 8):
+            settings = _sampling(4, 1, capacity)
+            settings.threads = threads
+            more = _core.fit_sample_errors(*args, settings)
+            assert np.array_equal(one.view(np.int64), more.view(np.int64))
 
 
 @given(st.lists(st.one_of(st.floats(0, 1e6), st.sampled_from([0.0, 1.0, 2.5, float("nan"), float("inf")])),

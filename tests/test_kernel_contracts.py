@@ -198,9 +198,10 @@ def _python_steps(image):
     core.flip_by_error((vr, vc, tv, he, tsum), depth, valid, hi - lo)
     faces, pixels = core.valid_faces(vr, vc, tv, valid)
     f = faces.astype(np.int64)
-    _, halfedges = core.build_halfedges(f, len(pixels))
+    triangles, halfedges = core.build_halfedges(f, len(pixels))
     core.prune_dangling(f, core.neighbors_from_halfedges(halfedges), np.ones(len(f), bool), len(pixels),
                         drop_lone=False)
+    core.prune_cut_fans(triangles, halfedges, np.ones(len(f), bool), len(pixels))
     rays = rangemesh.Spherical.from_beams({"elevation_deg": list(np.linspace(-10, 10, 48)),
                                            "azimuth0_deg": 0.0, "azimuth_step_deg": 0.5, "cols": 40})
     drop_walls(faces, pixels, depth[pixels[:, 0], pixels[:, 1]], 0.05, rays)

@@ -87,6 +87,26 @@ void bind_delaunay(nb::module_& m) {
         nb::arg("drop_lone") = true,
         "Drop dangling triangles from `alive` (in place) until every vertex has one fan; returns how "
         "many were dropped. With ``drop_lone=False`` triangles that share no edge are kept.");
+    m.def(
+        "prune_cut_fans",
+        [](In1<index_t> triangles, In1<index_t> halfedges, Out1<bool> alive, index_t n_vertices) {
+            const index_t n_he = static_cast<index_t>(triangles.shape(0));
+            check_input(n_he % 3 == 0 && static_cast<index_t>(halfedges.shape(0)) == n_he &&
+                            static_cast<index_t>(alive.shape(0)) == n_he / 3,
+                        "prune_cut_fans: triangles and halfedges are 3F long, alive F");
+            const Span<const index_t> tri = span(triangles), he = span(halfedges);
+            for (index_t e = 0; e < n_he; ++e)
+                check_input(0 <= tri[e] && tri[e] < n_vertices && -1 <= he[e] && he[e] < n_he,
+                            "prune_cut_fans: a vertex or twin id out of range");
+            for (index_t e = 0; e < n_he; ++e)
+                check_input(twin_ok(tri, he, e), "prune_cut_fans: a twin that does not run back along its edge");
+            return run_released([&] { return prune_cut_fans(tri, he, span(alive)); });
+        },
+        nb::arg("triangles"), nb::arg("halfedges"), nb::arg("alive"), nb::arg("n_vertices"),
+        "``prune_dangling(..., drop_lone=False)`` with every triangle alive to start, for triangles cut "
+        "from a triangulation as flat ``triangles`` (ids below ``n_vertices``) and ``halfedges`` (3F each): sets "
+        "`alive` (F) in place "
+        "and returns how many were dropped.");
 }
 
 // build_halfedges and count_edges on (F, 3) faces of ids of type T.

@@ -295,7 +295,8 @@ void bind_heights(nb::module_& m) {
                 const heights::FitImage img = fit_image(image, valid);
                 heights::check_mesh(mesh, img);
                 return heights::sample_errors(mesh, img, span(order), settings.sample,
-                                              Span<double>{errors.data(), static_cast<index_t>(errors.size())});
+                                              Span<double>{errors.data(), static_cast<index_t>(errors.size())},
+                                              settings.threads);
             });
             errors.resize(used);
             return to_numpy(std::move(errors));

@@ -1,9 +1,11 @@
 #include "fans.hpp"
 
 #include <algorithm>
+#include <utility>
 #include <vector>
 
 #include "../interrupt.hpp"
+#include "halfedges.hpp"
 
 namespace rangemesh {
 
@@ -176,6 +178,147 @@ index_t prune_dangling(LiveTriangles mesh, index_t n_vertices, bool drop_lone) {
         const index_t small = drop_small_fans(mesh, fans, scratch);
         removed += lonely + small;
         changed = lonely + small > 0;
+    }
+    return removed;
+}
+
+namespace {
+
+// The stars of a cut triangulation's vertices, walked by the twins: slot g is the corner of
+// vertex triangles[g] in triangle g / 3 (the half-edge leaving it).
+class CutStars {
+  public:
+    CutStars(Span<const index_t> triangles, Span<const index_t> halfedges, Span<bool> alive)
+        : tri_(triangles), he_(halfedges), alive_(alive) {}
+
+    // Start a vertex afresh: no fan noted.
+    void begin() {
+        walk_.clear();
+        runs_.clear();
+    }
+
+    // Note the fans of the part of a vertex's star through slot `s` (its triangles joined by
+    // edges, dead ones included); with `from_start`, `s`'s edge is a border and starts it.
+    void add(index_t s, bool from_start) {
+        const index_t n = tri_.size;
+        index_t first = s;
+        if (!from_start) {
+            for (index_t steps = 0;; ++steps) {  // back to the part's first slot, or round to s
+                require(steps <= n, "prune_cut_fans: a star without end");
+                const index_t b = back(first);
+                if (b < 0) break;
+                if (b == s) {  // a whole disc: s's triangle is dead, so no fan runs through it
+                    first = s;
+                    break;
+                }
+                first = b;
+            }
+        }
+        bool open = false;
+        for (index_t g = first, steps = 0;; ++steps) {
+            require(steps <= n, "prune_cut_fans: a star without end");
+            walk_.push_back(g);
+            const index_t i = static_cast<index_t>(walk_.size()) - 1;
+            if (alive_[g / 3]) {
+                if (!open) runs_.push_back(Run{i, i, 0, g});
+                open = true;
+                Run& r = runs_.back();
+                r.end = i + 1;
+                r.size += 1;
+                r.root = std::min(r.root, g);
+            } else {
+                open = false;
+            }
+            const index_t f = fwd(g);
+            if (f < 0 || f == first) break;
+            g = f;
+        }
+    }
+
+    // Push the triangles of every fan noted but the largest (ties: the smallest slot, the root
+    // `prune_dangling`'s union-find keeps) onto `drop`.
+    void decide(std::vector<index_t>& drop) const {
+        if (runs_.size() < 2) return;
+        std::size_t best = 0;
+        for (std::size_t k = 1; k < runs_.size(); ++k)
+            if (runs_[k].size > runs_[best].size ||
+                (runs_[k].size == runs_[best].size && runs_[k].root < runs_[best].root))
+                best = k;
+        for (std::size_t k = 0; k < runs_.size(); ++k)
+            if (k != best)
+                for (index_t i = runs_[k].begin; i < runs_[k].end; ++i) drop.push_back(walk_[i] / 3);
+    }
+
+  private:
+    // the slot of the same vertex across g's edge (v -> w), or -1
+    index_t back(index_t g) const {
+        const index_t t = he_[g];
+        return t < 0 ? -1 : nxt(t);
+    }
+    // ... across the edge (u -> v) before g, or -1
+    index_t fwd(index_t g) const { return he_[prv(g)]; }
+
+    struct Run {
+        index_t begin, end, size, root;  // walk_[begin, end): one fan
+    };
+    Span<const index_t> tri_, he_;
+    Span<bool> alive_;
+    std::vector<index_t> walk_;
+    std::vector<Run> runs_;
+};
+
+}  // namespace
+
+index_t prune_cut_fans(Span<const index_t> triangles, Span<const index_t> halfedges, Span<bool> alive) {
+    const index_t n_he = triangles.size;
+    require(halfedges.size == n_he && n_he % 3 == 0 && alive.size == n_he / 3,
+            "prune_cut_fans: three ids and three twins a triangle, one flag a triangle");
+    std::fill(alive.begin(), alive.end(), true);
+    // round one: every vertex with a border has a fan starting at each border half-edge leaving it
+    std::vector<std::pair<index_t, index_t>> starts;  // (vertex, half-edge)
+    for (index_t e = 0; e < n_he; ++e) {
+        poll_every(e);
+        if (halfedges[e] < 0) starts.emplace_back(triangles[e], e);
+    }
+    std::sort(starts.begin(), starts.end());
+    CutStars stars(triangles, halfedges, alive);
+    std::vector<index_t> drop, next;
+    for (std::size_t i = 0; i < starts.size();) {
+        std::size_t j = i + 1;
+        while (j < starts.size() && starts[j].first == starts[i].first) ++j;
+        if (j - i >= 2) {  // two fans or more: all but the largest go
+            stars.begin();
+            for (std::size_t k = i; k < j; ++k) stars.add(starts[k].second, true);
+            stars.decide(drop);
+        }
+        i = j;
+    }
+    index_t removed = 0, used = 0;
+    std::vector<index_t> stamp;  // the round a vertex was last visited in
+    for (index_t round = 1; !drop.empty(); ++round) {
+        poll_interrupt();
+        next.clear();
+        for (const index_t t : drop)
+            if (alive[t]) {
+                alive[t] = false;
+                ++removed;
+                next.push_back(t);
+            }
+        drop.clear();
+        if (stamp.empty()) {
+            for (const index_t v : triangles) used = std::max(used, v + 1);
+            stamp.assign(static_cast<std::size_t>(used), 0);
+        }
+        // the vertices of the triangles just dropped: their fans may have split
+        for (const index_t t : next)
+            for (int k = 0; k < 3; ++k) {
+                const index_t s = 3 * t + k, v = triangles[s];
+                if (stamp[v] == round) continue;
+                stamp[v] = round;
+                stars.begin();
+                stars.add(s, false);
+                stars.decide(drop);
+            }
     }
     return removed;
 }

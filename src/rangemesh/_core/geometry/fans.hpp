@@ -19,4 +19,11 @@ struct LiveTriangles {
 // With `drop_lone` false, a triangle that shares no edge is kept: only second fans go.
 index_t prune_dangling(LiveTriangles mesh, index_t n_vertices, bool drop_lone = true);
 
+// The same as `prune_dangling(mesh, n, false)` with every triangle alive to start, for triangles
+// cut from a triangulation (each vertex's whole star a disc, or a half-disc on its hull) given as
+// flat `triangles` (3F ids) and `halfedges` (3F twins, -1 on a border): only the vertices at a
+// border, then those of the triangles each round drops, are visited (walking their stars by the
+// twins), not every triangle each round. `alive` (F) is set; returns how many were dropped.
+index_t prune_cut_fans(Span<const index_t> triangles, Span<const index_t> halfedges, Span<bool> alive);
+
 }  // namespace rangemesh

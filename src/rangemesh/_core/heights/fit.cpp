@@ -22,10 +22,10 @@ FitResult fit_heights(const FitMesh& mesh, const FitImage& image, Span<const ind
     const index_t capacity = std::min(std::max<index_t>(settings.capacity, 0), image.values.rows * image.values.cols);
     const std::unique_ptr<double[]> errors(new double[capacity]);
     const Span<double> room{errors.get(), capacity};
-    index_t sampled = sample_errors(mesh, image, order, settings.sample, room);
+    index_t sampled = sample_errors(mesh, image, order, settings.sample, room, settings.threads);
     const bool every_pixel = settings.sample.row_stride == 1 && settings.sample.face_stride == 1;
     if (sampled == 0 && !every_pixel)  // the sample missed every valid pixel
-        sampled = sample_errors(mesh, image, order, Sample{}, room);
+        sampled = sample_errors(mesh, image, order, Sample{}, room, settings.threads);
     if (sampled == 0) return result;
     // a robust sigma of the errors (1.4826 x their median: they centre on 0)
     const double sigma = 1.4826 * median_inplace(Span<double>{errors.get(), sampled});

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <stdexcept>
 #include <utility>
+#include <vector>
 
 #include "../geometry/ownership.hpp"
 #include "../geometry/predicates.hpp"
@@ -118,6 +119,32 @@ index_t accumulate(const FitMesh& mesh, const FitImage& image, Span<const index_
     return used;
 }
 
+// A face's set-up beside its pixels, in units of twice a pixel's area (the weights of `weighted_bounds`).
+constexpr double FACE_SETUP = 40.0;
+
+// Where `parts` contiguous ranges of the faces visited in `order` start (and the last ends),
+// each about an equal share of the faces' summed weight: twice the area plus a face's set-up.
+std::vector<index_t> weighted_bounds(const FitMesh& mesh, Span<const index_t> order, index_t parts) {
+    const index_t n = order.size;
+    std::vector<double> cum(static_cast<std::size_t>(n) + 1, 0.0);
+    for (index_t i = 0; i < n; ++i) {
+        poll_every(i);
+        const index_t t = order[i];
+        const index_t a = mesh.faces(t, 0), b = mesh.faces(t, 1), c = mesh.faces(t, 2);
+        const index_t area =
+            orient<index_t>(mesh.rows[a], mesh.cols[a], mesh.rows[b], mesh.cols[b], mesh.rows[c], mesh.cols[c]);
+        cum[i + 1] = cum[i] + static_cast<double>(area < 0 ? -area : area) + FACE_SETUP;
+    }
+    std::vector<index_t> bounds(static_cast<std::size_t>(parts) + 1, n);
+    bounds[0] = 0;
+    for (index_t k = 1; k < parts; ++k) {
+        const double share = cum[n] * static_cast<double>(k) / static_cast<double>(parts);
+        const index_t at = static_cast<index_t>(std::lower_bound(cum.begin(), cum.end(), share) - cum.begin());
+        bounds[k] = std::max(bounds[k - 1], std::min(at, n));
+    }
+    return bounds;
+}
+
 void check_order(const FitMesh& mesh, Span<const index_t> order) {
     for (const index_t t : order) check_input(0 <= t && t < mesh.faces.rows, "fit: an order entry is not a face");
 }
@@ -125,21 +152,47 @@ void check_order(const FitMesh& mesh, Span<const index_t> order) {
 }  // namespace
 
 index_t sample_errors(const FitMesh& mesh, const FitImage& image, Span<const index_t> order, Sample sample,
-                      Span<double> errors) {
+                      Span<double> errors, int threads) {
     check_order(mesh, order);
     check_input(sample.row_stride > 0 && sample.face_stride > 0, "fit: strides are positive");
     // a stride beyond the rows (faces) samples row (face) 0 alone, as the rows (faces) do: the
     // same rows, and no sum past int64 in the walk (a raw call's stride of 2^62)
     const index_t row_stride = std::min(sample.row_stride, std::max<index_t>(image.values.rows, 1));
     const index_t face_stride = std::min(sample.face_stride, std::max<index_t>(order.size, 1));
+    const index_t n = order.size == 0 ? 0 : (order.size - 1) / face_stride + 1;  // the faces sampled
+    // the errors of sampled faces [begin, end), in order, to `put` while it takes them
+    const auto visit = [&](index_t begin, index_t end, auto&& put) {
+        for (index_t j = begin; j < end; ++j) {
+            poll_interrupt();
+            visit_pixels(mesh, image, ccw_corners(mesh, order[j * face_stride]), row_stride,
+                         [&](double, double, double, double, double error) {
+                             put(error);  // overlapping faces could visit a pixel twice
+                             return false;
+                         });
+        }
+    };
+    if (threads < 2 || n < SAMPLE_SPLIT_MIN_FACES) {
+        index_t k = 0;
+        visit(0, n, [&](double error) {
+            if (k < errors.size) errors[k++] = error;
+        });
+        return k;
+    }
+    // contiguous ranges of the sampled faces, one a thread, each into its own list; then joined
+    // in order as far as `errors` holds them: the serial walk's errors, in its order
+    const index_t parts = std::min<index_t>(threads, std::max<index_t>(2, n / (SAMPLE_SPLIT_MIN_FACES / 2)));
+    std::vector<std::vector<double>> lists(static_cast<std::size_t>(parts));
+    split_run(parts, n, [&](index_t p, index_t begin, index_t end) {
+        std::vector<double>& list = lists[static_cast<std::size_t>(p)];
+        visit(begin, end, [&](double error) {
+            if (static_cast<index_t>(list.size()) < errors.size) list.push_back(error);
+        });
+    });
     index_t k = 0;
-    for (index_t i = 0; i < order.size; i += face_stride) {
-        poll_interrupt();
-        visit_pixels(mesh, image, ccw_corners(mesh, order[i]), row_stride,
-                     [&](double, double, double, double, double error) {
-                         if (k < errors.size) errors[k++] = error;  // overlapping faces could visit a pixel twice
-                         return false;
-                     });
+    for (const std::vector<double>& list : lists) {
+        const index_t take = std::min(static_cast<index_t>(list.size()), errors.size - k);
+        std::copy(list.begin(), list.begin() + take, errors.data + k);
+        k += take;
     }
     return k;
 }
@@ -150,12 +203,18 @@ index_t fit_blocks(const FitMesh& mesh, const FitImage& image, Span<const index_
     require(blocks.size == order.size, "fit: one block a visited face");
     const index_t n = order.size;
     if (threads < 2 || n < SPLIT_MIN_FACES) return accumulate(mesh, image, order, threshold, blocks, 0, n);
-    // two halves, each on a thread; each face writes its own block
-    index_t used[2] = {0, 0};
-    split_run(2, n, [&](index_t k, index_t begin, index_t end) {
-        used[k] = accumulate(mesh, image, order, threshold, blocks, begin, end);
+    // contiguous ranges, one a thread (at most one a SPLIT_MIN_FACES / 2 faces), of about equal
+    // pixels: each face's weight its area plus a row walk's set-up; each face writes its own block
+    const index_t parts = std::min<index_t>(threads, std::max<index_t>(2, n / (SPLIT_MIN_FACES / 2)));
+    std::vector<index_t> bounds = weighted_bounds(mesh, order, parts);
+    std::vector<index_t> used(static_cast<std::size_t>(parts), 0);
+    split_run(parts, parts, [&](index_t k, index_t, index_t) {
+        const std::size_t p = static_cast<std::size_t>(k);
+        used[p] = accumulate(mesh, image, order, threshold, blocks, bounds[p], bounds[p + 1]);
     });
-    return used[0] + used[1];
+    index_t total = 0;
+    for (const index_t u : used) total += u;
+    return total;
 }
 
 }  // namespace rangemesh::heights

@@ -28,12 +28,22 @@ namespace {
 // The flips' working state: the mesh, its vertex depths, the stack of edges to test.
 class Flipper {
   public:
-    Flipper(const Image& image, const FlipMesh& mesh) : image_(image), m_(mesh) {
+    Flipper(const Image& image, const FlipMesh& mesh, bool checked = true) : image_(image), m_(mesh) {
         require(mesh.vc.size == mesh.vr.size && mesh.halfedges.size == mesh.triangles.size &&
                     mesh.triangles.size == 3 * mesh.sums.size,
                 "flips: one column a vertex, one twin a half-edge, one sum a triangle");
         const FreeLater late(on_throw, vz_, queued_, stack_);  // (no destructor when stopped here)
         const index_t n_v = mesh.vr.size;
+        if (!checked) {  // the caller's own arrays, checked when made: the depths alone
+            fill_polled(vz_, n_v, 0.0);
+            for (index_t v = 0; v < n_v; ++v) {
+                poll_every(v);
+                if (valid(v)) vz_[v] = image.depth(mesh.vr[v], mesh.vc[v]);
+            }
+            fill_polled(queued_, mesh.triangles.size, static_cast<unsigned char>(0));
+            stack_.reserve(mesh.triangles.size);
+            return;
+        }
         for (index_t k = 0; k < mesh.triangles.size; ++k) {
             poll_every(k);
             check_input(0 <= mesh.triangles[k] && mesh.triangles[k] < n_v, "flips: a corner id out of range");
@@ -170,8 +180,8 @@ FlipCount flip_by_error(const Image& image, const FlipMesh& mesh) {
     return f.run();
 }
 
-FlipCount flip_from_edges(const Image& image, const FlipMesh& mesh, Span<const index_t> first) {
-    Flipper f(image, mesh);
+FlipCount flip_from_edges(const Image& image, const FlipMesh& mesh, Span<const index_t> first, bool checked) {
+    Flipper f(image, mesh, checked);
     f.push_first(first);
     return f.run();
 }

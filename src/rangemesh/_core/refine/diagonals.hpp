@@ -41,8 +41,10 @@ FlipCount flip_by_error(const Image& image, const FlipMesh& mesh);
 
 // The same, starting from the half-edges `first` only (and the edges flips touch), for a
 // mesh whose other edges passed their tests: two strips joined along a seam. The sums of
-// the triangles on those edges are computed afresh.
-FlipCount flip_from_edges(const Image& image, const FlipMesh& mesh, Span<const index_t> first);
+// the triangles on those edges are computed afresh. With `checked` false the caller vouches for
+// the arrays (ids, twins, the -1 sums of background triangles: each strip's checked by its own
+// flips, the seam's twins paired by the join), and only the vertices' depths are read first.
+FlipCount flip_from_edges(const Image& image, const FlipMesh& mesh, Span<const index_t> first, bool checked = true);
 
 // Each triangle's error sum from scratch (0 for a triangle with a background corner).
 void face_errors(const Image& image, const FlipMesh& mesh);

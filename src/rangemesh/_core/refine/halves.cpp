@@ -206,9 +206,9 @@ Halves insert_halves(const Image& image, const HalvesRequest& req) {
     Halves out = join(s.left, s.right, m);
     out.flips = s.left.flips + s.right.flips;
     out.total = out.total + seam;
+    std::vector<index_t>& he = out.halfedges;  // (the assembly walks the stars by them)
+    const std::vector<index_t> first = join_halfedges(s.left, s.right, out, m, he);
     if (req.flip) {
-        std::vector<index_t> he;
-        const std::vector<index_t> first = join_halfedges(s.left, s.right, out, m, he);
         std::vector<double> sums = s.left.sums;
         sums.insert(sums.end(), s.right.sums.begin(), s.right.sums.end());
         const FlipMesh mesh{view(out.vr),
@@ -216,7 +216,7 @@ Halves insert_halves(const Image& image, const HalvesRequest& req) {
                             {out.triangles.data(), static_cast<index_t>(out.triangles.size())},
                             {he.data(), static_cast<index_t>(he.size())},
                             {sums.data(), static_cast<index_t>(sums.size())}};
-        out.flips += flip_from_edges(image, mesh, view(first)).flips;
+        out.flips += flip_from_edges(image, mesh, view(first), false).flips;  // (checked as made)
     }
     return out;
 }

@@ -21,9 +21,9 @@ struct HalvesRequest {
     bool flip = false;
 };
 
-// The joined mesh: vertex pixels, triangles (3 a triangle), what the insertion ran.
+// The joined mesh: vertex pixels, triangles (3 a triangle) and their twins, what the insertion ran.
 struct Halves {
-    std::vector<index_t> vr, vc, triangles;
+    std::vector<index_t> vr, vc, triangles, halfedges;
     index_t flips = 0;
     double total = 0.0;  // the strips' summed error, the seam's own pixels included
 };

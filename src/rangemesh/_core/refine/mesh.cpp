@@ -67,19 +67,41 @@ StartArrays first_mesh(const Image& image, index_t n_grid, index_t sr, index_t s
     return f;
 }
 
+// The twins of `valid_faces(vr, vc, tv, valid)`'s faces from the whole mesh's `he`: -1 where the
+// twin's triangle is not kept (no vertex on an invalid pixel).
+std::vector<index_t> valid_twins(Span<const index_t> vr, Span<const index_t> vc, Span<const index_t> tv,
+                                 Span<const index_t> he, Grid<const bool> valid) {
+    const index_t n_t = tv.size / 3;
+    require(he.size == tv.size, "valid_twins: one twin a half-edge");
+    std::vector<index_t> face(n_t);  // the kept face each triangle becomes, or -1
+    index_t n_keep = 0;
+    for (index_t t = 0; t < n_t; ++t) {
+        poll_every(t);
+        const index_t a = tv[3 * t], b = tv[3 * t + 1], c = tv[3 * t + 2];
+        const bool keep = valid(vr[a], vc[a]) && valid(vr[b], vc[b]) && valid(vr[c], vc[c]);
+        face[t] = keep ? n_keep++ : -1;
+    }
+    std::vector<index_t> twins(3 * n_keep);
+    for (index_t t = 0; t < n_t; ++t) {
+        poll_every(t);
+        if (face[t] < 0) continue;
+        for (int k = 0; k < 3; ++k) {
+            const index_t g = he[3 * t + k];
+            twins[3 * face[t] + k] = g < 0 || face[g / 3] < 0 ? -1 : 3 * face[g / 3] + g % 3;
+        }
+    }
+    return twins;
+}
+
 // Each vertex keeps its largest fan once the background triangles are gone (SPEC P4); lone
-// triangles stay (insertion.py's `_one_fan_each`).
-ValidFaces one_fan_each(const Image& image, ValidFaces f) {
+// triangles stay (insertion.py's `_one_fan_each`). `twins` are the faces' (`valid_twins`): only
+// the stars at their borders are walked (`prune_cut_fans`).
+ValidFaces one_fan_each(const Image& image, ValidFaces f, const std::vector<index_t>& twins) {
     const index_t n_f = static_cast<index_t>(f.faces.size() / 3), n_v = static_cast<index_t>(f.pixels.size() / 2);
     const std::vector<index_t> wide(f.faces.begin(), f.faces.end());
-    std::vector<index_t> triangles, halfedges;
-    build_halfedges(Grid<const index_t>{wide.data(), n_f, 3}, n_v, triangles, halfedges);
-    std::vector<index_t> neighbors(3 * n_f);
-    neighbors_from_halfedges(view(halfedges), Grid<index_t>{neighbors.data(), n_f, 3});
+    require(static_cast<index_t>(twins.size()) == 3 * n_f, "one_fan_each: one twin a half-edge");
     const std::unique_ptr<bool[]> kept(new bool[n_f]);
-    std::fill(kept.get(), kept.get() + n_f, true);
-    const LiveTriangles live{{wide.data(), n_f, 3}, {neighbors.data(), n_f, 3}, {kept.get(), n_f}};
-    if (prune_dangling(live, n_v, false) == 0) return f;
+    if (prune_cut_fans(view(wide), view(twins), {kept.get(), n_f}) == 0) return f;
     std::vector<index_t> rows(n_v), cols(n_v), tv;
     for (index_t i = 0; i < n_v; ++i) {
         rows[i] = f.pixels[2 * i];
@@ -151,13 +173,13 @@ struct Meshing {
     index_t n_vertices() const { return static_cast<index_t>(mesh.pixels.size() / 2); }
 };
 
-// The valid faces of an insertion's mesh, with one fan each, its walls dropped unless kept
-// (insertion.py's `_assemble`); `n_walls` counts the dropped ones.
+// The valid faces of an insertion's mesh (triangles `tv`, twins `he`), with one fan each, its
+// walls dropped unless kept (insertion.py's `_assemble`); `n_walls` counts the dropped ones.
 ValidFaces assemble(const Image& image, Span<const double> camera, Span<const index_t> vr, Span<const index_t> vc,
-                    Span<const index_t> tv, const MeshRequest& req, index_t& n_walls) {
+                    Span<const index_t> tv, Span<const index_t> he, const MeshRequest& req, index_t& n_walls) {
     ValidFaces f = valid_faces(vr, vc, tv, image.valid);
     const index_t n_f = static_cast<index_t>(f.faces.size() / 3);
-    if (0 < n_f && n_f < tv.size / 3) f = one_fan_each(image, std::move(f));
+    if (0 < n_f && n_f < tv.size / 3) f = one_fan_each(image, std::move(f), valid_twins(vr, vc, tv, he, image.valid));
     if (!req.walls && !f.faces.empty()) f = drop_walls(image, camera, req.pixel_angle, std::move(f), req.jump, n_walls);
     return f;
 }
@@ -189,7 +211,8 @@ Meshing meshing_of(const Image& image, Span<const double> camera, Insertion& ins
             view(ins.vertex_rows()), view(ins.vertex_cols()), tv, he, {sums.data(), static_cast<index_t>(sums.size())}};
         out.flips = flip_by_error(image, mesh).flips;
     }
-    out.mesh = assemble(image, camera, view(ins.vertex_rows()), view(ins.vertex_cols()), view(tv), req, out.n_walls);
+    out.mesh =
+        assemble(image, camera, view(ins.vertex_rows()), view(ins.vertex_cols()), view(tv), view(he), req, out.n_walls);
     return out;
 }
 
@@ -219,7 +242,8 @@ Meshing mesh_halves(const Image& image, Span<const double> camera, index_t asked
     out.insertions = static_cast<index_t>(halves.vr.size());
     out.flips = halves.flips;
     out.error_left = halves.total > 0.0;
-    out.mesh = assemble(image, camera, view(halves.vr), view(halves.vc), view(halves.triangles), req, out.n_walls);
+    out.mesh = assemble(image, camera, view(halves.vr), view(halves.vc), view(halves.triangles), view(halves.halfedges),
+                        req, out.n_walls);
     return out;
 }
 

@@ -84,12 +84,7 @@ class Worker {
             failed_ = nullptr;
         }
         wake_.notify_all();
-        std::exception_ptr mine;
-        try {
-            fb();
-        } catch (...) {
-            mine = std::current_exception();
-        }
+        const std::exception_ptr mine = caught(fb);
         std::unique_lock<std::mutex> lock(mutex_);
         wake_.wait(lock, [this] { return done_; });
         if (mine) std::rethrow_exception(mine);
@@ -97,6 +92,17 @@ class Worker {
     }
 
   private:
+    // What `f()` threw, or null.
+    template <class F>
+    static std::exception_ptr caught(F& f) {
+        try {
+            f();
+        } catch (...) {
+            return std::current_exception();
+        }
+        return nullptr;
+    }
+
     void loop() {
         std::unique_lock<std::mutex> lock(mutex_);
         for (;;) {
@@ -105,12 +111,7 @@ class Worker {
             std::function<void()> task = std::move(task_);
             task_ = nullptr;
             lock.unlock();
-            std::exception_ptr failed;
-            try {
-                task();
-            } catch (...) {
-                failed = std::current_exception();
-            }
+            const std::exception_ptr failed = caught(task);
             lock.lock();
             failed_ = failed;
             done_ = true;

@@ -29,6 +29,7 @@ import numpy as np
 from .._optional import require
 from ..camera import Pinhole
 from ..recordings.ouster import FRAME_ID, OUSTER_SUFFIXES, OusterReader, ouster_geometry, with_offsets
+from ..timing import now
 
 __all__ = ["LiveFrame", "open_source", "source_kind", "is_realsense_bag", "SOURCE_KINDS",
            # the Ouster reader's helpers live with it (rangemesh.recordings.ouster); kept here by name
@@ -256,8 +257,8 @@ class RealSenseSource:
         """Stop the SDK's pipeline (a looped playback's restart after its end let finish first)."""
         if self._playback is not None and self._loop:
             # librealsense 2.59 crashes (ros_reader::enable_stream) when stopped as it restarts
-            stopped, end = self._rs.playback_status.stopped, time.monotonic() + _RESTART_S
-            while self._playback.current_status() == stopped and time.monotonic() < end:
+            stopped, end = self._rs.playback_status.stopped, now() + _RESTART_S
+            while self._playback.current_status() == stopped and now() < end:
                 time.sleep(0.005)
         try:
             self._pipe.stop()

@@ -19,7 +19,10 @@ THREADS_VARIABLE = "RANGEMESH_THREADS"
 
 
 def threads() -> int:
-    """Two where this process may use two cores, unless ``RANGEMESH_THREADS`` says fewer; else one."""
+    """Two where this process may use two cores, unless ``RANGEMESH_THREADS`` says fewer; else one.
+
+    One on a thread within `one_thread` (a frame worker of `rangemesh.live`).
+    """
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
     value = os.environ.get(THREADS_VARIABLE, "").strip()
     setting = int(value) if value.isdigit() else 2

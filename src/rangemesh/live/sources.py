@@ -260,7 +260,6 @@ class RealSenseSource:
             stopped, end = self._rs.playback_status.stopped, now() + _RESTART_S
             while self._playback.current_status() == stopped and now() < end:
                 time.sleep(0.005)
-            self._playback.pause()  # (on the playback's own thread: no restart begins after it)
         try:
             self._pipe.stop()
         except RuntimeError:

@@ -291,7 +291,7 @@ def test_meshes_come_out_in_the_frames_order_whatever_order_they_are_made_in(mon
         return _Mesh(i)
 
     out = list(_live_with(monkeypatch, _Source(5), mesh, pace="fast"))
-    assert finished[:2] == [1, 0]
+    assert finished.index(1) < finished.index(0)  # (frame 2 may finish before 0 too)
     assert [m.mesh.index for m in out] == [0, 1, 2, 3, 4]
     assert [m.stamp for m in out] == [i * 10**9 for i in range(5)]
 

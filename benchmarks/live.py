@@ -1,7 +1,8 @@
 """rangemesh live's speed: frames/s in and out, drops, latency and frames per CPU second.
 
 Run ``python benchmarks/live.py`` (``--pace fast,30,recorded``, ``--threads 1,2``,
-``--frames N``, ``--repeat K``, ``--only realsense|ros|ouster``, ``--sink none|mcap``).
+``--frames N``, ``--repeat K``, ``--only realsense|ros|ouster``, ``--sink none|mcap``,
+``--stages``).
 Each run plays a recording looped (the RealSense bag holds 2 depth frames, the
 Ouster pcap 3 scans) through `rangemesh.live.run` at the default target until
 ``--frames`` meshes are published (to an MCAP file with ``--sink mcap``, the
@@ -19,7 +20,15 @@ process's `time.process_time`, every thread counted, which a loaded machine
 slows less than the wall clock), the median meshing time and the median time
 to build and write a frame's messages (``publish_ms``). The machine's load
 (1-minute average) is printed before and after each configuration. Under
-``taskset -c 0`` the process may use one core, so two threads give one.
+``taskset -c 0`` the process may use one core, so two threads give one. A
+thread count above one meshes that many frames at once (`rangemesh.live.workers`).
+
+``--stages`` first measures each stage's CPU time a frame on one thread (`stages`:
+read, mesh, build, write, and the process's CPU a frame), which the load slows
+less than the wall clock, and the frames/s two workers on two cores could reach
+from them: the process's CPU a frame spread over two cores, unless meshing on two
+workers or the stages one thread does for every frame (read, build, write) take
+longer.
 """
 
 from __future__ import annotations
@@ -81,6 +90,57 @@ def one_run(path, kw, pace, frames, sink) -> dict:
     return s
 
 
+def stages(path, kw, frames) -> dict:
+    """CPU milliseconds a frame of each stage, on one thread, one after the other.
+
+    ``read`` (the source's next frame: the SDK's playback or the ROS reader,
+    decoding included), ``mesh`` (`triangulate` at the default target, one
+    native thread), ``build`` (the SceneUpdate's bytes) and ``write`` (logging
+    the frame's messages to an MCAP file, less ``build``) are this thread's
+    `time.thread_time`; ``process`` is the process's `time.process_time` a
+    frame, every thread (an SDK's own) counted. Medians over `frames` frames
+    after 4 left out (warm-up).
+    """
+    from rangemesh.live.messages import scene_update_bytes
+    from rangemesh.live.session import _open
+    from rangemesh.live.sinks import FoxgloveChannels
+    from rangemesh.pipeline import triangulate
+    from rangemesh.prepare import NONPOSITIVE
+    from rangemesh.recordings.ouster import with_offsets
+
+    os.environ["RANGEMESH_THREADS"] = "1"
+    call, _, src = _open(path, kw.get("kind"), kw.get("meta"), None, "fast", True, None, 1,
+                         "refine", None, None, {})
+    if getattr(src, "wraps", False):
+        call = {**call, "wrap": True}
+    clock = time.thread_time
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        fox = FoxgloveChannels(None, Path(tmp) / "stages.mcap")
+        it = src.frames()
+        try:
+            for _ in range(frames + 4):
+                p0, t0 = time.process_time(), clock()
+                frame = next(it)
+                t1 = clock()
+                mesh = with_offsets(triangulate(frame.depth, background=NONPOSITIVE,
+                                                camera=frame.camera, **call), frame.offsets)
+                t2 = clock()
+                scene_update_bytes(mesh.vertices, mesh.faces, frame.stamp, frame.frame_id,
+                                   mesh.colors)
+                t3 = clock()
+                fox.publish(frame.stamp, frame.frame_id, mesh, frame.depth.shape)
+                t4 = clock()
+                rows.append((t1 - t0, t2 - t1, t3 - t2, (t4 - t3) - (t3 - t2),
+                             time.process_time() - p0))
+        finally:
+            fox.close()
+            src.close()
+    rows = rows[4:]
+    return {k: 1e3 * statistics.median(r[i] for r in rows)
+            for i, k in enumerate(("read", "mesh", "build", "write", "process"))}
+
+
 def _median(runs, key):
     return statistics.median(r[key] for r in runs)
 
@@ -97,6 +157,9 @@ def main(argv=None) -> int:
                     help="comma-separated RANGEMESH_THREADS values (default: as the "
                          "environment says)")
     ap.add_argument("--sink", choices=["none", "mcap"], default="mcap")
+    ap.add_argument("--stages", action="store_true",
+                    help="also each stage's CPU ms a frame on one thread (read, mesh, build, "
+                         "write) and the frames/s two workers could reach from them")
     args = ap.parse_args(argv)
     paces = [p.strip() for p in args.pace.split(",")]
     threads = args.threads.split(",") if args.threads else [os.environ.get("RANGEMESH_THREADS")]
@@ -112,6 +175,17 @@ def main(argv=None) -> int:
         if why is not None:
             print(f"{name}: skipped, {why}")
             continue
+        if args.stages:
+            before = _load()
+            st = [stages(path, kw, args.frames) for _ in range(args.repeat)]
+            ms = {k: statistics.median(r[k] for r in st) for k in st[0]}
+            serial = ms["read"] + ms["build"] + ms["write"]
+            # two workers on two cores: the CPU a frame over both, or the longest one-thread stage
+            bound = min(2e3 / ms["process"], 1e3 / max(ms["mesh"] / 2, serial))
+            print(f"{name:<10} stages (CPU ms a frame, one thread): read {ms['read']:.2f}  "
+                  f"mesh {ms['mesh']:.2f}  build {ms['build']:.2f}  write {ms['write']:.2f}  "
+                  f"process {ms['process']:.2f}: one core {1e3 / ms['process']:.1f} frames/s, "
+                  f"two workers at most {bound:.1f}  load {before}-{_load()}", flush=True)
         for pace in paces:
             for t in threads:
                 if t is None:

@@ -9,6 +9,7 @@ import signal
 import struct
 import subprocess
 import sys
+import threading
 import time
 from pathlib import Path
 
@@ -162,6 +163,243 @@ def test_pace_words_and_rates():
 def test_a_bad_queue_is_a_value_error_naming_queue(bad):
     with pytest.raises(ValueError, match="queue"):
         next(paced(Playback([], "fast", FakeClock()), bad))
+
+
+# ------------------------------------------------------------------ frames meshed at once (threads)
+
+
+def _two_workers(monkeypatch):
+    """A run of two threads, whatever the machine's cores (`rangemesh.live.workers`)."""
+    from rangemesh.live import workers
+
+    monkeypatch.setenv("RANGEMESH_THREADS", "2")
+    monkeypatch.setattr(workers, "cores", lambda: 2)
+    assert workers.frame_workers() == 2
+
+
+def test_the_frame_workers_follow_rangemesh_threads_and_the_cores(monkeypatch):
+    from rangemesh.live import workers
+
+    monkeypatch.setattr(workers, "cores", lambda: 4)
+    for value, want in [("1", 1), ("2", 2), ("8", 4), ("", 4), ("x", 4), ("0", 4)]:
+        monkeypatch.setenv("RANGEMESH_THREADS", value)
+        assert workers.frame_workers() == want, value
+    monkeypatch.setattr(workers, "cores", lambda: 1)  # taskset -c 0: one, whatever is asked
+    monkeypatch.setenv("RANGEMESH_THREADS", "2")
+    assert workers.frame_workers() == 1
+
+
+class _Source:
+    """A recording of `n` tiny frames (stamps 0, 1, ... s) whose reads the test can watch."""
+
+    device = False
+    fps = None
+
+    def __init__(self, n, on_read=None):
+        self.n, self.on_read, self.closed = n, on_read, False
+
+    def frames(self):
+        for i in range(self.n):
+            if self.on_read is not None:
+                self.on_read(i)
+            yield LiveFrame(i * 10**9, "f", np.full((2, 2), i, np.uint16), None)
+
+    def close(self):
+        self.closed = True
+
+
+class _Mesh:
+    def __init__(self, i):
+        self.index = i
+        self.vertices = np.zeros((0, 3))
+
+
+def _live_with(monkeypatch, source, mesh, **kw):
+    """`rangemesh.live` of a fake source, `mesh(index)` standing for `triangulate`."""
+    from rangemesh.live import session
+
+    monkeypatch.setattr(session, "open_source", lambda *a, **k: source)
+    monkeypatch.setattr(session, "triangulate",
+                        lambda depth, **k: mesh(int(depth[0, 0])))
+    return session.live("fake.bag", **kw)
+
+
+def test_two_threads_mesh_two_frames_at_once(monkeypatch):
+    # each of the first two frames' meshing waits for the other to start: one thread at a
+    # time would never get past the first (the barrier breaks after its timeout)
+    _two_workers(monkeypatch)
+    both = threading.Barrier(2, timeout=20)
+
+    def mesh(i):
+        if i < 2:
+            both.wait()
+        return _Mesh(i)
+
+    out = list(_live_with(monkeypatch, _Source(4), mesh, pace="fast"))
+    assert [m.mesh.index for m in out] == [0, 1, 2, 3]
+
+
+def test_a_recording_is_read_ahead_while_the_workers_mesh(monkeypatch):
+    # frames 0 and 1 mesh only once frame 2 has been read: the reading must not wait for a
+    # worker to be free (the RealSense SDK's playback read ran on the meshing thread)
+    _two_workers(monkeypatch)
+    read2 = threading.Event()
+
+    def mesh(i):
+        if i < 2:
+            assert read2.wait(20), "frame 2 was not read while frames 0 and 1 were meshed"
+        return _Mesh(i)
+
+    source = _Source(3, on_read=lambda i: i == 2 and read2.set())
+    out = list(_live_with(monkeypatch, source, mesh, pace="fast"))
+    assert [m.mesh.index for m in out] == [0, 1, 2]
+
+
+def test_one_thread_meshes_frames_in_turn_and_reads_on_the_caller_s_thread(monkeypatch):
+    # RANGEMESH_THREADS=1: read, mesh, hand out in turn, all on the caller's thread
+    from rangemesh.live import workers
+
+    monkeypatch.setattr(workers, "cores", lambda: 2)
+    monkeypatch.setenv("RANGEMESH_THREADS", "1")
+    threads, busy = set(), []
+
+    def mesh(i):
+        busy.append(i)
+        threads.add(threading.current_thread())
+        assert len(busy) == 1
+        busy.pop()
+        return _Mesh(i)
+
+    source = _Source(3, on_read=lambda i: threads.add(threading.current_thread()))
+    out = list(_live_with(monkeypatch, source, mesh, pace="fast"))
+    assert [m.mesh.index for m in out] == [0, 1, 2]
+    assert threads == {threading.current_thread()}
+
+
+def test_meshes_come_out_in_the_frames_order_whatever_order_they_are_made_in(monkeypatch):
+    # frame 0 is finished only after frame 1: still handed out first
+    _two_workers(monkeypatch)
+    one_done = threading.Event()
+    finished = []
+
+    def mesh(i):
+        if i == 0:
+            assert one_done.wait(20)
+        finished.append(i)
+        if i == 1:
+            one_done.set()
+        return _Mesh(i)
+
+    out = list(_live_with(monkeypatch, _Source(5), mesh, pace="fast"))
+    assert finished.index(1) < finished.index(0)  # (frame 2 may finish before 0 too)
+    assert [m.mesh.index for m in out] == [0, 1, 2, 3, 4]
+    assert [m.stamp for m in out] == [i * 10**9 for i in range(5)]
+
+
+def test_each_worker_meshes_with_one_native_thread(monkeypatch):
+    from rangemesh.refine import threads as refine_threads
+
+    _two_workers(monkeypatch)
+    seen = []
+    out = list(_live_with(monkeypatch, _Source(4),
+                          lambda i: seen.append(refine_threads.threads()) or _Mesh(i), pace="fast"))
+    assert len(out) == 4 and seen == [1, 1, 1, 1]
+    with refine_threads.one_thread():
+        assert refine_threads.threads() == 1
+
+
+class _Feed:
+    """A device's frames, arriving when the test says (`DeviceFeed`'s interface)."""
+
+    clock = pacing.Clock()
+
+    def __init__(self):
+        self._items, self.ended = [], False
+        self._cond = threading.Condition()
+
+    def arrive(self, frames, end=False):
+        with self._cond:
+            self._items += [(f, self.clock.now()) for f in frames]
+            self.ended = end
+            self._cond.notify()
+
+    def take(self, now):
+        with self._cond:
+            out, self._items = self._items, []
+        return out
+
+    def lost(self):
+        return 0
+
+    def wait(self):
+        with self._cond:
+            while not self._items and not self.ended:
+                self._cond.wait(0.05)
+            return bool(self._items)
+
+    def close(self):
+        pass
+
+
+@pytest.mark.parametrize(("queue", "meshed", "dropped"), [(1, [0, 1, 5], 3), (2, [0, 1, 4, 5], 2)])
+def test_with_two_threads_the_newest_frames_win_when_both_are_busy(queue, meshed, dropped):
+    # by hand: frames 0 and 1 keep both workers busy while 2, 3, then 4, 5 arrive; when a worker
+    # is free the queue keeps the newest `queue` of them, the others are dropped (counted)
+    from rangemesh.live.workers import pooled
+
+    feed, started, go = _Feed(), threading.Semaphore(0), threading.Event()
+    frames = _frames(np.arange(6) * 1.0)
+
+    def mesh(frame, arrival):
+        i = round(frame.stamp / 1e9)
+        if i < 2:
+            started.release()
+            assert go.wait(20)
+        return i
+
+    stats = Stats(0.0)
+    out = []
+    caller = threading.Thread(target=lambda: out.extend(pooled(feed, mesh, 2, queue, None, stats)))
+    caller.start()
+    try:
+        for i in (0, 1):  # one by one: together, the queue of one would keep frame 1 only
+            feed.arrive(frames[i:i + 1])
+            assert started.acquire(timeout=20)
+        feed.arrive(frames[2:4])
+        time.sleep(0.2)  # (a pool that took frames before a worker was free would take 3 here)
+        feed.arrive(frames[4:], end=True)
+    finally:
+        go.set()
+        caller.join(20)
+    assert out == meshed
+    assert (stats.frames_in, stats.dropped) == (6, dropped)
+
+
+def test_a_source_s_error_is_raised_after_the_frames_before_it(monkeypatch):
+    _two_workers(monkeypatch)
+
+    def fail(i):
+        if i == 3:
+            raise ValueError("frame 3: cannot be read")
+
+    got = []
+    with pytest.raises(ValueError, match="frame 3: cannot be read"):
+        for m in _live_with(monkeypatch, _Source(5, on_read=fail), _Mesh, pace="fast"):
+            got.append(m.mesh.index)
+    assert got == [0, 1, 2]
+
+
+@pytest.mark.parametrize("threads", ["1", "2"])
+def test_frames_stops_after_that_many_meshes_with_any_threads(monkeypatch, threads):
+    from rangemesh.live import workers
+
+    monkeypatch.setattr(workers, "cores", lambda: 2)
+    monkeypatch.setenv("RANGEMESH_THREADS", threads)
+    made = []
+    out = list(_live_with(monkeypatch, _Source(50), lambda i: made.append(i) or _Mesh(i),
+                          pace="fast", frames=7))
+    assert [m.mesh.index for m in out] == list(range(7))
+    assert sorted(made) == list(range(7))  # no frame taken beyond the seventh
 
 
 # ------------------------------------------------------------------ the SceneUpdate message
@@ -485,8 +723,9 @@ def test_a_websocket_client_receives_scene_updates_as_meshed(shared_data):
 
 
 @pytest.mark.slow
+@pytest.mark.parametrize("threads", ["1", "2"])  # 2: frames meshed by workers, read ahead
 @pytest.mark.parametrize("reader", ["ros", "realsense"])
-def test_ctrl_c_leaves_a_readable_mcap(shared_data, tmp_path, reader):
+def test_ctrl_c_leaves_a_readable_mcap(shared_data, tmp_path, reader, threads):
     sdk("foxglove")
     if reader == "realsense":  # the SDK's playback: its pipeline stopped before the MCAP closes
         sdk("pyrealsense2")
@@ -495,7 +734,8 @@ def test_ctrl_c_leaves_a_readable_mcap(shared_data, tmp_path, reader):
     proc = subprocess.Popen(
         [sys.executable, "-m", "rangemesh", "live", str(shared_data / REALSENSE), "--source", reader,
          "--pace", "20", "--loop", "--vertices", "300", "--foxglove", "0", "-o", str(out)],
-        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=ENV)
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        env={**ENV, "RANGEMESH_THREADS": threads})
     try:
         assert proc.stdout.readline().startswith("ws://127.0.0.1:")
         csv = tmp_path / "run.rangemesh-live.csv"
@@ -517,6 +757,46 @@ def test_ctrl_c_leaves_a_readable_mcap(shared_data, tmp_path, reader):
     assert counts["/rangemesh/mesh"] == counts["/rangemesh/stats"] >= 1
     assert len(scenes) == counts["/rangemesh/mesh"]
     assert len(csv.read_text().splitlines()) == counts["/rangemesh/mesh"] + 1
+
+
+@pytest.mark.parametrize("reader", ["ros", "realsense"])
+def test_one_and_two_threads_publish_the_same_meshes_in_the_same_order(shared_data, tmp_path,
+                                                                       monkeypatch, reader):
+    # the bag's 2 frames looped to 6 at --pace fast, the default target: the MCAP's SceneUpdates
+    # and the folder's files of a run of two threads are those of one, in order, and equal
+    # triangulate's meshes of the frames (the ROS reader's decoding, `_expected_meshes`)
+    sdk("foxglove")
+    if reader == "realsense":
+        sdk("pyrealsense2")
+    make_reader, DecoderFactory = _decoder()
+    from rangemesh.live import run, workers
+
+    monkeypatch.setattr(workers, "cores", lambda: 2)
+    got = {}
+    for threads in ("1", "2"):
+        monkeypatch.setenv("RANGEMESH_THREADS", threads)
+        out = tmp_path / threads
+        s = run(shared_data / REALSENSE, kind=reader, pace="fast", loop=True, frames=6,
+                outputs=[out / "live.mcap", out / "meshes"], quiet=True)
+        assert (s["frames_in"], s["frames_out"], s["dropped"]) == (6, 6, 0)
+        with open(out / "live.mcap", "rb") as fh:
+            scenes = [d.entities[0] for _, _, _, d in make_reader(
+                fh, decoder_factories=[DecoderFactory()]).iter_decoded_messages(
+                topics=["/rangemesh/mesh"])]
+        files = sorted((out / "meshes").glob("*.ply"))
+        got[threads] = ([(e.timestamp.seconds * 10**9 + e.timestamp.nanos,
+                          np.array([[p.x, p.y, p.z] for p in e.triangles[0].points]),
+                          np.reshape(e.triangles[0].indices, (-1, 3))) for e in scenes],
+                        {p.name: p.read_bytes() for p in files})
+    want = _expected_meshes(shared_data)
+    stamps = sorted(want)
+    for threads, (scenes, files) in got.items():
+        assert [s for s, _, _ in scenes] == stamps * 3, threads  # in the recording's order
+        for stamp, vertices, faces in scenes:
+            assert np.array_equal(vertices, want[stamp].vertices), threads
+            assert np.array_equal(faces, want[stamp].faces), threads
+        assert len(files) == 6
+    assert got["1"][1] == got["2"][1]  # the same files, byte for byte
 
 
 def test_the_status_line_gives_the_rates_drops_and_latency_unless_quiet(shared_data, tmp_path):

@@ -8,6 +8,8 @@
 * `sinks`: the Foxglove WebSocket server and MCAP file (`foxglove-sdk`), a
   folder of mesh files.
 * `stats`: frames/s in and out, drops, latency; the status line and the CSV.
+* `workers`: frames meshed at once on a pool of threads (``RANGEMESH_THREADS``),
+  a recording read ahead, the meshes handed out in order.
 * `session`: `live` (a generator of ``(stamp, frame_id, mesh)``) and `run`
   (``rangemesh live``).
 

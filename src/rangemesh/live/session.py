@@ -2,8 +2,9 @@
 
 Both share every line after the frame source: `open_source` gives the
 frames, `rangemesh.live.pacing` releases and drops them, `triangulate`
-meshes them; `run` then publishes each mesh to the sinks and keeps the
-figures (`rangemesh.live.stats`).
+meshes them (several at once on `rangemesh.live.workers` when the run has
+more than one thread); `run` then publishes each mesh to the sinks, in the
+frames' order, and keeps the figures (`rangemesh.live.stats`).
 """
 
 from __future__ import annotations
@@ -22,6 +23,7 @@ from .pacing import Clock, DeviceFeed, Playback, paced, parse_pace
 from .sinks import FolderSink, FoxgloveChannels, parse_address
 from .sources import open_source, with_offsets
 from .stats import Stats
+from .workers import Prefetch, frame_workers, pooled
 
 __all__ = ["live", "run", "LiveMesh"]
 
@@ -108,19 +110,32 @@ def _open(source, kind, meta, topic, pace, loop, frames, queue, method, vertices
 def _meshes(src, call, pace, frames, queue, clock, stats) -> Iterator[LiveMesh]:
     if getattr(src, "wraps", False) and "wrap" not in call:  # a whole circle: --no-wrap opens it
         call = {**call, "wrap": True}
+    workers = frame_workers()
+    # with workers, a recording is read and decoded on a thread of its own while they mesh
+    reader = Prefetch(src.frames(), workers) if workers > 1 and not src.device else None
     feed = DeviceFeed(src.frames(), clock, max(queue, 8)) if src.device else \
-        Playback(src.frames(), pace, clock, getattr(src, "fps", None))
+        Playback(reader if reader is not None else src.frames(), pace, clock,
+                 getattr(src, "fps", None))
+
+    def mesh_one(frame, arrival) -> LiveMesh:
+        t0 = clock.now()
+        mesh = triangulate(frame.depth, background=NONPOSITIVE, camera=frame.camera, **call)
+        mesh = with_offsets(mesh, frame.offsets)
+        return LiveMesh(frame.stamp, frame.frame_id, mesh, frame.depth.shape, arrival,
+                        clock.now() - t0)
+
     try:
+        if workers > 1:
+            yield from pooled(feed, mesh_one, workers, queue, frames, stats)
+            return
         for n, (frame, arrival) in enumerate(paced(feed, queue, stats)):
-            t0 = clock.now()
-            mesh = triangulate(frame.depth, background=NONPOSITIVE, camera=frame.camera, **call)
-            mesh = with_offsets(mesh, frame.offsets)
-            yield LiveMesh(frame.stamp, frame.frame_id, mesh, frame.depth.shape, arrival,
-                           clock.now() - t0)
+            yield mesh_one(frame, arrival)
             if frames is not None and n + 1 >= frames:
                 return
     finally:
         feed.close()
+        if reader is not None:  # no read under way when the caller closes the source
+            reader.close()
 
 
 def live(source: str | os.PathLike, *, kind: str | None = None, meta=None, topic: str | None = None,
@@ -173,8 +188,12 @@ def live(source: str | os.PathLike, *, kind: str | None = None, meta=None, topic
 
     Notes
     -----
-    The time the caller spends on each mesh counts as meshing time: frames
-    that arrive meanwhile wait in the queue or are dropped.
+    With one thread (``RANGEMESH_THREADS=1``, or one core allowed) frames
+    are read, meshed and handed out in turn, and the time the caller spends
+    on each mesh counts as meshing time: frames that arrive meanwhile wait in
+    the queue or are dropped. With more (`rangemesh.live.workers`), that
+    many frames are meshed at once while a recording is read ahead, and the
+    meshes come in the frames' order; the same meshes either way.
     """
     call, pace, src = _open(source, kind, meta, topic, pace, loop, frames, queue, method,
                             vertices, max_error, options)

@@ -20,6 +20,7 @@ from its recording's only in how the SDK is opened.
 from __future__ import annotations
 
 import os
+import time
 from pathlib import Path
 from typing import NamedTuple
 
@@ -28,6 +29,7 @@ import numpy as np
 from .._optional import require
 from ..camera import Pinhole
 from ..recordings.ouster import FRAME_ID, OUSTER_SUFFIXES, OusterReader, ouster_geometry, with_offsets
+from ..timing import now
 
 __all__ = ["LiveFrame", "open_source", "source_kind", "is_realsense_bag", "SOURCE_KINDS",
            # the Ouster reader's helpers live with it (rangemesh.recordings.ouster); kept here by name
@@ -37,6 +39,7 @@ SOURCE_KINDS = ("realsense", "ouster", "ros")
 # a RealSense SDK recording starts with these topics (librealsense's rosbag format)
 _REALSENSE_TOPICS = ("/file_version", "/device_0/")
 _WAIT_MS = 5000  # no frame from the SDK for this long: a device's error, a recording's end
+_RESTART_S = 1.0  # seconds a looped RealSense playback is given to restart before it is stopped
 _POLL_MS = 50  # how long one wait for a RealSense frame lasts before the playback's state is read
 
 
@@ -235,7 +238,7 @@ class RealSenseSource:
                 waited += _POLL_MS
                 stopped = self._playback is not None \
                     and self._playback.current_status() == rs.playback_status.stopped
-                if stopped and seen:
+                if stopped and seen and not self._loop:  # a loop restarts after its end
                     return
                 if waited >= _WAIT_MS:
                     if self.device:
@@ -251,7 +254,12 @@ class RealSenseSource:
             yield LiveFrame(int(round(depth.get_timestamp() * 1e6)), self.frame_id, image, self.camera)
 
     def close(self):
-        """Stop the SDK's pipeline."""
+        """Stop the SDK's pipeline (a looped playback's restart after its end let finish first)."""
+        if self._playback is not None and self._loop:
+            # librealsense 2.59 crashes (ros_reader::enable_stream) when stopped as it restarts
+            stopped, end = self._rs.playback_status.stopped, now() + _RESTART_S
+            while self._playback.current_status() == stopped and now() < end:
+                time.sleep(0.005)
         try:
             self._pipe.stop()
         except RuntimeError:

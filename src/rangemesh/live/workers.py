@@ -1,0 +1,211 @@
+"""Frames meshed at once: a pool of meshing threads fed by the pacing, its meshes handed out in order.
+
+With more than one thread for the run (`frame_workers`: ``RANGEMESH_THREADS``,
+at most the cores this process may use), `rangemesh.live.session` meshes
+several frames at once, each on a worker thread of its own that meshes with
+one native thread (`rangemesh.refine.threads.one_thread`): the native
+meshing releases the GIL, so the workers run side by side, and each mesh is
+the one a single thread makes. A recording's frames are read and decoded
+ahead on a thread of their own (`Prefetch`), while the caller's thread
+publishes. The pacing is that of one thread: a frame is taken from `paced`
+only when a worker is free, so frames that come while every worker is busy
+wait in the queue (``--queue``) or are dropped, the newest winning; at
+``--pace fast`` the playback releases a frame each time a worker asks, and
+none is dropped. The meshes are handed out in the frames' order, whatever
+order the workers finish in.
+"""
+
+from __future__ import annotations
+
+import os
+import queue as queues
+import threading
+from collections.abc import Callable, Iterator
+from concurrent.futures import ThreadPoolExecutor
+
+from ..refine.threads import THREADS_VARIABLE, one_thread
+from .pacing import paced
+
+__all__ = ["frame_workers", "cores", "Prefetch", "pooled", "UNPUBLISHED_PER_WORKER"]
+
+_POLL = 0.05  # seconds between two looks at the stop flag while a thread waits
+_JOIN = 2.0  # seconds to wait for a thread to end when the run stops
+UNPUBLISHED_PER_WORKER = 2  # frames taken but not yet handed out, per worker: bounds the backlog
+
+
+def cores() -> int:
+    """The cores this process may use."""
+    n = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    return max(1, n or 1)
+
+
+def frame_workers() -> int:
+    """Frames a live run meshes at once: ``RANGEMESH_THREADS`` (default: every core), at most the cores.
+
+    One (``RANGEMESH_THREADS=1``, or one core allowed, as under
+    ``taskset -c 0``) keeps the sequential path: read, mesh, publish in turn.
+    """
+    n = cores()
+    value = os.environ.get(THREADS_VARIABLE, "").strip()
+    setting = int(value) if value.isdigit() and int(value) > 0 else n
+    return max(1, min(n, setting))
+
+
+class _Raised:
+    """An exception of a helper thread, raised on the caller's thread in its turn."""
+
+    def __init__(self, exc: BaseException):
+        self.exc = exc
+
+
+_END = object()
+
+
+class Prefetch:
+    """A recording's frames read (and decoded) on a thread of their own, up to `ahead` in advance.
+
+    An iterator of the frames of `frames`, in order; an error of the reader
+    is raised in its turn. `close` stops the thread and waits for it, so the
+    source may then be closed: no read is under way.
+    """
+
+    def __init__(self, frames: Iterator, ahead: int):
+        self._queue: queues.Queue = queues.Queue(maxsize=max(1, ahead))
+        self._stop = threading.Event()
+        self._done = False
+        self._thread = threading.Thread(target=self._read, args=(frames,), daemon=True,
+                                        name="rangemesh-live-read")
+        self._thread.start()
+
+    def _put(self, item) -> bool:
+        while not self._stop.is_set():
+            try:
+                self._queue.put(item, timeout=_POLL)
+                return True
+            except queues.Full:
+                continue
+        return False
+
+    def _read(self, frames) -> None:
+        try:
+            for frame in frames:
+                if not self._put(frame):
+                    return
+            self._put(_END)
+        except BaseException as exc:  # raised on the mesher's side, in the frames' order
+            self._put(_Raised(exc))
+        finally:  # the source's objects (an SDK's frames) let go here, before the source closes
+            close = getattr(frames, "close", None)
+            if close is not None:
+                close()
+
+    def __iter__(self):
+        return self
+
+    def __next__(self):
+        while not self._done:
+            try:
+                item = self._queue.get(timeout=_POLL)
+            except queues.Empty:
+                if self._stop.is_set():
+                    break
+                continue
+            if item is _END:
+                break
+            if isinstance(item, _Raised):
+                self._done = True
+                raise item.exc
+            return item
+        self._done = True
+        raise StopIteration
+
+    def close(self) -> None:
+        """Stop reading; wait for the thread to end."""
+        self._stop.set()
+        self._thread.join(_JOIN)
+
+
+def pooled(feed, mesh_one: Callable, workers: int, queue: int, frames: int | None,
+           stats=None) -> Iterator:
+    """The meshes of `feed`'s frames, meshed `workers` at a time, in the frames' order.
+
+    Parameters
+    ----------
+    feed : Playback or DeviceFeed
+        What `paced` takes the frames from (on a thread of this function's).
+    mesh_one : callable
+        ``mesh_one(frame, arrival)``: the frame's mesh (`LiveMesh`), called on
+        a worker thread.
+    workers : int
+        Frames meshed at once (2 or more).
+    queue : int
+        Frames kept waiting while every worker is busy (`paced`).
+    frames : int, optional
+        Stop after this many frames.
+    stats : rangemesh.live.stats.Stats, optional
+        Told of arrivals and drops (by the pacing thread; the caller's thread
+        only publishes).
+
+    Notes
+    -----
+    At most ``UNPUBLISHED_PER_WORKER * workers`` frames are taken and not yet
+    handed back by the caller (meshing, meshed, being published): a caller
+    slower than the meshing holds the workers back, so frames wait in the
+    feed and the newest wins, as with one thread.
+    """
+    pool = ThreadPoolExecutor(workers, thread_name_prefix="rangemesh-live-mesh")
+    free = threading.Semaphore(workers)
+    unpublished = threading.Semaphore(UNPUBLISHED_PER_WORKER * workers)
+    handed: queues.Queue = queues.Queue()
+    stop = threading.Event()
+
+    def work(frame, arrival):
+        try:
+            with one_thread():  # the workers use the cores: one native thread each
+                return mesh_one(frame, arrival)
+        finally:
+            free.release()
+
+    def acquire(slot) -> bool:
+        while not stop.is_set():
+            if slot.acquire(timeout=_POLL):
+                return True
+        return False
+
+    def dispatch():
+        try:
+            taken = paced(feed, queue, stats)
+            n = 0
+            while frames is None or n < frames:
+                # a worker free before the next frame is taken: later ones wait in the queue
+                if not (acquire(unpublished) and acquire(free)):
+                    return
+                item = next(taken, None)
+                if item is None or stop.is_set():
+                    break
+                handed.put(pool.submit(work, *item))
+                n += 1
+            handed.put(_END)
+        except BaseException as exc:  # the source's error, raised after the frames before it
+            handed.put(_Raised(exc))
+
+    thread = threading.Thread(target=dispatch, daemon=True, name="rangemesh-live-pace")
+    thread.start()
+    held = False
+    try:
+        while True:
+            if held:  # the caller is done with the last mesh: one more frame may be taken
+                unpublished.release()
+                held = False
+            item = handed.get()
+            if item is _END:
+                return
+            if isinstance(item, _Raised):
+                raise item.exc
+            held = True
+            yield item.result()
+    finally:
+        stop.set()
+        feed.close()
+        pool.shutdown(wait=True, cancel_futures=True)
+        thread.join(_JOIN)

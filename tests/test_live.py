@@ -762,9 +762,11 @@ def test_ctrl_c_leaves_a_readable_mcap(shared_data, tmp_path, reader, threads):
 @pytest.mark.parametrize("reader", ["ros", "realsense"])
 def test_one_and_two_threads_publish_the_same_meshes_in_the_same_order(shared_data, tmp_path,
                                                                        monkeypatch, reader):
-    # the bag's 2 frames looped to 6 at --pace fast, the default target: the MCAP's SceneUpdates
-    # and the folder's files of a run of two threads are those of one, in order, and equal
-    # triangulate's meshes of the frames (the ROS reader's decoding, `_expected_meshes`)
+    # the bag's 2 frames (the ROS reader: looped to 6) at --pace fast, the default target: the
+    # MCAP's SceneUpdates and the folder's files of a run of two threads are those of one, in
+    # order, and equal triangulate's meshes of the frames (the ROS reader's decoding,
+    # `_expected_meshes`). The SDK's playback is not looped here: librealsense 2.59 can crash
+    # (ros_reader::enable_stream) when a looped playback is stopped as it restarts.
     sdk("foxglove")
     if reader == "realsense":
         sdk("pyrealsense2")
@@ -776,9 +778,10 @@ def test_one_and_two_threads_publish_the_same_meshes_in_the_same_order(shared_da
     for threads in ("1", "2"):
         monkeypatch.setenv("RANGEMESH_THREADS", threads)
         out = tmp_path / threads
-        s = run(shared_data / REALSENSE, kind=reader, pace="fast", loop=True, frames=6,
-                outputs=[out / "live.mcap", out / "meshes"], quiet=True)
-        assert (s["frames_in"], s["frames_out"], s["dropped"]) == (6, 6, 0)
+        loops = 3 if reader == "ros" else 1
+        s = run(shared_data / REALSENSE, kind=reader, pace="fast", loop=loops > 1,
+                frames=2 * loops, outputs=[out / "live.mcap", out / "meshes"], quiet=True)
+        assert (s["frames_in"], s["frames_out"], s["dropped"]) == (2 * loops, 2 * loops, 0)
         with open(out / "live.mcap", "rb") as fh:
             scenes = [d.entities[0] for _, _, _, d in make_reader(
                 fh, decoder_factories=[DecoderFactory()]).iter_decoded_messages(
@@ -791,11 +794,11 @@ def test_one_and_two_threads_publish_the_same_meshes_in_the_same_order(shared_da
     want = _expected_meshes(shared_data)
     stamps = sorted(want)
     for threads, (scenes, files) in got.items():
-        assert [s for s, _, _ in scenes] == stamps * 3, threads  # in the recording's order
+        assert [s for s, _, _ in scenes] == stamps * loops, threads  # in the recording's order
         for stamp, vertices, faces in scenes:
             assert np.array_equal(vertices, want[stamp].vertices), threads
             assert np.array_equal(faces, want[stamp].faces), threads
-        assert len(files) == 6
+        assert len(files) == 2 * loops
     assert got["1"][1] == got["2"][1]  # the same files, byte for byte
 
 

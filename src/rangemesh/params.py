@@ -319,7 +319,8 @@ class MeshParams:
             "vertices collapsed onto a neighbour, cheapest first by the exact increase of the "
             "summed pixel error, down to the count; the target is met as with ``'fast'`` "
             "(`rangemesh.refine.insertion.greedy_mesh`). Under a vertex count, ``'fast'``'s "
-            "mesh is kept where its relative error is lower, so ``'best'`` never errs more. On the cases of docs/benchmarks.md "
+            "mesh is kept where its relative error is lower, so ``'best'`` never errs more. On "
+            "the cases of docs/benchmarks.md "
             "(\"effort\") 0.55-0.75x ``'fast'``'s error on smooth or noisy frames, a tenth or "
             "less on planar and layered ones; on the 69 cases of ``benchmarks/peers.py --budgets "
             "fractions --best`` a median 0.77x its error for a median 25x its time (4-300x).",

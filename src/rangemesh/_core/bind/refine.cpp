@@ -141,16 +141,14 @@ void bind_refine(nb::module_& m) {
         .def_rw("base", &ErrorScan::base, "A sum the stop adds to the triangle's ...")
         .def_rw("span", &ErrorScan::span, "... in key units of ``span / 2**32`` ...")
         .def_rw("stop", &ErrorScan::stop, "... left after a row once ``quantize(base + sum, span) >= stop``.");
-    nb::class_<refine::StripRequest>(m, "StripRequest", "What ``strip_insert`` inserts, and how.")
-        .def(
-            "__init__",
-            [](refine::StripRequest* r, index_t vertices, index_t target, index_t reserve, double budget, index_t sr,
-               index_t sc, int threads, bool rounds, bool flip) {
-                new (r) refine::StripRequest{vertices, target, reserve, budget, sr, sc, threads, rounds, flip};
-            },
-            nb::arg("vertices") = 0, nb::arg("target") = 0, nb::arg("reserve") = 0, nb::arg("budget") = -1.0,
-            nb::arg("sr") = 1, nb::arg("sc") = 1, nb::arg("threads") = 1, nb::arg("rounds") = true,
-            nb::arg("flip") = false)
+    // (nine values: built with its defaults and filled by property, as FlipSettings and FitSettings
+    // are, not by a constructor of more than eight arguments)
+    nb::class_<refine::StripRequest>(m, "StripRequest",
+                                     "What ``strip_insert`` inserts, and how: built with the defaults "
+                                     "(budget -1, sr, sc and threads 1, rounds true, the rest 0 or false), "
+                                     "then filled by property.")
+        .def("__init__",
+             [](refine::StripRequest* r) { new (r) refine::StripRequest{0, 0, 0, -1.0, 1, 1, 1, true, false}; })
         .def("__copy__", [](const refine::StripRequest& r) { return refine::StripRequest(r); })
         .def_rw("vertices", &refine::StripRequest::vertices, "Valid vertices wanted, the seam's once ...")
         .def_rw("target", &refine::StripRequest::target, "... counted the seam's twice (once a strip).")

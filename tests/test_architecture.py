@@ -80,6 +80,14 @@ def test_no_command_line_module_is_over_400_lines():
     assert {name: n for name, n in sizes.items() if n > 400} == {}
 
 
+def test_the_pipeline_module_stays_under_500_lines():
+    # issue 43: pipeline.py (745 lines) resolved options, modelled memory, prepared, applied the
+    # method rules, closed the seam and ran; those jobs have modules of their own now
+    import rangemesh.pipeline
+
+    assert len(Path(rangemesh.pipeline.__file__).read_text().splitlines()) < 500
+
+
 def test_evaluation_and_shared_steps_load_no_method():
     # issue 43: the evaluation's curvature came from the paper's package, gap filling from
     # paper.sampling; they are shared steps now (rangemesh.geometry, rangemesh.prepare)

@@ -19,6 +19,8 @@ from rangemesh.refine import threads as _threads
 from rangemesh.refine.start import first_mesh
 from rangemesh.refine.strips import SEAM_DENSITY, SEAM_ERROR_SHARE
 
+from .helpers import core_settings
+
 
 def seam_column(valid: np.ndarray) -> int:
     """The column that halves the valid pixels, kept within the middle half of the image."""
@@ -122,8 +124,8 @@ def strip_insert(depth, valid, vertices, span, scales, n_grid, *, max_sum=-1.0, 
     seam_error = _seam_error(depth[:, m], valid[:, m], rows)
     budget = max(max_sum - seam_error, 0.0) if max_sum >= 0.0 else -1.0
     # (the strips' summed errors stay the insertion's: the flips leave them alone)
-    request = _core.StripRequest(vertices=vertices, target=target, reserve=size, budget=budget, sr=sr,
-                                 sc=sc, threads=n_threads, rounds=rounds, flip=diagonals == "error")
+    request = core_settings(_core.StripRequest, vertices=vertices, target=target, reserve=size, budget=budget,
+                            sr=sr, sc=sc, threads=n_threads, rounds=rounds, flip=diagonals == "error")
     out = _core.strip_insert(depth, valid, left, right, span, request)
     a, b = out.left, out.right
     if info is not None:

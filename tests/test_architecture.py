@@ -80,6 +80,14 @@ def test_no_command_line_module_is_over_400_lines():
     assert {name: n for name, n in sizes.items() if n > 400} == {}
 
 
+def test_the_pipeline_module_stays_under_500_lines():
+    # issue 43: pipeline.py (745 lines) resolved options, modelled memory, prepared, applied the
+    # method rules, closed the seam and ran; those jobs have modules of their own now
+    import rangemesh.pipeline
+
+    assert len(Path(rangemesh.pipeline.__file__).read_text().splitlines()) < 500
+
+
 def test_evaluation_and_shared_steps_load_no_method():
     # issue 43: the evaluation's curvature came from the paper's package, gap filling from
     # paper.sampling; they are shared steps now (rangemesh.geometry, rangemesh.prepare)
@@ -104,3 +112,62 @@ def test_moved_steps_keep_their_public_names():
     assert rangemesh.fill_gaps is rangemesh.paper.fill_gaps is fill_gaps
     for name in rangemesh.refine.walls.__all__:
         assert getattr(rangemesh.refine.walls, name) is getattr(walls, name)
+
+
+def _parameters(signature: str) -> list[str]:
+    """The parameters of a nanobind signature ``def f(a: T, b: U = \\0, /) -> R``, ``self`` and the
+    bare ``/`` and ``*`` markers left out; commas inside a type's brackets do not split."""
+    start = signature.index("(")
+    depth, names, part = 0, [], ""
+    for ch in signature[start + 1:]:
+        if ch in "([{":
+            depth += 1
+        elif ch in ")]}":
+            if depth == 0:
+                break
+            depth -= 1
+        if ch == "," and depth == 0:
+            names.append(part)
+            part = ""
+        else:
+            part += ch
+    names.append(part)
+    names = [p.split(":")[0].split("=")[0].strip() for p in names]
+    return [p for p in names if p not in ("", "self", "/", "*")]
+
+
+def _bound_callables(module):
+    """(name, nanobind function) for every function of `module` and every method, constructor and
+    property accessor of its classes."""
+    for name in dir(module):
+        obj = getattr(module, name)
+        if hasattr(obj, "__nb_signature__"):
+            yield name, obj
+        if not isinstance(obj, type) or obj.__module__ != module.__name__:
+            continue
+        for attr, member in vars(obj).items():
+            member = getattr(member, "__func__", member)  # (static and class methods)
+            accessors = (member.fget, member.fset) if isinstance(member, property) else (member,)
+            for fn in accessors:
+                if hasattr(fn, "__nb_signature__"):
+                    yield f"{name}.{attr}", fn
+
+
+def test_no_bound_callable_takes_more_than_eight_arguments():
+    # issue 43's "done means": settings of more than 8 values are classes filled by property
+    # (at 78b3cb1 eleven bound functions took 9 to 17; StripRequest's __init__ took 9)
+    from rangemesh._core import _ext
+
+    counts = {}
+    for name, fn in _bound_callables(_ext):
+        for overload in fn.__nb_signature__:
+            params = _parameters(overload[0])
+            # an open list (*args, **kwargs) would hide the count: it counts as too many
+            n = 99 if any(p.startswith("*") for p in params) else len(params)
+            counts[name] = max(counts.get(name, 0), n)
+    # the reader itself, on signatures counted by hand (tuple types hold commas in their brackets)
+    assert counts["strip_insert"] == 6  # depth, valid, left, right, span, request
+    assert counts["flip_loop"] == 8
+    assert counts["StripMesh.vr"] == 0 and counts["InsertSettings.span"] == 1  # a getter, a setter
+    assert len(counts) > 100
+    assert {name: n for name, n in counts.items() if n > 8} == {}

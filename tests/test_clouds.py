@@ -233,6 +233,18 @@ def test_a_ply_cloud_with_a_ring_field_keeps_each_point_in_its_beam(tmp_path):
     assert ring is None and (pts[:8, 3] == 0).all()
 
 
+def test_a_cloud_file_of_an_unknown_suffix_is_refused_naming_the_known_ones(tmp_path):
+    # the readers are a table by suffix (cloud_files._READERS): a suffix outside it is refused
+    path = tmp_path / "scan.xyz"
+    path.write_bytes(bytes(16))
+    with pytest.raises(ValueError, match=r"scan\.xyz: not a cloud file \(\.bin, \.pcd, \.ply\)"):
+        read_cloud(path)
+    # the suffix is read without its case, as the table's keys are lower case
+    upper = tmp_path / "scan.BIN"
+    np.array([[1.0, 2.0, 3.0, 0.5]], "<f4").tofile(upper)
+    assert read_cloud(upper).tolist() == [[1.0, 2.0, 3.0, 0.5]]
+
+
 def test_a_cloud_file_s_bad_ring_or_missing_axis_is_one_line(tmp_path):
     path = tmp_path / "bad.pcd"
     path.write_text(_pcd_header("ascii", "x y intensity ring", "4 4 4 2", "F F F U")

@@ -255,11 +255,15 @@ STRIP_DEPTH = np.add.outer(np.arange(4.0), np.arange(7.0) ** 2)
 STRIP_VALID = np.ones((4, 7), bool)
 
 
+def _strip_request(target, sr):
+    return core_settings(_core.StripRequest, vertices=20, target=target, reserve=20, budget=-1.0, sr=sr, sc=1,
+                         threads=2, rounds=True, flip=True)
+
+
 def _strips(left_he=HE, sr=1, target=22):
     left = (VR, VC, np.zeros(4), TV, left_he)
     right = (VR, VC + 3, np.zeros(4), TV, HE)
-    return _core.strip_insert(STRIP_DEPTH, STRIP_VALID, left, right, 45.0, _core.StripRequest(
-        vertices=20, target=target, reserve=20, budget=-1.0, sr=sr, sc=1, threads=2, rounds=True, flip=True))
+    return _core.strip_insert(STRIP_DEPTH, STRIP_VALID, left, right, 45.0, _strip_request(target, sr))
 
 
 STRIP = "vr vc tv he tsum"  # a StripMesh's arrays
@@ -275,8 +279,7 @@ def _far_depth_strips():
     depth = STRIP_DEPTH.copy()
     depth[1, 1] = 1e300  # keys and sums of inf and NaN
     left, right = (VR, VC, np.zeros(4), TV, HE), (VR, VC + 3, np.zeros(4), TV, HE)
-    out = _core.strip_insert(depth, STRIP_VALID, left, right, 45.0, _core.StripRequest(
-        vertices=20, target=22, reserve=20, budget=-1.0, sr=1, sc=1, threads=2, rounds=True, flip=True))
+    out = _core.strip_insert(depth, STRIP_VALID, left, right, 45.0, _strip_request(22, 1))
     ok = out.left.valid_vertices + out.right.valid_vertices <= 22
     for strip in (out.left, out.right):
         vr, vc, tv, he = strip.vr, strip.vc, strip.tv, strip.he

@@ -325,7 +325,7 @@ def test_valid_faces_by_hand():
 @given(st.integers(0, 2**31), st.integers(1, 40), st.integers(1, 40), st.floats(0.0, 1.0))
 def test_nearest_valid_is_the_brute_force_nearest(seed, h, w, share):
     # any pixel, not only a corner: nearest by squared distance, then smallest (row, col);
-    # (-1, -1) on an image with no valid pixel
+    # None on an image with no valid pixel (issue 43: no sentinel; it returned (-1, -1))
     from rangemesh._core import nearest_valid
 
     rng = np.random.default_rng(seed)
@@ -333,7 +333,7 @@ def test_nearest_valid_is_the_brute_force_nearest(seed, h, w, share):
     r, c = int(rng.integers(h)), int(rng.integers(w))
     rr, cc = np.nonzero(valid)
     if len(rr) == 0:
-        assert nearest_valid(valid, r, c) == (-1, -1)
+        assert nearest_valid(valid, r, c) is None
         return
     d = (rr - r) ** 2 + (cc - c) ** 2
     j = min(range(len(d)), key=lambda k: (d[k], rr[k], cc[k]))

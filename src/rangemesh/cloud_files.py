@@ -31,7 +31,6 @@ from ._optional import require
 __all__ = ["CLOUD_SUFFIXES", "RING_FIELDS", "INTENSITY_FIELDS", "read_cloud_file", "ouster_head",
            "pcd_height"]
 
-CLOUD_SUFFIXES = (".bin", ".pcd", ".ply")
 RING_FIELDS = ("ring", "beam", "channel", "laser_id", "line")
 INTENSITY_FIELDS = ("intensity", "reflectivity", "i", "scalar_intensity")
 MAX_META_BYTES = 16 << 20  # an Ouster metadata file is some kB; refuse to parse anything huge
@@ -87,6 +86,11 @@ def _ply(path: Path):
     return _columns(names, lambda f: v[f], "PLY file's vertex element")
 
 
+# The cloud readers by suffix, each giving (points, ring or None): a format is one entry here.
+_READERS = {".bin": lambda path: (_bin(path), None), ".pcd": _pcd, ".ply": _ply}
+CLOUD_SUFFIXES = tuple(_READERS)
+
+
 def read_cloud_file(path: str | os.PathLike) -> tuple[np.ndarray, np.ndarray | None]:
     """A cloud file's points, (N, 4) float32 ``x y z intensity``, and its ring field (or None).
 
@@ -105,9 +109,7 @@ def read_cloud_file(path: str | os.PathLike) -> tuple[np.ndarray, np.ndarray | N
     try:
         if not path.exists():
             raise OSError("no such file")
-        if suffix == ".bin":
-            return _bin(path), None
-        return _pcd(path) if suffix == ".pcd" else _ply(path)
+        return _READERS[suffix](path)
     except OSError as exc:
         raise ValueError(f"{path}: {exc.strerror or exc}") from None
     except ImportError:

@@ -29,10 +29,10 @@ def corner_depths(depth: np.ndarray, valid: np.ndarray) -> np.ndarray:
                         dtype=np.float64)
     out = np.zeros(4)
     for i, (r, c) in enumerate(zip(rows, cols, strict=True)):
-        rr, cc = (r, c) if valid[r, c] else nearest_valid(valid, r, c)
-        if rr < 0:
+        near = (r, c) if valid[r, c] else nearest_valid(valid, r, c)
+        if near is None:
             raise ValueError("corner_depths: the image has no valid pixel")
-        out[i] = depth[rr, cc]
+        out[i] = depth[near]
     return out
 
 

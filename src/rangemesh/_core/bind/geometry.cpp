@@ -1,10 +1,12 @@
 // Python bindings of the shared geometry kernels.
 #include <nanobind/stl/array.h>
 #include <nanobind/stl/optional.h>
+#include <nanobind/stl/pair.h>
 
 #include <array>
 #include <cstdint>
 #include <optional>
+#include <utility>
 
 #include "../geometry/delaunay.hpp"
 #include "../geometry/fans.hpp"
@@ -177,15 +179,17 @@ void bind_pixels(nb::module_& m) {
         "pixels, numbered over the vertices they use, in order, and those vertices' (row, col).");
     m.def(
         "nearest_valid",
-        [](In2<bool> valid, index_t r, index_t c) {
+        [](In2<bool> valid, index_t r, index_t c) -> std::optional<std::pair<index_t, index_t>> {
             check_input(0 <= r && r < static_cast<index_t>(valid.shape(0)) && 0 <= c &&
                             c < static_cast<index_t>(valid.shape(1)),
                         "nearest_valid: (r, c) must be a pixel of the image");
             const Pixel p = run_released([&] { return nearest_valid(grid(valid), r, c); }, work(valid));
-            return nb::make_tuple(p.r, p.c);
+            if (p.r < 0) return std::nullopt;  // (not the kernel's (-1, -1): no sentinel in Python)
+            return std::pair{p.r, p.c};
         },
         nb::arg("valid"), nb::arg("r"), nb::arg("c"),
-        "The valid pixel nearest (r, c), ties to the smallest (row, col); ``(-1, -1)`` if none.");
+        "The valid pixel nearest (r, c) as ``(row, col)``, ties to the smallest (row, col); None when the "
+        "image has no valid pixel.");
     m.def(
         "grid_pixels",
         [](In2<bool> valid, index_t n_rows, index_t n_cols, index_t c_lo, index_t c_hi, bool inner) {

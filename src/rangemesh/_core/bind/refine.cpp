@@ -92,6 +92,21 @@ FirstMesh first_of(const FirstArrays& a) {
                      span(std::get<4>(a))};
 }
 
+// A greedy insertion's triangulation as read-only NumPy views of a result's vectors (the result
+// keeps them alive), under the same five names on every class that holds one: vr, vc, tv, he, tsum.
+template <class C>
+nb::class_<C> bind_triangulation(nb::class_<C> cls, std::vector<index_t> C::* vr, std::vector<index_t> C::* vc,
+                                 std::vector<index_t> C::* tv, std::vector<index_t> C::* he,
+                                 std::vector<double> C::* tsum) {
+    constexpr auto keep = nb::rv_policy::reference_internal;
+    cls.def_prop_ro("vr", array_of(vr), keep, "The vertices' rows ...")
+        .def_prop_ro("vc", array_of(vc), keep, "... and columns.")
+        .def_prop_ro("tv", array_of(tv), keep, "3T vertex ids, counter-clockwise in (row, column).")
+        .def_prop_ro("he", array_of(he), keep, "The twin half-edges (-1 on the hull).")
+        .def_prop_ro("tsum", array_of(tsum), keep, "Each triangle's error sum over the pixels it owns.");
+    return cls;
+}
+
 }  // namespace
 
 void bind_refine(nb::module_& m) {
@@ -112,18 +127,11 @@ void bind_refine(nb::module_& m) {
         .def_rw("sr", &InsertSettings::sr, "The weight of rows in the Delaunay test ...")
         .def_rw("sc", &InsertSettings::sc, "... and of columns.")
         .def_rw("sums", &InsertSettings::sums, "Also return the twins ``he`` and the triangles' sums ``tsum``.");
-    nb::class_<InsertResult>(m, "Insertion", "What ``greedy_insert`` left.")
-        .def_prop_ro("vr", array_of<InsertResult>(&InsertResult::vr), nb::rv_policy::reference_internal,
-                     "The vertices' rows ...")
-        .def_prop_ro("vc", array_of<InsertResult>(&InsertResult::vc), nb::rv_policy::reference_internal,
-                     "... and columns.")
-        .def_prop_ro("tv", array_of<InsertResult>(&InsertResult::tv), nb::rv_policy::reference_internal,
-                     "3T vertex ids, counter-clockwise in (row, column).")
-        .def_prop_ro("he", array_of<InsertResult>(&InsertResult::he), nb::rv_policy::reference_internal,
-                     "The twin half-edges (-1 on the hull); empty unless ``sums``.")
-        .def_prop_ro("tsum", array_of<InsertResult>(&InsertResult::tsum), nb::rv_policy::reference_internal,
-                     "Each triangle's error sum over the pixels it owns (0 for one with a background corner, "
-                     "and for one keyed without a scan as an exact fit); empty unless ``sums``.")
+    bind_triangulation(nb::class_<InsertResult>(m, "Insertion",
+                                                "What ``greedy_insert`` left: ``he`` and ``tsum`` are empty unless "
+                                                "``settings.sums``; ``tsum`` is 0 for a triangle with a background "
+                                                "corner, and for one keyed without a scan as an exact fit."),
+                       &InsertResult::vr, &InsertResult::vc, &InsertResult::tv, &InsertResult::he, &InsertResult::tsum)
         .def_ro("valid_vertices", &InsertResult::valid_vertices, "Vertices on valid pixels.")
         .def_ro("total", &InsertResult::total, "The summed error of the valid pixels.");
     nb::class_<ErrorScan>(m, "ErrorScan", "How ``triangle_error`` scans a triangle.")
@@ -141,16 +149,14 @@ void bind_refine(nb::module_& m) {
         .def_rw("base", &ErrorScan::base, "A sum the stop adds to the triangle's ...")
         .def_rw("span", &ErrorScan::span, "... in key units of ``span / 2**32`` ...")
         .def_rw("stop", &ErrorScan::stop, "... left after a row once ``quantize(base + sum, span) >= stop``.");
-    nb::class_<refine::StripRequest>(m, "StripRequest", "What ``strip_insert`` inserts, and how.")
-        .def(
-            "__init__",
-            [](refine::StripRequest* r, index_t vertices, index_t target, index_t reserve, double budget, index_t sr,
-               index_t sc, int threads, bool rounds, bool flip) {
-                new (r) refine::StripRequest{vertices, target, reserve, budget, sr, sc, threads, rounds, flip};
-            },
-            nb::arg("vertices") = 0, nb::arg("target") = 0, nb::arg("reserve") = 0, nb::arg("budget") = -1.0,
-            nb::arg("sr") = 1, nb::arg("sc") = 1, nb::arg("threads") = 1, nb::arg("rounds") = true,
-            nb::arg("flip") = false)
+    // (nine values: built with its defaults and filled by property, as FlipSettings and FitSettings
+    // are, not by a constructor of more than eight arguments)
+    nb::class_<refine::StripRequest>(m, "StripRequest",
+                                     "What ``strip_insert`` inserts, and how: built with the defaults "
+                                     "(budget -1, sr, sc and threads 1, rounds true, the rest 0 or false), "
+                                     "then filled by property.")
+        .def("__init__",
+             [](refine::StripRequest* r) { new (r) refine::StripRequest{0, 0, 0, -1.0, 1, 1, 1, true, false}; })
         .def("__copy__", [](const refine::StripRequest& r) { return refine::StripRequest(r); })
         .def_rw("vertices", &refine::StripRequest::vertices, "Valid vertices wanted, the seam's once ...")
         .def_rw("target", &refine::StripRequest::target, "... counted the seam's twice (once a strip).")
@@ -162,16 +168,11 @@ void bind_refine(nb::module_& m) {
         .def_rw("rounds", &refine::StripRequest::rounds, "False: every vertex one at a time (tests).")
         .def_rw("flip", &refine::StripRequest::flip, "Then flip each strip's edges by the error.");
     using refine::StripMesh;
-    nb::class_<StripMesh>(m, "StripMesh", "One strip's mesh once inserted (and flipped).")
-        .def_prop_ro("vr", array_of<StripMesh>(&StripMesh::vr), nb::rv_policy::reference_internal,
-                     "The vertices' rows ...")
-        .def_prop_ro("vc", array_of<StripMesh>(&StripMesh::vc), nb::rv_policy::reference_internal, "... and columns.")
-        .def_prop_ro("tv", array_of<StripMesh>(&StripMesh::triangles), nb::rv_policy::reference_internal,
-                     "3T vertex ids.")
-        .def_prop_ro("he", array_of<StripMesh>(&StripMesh::halfedges), nb::rv_policy::reference_internal,
-                     "The twin half-edges.")
-        .def_prop_ro("tsum", array_of<StripMesh>(&StripMesh::sums), nb::rv_policy::reference_internal,
-                     "Each triangle's error sum.")
+    bind_triangulation(
+        nb::class_<StripMesh>(m, "StripMesh",
+                              "One strip's mesh once inserted (and flipped): ``tsum`` as ``Insertion``'s, "
+                              "and -1 after the flips for a triangle with a background corner."),
+        &StripMesh::vr, &StripMesh::vc, &StripMesh::triangles, &StripMesh::halfedges, &StripMesh::sums)
         .def_ro("valid_vertices", &StripMesh::valid_vertices, "Vertices on valid pixels.")
         .def_ro("total", &StripMesh::total, "The insertion's summed error (flips leave it alone).")
         .def_ro("flips", &StripMesh::flips, "Edges flipped by the error.");

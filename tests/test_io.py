@@ -369,6 +369,7 @@ def test_unknown_suffixes_are_refused_in_one_line(tmp_path):
 
 def test_a_format_is_one_entry_of_the_table(tmp_path, monkeypatch):
     import rangemesh.io as rio
+    from rangemesh.io.mesh_readers import _MeshFile
 
     def read_xyz(path):
         return np.loadtxt(path, ndmin=2)
@@ -379,7 +380,7 @@ def test_a_format_is_one_entry_of_the_table(tmp_path, monkeypatch):
 
     def read_vf(path, camera, image_shape):
         with np.load(path) as got:
-            return rio._MeshFile(got["v"], got["f"])
+            return _MeshFile(got["v"], got["f"])
 
     monkeypatch.setitem(rio.FORMATS, ".xyz", rio.Format("image", read_xyz))
     monkeypatch.setitem(rio.FORMATS, ".vf", rio.Format("mesh", read_vf, write_vf))

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <stdexcept>
 #include <utility>
 #include <vector>
@@ -18,14 +19,19 @@ void check_mesh(const FitMesh& mesh, const FitImage& image) {
     const index_t n = mesh.values.size;
     require(mesh.rows.size == n && mesh.cols.size == n, "fit: one row, column and value a vertex");
     require(mesh.faces.cols == 3, "fit: faces have three corners");
-    for (index_t k = 0; k < 3 * mesh.faces.rows; ++k)
-        require(0 <= mesh.faces.data[k] && mesh.faces.data[k] < n, "fit: a face's vertex id is out of range");
+    // flags and-ed without a branch an entry: unsigned, a negative id is past n too
+    const auto below = [](index_t x, index_t end) {
+        return static_cast<std::uint64_t>(x) < static_cast<std::uint64_t>(end);
+    };
+    bool ids = true;
+    for (index_t k = 0; k < 3 * mesh.faces.rows; ++k) ids &= below(mesh.faces.data[k], n);
+    require(ids, "fit: a face's vertex id is out of range");
     require(image.values.rows == image.valid.rows && image.values.cols == image.valid.cols,
             "fit: the image and its mask differ in shape");
+    bool inside = true;
     for (index_t i = 0; i < n; ++i)
-        if (mesh.rows[i] < 0 || mesh.rows[i] >= image.values.rows || mesh.cols[i] < 0 ||
-            mesh.cols[i] >= image.values.cols)
-            throw std::invalid_argument("fit: a vertex lies outside the image");
+        inside &= below(mesh.rows[i], image.values.rows) & below(mesh.cols[i], image.values.cols);
+    if (!inside) throw std::invalid_argument("fit: a vertex lies outside the image");
 }
 
 namespace {
@@ -161,15 +167,22 @@ std::vector<index_t> weighted_bounds(const FitMesh& mesh, Span<const index_t> or
     return bounds;
 }
 
-void check_order(const FitMesh& mesh, Span<const index_t> order) {
-    for (const index_t t : order) check_input(0 <= t && t < mesh.faces.rows, "fit: an order entry is not a face");
-}
-
 }  // namespace
+
+void check_order(const FitMesh& mesh, Span<const index_t> order) {
+    bool faces = true;
+    for (const index_t t : order) faces &= static_cast<std::uint64_t>(t) < static_cast<std::uint64_t>(mesh.faces.rows);
+    check_input(faces, "fit: an order entry is not a face");
+}
 
 index_t sample_errors(const FitMesh& mesh, const FitImage& image, Span<const index_t> order, Sample sample,
                       Span<double> errors, int threads) {
     check_order(mesh, order);
+    return sample_errors_checked(mesh, image, order, sample, errors, threads);
+}
+
+index_t sample_errors_checked(const FitMesh& mesh, const FitImage& image, Span<const index_t> order, Sample sample,
+                              Span<double> errors, int threads) {
     check_input(sample.row_stride > 0 && sample.face_stride > 0, "fit: strides are positive");
     // a stride beyond the rows (faces) samples row (face) 0 alone, as the rows (faces) do: the
     // same rows, and no sum past int64 in the walk (a raw call's stride of 2^62)
@@ -216,6 +229,11 @@ index_t sample_errors(const FitMesh& mesh, const FitImage& image, Span<const ind
 index_t fit_blocks(const FitMesh& mesh, const FitImage& image, Span<const index_t> order, double threshold, int threads,
                    Span<FaceBlock> blocks) {
     check_order(mesh, order);
+    return fit_blocks_checked(mesh, image, order, threshold, threads, blocks);
+}
+
+index_t fit_blocks_checked(const FitMesh& mesh, const FitImage& image, Span<const index_t> order, double threshold,
+                           int threads, Span<FaceBlock> blocks) {
     require(blocks.size == order.size, "fit: one block a visited face");
     const index_t n = order.size;
     if (threads < 2 || n < SPLIT_MIN_FACES) return accumulate(mesh, image, order, threshold, blocks, 0, n);

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <memory>
 
 #include "../interrupt.hpp"
 
@@ -9,9 +10,9 @@ namespace rangemesh::heights {
 
 namespace {
 
-// y = (the faces' blocks + diag(ridge)) x, the matrix never formed: 9 multiply-adds a face.
-void block_product(Span<const FaceBlock> blocks, const double* ridge, const double* x, double* y, std::size_t n) {
-    for (std::size_t i = 0; i < n; ++i) y[i] = ridge[i] * x[i];
+// y += (the faces' blocks) x, the matrix never formed: 9 multiply-adds a face (the caller sets
+// y to diag(ridge) x first).
+void add_block_product(Span<const FaceBlock> blocks, const double* x, double* y) {
     for (const FaceBlock& f : blocks) {
         const index_t a = f.ids[0], b = f.ids[1], c = f.ids[2];
         const double xa = x[a], xb = x[b], xc = x[c];
@@ -50,14 +51,20 @@ VertexSystem gather_blocks(Span<const FaceBlock> blocks, Span<const double> h0, 
 
 bool solve_blocks(Span<const FaceBlock> blocks, Span<const double> h0, double ridge_share, double rtol,
                   index_t max_iter, Span<double> x) {
+    const std::unique_ptr<double[]> room(new double[8 * static_cast<std::size_t>(h0.size)]);
+    return solve_blocks(blocks, h0, ridge_share, rtol, max_iter, x, room.get());
+}
+
+bool solve_blocks(Span<const FaceBlock> blocks, Span<const double> h0, double ridge_share, double rtol,
+                  index_t max_iter, Span<double> x, double* room) {
     require(x.size == h0.size, "solve: one unknown a vertex");
     const std::size_t n = static_cast<std::size_t>(h0.size);
     // the system (diagonal, right-hand side, ridge) and the iterate, residual, preconditioned
-    // residual, direction and product, in one allocation: a small mesh's solve is mostly set-up
-    std::vector<double> room(8 * n, 0.0);
-    double* const sdiag = room.data();
+    // residual, direction and product in `room`: only the sums start at zero
+    double* const sdiag = room;
     double* const rhs = sdiag + n;
     double* const ridge = rhs + n;
+    std::fill(sdiag, ridge, 0.0);
     gather_into(blocks, h0, ridge_share, sdiag, rhs, ridge);
     double* const xs = ridge + n;
     double* const r = xs + n;
@@ -66,7 +73,8 @@ bool solve_blocks(Span<const FaceBlock> blocks, Span<const double> h0, double ri
     double* const q = p + n;
     std::copy(h0.begin(), h0.end(), xs);
     const double* const diag = sdiag;
-    block_product(blocks, ridge, xs, r, n);
+    for (std::size_t i = 0; i < n; ++i) r[i] = ridge[i] * xs[i];
+    add_block_product(blocks, xs, r);
     // Every sum runs in index order, as a plain dot product would; sums over one loop are
     // independent chains, so fusing them costs one pass of latency, not three.
     double bb = 0.0, rz = 0.0, rr = 0.0;
@@ -75,6 +83,7 @@ bool solve_blocks(Span<const FaceBlock> blocks, Span<const double> h0, double ri
         bb += rhs[i] * rhs[i];
         z[i] = r[i] / diag[i];
         p[i] = z[i];
+        q[i] = ridge[i] * p[i];
         rz += r[i] * z[i];
         rr += r[i] * r[i];
     }
@@ -87,25 +96,26 @@ bool solve_blocks(Span<const FaceBlock> blocks, Span<const double> h0, double ri
         }
         if (step >= max_iter) break;
         poll_interrupt();
-        block_product(blocks, ridge, p, q, n);
+        add_block_product(blocks, p, q);  // q = diag(ridge) p, set by the loop before
         double pq = 0.0;
         for (std::size_t i = 0; i < n; ++i) pq += p[i] * q[i];
         if (!(pq > 0.0)) break;  // not positive definite along p (the ridge rules it out), or NaN: stop
         const double alpha = rz / pq;
-        for (std::size_t i = 0; i < n; ++i) {  // (vectorised: no sum in this loop)
-            xs[i] += alpha * p[i];
-            r[i] -= alpha * q[i];
-            z[i] = r[i] / diag[i];
-        }
         double rz_new = 0.0;
         rr = 0.0;
         for (std::size_t i = 0; i < n; ++i) {
+            xs[i] += alpha * p[i];
+            r[i] -= alpha * q[i];
+            z[i] = r[i] / diag[i];
             rz_new += r[i] * z[i];
             rr += r[i] * r[i];
         }
         const double beta = rz_new / rz;
         rz = rz_new;
-        for (std::size_t i = 0; i < n; ++i) p[i] = z[i] + beta * p[i];
+        for (std::size_t i = 0; i < n; ++i) {
+            p[i] = z[i] + beta * p[i];
+            q[i] = ridge[i] * p[i];  // the next product's start
+        }
     }
     std::copy(xs, xs + n, x.begin());
     return converged;

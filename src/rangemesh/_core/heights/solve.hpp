@@ -27,5 +27,8 @@ VertexSystem gather_blocks(Span<const FaceBlock> blocks, Span<const double> h0, 
 // Returns whether it converged.
 bool solve_blocks(Span<const FaceBlock> blocks, Span<const double> h0, double ridge_share, double rtol,
                   index_t max_iter, Span<double> x);
+// ... in `room`, 8 x h0.size doubles of any contents (a buffer kept from call to call).
+bool solve_blocks(Span<const FaceBlock> blocks, Span<const double> h0, double ridge_share, double rtol,
+                  index_t max_iter, Span<double> x, double* room);
 
 }  // namespace rangemesh::heights

@@ -14,47 +14,59 @@ namespace rangemesh::heights {
 
 namespace {
 
+// Room for n values of T, kept and grown as asked; uninitialised (plain data).
+template <class T>
+struct Room {
+    std::unique_ptr<T[]> data;
+    std::size_t size = 0;
+
+    T* get(std::size_t n) {
+        if (n > size) {
+            data.reset();  // (given back before the larger one is taken)
+            data.reset(new T[n]);
+            size = n;
+        }
+        return data.get();
+    }
+    std::size_t bytes() const { return size * sizeof(T); }
+    void release() {
+        data.reset();
+        size = 0;
+    }
+};
+
 // A fit's buffers. A thread keeps its own from call to call, up to KEPT_BYTES in all: a stream's
 // frames then fit in pages already mapped, and a small image's fit allocates nothing.
 struct Buffers {
-    std::unique_ptr<double[]> errors;  // the sampled errors: at most `capacity`, uninitialised
-    std::unique_ptr<double[]> median;  // the median's room
-    std::unique_ptr<double[]> solve;   // conjugate gradients' vectors
-    std::size_t n_errors = 0, n_median = 0, n_solve = 0;
+    Room<double> errors;         // the sampled errors: at most `capacity`
+    Room<double> median;         // the median's room
+    Room<double> solve;          // conjugate gradients' vectors
+    Room<PackedBlock> packed;    // the blocks as the solve's products read them
     std::vector<FaceBlock> blocks;  // the faces' normal equations
     bool busy = false;              // a fit on this thread uses them
 
-    static double* room(std::unique_ptr<double[]>& p, std::size_t& size, std::size_t n) {
-        if (n > size) {
-            p.reset();  // (given back before the larger one is taken)
-            p.reset(new double[n]);
-            size = n;
-        }
-        return p.get();
-    }
-
-    std::size_t bytes() const {
-        return (n_errors + n_median + n_solve) * sizeof(double) + blocks.capacity() * sizeof(FaceBlock);
-    }
-
     // The largest first, until at most KEPT_BYTES remain.
     void trim() {
-        constexpr std::size_t KEPT_BYTES = std::size_t{32} << 20;  // a 640 x 480 frame's fit at 10 %: 10 MB
-        while (bytes() > KEPT_BYTES) {
-            const std::size_t b = blocks.capacity() * sizeof(FaceBlock);
-            const std::size_t e = n_errors * sizeof(double), m = n_median * sizeof(double),
-                              v = n_solve * sizeof(double);
-            if (b >= std::max({e, m, v})) {
-                std::vector<FaceBlock>().swap(blocks);
-            } else if (e >= std::max(m, v)) {
-                errors.reset();
-                n_errors = 0;
-            } else if (m >= v) {
-                median.reset();
-                n_median = 0;
-            } else {
-                solve.reset();
-                n_solve = 0;
+        constexpr std::size_t KEPT_BYTES = std::size_t{32} << 20;  // a 640 x 480 frame's fit at 10 %: 13 MB
+        for (;;) {
+            const std::size_t sizes[5] = {errors.bytes(), median.bytes(), solve.bytes(), packed.bytes(),
+                                          blocks.capacity() * sizeof(FaceBlock)};
+            if (sizes[0] + sizes[1] + sizes[2] + sizes[3] + sizes[4] <= KEPT_BYTES) return;
+            switch (std::max_element(sizes, sizes + 5) - sizes) {
+                case 0:
+                    errors.release();
+                    break;
+                case 1:
+                    median.release();
+                    break;
+                case 2:
+                    solve.release();
+                    break;
+                case 3:
+                    packed.release();
+                    break;
+                default:
+                    std::vector<FaceBlock>().swap(blocks);
             }
         }
     }
@@ -95,7 +107,7 @@ FitResult fit_heights(const FitMesh& mesh, const FitImage& image, Span<const ind
     // them, and zeroing would touch every page
     // (at most an error a pixel: a larger capacity, a raw call's 2^62, would only allocate)
     const index_t capacity = std::min(std::max<index_t>(settings.capacity, 0), image.values.rows * image.values.cols);
-    double* const errors = Buffers::room(buffers.errors, buffers.n_errors, static_cast<std::size_t>(capacity));
+    double* const errors = buffers.errors.get(static_cast<std::size_t>(capacity));
     const Span<double> room{errors, capacity};
     index_t sampled = sample_errors_checked(mesh, image, order, settings.sample, room, settings.threads);
     const bool every_pixel = settings.sample.row_stride == 1 && settings.sample.face_stride == 1;
@@ -104,8 +116,7 @@ FitResult fit_heights(const FitMesh& mesh, const FitImage& image, Span<const ind
     if (sampled == 0) return result;
     // a robust sigma of the errors (1.4826 x their median: they centre on 0)
     const double sigma =
-        1.4826 * median_inplace(Span<double>{errors, sampled},
-                                Buffers::room(buffers.median, buffers.n_median, static_cast<std::size_t>(sampled)));
+        1.4826 * median_inplace(Span<double>{errors, sampled}, buffers.median.get(static_cast<std::size_t>(sampled)));
     require(mesh.values.size > 0, "fit: pixels were sampled, so there are vertices");
     const auto [lo, hi] = std::minmax_element(mesh.values.begin(), mesh.values.end());
     const double floor = settings.outlier_floor * (*hi - *lo);
@@ -121,9 +132,10 @@ FitResult fit_heights(const FitMesh& mesh, const FitImage& image, Span<const ind
     result.used = fit_blocks_checked(mesh, image, order, result.threshold, settings.threads, blocks);
     result.values.resize(mesh.values.size);
     const std::size_t n = static_cast<std::size_t>(mesh.values.size);
-    const bool converged = solve_blocks(
-        Span<const FaceBlock>{blocks.data, blocks.size}, mesh.values, settings.ridge, settings.rtol, settings.max_iter,
-        Span<double>{result.values.data(), mesh.values.size}, Buffers::room(buffers.solve, buffers.n_solve, 8 * n));
+    const bool converged =
+        solve_blocks(Span<const FaceBlock>{blocks.data, blocks.size}, mesh.values, settings.ridge, settings.rtol,
+                     settings.max_iter, Span<double>{result.values.data(), mesh.values.size}, buffers.solve.get(8 * n),
+                     buffers.packed.get(static_cast<std::size_t>(order.size)));
     if (converged)
         for (double& v : result.values) {
             require(std::isfinite(v), "fit: a converged solve is finite");

@@ -1,5 +1,7 @@
 """The compiled least-squares depth kernels against plain-Python references (tests/reference_heights.py)."""
 
+from concurrent.futures import ThreadPoolExecutor
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -292,6 +294,32 @@ def test_the_kernel_clips_the_fitted_values_as_numpy_does():
     want = np.minimum(np.maximum(free, lo), hi)
     assert np.array_equal(got.view(np.int64), want.view(np.int64))
     assert (got == lo).any() and (got == hi).any()
+
+
+def test_a_fit_after_a_larger_one_on_its_thread_is_the_fit_alone():
+    # A thread keeps the fit's buffers from call to call (issue 44): nothing of an earlier, larger
+    # fit (its blocks, sampled errors, solver vectors) reaches a later one, some of whose faces
+    # own no valid pixel here, so no pixel writes their sums.
+    big = scenes.make("stairs", (60, 80), noise=0.3)
+    mb = triangulate(big.depth, vertices=400, method="refine", heights="pixel")
+    sc = scenes.make("box", (40, 50), noise=0.3)
+    m = triangulate(sc.depth, vertices=60, method="refine", heights="pixel")
+    valid = np.random.default_rng(3).random(sc.depth.shape) < 0.1
+    valid[m.pixels[:, 0], m.pixels[:, 1]] = True
+
+    def small():
+        return heights.fit_heights(m.pixels, m.faces, sc.depth, valid, m.camera, threads=1)
+
+    def after_big():
+        heights.fit_heights(mb.pixels, mb.faces, big.depth, np.ones(big.depth.shape, bool), mb.camera, threads=1)
+        return small()
+
+    with ThreadPoolExecutor(1) as fresh:
+        want = fresh.submit(small).result()
+    with ThreadPoolExecutor(1) as worker:
+        got = worker.submit(after_big).result()
+    assert np.array_equal(got.view(np.int64), want.view(np.int64))
+    assert not np.array_equal(want, sc.depth[m.pixels[:, 0], m.pixels[:, 1]])  # fitted, not copied
 
 
 def test_the_fit_takes_any_integer_arrays():

@@ -41,7 +41,7 @@ struct FitResult {
     double threshold = 0.0;          // the outlier bound used
     index_t used = 0;                // pixels in the system
     std::vector<double> values;      // one a vertex (fitted, not_converged)
-    std::vector<FaceBlock> blocks;   // one a visited face (fitted, not_converged)
+    std::vector<FaceBlock> blocks;   // one a visited face (not_converged)
 };
 
 // The fit of mesh.values to the image, the faces visited in `order` (a permutation of them).

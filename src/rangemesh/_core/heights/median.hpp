@@ -88,8 +88,9 @@ inline Selected select(double* x, index_t n, index_t k, double* room, bool with_
 
 // np.median(x) of a non-empty array, overwriting x: NaN when x holds one, else the middle
 // value, or the mean (a + b) / 2 of the two middle values for an even count, as NumPy computes
-// it.
-inline double median_inplace(Span<double> x) {
+// it. `room`: x.size doubles of any contents the selection may overwrite, or null (then it
+// allocates them when it needs them).
+inline double median_inplace(Span<double> x, double* room = nullptr) {
     require(x.size > 0, "median: an empty array has no median");
     bool nan = false;
     std::uint64_t bits = 0;  // the sign bits of all values, or-ed
@@ -104,9 +105,13 @@ inline double median_inplace(Span<double> x) {
     // Without negative values (errors have none) equal values have equal bits, so any exact
     // selection returns NumPy's; -0.0 and 0.0 compare equal and keep std::nth_element's choice.
     if (x.size >= median_detail::SELECT_MIN && (bits >> 63) == 0) {
-        const std::unique_ptr<double[]> room(new double[x.size]);
+        std::unique_ptr<double[]> own;
+        if (room == nullptr) {
+            own.reset(new double[x.size]);
+            room = own.get();
+        }
         const bool even = x.size % 2 == 0;
-        const median_detail::Selected s = median_detail::select(x.data, x.size, h, room.get(), even);
+        const median_detail::Selected s = median_detail::select(x.data, x.size, h, room, even);
         return even ? (s.below + s.value) / 2.0 : s.value;
     }
     std::nth_element(x.begin(), x.begin() + h, x.end());

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <stdexcept>
 #include <utility>
 #include <vector>
@@ -18,14 +19,19 @@ void check_mesh(const FitMesh& mesh, const FitImage& image) {
     const index_t n = mesh.values.size;
     require(mesh.rows.size == n && mesh.cols.size == n, "fit: one row, column and value a vertex");
     require(mesh.faces.cols == 3, "fit: faces have three corners");
-    for (index_t k = 0; k < 3 * mesh.faces.rows; ++k)
-        require(0 <= mesh.faces.data[k] && mesh.faces.data[k] < n, "fit: a face's vertex id is out of range");
+    // flags and-ed without a branch an entry: unsigned, a negative id is past n too
+    const auto below = [](index_t x, index_t end) {
+        return static_cast<std::uint64_t>(x) < static_cast<std::uint64_t>(end);
+    };
+    bool ids = true;
+    for (index_t k = 0; k < 3 * mesh.faces.rows; ++k) ids &= below(mesh.faces.data[k], n);
+    require(ids, "fit: a face's vertex id is out of range");
     require(image.values.rows == image.valid.rows && image.values.cols == image.valid.cols,
             "fit: the image and its mask differ in shape");
+    bool inside = true;
     for (index_t i = 0; i < n; ++i)
-        if (mesh.rows[i] < 0 || mesh.rows[i] >= image.values.rows || mesh.cols[i] < 0 ||
-            mesh.cols[i] >= image.values.cols)
-            throw std::invalid_argument("fit: a vertex lies outside the image");
+        inside &= below(mesh.rows[i], image.values.rows) & below(mesh.cols[i], image.values.cols);
+    if (!inside) throw std::invalid_argument("fit: a vertex lies outside the image");
 }
 
 namespace {
@@ -63,31 +69,66 @@ index_t visit_pixels(const FitMesh& mesh, const FitImage& image, Corners v, inde
     const double az = mesh.values[v.a], bz = mesh.values[v.b], cz = mesh.values[v.c];
     const double inv = 1.0 / static_cast<double>(area);
     const EdgeOwnership own{owns(ar, ac, br, bc), owns(br, bc, cr, cc), owns(cr, cc, ar, ac)};
-    TriangleRows walk(ar, ac, br, bc, cr, cc, first, row_stride);
     // the edge functions grow by these a column (integers, held exactly as float64 too: the
-    // floats the weights are made of, without keeping six of them in registers)
+    // floats the weights are made of, without an int-to-float conversion a weight and pixel)
     const index_t d0 = br - ar, d1 = cr - br, d2 = ar - cr;
+    const double f0 = static_cast<double>(d0), f1 = static_cast<double>(d1), f2 = static_cast<double>(d2);
     index_t count = 0;
-    owned_rows(walk, first, bottom, row_stride, own, [&](index_t r, const RowSpan& span) {
+    // the pixels first..last of row r, where the edge functions are w0, w1, w2 at `first`
+    const auto row = [&](index_t r, index_t first, index_t last, index_t w0, index_t w1, index_t w2) {
         const bool* valid = image.valid.row(r);
         const double* values = image.values.row(r);
-        index_t w0 = span.w0, w1 = span.w1, w2 = span.w2;
-        for (index_t col = span.first; col <= span.last; ++col) {
+        double e0 = static_cast<double>(w0), e1 = static_cast<double>(w1), e2 = static_cast<double>(w2);
+        for (index_t col = first; col <= last; ++col) {
             if (valid[col]) {
-                const double la = static_cast<double>(w1) * inv;
-                const double lb = static_cast<double>(w2) * inv;
-                const double lc = static_cast<double>(w0) * inv;
+                const double la = e1 * inv;
+                const double lb = e2 * inv;
+                const double lc = e0 * inv;
                 const double value = values[col];
                 count += visit(la, lb, lc, value, std::fabs(value - (la * az + lb * bz + lc * cz)));
             }
-            w0 += d0;
-            w1 += d1;
-            w2 += d2;
+            e0 += f0;
+            e1 += f1;
+            e2 += f2;
         }
+    };
+    if (row_stride == 1) {
+        // every row: TriangleSpans' walk, the same spans at two edge steps a row instead of
+        // TriangleRows' three steps and three clips, and half its set-up's divisions; the edge
+        // functions at (r, c) are orient(P, Q, (r, c)) = s c - t r + k, for edge P -> Q
+        const index_t t0 = bc - ac, t1 = cc - bc, t2 = ac - cc;
+        const index_t k0 = t0 * ar - d0 * ac, k1 = t1 * br - d1 * bc, k2 = t2 * cr - d2 * cc;
+        TriangleSpans spans(ar, ac, br, bc, cr, cc, own.ab, own.bc, own.ca);
+        spans.walk([&](index_t r, index_t first, index_t last) {
+            row(r, first, last, d0 * first - t0 * r + k0, d1 * first - t1 * r + k1, d2 * first - t2 * r + k2);
+            return true;
+        });
+        return count;
+    }
+    TriangleRows walk(ar, ac, br, bc, cr, cc, first, row_stride);
+    owned_rows(walk, first, bottom, row_stride, own, [&](index_t r, const RowSpan& span) {
+        row(r, span.first, span.last, span.w0, span.w1, span.w2);
         return true;
     });
     return count;
 }
+
+// Two doubles multiplied and added lane by lane: one SSE2 (or NEON) instruction each where the
+// compiler has vector types, two scalar ones elsewhere; the same IEEE operations either way.
+#if defined(__GNUC__)
+using Pair = double __attribute__((vector_size(16)));
+#else
+struct Pair {
+    double x[2];
+    double operator[](int k) const { return x[k]; }
+    friend Pair operator*(const Pair& a, const Pair& b) { return {{a.x[0] * b.x[0], a.x[1] * b.x[1]}}; }
+    Pair& operator+=(const Pair& b) {
+        x[0] += b.x[0];
+        x[1] += b.x[1];
+        return *this;
+    }
+};
+#endif
 
 // The blocks of the faces order[first..last) (blocks[i] for face order[i]); returns the pixels used.
 index_t accumulate(const FitMesh& mesh, const FitImage& image, Span<const index_t> order, double threshold,
@@ -98,23 +139,22 @@ index_t accumulate(const FitMesh& mesh, const FitImage& image, Span<const index_
         // image ends well within Ctrl-C's 0.2 s
         poll_interrupt();
         const Corners v = ccw_corners(mesh, order[i]);
-        // the sums of this face, in locals, written to its block once
-        double m00 = 0.0, m01 = 0.0, m02 = 0.0, m11 = 0.0, m12 = 0.0, m22 = 0.0;
-        double q0 = 0.0, q1 = 0.0, q2 = 0.0;
+        // the sums of this face, two a register, written to its block once (nine scalar sums
+        // and the weights did not fit the sixteen registers: each sum went to memory a pixel)
+        Pair s0{0.0, 0.0}, s1{0.0, 0.0}, s2{0.0, 0.0}, s3{0.0, 0.0};  // m00 m01, m02 m11, m12 m22, q0 q1
+        double q2 = 0.0;
         used += visit_pixels(mesh, image, v, 1, [&](double la, double lb, double lc, double value, double error) {
             if (!(error <= threshold)) return false;
-            m00 += la * la;
-            m01 += la * lb;
-            m02 += la * lc;
-            m11 += lb * lb;
-            m12 += lb * lc;
-            m22 += lc * lc;
-            q0 += la * value;
-            q1 += lb * value;
+            const Pair ab{la, lb};
+            s0 += Pair{la, la} * ab;
+            s1 += ab * Pair{lc, lb};
+            s2 += Pair{lb, lc} * Pair{lc, lc};
+            s3 += ab * Pair{value, value};
             q2 += lc * value;
             return true;
         });
-        blocks[i] = FaceBlock{{v.a, v.b, v.c}, {{m00, m01, m02}, {m01, m11, m12}, {m02, m12, m22}}, {q0, q1, q2}};
+        const double m00 = s0[0], m01 = s0[1], m02 = s1[0], m11 = s1[1], m12 = s2[0], m22 = s2[1];
+        blocks[i] = FaceBlock{{v.a, v.b, v.c}, {{m00, m01, m02}, {m01, m11, m12}, {m02, m12, m22}}, {s3[0], s3[1], q2}};
     }
     return used;
 }
@@ -145,15 +185,22 @@ std::vector<index_t> weighted_bounds(const FitMesh& mesh, Span<const index_t> or
     return bounds;
 }
 
-void check_order(const FitMesh& mesh, Span<const index_t> order) {
-    for (const index_t t : order) check_input(0 <= t && t < mesh.faces.rows, "fit: an order entry is not a face");
-}
-
 }  // namespace
+
+void check_order(const FitMesh& mesh, Span<const index_t> order) {
+    bool faces = true;
+    for (const index_t t : order) faces &= static_cast<std::uint64_t>(t) < static_cast<std::uint64_t>(mesh.faces.rows);
+    check_input(faces, "fit: an order entry is not a face");
+}
 
 index_t sample_errors(const FitMesh& mesh, const FitImage& image, Span<const index_t> order, Sample sample,
                       Span<double> errors, int threads) {
     check_order(mesh, order);
+    return sample_errors_checked(mesh, image, order, sample, errors, threads);
+}
+
+index_t sample_errors_checked(const FitMesh& mesh, const FitImage& image, Span<const index_t> order, Sample sample,
+                              Span<double> errors, int threads) {
     check_input(sample.row_stride > 0 && sample.face_stride > 0, "fit: strides are positive");
     // a stride beyond the rows (faces) samples row (face) 0 alone, as the rows (faces) do: the
     // same rows, and no sum past int64 in the walk (a raw call's stride of 2^62)
@@ -200,6 +247,11 @@ index_t sample_errors(const FitMesh& mesh, const FitImage& image, Span<const ind
 index_t fit_blocks(const FitMesh& mesh, const FitImage& image, Span<const index_t> order, double threshold, int threads,
                    Span<FaceBlock> blocks) {
     check_order(mesh, order);
+    return fit_blocks_checked(mesh, image, order, threshold, threads, blocks);
+}
+
+index_t fit_blocks_checked(const FitMesh& mesh, const FitImage& image, Span<const index_t> order, double threshold,
+                           int threads, Span<FaceBlock> blocks) {
     require(blocks.size == order.size, "fit: one block a visited face");
     const index_t n = order.size;
     if (threads < 2 || n < SPLIT_MIN_FACES) return accumulate(mesh, image, order, threshold, blocks, 0, n);

@@ -28,4 +28,13 @@ index_t sample_errors(const FitMesh& mesh, const FitImage& image, Span<const ind
 index_t fit_blocks(const FitMesh& mesh, const FitImage& image, Span<const index_t> order, double threshold, int threads,
                    Span<FaceBlock> blocks);
 
+// That every order entry is a face (ValueError).
+void check_order(const FitMesh& mesh, Span<const index_t> order);
+
+// `sample_errors` and `fit_blocks` of an order `check_order` has passed: a fit checks it once.
+index_t sample_errors_checked(const FitMesh& mesh, const FitImage& image, Span<const index_t> order, Sample sample,
+                              Span<double> errors, int threads);
+index_t fit_blocks_checked(const FitMesh& mesh, const FitImage& image, Span<const index_t> order, double threshold,
+                           int threads, Span<FaceBlock> blocks);
+
 }  // namespace rangemesh::heights

@@ -6,6 +6,7 @@
 // definite.
 #pragma once
 
+#include <cstdint>
 #include <vector>
 
 #include "../views.hpp"
@@ -27,5 +28,17 @@ VertexSystem gather_blocks(Span<const FaceBlock> blocks, Span<const double> h0, 
 // Returns whether it converged.
 bool solve_blocks(Span<const FaceBlock> blocks, Span<const double> h0, double ridge_share, double rtol,
                   index_t max_iter, Span<double> x);
+// A face's block packed for the solve's products: symmetric, so six sums, and 32-bit ids; a
+// cache line.
+struct alignas(64) PackedBlock {
+    std::int32_t ids[4];
+    double m00, m01, m02, m11, m12, m22;
+};
+
+// ... in `room`, 8 x h0.size doubles of any contents (buffers kept from call to call), and with
+// `packed` (room for blocks.size, or null) on the blocks packed there when they are symmetric
+// bit for bit: the same solution, bit for bit.
+bool solve_blocks(Span<const FaceBlock> blocks, Span<const double> h0, double ridge_share, double rtol,
+                  index_t max_iter, Span<double> x, double* room, PackedBlock* packed);
 
 }  // namespace rangemesh::heights

@@ -63,6 +63,24 @@ def test_seam_column_by_hand():
     assert reference.seam_column(valid) == 25  # 150 in columns 0-14, kept in the middle half
 
 
+@pytest.mark.parametrize("threads", [1, 2])
+def test_the_native_seam_column_halves_the_valid_pixels(threads, monkeypatch):
+    """The refine call's own count of each column's valid pixels (issue 44: byte sums a row block)."""
+    rows, cols = np.mgrid[0:300, 0:200]  # (more rows than a block of 255)
+    image = 100.0 + 10.0 * np.sin(cols / 7.0) + 5.0 * np.cos(rows / 5.0)
+    image[:150, 80:] = 0.0  # top half: columns 0-79 valid; bottom half: all 200
+    valid = image > 0
+    # 300 valid pixels a column up to 79, 150 beyond: 42000 in all, 21000 reached at column 69
+    # (the top rows alone would give 39 -> 50, the bottom rows alone 99)
+    assert reference.seam_column(valid) == 69
+    monkeypatch.setenv("RANGEMESH_THREADS", str(threads))
+    mesh = _strip_mesh(image, 0.0, 300, diagonals="delaunay")
+    assert_valid_mesh(mesh, valid)
+    face_cols = mesh.pixels[mesh.faces, 1]
+    assert ((face_cols <= 69).all(axis=1) | (face_cols >= 69).all(axis=1)).all()
+    assert {0, 299} <= set(mesh.pixels[mesh.pixels[:, 1] == 69, 0].tolist())
+
+
 def test_power_laws_by_hand():
     """The rounds' predictions (compiled with the driver, strips.cpp), by hand."""
     # counts against keys: key 100 -> 10 while the count goes 10 -> 100, n ~ key**-1

@@ -2,12 +2,15 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <memory>
+#include <optional>
 #include <utility>
 
 #include "../geometry/delaunay.hpp"
 #include "../geometry/halfedges.hpp"
 #include "../geometry/pixels.hpp"
+#include "../parallel.hpp"
 #include "diagonals.hpp"
 #include "insertion.hpp"
 #include "start.hpp"
@@ -17,12 +20,29 @@ namespace rangemesh::refine {
 
 namespace {
 
+// Each column's valid pixels: byte sums over blocks of 255 rows (a bool is one byte, 0 or 1), a
+// loop the compiler vectorises: it visits every pixel of the image before the threads start.
+std::vector<index_t> count_columns(Grid<const bool> valid) {
+    const index_t w = valid.cols;
+    std::vector<index_t> into(w, 0);
+    std::vector<std::uint8_t> sums(w);
+    std::uint8_t* const s = sums.data();
+    for (index_t r = 0; r < valid.rows;) {
+        const index_t end = std::min(valid.rows, r + 255);
+        std::fill(sums.begin(), sums.end(), 0);
+        for (; r < end; ++r) {
+            const auto* const row = reinterpret_cast<const std::uint8_t*>(valid.row(r));
+            for (index_t c = 0; c < w; ++c) s[c] = static_cast<std::uint8_t>(s[c] + row[c]);
+        }
+        for (index_t c = 0; c < w; ++c) into[c] += s[c];
+    }
+    return into;
+}
+
 // The column that halves the valid pixels, kept within the middle half (strips.py's `seam_column`).
 index_t seam_column(Grid<const bool> valid) {
-    const index_t h = valid.rows, w = valid.cols;
-    std::vector<index_t> cum(w, 0);
-    for (index_t r = 0; r < h; ++r)
-        for (index_t c = 0; c < w; ++c) cum[c] += valid(r, c);
+    const index_t w = valid.cols;
+    std::vector<index_t> cum = count_columns(valid);
     for (index_t c = 1; c < w; ++c) cum[c] += cum[c - 1];
     index_t m = w / 2;
     if (cum[w - 1] > 0) {  // np.searchsorted(cum, cum[-1] / 2.0): the first column reaching half
@@ -165,6 +185,11 @@ std::vector<index_t> join_halfedges(const StripMesh& a, const StripMesh& b, cons
 }  // namespace
 
 Halves insert_halves(const Image& image, const HalvesRequest& req) {
+    // the second thread started first (its start overlaps the seam's choice): the strips' first
+    // meshes run on both threads too
+    std::optional<Worker> worker;
+    if (req.threads >= 2) worker.emplace();
+    Worker* const second = worker ? &*worker : nullptr;
     const index_t h = image.rows(), w = image.cols(), m = seam_column(image.valid);
     std::vector<double> z(h);
     const std::unique_ptr<bool[]> ok(new bool[h]);
@@ -185,12 +210,20 @@ Halves insert_halves(const Image& image, const HalvesRequest& req) {
         rows = seam_rows(zs, oks, std::max<index_t>(2, round_even(req.seam_density * std::sqrt(n))), -1.0, image.span);
     }
     const double share = static_cast<double>(m) / static_cast<double>(w - 1);
-    const StartArrays left =
-        strip_start(image, static_cast<index_t>(static_cast<double>(req.n_grid) * share), req, 0, m, rows, m);
-    const StartArrays right =
-        strip_start(image, static_cast<index_t>(static_cast<double>(req.n_grid) * (1 - share)), req, m, w - 1, rows, m);
-    index_t shared = 0;  // the seam's valid vertices, in both strips
-    for (std::size_t i = 0; i < left.vr.size(); ++i) shared += left.vc[i] == m && image.valid(left.vr[i], m);
+    // each strip's first mesh made on its own thread, in `strip_insert`'s first phase
+    StartArrays left, right;
+    const auto starts = [&](int i) {
+        if (i == 0)
+            left =
+                strip_start(image, static_cast<index_t>(static_cast<double>(req.n_grid) * share), req, 0, m, rows, m);
+        else
+            right = strip_start(image, static_cast<index_t>(static_cast<double>(req.n_grid) * (1 - share)), req, m,
+                                w - 1, rows, m);
+        return i == 0 ? left.view() : right.view();
+    };
+    // the seam's valid vertices, in both strips: the corners on its column and its rows between
+    index_t shared = image.valid(0, m) + image.valid(h - 1, m);
+    for (const index_t r : rows) shared += r > 0 && r < h - 1;  // (seam_rows chooses valid pixels)
     const double seam = seam_error(z, ok.get(), rows);
     const double budget = req.max_sum >= 0.0 ? std::max(req.max_sum - seam, 0.0) : -1.0;
     const StripRequest sreq{req.vertices,
@@ -202,7 +235,10 @@ Halves insert_halves(const Image& image, const HalvesRequest& req) {
                             req.threads,
                             true,
                             req.flip};
-    const Strips s = strip_insert(image, left.view(), right.view(), sreq);
+    const Strips s = strip_insert(image, starts, sreq, second);
+    index_t on_seam = 0;
+    for (std::size_t i = 0; i < left.vr.size(); ++i) on_seam += left.vc[i] == m && image.valid(left.vr[i], m);
+    require(on_seam == shared, "insert_halves: the seam's vertices are the left strip's on its column");
     Halves out = join(s.left, s.right, m);
     out.flips = s.left.flips + s.right.flips;
     out.total = out.total + seam;

@@ -240,20 +240,26 @@ StripMesh finish(Insertion& s, const Image& image, bool flip) {
 
 }  // namespace
 
-Strips strip_insert(const Image& image, const FirstMesh& left, const FirstMesh& right, const StripRequest& request) {
+Strips strip_insert(const Image& image, const FirstMesh& left, const FirstMesh& right, const StripRequest& req) {
+    std::optional<Worker> worker;
+    if (req.threads >= 2) worker.emplace();
+    return strip_insert(image, [&](int i) { return i == 0 ? left : right; }, req, worker ? &*worker : nullptr);
+}
+
+Strips strip_insert(const Image& image, const std::function<FirstMesh(int)>& starts, const StripRequest& request,
+                    Worker* second) {
     // from none to every pixel in each strip: a count beyond (a raw call's INT64_MIN or MAX)
     // asks for no more, and would overflow the rounds' arithmetic (target - count, or a cap of
     // the rest as a double that rounds to 2^63)
     StripRequest req = request;
     req.target = std::clamp<index_t>(req.target, 0, 2 * image.rows() * image.cols());
-    std::optional<Worker> worker;
-    if (req.threads >= 2) worker.emplace();
-    Worker* const second = worker ? &*worker : nullptr;
     std::optional<Insertion> a, b;
-    // the first scans visit every pixel: half each
-    run_both(
-        second, [&] { a.emplace(image, left, req.reserve, req.sr, req.sc); },
-        [&] { b.emplace(image, right, req.reserve, req.sr, req.sc); });
+    // each strip's first mesh and first scan (which visits every pixel) on its own thread
+    const auto start = [&](std::optional<Insertion>& s, int i) {
+        const FirstMesh first = starts(i);
+        s.emplace(image, first, req.reserve, req.sr, req.sc);
+    };
+    run_both(second, [&] { start(a, 0); }, [&] { start(b, 1); });
     Strips out;
     if (req.rounds) std::tie(out.rounds, out.capped) = rounds(*a, *b, req, second);
     merge_tail(*a, *b, req.target, req.budget);

@@ -10,10 +10,15 @@
 // stops a strip by count; the next round (same threshold) brings it back to that order.
 #pragma once
 
+#include <functional>
 #include <utility>
 #include <vector>
 
 #include "insertion.hpp"
+
+namespace rangemesh {
+class Worker;
+}
 
 namespace rangemesh::refine {
 
@@ -75,5 +80,11 @@ double strip_error_target(const std::vector<std::pair<double, double>>& hist, do
 
 // Both strips inserted (on two threads when asked), then each flipped when asked.
 Strips strip_insert(const Image& image, const FirstMesh& left, const FirstMesh& right, const StripRequest& req);
+// The same from the first meshes `starts(0)` (left) and `starts(1)` (right) makes, each on its
+// strip's thread, with a second thread the caller started (or none: one strip after the other):
+// the set-up runs on both threads too (`insert_halves`). The meshes `starts` returns are read
+// before it returns.
+Strips strip_insert(const Image& image, const std::function<FirstMesh(int)>& starts, const StripRequest& req,
+                    Worker* worker);
 
 }  // namespace rangemesh::refine

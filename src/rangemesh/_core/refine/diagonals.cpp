@@ -41,13 +41,21 @@ double box_error(const Image& image, const Point& a, const Point& b, const Point
     double total = 0.0;
     for (index_t r = r0; r <= r1; ++r, y0 -= t0, y1 -= t1, y2 -= t2) {
         index_t x0 = y0, x1 = y1, x2 = y2, col = c0;
-        while (col <= c1 && (x0 | x1 | x2) < 0) {  // (a row's pixels are one run: the triangle is convex)
-            ++col;
-            x0 += s0;
-            x1 += s1;
-            x2 += s2;
+        if ((x0 | x1 | x2) < 0) {
+            // a row's pixels are one run (the triangle is convex): it starts where the last edge
+            // whose x is negative at the box's left column and grows to the right (s > 0)
+            // reaches 0; one whose x does not grow to the right (s <= 0) leaves the row none
+            if ((x0 < 0 && s0 <= 0) || (x1 < 0 && s1 <= 0) || (x2 < 0 && s2 <= 0)) continue;
+            index_t n = 0;
+            if (x0 < 0) n = (s0 - 1 - x0) / s0;  // (ceil(-x / s), both positive)
+            if (x1 < 0) n = std::max(n, (s1 - 1 - x1) / s1);
+            if (x2 < 0) n = std::max(n, (s2 - 1 - x2) / s2);
+            col += n;
+            x0 += n * s0;
+            x1 += n * s1;
+            x2 += n * s2;
+            if (col > c1 || (x0 | x1 | x2) < 0) continue;  // (an edge that shrinks to the right ends it first)
         }
-        if (col > c1) continue;
         const double* drow = image.depth.row(r);
         const bool* vrow = image.valid.row(r);
         do {

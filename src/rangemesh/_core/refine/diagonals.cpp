@@ -24,6 +24,7 @@ constexpr index_t BOX_PIXELS = 128;
 // (on a small triangle the setup costs more than its pixels). The same pixels in the same order
 // with the same arithmetic (w as float64 of the same integers): the same sum. Left after a row
 // once quantize(base + sum) >= stop, as `triangle_error`.
+template <bool LongRows>
 double box_error(const Image& image, const Point& a, const Point& b, const Point& c, EdgeOwnership own, index_t area,
                  double base, double stop, double cut) {
     const double inv = 1.0 / static_cast<double>(area);
@@ -58,17 +59,35 @@ double box_error(const Image& image, const Point& a, const Point& b, const Point
         }
         const double* drow = image.depth.row(r);
         const bool* vrow = image.valid.row(r);
-        do {
-            if (vrow[col]) {
-                const double w0 = static_cast<double>(x0 + bias0), w1 = static_cast<double>(x1 + bias1),
-                             w2 = static_cast<double>(x2 + bias2);
-                total += std::abs(drow[col] - (w1 * az + w2 * bz + w0 * cz) * inv);
+        if constexpr (LongRows) {
+            // ... and ends where the first edge that shrinks to the right (s < 0) would fall
+            // below 0; the pixels between in plane_errors' loop (w as float64, the same steps)
+            index_t last = c1;
+            if (s0 < 0) last = std::min(last, col + x0 / -s0);  // (floor(x / -s), both not negative)
+            if (s1 < 0) last = std::min(last, col + x1 / -s1);
+            if (s2 < 0) last = std::min(last, col + x2 / -s2);
+            double w0 = static_cast<double>(x0 + bias0), w1 = static_cast<double>(x1 + bias1),
+                   w2 = static_cast<double>(x2 + bias2);
+            const double f0 = static_cast<double>(s0), f1 = static_cast<double>(s1), f2 = static_cast<double>(s2);
+            for (; col <= last; ++col) {
+                if (vrow[col]) total += std::abs(drow[col] - (w1 * az + w2 * bz + w0 * cz) * inv);
+                w0 += f0;
+                w1 += f1;
+                w2 += f2;
             }
-            ++col;
-            x0 += s0;
-            x1 += s1;
-            x2 += s2;
-        } while (col <= c1 && (x0 | x1 | x2) >= 0);
+        } else {
+            do {
+                if (vrow[col]) {
+                    const double w0 = static_cast<double>(x0 + bias0), w1 = static_cast<double>(x1 + bias1),
+                                 w2 = static_cast<double>(x2 + bias2);
+                    total += std::abs(drow[col] - (w1 * az + w2 * bz + w0 * cz) * inv);
+                }
+                ++col;
+                x0 += s0;
+                x1 += s1;
+                x2 += s2;
+            } while (col <= c1 && (x0 | x1 | x2) >= 0);
+        }
         if (base + total >= cut && quantize(base + total, image.span) >= stop) break;
     }
     return total;
@@ -80,7 +99,10 @@ double error_until(const Image& image, const Point& a, const Point& b, const Poi
     const index_t area = orient(a.r, a.c, b.r, b.c, c.r, c.c);
     const index_t box = (std::max(a.r, std::max(b.r, c.r)) - std::min(a.r, std::min(b.r, c.r)) + 1) *
                         (std::max(a.c, std::max(b.c, c.c)) - std::min(a.c, std::min(b.c, c.c)) + 1);
-    if (area > 0 && box <= BOX_PIXELS) return box_error(image, a, b, c, own, area, base, stop, cut);
+    if (area > 0) {
+        return box <= BOX_PIXELS ? box_error<false>(image, a, b, c, own, area, base, stop, cut)
+                                 : box_error<true>(image, a, b, c, own, area, base, stop, cut);
+    }
     double total = 0.0;
     plane_errors(
         image, a, b, c, own, [&](index_t, index_t, double err) { total += err; },

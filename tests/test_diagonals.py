@@ -198,8 +198,8 @@ def test_triangle_error_is_the_insertions_own_sum_bit_for_bit(name):
                 continue
             own = [bool(_owns(he[3 * t + k], rows[k], cols[k], rows[(k + 1) % 3], cols[(k + 1) % 3], w))
                    for k in range(3)]
-            got = triangle_error(tuple(rows.tolist()), tuple(cols.tolist()), tuple(depth[rows, cols].tolist()),
-                                 depth, valid, ErrorScan(*own))
+            z = tuple(depth[rows, cols].tolist())
+            got = triangle_error(tuple(rows.tolist()), tuple(cols.tolist()), z, depth, valid, ErrorScan(*own))
             assert got == tsum[t], (n, t, rows, cols)
             boxes.append((np.ptp(rows) + 1) * (np.ptp(cols) + 1))
     assert len(boxes) > 100 and min(boxes) <= 128 < max(boxes)  # both walks were compared

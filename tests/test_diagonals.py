@@ -166,6 +166,45 @@ def test_the_insertions_sums_give_the_flips_of_a_fresh_count(name, n):
     assert np.array_equal(tv, fresh.triangles)
 
 
+def _owns(twin, ar, ac, br, bc, w):
+    """Whether a triangle owns the pixels on its edge a -> b (geometry/ownership.hpp's rule)."""
+    if twin < 0:
+        return not (ac == bc and 0 < ac < w - 1)
+    return br > ar or (br == ar and bc > ac)
+
+
+@pytest.mark.parametrize("name", ["tum", "nyu"])
+def test_triangle_error_is_the_insertions_own_sum_bit_for_bit(name):
+    """`triangle_error` (a box walk on small triangles) == the insertion's row-walk sums, exactly.
+
+    The flips compare fresh sums with the insertion's cached ones, so any last-bit difference
+    could change a flip; the two budgets give triangles on either side of the box walk's size.
+    """
+    image = np.load(CROPS)[name].astype(float)
+    background = {"tum": 0, "nyu": 2047}[name]
+    depth, valid = rangemesh.pipeline.prepare(image, rangemesh.MeshParams(), background)
+    depth = depth * np.pi  # (whole depths would make every plane's numerator exact in any order)
+    lo, hi, n_valid = valid_range(depth, valid)
+    w = depth.shape[1]
+    boxes = []
+    for n in (60, 2000):
+        start = insertion.first_mesh(depth, valid, insertion.grid_size(n, n_valid, False))
+        out = _core.greedy_insert(depth, valid, start, InsertSettings(n, -1.0, hi - lo, sums=True))
+        vr, vc, tv, he, tsum = (np.asarray(x) for x in (out.vr, out.vc, out.tv, out.he, out.tsum))
+        for t in range(len(tv) // 3):
+            ids = tv[3 * t: 3 * t + 3]
+            rows, cols = vr[ids], vc[ids]
+            if tsum[t] == 0.0 or not valid[rows, cols].all():  # (keyed without a scan)
+                continue
+            own = [bool(_owns(he[3 * t + k], rows[k], cols[k], rows[(k + 1) % 3], cols[(k + 1) % 3], w))
+                   for k in range(3)]
+            z = tuple(depth[rows, cols].tolist())
+            got = triangle_error(tuple(rows.tolist()), tuple(cols.tolist()), z, depth, valid, ErrorScan(*own))
+            assert got == tsum[t], (n, t, rows, cols)
+            boxes.append((np.ptp(rows) + 1) * (np.ptp(cols) + 1))
+    assert len(boxes) > 100 and min(boxes) <= 128 < max(boxes)  # both walks were compared
+
+
 def _errors(image, background=None, **kw):
     """Both meshes, each with its `evaluate` against the image the flips see (gaps filled)."""
     depth, valid = rangemesh.fill_gaps(*rangemesh.to_depth_and_mask(image, background))

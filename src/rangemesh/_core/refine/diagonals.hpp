@@ -36,14 +36,16 @@ struct FlipCount {
     index_t flips = 0, tests = 0;
 };
 
-// Flip every interior edge (no background corner) while a flip lowers the error.
-FlipCount flip_by_error(const Image& image, const FlipMesh& mesh);
+// Flip every interior edge (no background corner) while a flip lowers the error. With
+// `checked` false the caller vouches for the arrays (ids, twins, vertex pixels: an insertion's
+// own), and only the vertices' depths and the background triangles' -1 sums are set first.
+FlipCount flip_by_error(const Image& image, const FlipMesh& mesh, bool checked = true);
 
 // The same, starting from the half-edges `first` only (and the edges flips touch), for a
 // mesh whose other edges passed their tests: two strips joined along a seam. The sums of
 // the triangles on those edges are computed afresh. With `checked` false the caller vouches for
-// the arrays (ids, twins, the -1 sums of background triangles: each strip's checked by its own
-// flips, the seam's twins paired by the join), and only the vertices' depths are read first.
+// the arrays (ids, twins: each strip's made by its insertion, the seam's twins paired by the
+// join), as `flip_by_error`'s.
 FlipCount flip_from_edges(const Image& image, const FlipMesh& mesh, Span<const index_t> first, bool checked = true);
 
 // Each triangle's error sum from scratch (0 for a triangle with a background corner).

@@ -209,7 +209,7 @@ Meshing meshing_of(const Image& image, Span<const double> camera, Insertion& ins
         out.error_left = std::any_of(sums.begin(), sums.end(), [](double x) { return x > 0.0; });
         const FlipMesh mesh{
             view(ins.vertex_rows()), view(ins.vertex_cols()), tv, he, {sums.data(), static_cast<index_t>(sums.size())}};
-        out.flips = flip_by_error(image, mesh).flips;
+        out.flips = flip_by_error(image, mesh, false).flips;  // (the insertion's own arrays)
     }
     out.mesh =
         assemble(image, camera, view(ins.vertex_rows()), view(ins.vertex_cols()), view(tv), view(he), req, out.n_walls);

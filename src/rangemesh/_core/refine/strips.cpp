@@ -222,11 +222,13 @@ StripMesh finish(Insertion& s, const Image& image, bool flip) {
     out.sums = s.sums();
     if (flip) {
         const Span<index_t> vr = s.vertex_rows(), vc = s.vertex_cols();
-        out.flips = flip_by_error(image, FlipMesh{{vr.data, vr.size},
-                                                  {vc.data, vc.size},
-                                                  s.triangles(),
-                                                  s.halfedges(),
-                                                  {out.sums.data(), static_cast<index_t>(out.sums.size())}})
+        out.flips = flip_by_error(image,
+                                  FlipMesh{{vr.data, vr.size},
+                                           {vc.data, vc.size},
+                                           s.triangles(),
+                                           s.halfedges(),
+                                           {out.sums.data(), static_cast<index_t>(out.sums.size())}},
+                                  false)  // (the insertion's own arrays)
                         .flips;
     }
     out.vr = copy_polled(s.vertex_rows());

@@ -223,6 +223,9 @@ def capture():
         rangemesh.triangulate(image, method="paper", threads=2)
         rangemesh.triangulate(image, method="paper", vertices=80, flips="error", threads=2)
         rangemesh.triangulate(image, vertices=60, min_region=5)  # label_regions
+        # a small image with no option: one native call, its preparation included (refine_image)
+        rangemesh.triangulate(image[:30, :30].copy(), vertices=20)
+        rangemesh.triangulate(image[:30, :30].copy())
         with _patched(refine_strips, STRIP_MIN_PIXELS=1000, STRIP_MIN_COLUMNS=16, STRIP_MIN_VERTICES=20):
             strips = [dict(max_error=0.5, diagonals="error", walls=False),
                       dict(vertices=300, diagonals="error", walls=False)]

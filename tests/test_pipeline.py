@@ -2,10 +2,11 @@
 
 import math
 import os
+import re
 
 import numpy as np
 import pytest
-from hypothesis import given
+from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy import ndimage
 
@@ -370,5 +371,129 @@ def test_a_refine_call_reads_the_valid_depth_range_by_name(monkeypatch):
     monkeypatch.setattr(pipeline, "valid_range", lambda depth, valid: ByNameOnly(real(depth, valid)))
     r, c = np.mgrid[0:16, 0:16]
     depth = 100.0 + r + 0.5 * c + ((r - 8) ** 2 + (c - 8) ** 2) * 0.1
+    # (with a camera: a small image without one is a single native call, `small_call`)
+    assert triangulate(depth, vertices=10, camera=Orthographic()).stats.vertices == 10
+    assert triangulate(depth, camera=Orthographic()).stats.target.met  # the default target
+
+
+# ---------------------------------------------------------------- a small image's one native call
+
+
+def _general(monkeypatch, image, **kwargs):
+    """`triangulate(image, **kwargs)` by the general path (`run`), warnings recorded."""
+    import warnings
+
+    from rangemesh import pipeline
+
+    with monkeypatch.context() as mp, warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        mp.setattr(pipeline, "small_call", lambda *args: None)
+        mesh = triangulate(image, **kwargs)
+    return mesh, [(w.category, str(w.message)) for w in caught]
+
+
+def _same_call(a, b):
+    """Two meshes of one call: arrays and stats bit for bit, timings aside."""
+    for name in ("vertices", "faces", "pixels"):
+        x, y = getattr(a, name), getattr(b, name)
+        assert x.dtype == y.dtype and x.shape == y.shape and np.array_equal(x, y), name
+    assert a.camera == b.camera and a.image_shape == b.image_shape
+    assert a.attributes == b.attributes and a.colors is None and b.colors is None
+    sa, sb = dict(a.stats.__dict__), dict(b.stats.__dict__)
+    assert sa.pop("seconds").keys() == sb.pop("seconds").keys()
+    assert sa == sb and list(sa) == list(sb)
+
+
+@st.composite
+def _small_images(draw):
+    """Small images of every dtype the one call takes, with holes, zeros, negative and huge depths."""
+    h, w = draw(st.integers(2, 44)), draw(st.integers(2, 44))
+    rng = np.random.default_rng(draw(st.integers(0, 2**31)))
+    r, c = np.mgrid[0:h, 0:w]
+    kind = draw(st.sampled_from(["float64", "float32", "uint16", "int16", "uint8", "int64"]))
+    base = draw(st.sampled_from([0.0, 5.0, 100.0, 1e30]))  # (0: zeros and negative depths)
+    image = base + r * draw(st.floats(-3, 3)) + c * draw(st.floats(-3, 3)) \
+        + rng.normal(0, draw(st.sampled_from([0.0, 0.5, 4.0])), (h, w))
+    if kind.startswith("float"):
+        image[rng.random((h, w)) < draw(st.sampled_from([0.0, 0.1, 0.6, 1.0]))] = np.nan
+    else:
+        info = np.iinfo(kind)
+        image = np.clip(np.round(image), info.min, min(info.max, 2**40))
+        image[rng.random((h, w)) < draw(st.sampled_from([0.0, 0.1, 0.6]))] = 0
+    return image.astype(kind)
+
+
+@settings(max_examples=150)
+@given(_small_images(), st.sampled_from([None, 3, 10, 40, 2000]),
+       st.sampled_from(["auto", None, 0, 7.5]))
+def test_a_small_call_is_the_general_call_bit_for_bit(image, vertices, background):
+    # issue 44 (fixed cost): a small image with no option and no camera is one native call,
+    # `rangemesh._core.refine_image`; its mesh, stats, target and warnings are the general path's
+    import warnings
+
+    from rangemesh import cleanup
+
+    kwargs = {"background": background} if vertices is None else \
+        {"background": background, "vertices": vertices}
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(cleanup, "_warned", [])  # (the zero marker's warning is said once a process)
+        try:
+            want, want_warnings = _general(mp, image, **kwargs)
+        except ValueError as e:  # (refused alike)
+            with pytest.raises(ValueError, match=re.escape(str(e))):
+                triangulate(image, **kwargs)
+            return
+        mp.setattr(cleanup, "_warned", [])
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            got = triangulate(image, **kwargs)
+    assert [(w.category, str(w.message)) for w in caught] == want_warnings
+    _same_call(got, want)
+
+
+def test_a_small_call_is_one_native_call(monkeypatch):
+    # issue 44's fixed cost: "the whole refine call, its target search included, is one native
+    # function; Python checks the arguments and wraps the result"
+    from rangemesh import _core
+
+    calls = []
+    for name in ("refine_image", "refine_mesh", "mask_image", "valid_range", "fill_gaps_inplace"):
+        real = getattr(_core, name)
+        monkeypatch.setattr(_core, name, lambda *a, _real=real, _name=name, **k: (
+            calls.append(_name), _real(*a, **k))[1])
+    r, c = np.mgrid[0:16, 0:16]
+    depth = 100.0 + r + 0.5 * c + ((r - 8) ** 2 + (c - 8) ** 2) * 0.1
     assert triangulate(depth, vertices=10).stats.vertices == 10
-    assert triangulate(depth).stats.target.met  # the default target
+    assert triangulate(depth).stats.target.default  # the default target
+    assert calls == ["refine_image", "refine_image"]
+
+
+@pytest.mark.parametrize("name", [o.name for o in rangemesh.params.OPTION_TABLE])
+def test_a_call_giving_any_option_is_checked_as_before(name):
+    # the small call takes only calls that give no option: each option given, even a bad one,
+    # goes to the general path, which names it
+    r, c = np.mgrid[0:16, 0:16]
+    with pytest.raises((TypeError, ValueError), match=name):
+        triangulate(100.0 + r + c, vertices=10, **{name: object()})
+
+
+def test_a_small_calls_request_does_not_depend_on_its_valid_pixels():
+    # what `rangemesh.refine.small` relies on to make the request before the image is read
+    from rangemesh import _core, memory, resolve, small_call
+    from rangemesh.params import DEFAULT_TARGET, default_vertex_cap
+    from rangemesh.refine import strips
+    from rangemesh.refine.small import SMALL_PIXELS
+
+    assert 2 * SMALL_PIXELS <= _core.FIT_SPLIT_MIN_FACES  # the fit's pass on one thread
+    assert SMALL_PIXELS <= strips.STRIP_MIN_PIXELS  # one strip
+    assert default_vertex_cap(SMALL_PIXELS - 1) == DEFAULT_TARGET.min_vertices
+    # the options' defaults it meshes with (walls kept, jump 0.05, no clean-up, no seam)
+    base = resolve.defaults()
+    assert (base.walls, base.jump, base.effort, base.wrap, base.max_edge, base.depth_limits,
+            base.min_region) == (True, 0.05, "fast", None, None, None, None)
+    # with the memory it checks free, check_memory passes and an error bound's ceiling lies
+    # beyond the default target's cap
+    free = small_call.SMALL_NEED
+    assert free >= memory.memory_need((SMALL_PIXELS, 1), "refine", SMALL_PIXELS)
+    assert (free - SMALL_PIXELS * memory.REFINE_BYTES_PER_PIXEL) // memory.REFINE_BYTES_PER_VERTEX \
+        >= DEFAULT_TARGET.min_vertices

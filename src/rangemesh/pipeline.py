@@ -37,6 +37,7 @@ from .resolve import (  # noqa: F401 - re-exported: their home was here
     resolve_keywords,
     resolve_params,
 )
+from .small_call import FLIPS_UNSET, small_call
 from .timing import now, timed
 
 __all__ = ["triangulate", "resolve_call", "resolve_params", "prepare", "run", "Workspace",
@@ -466,6 +467,17 @@ def triangulate(image, params: MeshParams | None = None, *,
     >>> mesh.stats.grid_shape, mesh.faces.shape[1]
     ((9, 9), 3)
     """
+    if params is None and camera is None and color is None and not overrides and method == "refine" \
+            and max_error is None and max_deviation is None and mean_deviation is None \
+            and type(image) is np.ndarray and tiles is None and samples is None and sampling is None \
+            and flips is FLIPS_UNSET and levels is None and curvature_floor is None and fill_gaps is None \
+            and delta is None and epsilon is None and max_angle is None and min_bend is None \
+            and gain_threshold is None and max_edge is None and threads is None and heights is None \
+            and diagonals is None and walls is None and jump is None and wrap is None \
+            and depth_limits is None and min_region is None and effort is None:
+        mesh = small_call(image, vertices, background)  # (a small image: one native call)
+        if mesh is not None:
+            return mesh
     params, method, tiles_given = resolve_keywords(params, method, vertices, max_error, locals(),
                                                    overrides,
                                                    deviations=(max_deviation, mean_deviation))

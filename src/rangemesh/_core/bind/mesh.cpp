@@ -2,12 +2,17 @@
 // with named fields, one function between them.
 #include <nanobind/stl/optional.h>
 
+#include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <memory>
 #include <optional>
 #include <vector>
 
+#include "../geometry/pixels.hpp"
+#include "../paper/sampling.hpp"
 #include "../refine/mesh.hpp"
 #include "../refine/walls.hpp"
 #include "bindings.hpp"
@@ -110,6 +115,139 @@ void bind_result(nb::module_& m) {
         .def_ro("seconds", &MeshResult::seconds, "Time of the whole call.");
 }
 
+// The contract of a request on an image of rows x cols pixels and a `camera` (Camera.as_array()).
+void check_request(const MeshRequest& req, index_t rows, index_t cols, Span<const double> camera) {
+    check_input(0 < req.vertices && req.vertices <= req.n_valid && req.n_valid <= rows * cols,
+                "refine_mesh: 0 < vertices <= n_valid <= the image's pixels");
+    check_input(req.max_error < 0.0 || (req.max_error > 0.0 && std::isfinite(req.max_error)),
+                "refine_mesh: max_error negative (none) or a finite positive percentage");
+    check_input((req.max_deviation < 0.0 && req.mean_deviation < 0.0) ||
+                    (req.max_error < 0.0 && (req.max_deviation < 0.0 || req.mean_deviation < 0.0)),
+                "refine_mesh: max_deviation or mean_deviation alone, with no max_error");
+    check_input(!(req.max_deviation > std::numeric_limits<double>::max()) &&
+                    !(req.mean_deviation > std::numeric_limits<double>::max()) && !std::isnan(req.max_deviation) &&
+                    !std::isnan(req.mean_deviation),
+                "refine_mesh: max_deviation and mean_deviation finite (negative: none)");
+    check_input(req.max_edge == 0.0 || (req.max_edge >= 1.0 && std::isfinite(req.max_edge)),
+                "refine_mesh: max_edge 0 (none) or a finite length of 1 pixel or more");
+    check_input(req.deviation_scale > 0.0 && std::isfinite(req.deviation_scale) && req.max_deviation_share > 0.0 &&
+                    req.max_deviation_share <= 1.0,
+                "refine_mesh: deviation_scale finite and above 0, max_deviation_share in (0, 1]");
+    check_input(req.max_error_stop > 0.0 && std::isfinite(req.max_error_stop),
+                "refine_mesh: max_error_stop finite and above 0");
+    check_input(req.walls || camera[0] != 2.0 || (req.pixel_angle > 0.0 && std::isfinite(req.pixel_angle)),
+                "refine_mesh: walls dropped with a ray camera need a finite pixel_angle above 0");
+    check_input(req.threads >= 1 && (!req.strips || cols >= 4),
+                "refine_mesh: threads at least 1, strips on images of 4 columns or more");
+    check_input(req.sr >= 1 && req.sc >= 1 && req.max_runs >= 1 && req.max_bisect_runs >= 1,
+                "refine_mesh: sr, sc, max_runs and max_bisect_runs at least 1");
+    check_input(req.collapse == 0.0 || (req.collapse >= 1.0 && req.collapse <= 16.0),
+                "refine_mesh: collapse 0 (effort='fast') or a factor from 1 to 16");
+    check_input(camera.size >= 6 && (camera[0] == 0.0 || camera[0] == 1.0 ||
+                                     (camera[0] == 2.0 && camera[1] == rows && camera[2] == cols &&
+                                      camera.size == 6 + 3 * rows * cols)),
+                "refine_mesh: camera is a Camera.as_array() for the image's shape");
+}
+
+// `direct_solve(ids, block, rhs, h0)` as the core's DirectSolve (None: none), the GIL taken
+// back for the Python solve, a rare fallback.
+refine::DirectSolve direct_of(nb::handle direct_solve) {
+    if (direct_solve.is_none()) return {};
+    return [direct_solve](const std::vector<heights::FaceBlock>& blocks, const std::vector<double>& h0) {
+        nb::gil_scoped_acquire gil;
+        const nb::tuple system = face_block_arrays(blocks);
+        const nb::object out = direct_solve(system[0], system[1], system[2], to_numpy(std::vector<double>(h0)));
+        const auto x = nb::cast<nb::ndarray<const double, nb::ndim<1>, nb::c_contig, nb::device::cpu>>(out);
+        return std::vector<double>(x.data(), x.data() + x.shape(0));
+    };
+}
+
+// A 2-D C-contiguous image of any dtype: `refine_image` dispatches on it (one kernel a dtype, no copy).
+using AnyImage = nb::ndarray<nb::ro, nb::ndim<2>, nb::c_contig, nb::device::cpu>;
+
+template <class T>
+bool mask_as(const AnyImage& image, bool has_background, double background, Grid<double> depth, Grid<bool> valid) {
+    if (image.dtype() != nb::dtype<T>()) return false;
+    mask_image(Grid<const T>{static_cast<const T*>(image.data()), depth.rows, depth.cols}, has_background, background,
+               depth, valid);
+    return true;
+}
+
+// `mask_image` of an image of a dtype the kernels take; false for another dtype.
+bool mask_any(const AnyImage& image, bool has_background, double background, Grid<double> depth, Grid<bool> valid) {
+    return mask_as<double>(image, has_background, background, depth, valid) ||
+           mask_as<float>(image, has_background, background, depth, valid) ||
+           mask_as<std::uint16_t>(image, has_background, background, depth, valid) ||
+           mask_as<std::uint8_t>(image, has_background, background, depth, valid) ||
+           mask_as<std::int16_t>(image, has_background, background, depth, valid) ||
+           mask_as<std::int32_t>(image, has_background, background, depth, valid) ||
+           mask_as<std::uint32_t>(image, has_background, background, depth, valid) ||
+           mask_as<std::int64_t>(image, has_background, background, depth, valid) ||
+           mask_as<std::uint64_t>(image, has_background, background, depth, valid) ||
+           mask_as<std::int8_t>(image, has_background, background, depth, valid);
+}
+
+double seconds_since(std::chrono::steady_clock::time_point t) {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+}
+
+// The whole refine call of an orthographic image, unit scales (`rangemesh.refine.small`): the
+// preparation (background masked, single-pixel gaps filled, the valid range) and `refine_mesh`
+// in one call. None (declined) where the library's general path has more to do or to say: fewer
+// than `min_valid` valid pixels, a valid range beyond the float range or holding 0 (a zero
+// marker's warning), a largest depth magnitude outside [1 / band, band] (depths scaled first),
+// no face left, or a call that declined. `background`: what marks missing depth besides NaN and
+// infinities (NaN: nothing else).
+nb::object refine_image(const AnyImage& image, double background, bool fill_gaps, bool reference_before_fill,
+                        const MeshRequest& asked, index_t min_valid, double band, nb::handle direct_solve) {
+    const bool has_background = !std::isnan(background);  // (NaN: none, as `mask_image` takes it)
+    const auto t0 = std::chrono::steady_clock::now();
+    const index_t rows = static_cast<index_t>(image.shape(0)), cols = static_cast<index_t>(image.shape(1));
+    const index_t n = rows * cols;
+    check_input(rows >= 2 && cols >= 2, "refine_image: an image of at least 2x2 pixels");
+    check_input(min_valid >= asked.vertices && asked.vertices > 0 && band >= 1.0,
+                "refine_image: min_valid at least the vertices asked, above 0; band at least 1");
+    std::vector<double> depth(static_cast<std::size_t>(n));
+    const std::unique_ptr<bool[]> valid(new bool[static_cast<std::size_t>(n)]);
+    std::unique_ptr<bool[]> before;  // the mask before gaps are filled: an error bound's reference
+    const Grid<double> d{depth.data(), rows, cols};
+    const Grid<bool> v{valid.get(), rows, cols};
+    const DepthRange range = run_released(
+        [&] {
+            check_input(mask_any(image, has_background, background, d, v),
+                        "refine_image: image of float32, float64 or an integer dtype");
+            if (reference_before_fill && fill_gaps) {
+                before.reset(new bool[static_cast<std::size_t>(n)]);
+                std::copy(valid.get(), valid.get() + n, before.get());
+            }
+            if (fill_gaps) paper::fill_gaps_inplace(d, v);
+            return valid_range(Grid<const double>{depth.data(), rows, cols}, Grid<const bool>{valid.get(), rows, cols});
+        },
+        n);
+    const double top = std::max(std::abs(range.lo), std::abs(range.hi));
+    if (range.count == 0 || range.count < min_valid || !std::isfinite(range.hi - range.lo) ||
+        (top != 0.0 && !(1.0 / band <= top && top <= band)) || (range.lo <= 0.0 && 0.0 <= range.hi))
+        return nb::none();
+    MeshRequest req = asked;
+    req.n_valid = range.count;
+    req.lo = range.lo;
+    req.hi = range.hi;
+    static constexpr double unit[6] = {0.0, 1.0, 1.0, 1.0, 0.0, 0.0};  // Orthographic().as_array()
+    const Span<const double> camera{unit, 6};
+    check_request(req, rows, cols, camera);
+    const refine::Image img{{depth.data(), rows, cols}, {valid.get(), rows, cols}, req.hi - req.lo};
+    const refine::Reference ref{img.depth, before ? Grid<const bool>{before.get(), rows, cols} : img.valid};
+    const refine::DirectSolve direct = direct_of(direct_solve);
+    const double prepare = seconds_since(t0);
+    MeshResult res = run_released([&] { return refine::refine_mesh(img, camera, ref, req, direct); }, n);
+    if (res.outcome != refine::MeshOutcome::done || res.faces.empty()) return nb::none();
+    const std::size_t n_v = res.pixels.size() / 2, n_f = res.faces.size() / 3;
+    return nb::make_tuple(to_numpy(std::move(res.vertices), n_v, 3), to_numpy(std::move(res.faces), n_f, 3),
+                          to_numpy(std::move(res.pixels), n_v, 2), range.count, res.edges, res.insertions, res.flips,
+                          res.strips, res.meshings, res.fitted, res.fit_seconds, res.seconds, prepare, res.achieved,
+                          res.asked);
+}
+
 }  // namespace
 
 void bind_refine_mesh(nb::module_& m) {
@@ -177,51 +315,11 @@ void bind_refine_mesh(nb::module_& m) {
                             (!ref_depth || (same_shape(*ref_depth, depth) && same_shape(*ref_valid, depth))),
                         "refine_mesh: ref_depth and ref_valid both or neither, of the image's shape");
             check_input(depth.shape(0) >= 2 && depth.shape(1) >= 2, "refine_mesh: an image of at least 2x2 pixels");
-            check_input(
-                0 < req.vertices && req.vertices <= req.n_valid && req.n_valid <= static_cast<index_t>(depth.size()),
-                "refine_mesh: 0 < vertices <= n_valid <= the image's pixels");
-            check_input(req.max_error < 0.0 || (req.max_error > 0.0 && std::isfinite(req.max_error)),
-                        "refine_mesh: max_error negative (none) or a finite positive percentage");
-            check_input((req.max_deviation < 0.0 && req.mean_deviation < 0.0) ||
-                            (req.max_error < 0.0 && (req.max_deviation < 0.0 || req.mean_deviation < 0.0)),
-                        "refine_mesh: max_deviation or mean_deviation alone, with no max_error");
-            check_input(!(req.max_deviation > std::numeric_limits<double>::max()) &&
-                            !(req.mean_deviation > std::numeric_limits<double>::max()) &&
-                            !std::isnan(req.max_deviation) && !std::isnan(req.mean_deviation),
-                        "refine_mesh: max_deviation and mean_deviation finite (negative: none)");
-            check_input(req.max_edge == 0.0 || (req.max_edge >= 1.0 && std::isfinite(req.max_edge)),
-                        "refine_mesh: max_edge 0 (none) or a finite length of 1 pixel or more");
-            check_input(req.deviation_scale > 0.0 && std::isfinite(req.deviation_scale) &&
-                            req.max_deviation_share > 0.0 && req.max_deviation_share <= 1.0,
-                        "refine_mesh: deviation_scale finite and above 0, max_deviation_share in (0, 1]");
-            check_input(req.max_error_stop > 0.0 && std::isfinite(req.max_error_stop),
-                        "refine_mesh: max_error_stop finite and above 0");
-            check_input(req.walls || camera(0) != 2.0 || (req.pixel_angle > 0.0 && std::isfinite(req.pixel_angle)),
-                        "refine_mesh: walls dropped with a ray camera need a finite pixel_angle above 0");
-            check_input(req.threads >= 1 && (!req.strips || depth.shape(1) >= 4),
-                        "refine_mesh: threads at least 1, strips on images of 4 columns or more");
-            check_input(req.sr >= 1 && req.sc >= 1 && req.max_runs >= 1 && req.max_bisect_runs >= 1,
-                        "refine_mesh: sr, sc, max_runs and max_bisect_runs at least 1");
-            check_input(req.collapse == 0.0 || (req.collapse >= 1.0 && req.collapse <= 16.0),
-                        "refine_mesh: collapse 0 (effort='fast') or a factor from 1 to 16");
-            check_input(
-                camera.shape(0) >= 6 && (camera(0) == 0.0 || camera(0) == 1.0 ||
-                                         (camera(0) == 2.0 && camera(1) == depth.shape(0) &&
-                                          camera(2) == depth.shape(1) && camera.shape(0) == 6 + 3 * depth.size())),
-                "refine_mesh: camera is a Camera.as_array() for the image's shape");
+            check_request(req, depth.shape(0), depth.shape(1), span(camera));
             const refine::Image image{grid(depth), grid(valid), req.hi - req.lo};
             const refine::Reference ref = ref_depth ? refine::Reference{grid(*ref_depth), grid(*ref_valid)}
                                                     : refine::Reference{image.depth, image.valid};
-            refine::DirectSolve direct;  // (the GIL taken back for the Python solve, a rare fallback)
-            if (!direct_solve.is_none())
-                direct = [direct_solve](const std::vector<heights::FaceBlock>& blocks, const std::vector<double>& h0) {
-                    nb::gil_scoped_acquire gil;
-                    const nb::tuple system = face_block_arrays(blocks);
-                    const nb::object out =
-                        direct_solve(system[0], system[1], system[2], to_numpy(std::vector<double>(h0)));
-                    const auto x = nb::cast<nb::ndarray<const double, nb::ndim<1>, nb::c_contig, nb::device::cpu>>(out);
-                    return std::vector<double>(x.data(), x.data() + x.shape(0));
-                };
+            const refine::DirectSolve direct = direct_of(direct_solve);
             return run_released([&] { return refine::refine_mesh(image, span(camera), ref, req, direct); },
                                 work(depth));
         },
@@ -233,6 +331,17 @@ void bind_refine_mesh(nb::module_& m) {
         "``request.vertices`` vertices or, with ``request.max_error``, the relative error against "
         "``ref_depth``, ``ref_valid`` (default: depth, valid) is met; a fit that does not converge is solved by "
         "``direct_solve(ids, block, rhs, h0)`` (None: the call declines). Returns a RefineResult.");
+    m.def("refine_image", &refine_image, nb::arg("image").noconvert(), nb::arg("background"), nb::arg("fill_gaps"),
+          nb::arg("reference_before_fill"), nb::arg("request"), nb::arg("min_valid"), nb::arg("band"),
+          nb::arg("direct_solve").none(),
+          "The whole refine call of an (H, W) C-contiguous image, unit orthographic camera: masked (NaN, inf "
+          "and ``background`` unless it is NaN), single-pixel gaps filled when ``fill_gaps``, then "
+          "``refine_mesh`` with ``request`` (its n_valid, lo and hi set from the image; the error bound's "
+          "reference is the mask before the fill when ``reference_before_fill``). Returns ``(vertices, faces, "
+          "pixels, n_valid, edges, insertions, flips, strips, meshings, fitted, fit_seconds, seconds, "
+          "prepare_seconds, achieved, asked)``, or None where the general path has more to do: fewer than "
+          "``min_valid`` valid pixels, a range beyond the float range or holding 0, a largest depth magnitude "
+          "outside [1 / band, band], no face.");
 }
 
 }  // namespace rangemesh::bind

@@ -1,0 +1,141 @@
+"""A small image's refine mesh in one native call: the fixed cost of `rangemesh.triangulate`.
+
+On an image of fewer than `SMALL_PIXELS` pixels, with no camera and no option (what
+`rangemesh.small_call` checks), a vertex count or the default target is met by one
+native function, `rangemesh._core.refine_image`: the image masked, its single-pixel gaps filled
+and its valid range taken, then the whole search of `greedy_mesh`. For such images the request
+does not depend on how many pixels are valid (one strip, the fit's pass on one thread, the
+default target's cap its least, ``min_vertices``), so it is made once per count and reused.
+Where the general path has more to do or to say (fewer valid pixels than the count, a valid
+range holding 0 or beyond the float range, depths far from 1, no face), the native call
+declines and `triangulate` takes the general path: the mesh and its stats are the same either way.
+"""
+
+from __future__ import annotations
+
+from .. import _core
+from ..camera import _UNIT
+from ..mesh import Mesh, Stats, Target
+from ..params import DEFAULT_TARGET, NONE_MEANS
+from . import heights as _heights
+from .insertion import (
+    _REQUEST_SETTINGS,
+    DEPTH_BAND,
+    MAX_BISECT_RUNS,
+    MAX_ERROR_STOP,
+    MAX_RUNS,
+    _count_record,
+    _error_record,
+    grid_size,
+)
+
+__all__ = ["SMALL_PIXELS", "mesh_small"]
+
+# Images of fewer pixels take the one native call. Below it a mesh has fewer than
+# FIT_SPLIT_MIN_FACES faces (the fit's pass on one thread), never two strips (STRIP_MIN_PIXELS)
+# and the default target's cap is its least (`default_vertex_cap`): tests/test_refine.py holds
+# these to it. A larger image's call costs milliseconds: the general path's steps weigh nothing there.
+SMALL_PIXELS = 2000
+# `depth_exponent`'s band: depths beyond it are scaled by the general path.
+_BAND = 2.0**DEPTH_BAND
+_REQUESTS: dict = {}  # (count or None, the fit's rule, fit, flip): the request, made once (read only)
+_new = object.__new__
+_set = object.__setattr__
+
+
+def _request(vertices: int | None, rule, fit: bool, flip: bool) -> _core.RefineRequest:
+    """The request of a count (None: the default target) on a small image, made once.
+
+    `fit` and `flip`: what None means for ``heights`` and ``diagonals`` (`NONE_MEANS`).
+    """
+    req = _core.RefineRequest()
+    if vertices is None:  # `_plan` with max_vertices = the cap, every valid pixel at least as many
+        cap = DEFAULT_TARGET.min_vertices
+        req.vertices, req.n_grid = cap, min(grid_size(cap, cap, True), grid_size(cap, cap, False))
+        req.max_error = float(DEFAULT_TARGET.max_error)
+        req.max_error_stop = MAX_ERROR_STOP if fit else 1.0
+    else:
+        req.vertices, req.n_grid = vertices, grid_size(vertices, vertices, False)
+    # `_native`'s settings with the options' defaults (walls kept, jump 0.05: tests/test_pipeline.py)
+    settings = (flip, fit, True, 0.05, MAX_RUNS, MAX_BISECT_RUNS)
+    if settings != _REQUEST_SETTINGS:
+        req.flip, req.fit, req.walls, req.jump, req.max_runs, req.max_bisect_runs = settings
+    req.heights = rule
+    if len(_REQUESTS) >= 256:  # (a long run of distinct counts: start again)
+        _REQUESTS.clear()
+    _REQUESTS[vertices, rule, fit, flip] = req
+    return req
+
+
+def mesh_small(image, vertices: int | None, background: float, fill_gaps: bool, t0: float,
+               now) -> Mesh | None:
+    """`triangulate(image, vertices=vertices)` of a small checked image, or None (declined).
+
+    Parameters
+    ----------
+    image : (H, W) C-contiguous ndarray of a dtype the kernels take
+        Fewer than `SMALL_PIXELS` pixels, at least 2 a side.
+    vertices : int or None
+        A count from 3 to H * W, or None: the default target.
+    background : float
+        What marks missing depth besides NaN and infinities (NaN: nothing else).
+    fill_gaps : bool
+        Fill single-pixel gaps.
+    t0 : float
+        When the call started (`now`), the clock of ``stats.seconds``.
+    """
+    h, w = image.shape
+    rule = _heights.height_rule(h * w)
+    fit, flip = NONE_MEANS["heights"] == "fit", NONE_MEANS["diagonals"] == "error"
+    req = _REQUESTS.get((vertices, rule, fit, flip)) or _request(vertices, rule, fit, flip)
+    want = req.vertices
+    out = _core.refine_image(image, background, fill_gaps, vertices is None, req, want, _BAND,
+                             _heights._direct_solve)
+    if out is None:
+        return None
+    (points, faces, pixels, n_valid, edges, insertions, flips, strips, meshings, fitted, fit_seconds,
+     seconds, prepare, achieved, asked) = out
+    got = len(pixels)
+    if vertices is not None and got == vertices:  # (the record of a count met: one a count)
+        target = _MET.get((got, meshings)) or _met(got, meshings)
+    else:
+        target = _target(vertices, got, n_valid, h * w, meshings, achieved, asked, want)
+    t4 = now()
+    # (dict displays set as the instance dicts, in the fields' order: what `with_fields` and
+    # `Target.from_record` make, at a third of their cost; tests/test_refine.py holds the fields)
+    stats = _new(Stats)
+    _set(stats, "__dict__", {
+        "vertices": got, "edges": edges, "triangles": len(faces), "flipped_edges": flips,
+        "grid_shape": None, "sampled_points": got, "flip_tests": {},
+        "seconds": {"prepare": prepare, "insertion": seconds - fit_seconds, "fit": fit_seconds,
+                    "search": t4 - t0 - prepare - seconds, "total": t4 - t0} if fit else
+                   {"prepare": prepare, "insertion": seconds, "search": t4 - t0 - prepare - seconds,
+                    "total": t4 - t0},
+        "target": target, "reason": "", "method": "refine", "insertions": insertions,
+        "strips": strips, "heights": "fit" if fit and fitted else "pixel"})
+    mesh = _new(Mesh)
+    _set(mesh, "__dict__", {
+        "vertices": points, "faces": faces, "pixels": pixels, "camera": _UNIT, "image_shape": (h, w),
+        "stats": stats, "colors": None, "texture": None, "attributes": {}})
+    return mesh
+
+
+_MET: dict = {}  # (count, meshings): the Target of a count met, made once (frozen: shared)
+
+
+def _met(got: int, meshings: int) -> Target:
+    """The Target of ``vertices=got`` met in `meshings` meshings (`_count_record`), made once."""
+    if len(_MET) >= 256:
+        _MET.clear()
+    target = _MET[got, meshings] = _target(got, got, got, got, meshings, 0.0, got, got)
+    return target
+
+
+def _target(vertices, got, n_valid, n_pixels, meshings, achieved, asked, want) -> Target:
+    """The Target record `greedy_mesh` and `run` make of a count (None: the default target)."""
+    if vertices is None:
+        record = _error_record(achieved, float(DEFAULT_TARGET.max_error), meshings, got, asked,
+                               want, want)
+    else:
+        record = _count_record(got, vertices, meshings, n_valid, n_pixels, True)
+    return Target.from_record(record, vertices=got, default=vertices is None)

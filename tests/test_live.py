@@ -15,6 +15,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
 import rangemesh
 from rangemesh.live import pacing
@@ -163,6 +165,27 @@ def test_pace_words_and_rates():
 def test_a_bad_queue_is_a_value_error_naming_queue(bad):
     with pytest.raises(ValueError, match="queue"):
         next(paced(Playback([], "fast", FakeClock()), bad))
+
+
+@given(st.lists(st.floats(0.0, 1e4, allow_nan=False), min_size=1, max_size=300),
+       st.sampled_from([0, 5, 50, 95, 99.5, 100]))
+def test_the_live_percentile_is_numpy_s_linear_one(values, q):
+    from rangemesh.live.stats import percentile
+
+    assert percentile(values, q) == pytest.approx(float(np.percentile(values, q)), rel=1e-12,
+                                                  abs=1e-9)
+
+
+def test_the_current_latency_p95_is_of_the_last_frames():
+    from rangemesh.live.stats import RECENT
+
+    stats = Stats(0.0)
+    for i in range(RECENT + 100):  # latencies 0, 1, 2, ... ms: the first 100 fall out of the window
+        stats.published(i, i, i + i / 1e3, 0.0, 0.0, 3, 1)
+    f = stats.figures(RECENT + 100.0)
+    # the last 256 latencies are 100..355 ms: the 95th percentile at (256 - 1) * 0.95 = 242.25
+    assert f["latency_ms"] == pytest.approx(355.0)
+    assert f["latency_p95_ms"] == pytest.approx(100 + 242.25)
 
 
 # ------------------------------------------------------------------ frames meshed at once (threads)

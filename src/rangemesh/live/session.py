@@ -217,8 +217,12 @@ class _Status:
         self.tty = hasattr(stream, "isatty") and stream.isatty()
         self.last = -1e9
 
+    def due(self, now: float) -> bool:
+        """Whether the line is shown at `now`: its text need be made only then."""
+        return not self.quiet and now - self.last >= (STATUS_EVERY if self.tty else 1.0)
+
     def show(self, text: str, now: float, force: bool = False) -> None:
-        if self.quiet or (now - self.last < (STATUS_EVERY if self.tty else 1.0) and not force):
+        if self.quiet or not (force or self.due(now)):
             return
         self.last = now
         self.stream.write(("\r\033[K" + text) if self.tty else text + "\n")
@@ -311,7 +315,8 @@ def run(source: str | os.PathLike, *, foxglove: str | None = None, outputs=(),
                                 item.mesh.stats.vertices, item.mesh.stats.triangles)
                 if fox is not None:
                     fox.log_stats(stats.figures(now))
-                status.show(stats.line(now), now)
+                if status.due(now):
+                    status.show(stats.line(now), now)
     finally:
         now = clock.now()
         status.show(stats.line(now), now, force=True)

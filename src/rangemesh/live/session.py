@@ -162,7 +162,9 @@ def live(source: str | os.PathLike, *, kind: str | None = None, meta=None, topic
         A recording's playback: its own stamps, as fast as meshing goes
         (nothing dropped), or this many frames/s. A device gives its own pace.
     loop : bool, default False
-        Replay a recording without end.
+        Replay a recording without end. A RealSense recording whose decoded
+        frames fit in `rangemesh.live.sources.REPLAY_BYTES` is decoded by the
+        SDK once: later passes replay its frames from memory.
     frames : int, optional
         Stop after this many meshes.
     queue : int, default 1

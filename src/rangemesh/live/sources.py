@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import os
 import threading
+import time
 from pathlib import Path
 from typing import NamedTuple
 
@@ -257,15 +258,17 @@ class RealSenseSource:
             except RuntimeError:
                 pass
 
-    def _pass(self):
-        """The SDK's depth frames to the recording's end (a device: without end).
+    def _pass(self, count: int | None = None):
+        """The SDK's depth frames to the recording's end (a device: without end), or `count` frames.
 
         A recording has ended when no frame comes and the SDK's playback has
         stopped (its position runs ahead of the frames handed out, so it
         cannot tell); a device that gives no frame for `_WAIT_MS` is an error.
+        A pass of a recording whose length is known (`count`: the first
+        pass's) ends at its last frame, without that wait.
         """
-        rs, waited, seen = self._rs, 0, False
-        while True:
+        rs, waited, seen, n = self._rs, 0, False, 0
+        while count is None or n < count:
             ok, got = self._pipe.try_wait_for_frames(_POLL_MS)
             if not ok:
                 waited += _POLL_MS
@@ -283,6 +286,7 @@ class RealSenseSource:
             if not depth:
                 continue
             seen = True
+            n += 1
             image = np.array(depth.get_data(), dtype=np.uint16, copy=True)
             yield LiveFrame(int(round(depth.get_timestamp() * 1e6)), self.frame_id, image, self.camera)
 
@@ -295,10 +299,10 @@ class RealSenseSource:
         if self.device or not self._loop:
             yield from self._pass()
             return
-        kept, size = [], 0
+        kept, size, length = [], 0, None
         while True:
             n = 0
-            for frame in self._pass():
+            for frame in self._pass(length):  # later passes end at the first pass's length
                 n += 1
                 if kept is not None:
                     size += frame.depth.nbytes
@@ -310,16 +314,27 @@ class RealSenseSource:
                 yield frame
             if n == 0:  # no depth frame in the recording: nothing to replay
                 return
+            length = length or n
             if kept is not None:
                 with self._lock:
                     self._stop()  # the SDK's part is done; later passes come from memory
                 while True:
                     yield from kept
+            self._wait_stopped()
             with self._lock:
                 if self._closed:
                     return
                 self._stop()
                 self._start()
+
+    def _wait_stopped(self):
+        """Wait (up to `_WAIT_MS`) for the playback to stop at the recording's end.
+
+        Restarted before, the next pass may give no frame at all.
+        """
+        stopped, end = self._rs.playback_status.stopped, time.monotonic() + _WAIT_MS / 1e3
+        while self._playback.current_status() != stopped and time.monotonic() < end:
+            time.sleep(0.001)
 
     def close(self):
         """Stop the SDK's pipeline (after a pass's restart under way, if any)."""

@@ -30,6 +30,7 @@ import numpy as np
 from .._optional import require
 from ..camera import Pinhole
 from ..recordings.ouster import FRAME_ID, OUSTER_SUFFIXES, OusterReader, ouster_geometry, with_offsets
+from ..timing import now
 
 __all__ = ["LiveFrame", "open_source", "source_kind", "is_realsense_bag", "SOURCE_KINDS",
            # the Ouster reader's helpers live with it (rangemesh.recordings.ouster); kept here by name
@@ -332,8 +333,8 @@ class RealSenseSource:
 
         Restarted before, the next pass may give no frame at all.
         """
-        stopped, end = self._rs.playback_status.stopped, time.monotonic() + _WAIT_MS / 1e3
-        while self._playback.current_status() != stopped and time.monotonic() < end:
+        stopped, end = self._rs.playback_status.stopped, now() + _WAIT_MS / 1e3
+        while self._playback.current_status() != stopped and now() < end:
             time.sleep(0.001)
 
     def close(self):

@@ -6,7 +6,12 @@ Run ``python benchmarks/live.py`` (``--pace fast,30,recorded``, ``--threads 1,2`
 Each run plays a recording looped (the RealSense bag holds 2 depth frames, the
 Ouster pcap 3 scans) through `rangemesh.live.run` at the default target until
 ``--frames`` meshes are published (to an MCAP file with ``--sink mcap``, the
-Foxglove server's messages). The sources: ``realsense``, the shared RealSense
+Foxglove server's messages). A looped RealSense recording is decoded by
+pyrealsense2 on its first pass only; later passes replay the decoded frames
+from memory (`rangemesh.live.sources.REPLAY_BYTES`), so the ``realsense`` rows
+measure the SDK's opening and first pass, not its decoding of every frame:
+``--sdk-every-pass`` has the SDK play every pass (as a recording longer than
+the replay's memory is played). The sources: ``realsense``, the shared RealSense
 SDK bag played by pyrealsense2; ``ros``, the same bag read as a ROS bag (the
 ROS reader, ``--source ros``); ``ouster``, the Ouster pcap with its metadata.
 
@@ -157,15 +162,24 @@ def main(argv=None) -> int:
                     help="comma-separated RANGEMESH_THREADS values (default: as the "
                          "environment says)")
     ap.add_argument("--sink", choices=["none", "mcap"], default="mcap")
+    ap.add_argument("--sdk-every-pass", action="store_true",
+                    help="pyrealsense2 plays every pass of the looped RealSense bag (no replay "
+                         "from memory): measures its decoding of every frame")
     ap.add_argument("--stages", action="store_true",
                     help="also each stage's CPU ms a frame on one thread (read, mesh, build, "
                          "write) and the frames/s two workers could reach from them")
     args = ap.parse_args(argv)
+    if args.sdk_every_pass:
+        from rangemesh.live import sources
+
+        sources.REPLAY_BYTES = 0  # nothing kept: the SDK decodes every pass
     paces = [p.strip() for p in args.pace.split(",")]
     threads = args.threads.split(",") if args.threads else [os.environ.get("RANGEMESH_THREADS")]
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
     print(f"{args.frames} meshes a run, medians of {args.repeat}, sink {args.sink}, "
-          f"{cores} core(s) allowed, load {_load()}")
+          f"{cores} core(s) allowed, RealSense passes after the first "
+          f"{'played by the SDK' if args.sdk_every_pass else 'replayed from memory'}, "
+          f"load {_load()}")
     print("source     pace      thr  in/s   out/s  dropped  lat p50 ms  lat p95 ms  "
           "frames/CPU s  mesh ms  msg ms  load")
     for name, (path, kw) in _sources(args.data).items():

@@ -162,7 +162,9 @@ def live(source: str | os.PathLike, *, kind: str | None = None, meta=None, topic
         A recording's playback: its own stamps, as fast as meshing goes
         (nothing dropped), or this many frames/s. A device gives its own pace.
     loop : bool, default False
-        Replay a recording without end.
+        Replay a recording without end. A RealSense recording whose decoded
+        frames fit in `rangemesh.live.sources.REPLAY_BYTES` is decoded by the
+        SDK once: later passes replay its frames from memory.
     frames : int, optional
         Stop after this many meshes.
     queue : int, default 1
@@ -217,8 +219,12 @@ class _Status:
         self.tty = hasattr(stream, "isatty") and stream.isatty()
         self.last = -1e9
 
+    def due(self, now: float) -> bool:
+        """Whether the line is shown at `now`: its text need be made only then."""
+        return not self.quiet and now - self.last >= (STATUS_EVERY if self.tty else 1.0)
+
     def show(self, text: str, now: float, force: bool = False) -> None:
-        if self.quiet or (now - self.last < (STATUS_EVERY if self.tty else 1.0) and not force):
+        if self.quiet or not (force or self.due(now)):
             return
         self.last = now
         self.stream.write(("\r\033[K" + text) if self.tty else text + "\n")
@@ -311,7 +317,8 @@ def run(source: str | os.PathLike, *, foxglove: str | None = None, outputs=(),
                                 item.mesh.stats.vertices, item.mesh.stats.triangles)
                 if fox is not None:
                     fox.log_stats(stats.figures(now))
-                status.show(stats.line(now), now)
+                if status.due(now):
+                    status.show(stats.line(now), now)
     finally:
         now = clock.now()
         status.show(stats.line(now), now, force=True)

@@ -20,6 +20,7 @@ from its recording's only in how the SDK is opened.
 from __future__ import annotations
 
 import os
+import threading
 import time
 from pathlib import Path
 from typing import NamedTuple
@@ -39,7 +40,9 @@ SOURCE_KINDS = ("realsense", "ouster", "ros")
 # a RealSense SDK recording starts with these topics (librealsense's rosbag format)
 _REALSENSE_TOPICS = ("/file_version", "/device_0/")
 _WAIT_MS = 5000  # no frame from the SDK for this long: a device's error, a recording's end
-_RESTART_S = 1.0  # seconds a looped RealSense playback is given to restart before it is stopped
+# a looped RealSense recording whose decoded depth frames fit in this many bytes is replayed from
+# memory after its first pass (the SDK decodes it once): 256 MiB, 436 frames of 640 x 480 z16
+REPLAY_BYTES = 256 * 2**20
 _POLL_MS = 50  # how long one wait for a RealSense frame lasts before the playback's state is read
 
 
@@ -183,7 +186,20 @@ def realsense_camera(intrinsics, depth_scale: float):
 
 
 class RealSenseSource:
-    """A RealSense device (``realsense``, ``realsense:SERIAL``) or a RealSense SDK ``.bag``."""
+    """A RealSense device (``realsense``, ``realsense:SERIAL``) or a RealSense SDK ``.bag``.
+
+    A looped recording is played by the SDK once. When its decoded depth
+    frames fit in `REPLAY_BYTES` (a short recording: the shared bag's 2
+    frames are 1.2 MB) they are kept, the SDK's pipeline is stopped at the
+    end of that pass, and later passes hand out the kept frames (read-only
+    arrays): they cost no decoding, and measure none of the SDK's. A longer
+    recording is played again by the SDK from its start each pass (a new
+    pipeline, on the reading thread, under a lock `close` takes too). The
+    SDK's own repeat (``repeat_playback``) is not used: librealsense 2.59
+    crashes (``ros_reader::enable_stream``) when such a playback is stopped
+    as it restarts, and reopens the file each pass (about 4 ms of CPU a
+    frame on the 2-frame bag).
+    """
 
     frame_id = "realsense_depth_optical_frame"
 
@@ -191,6 +207,9 @@ class RealSenseSource:
         rs = require("pyrealsense2", "a RealSense camera or .bag")
         self.device = source == "realsense" or source.startswith("realsense:")
         self._rs, self._loop = rs, loop
+        self._lock = threading.Lock()  # a pass's restart and `close` never overlap
+        self._closed = False
+        self._running = False
         cfg = rs.config()
         if self.device:
             serial = source.partition(":")[2]
@@ -205,17 +224,15 @@ class RealSenseSource:
         else:
             if not Path(source).is_file():
                 raise FileNotFoundError(f"{source}: no such file")
-            cfg.enable_device_from_file(source, repeat_playback=loop)
+            cfg.enable_device_from_file(source, repeat_playback=False)
         cfg.enable_stream(rs.stream.depth)
+        self._cfg = cfg
         self._pipe = rs.pipeline()
         try:
-            profile = self._pipe.start(cfg)
+            profile = self._start()
         except RuntimeError as exc:
             raise ValueError(f"{source}: the RealSense SDK cannot play it ({exc})") from None
         dev = profile.get_device()
-        self._playback = None if self.device else dev.as_playback()
-        if self._playback is not None:
-            self._playback.set_real_time(False)  # the playback clock paces it, not the SDK
         # the SDK keeps it as a float32 (0.0010000000474974513): the decimal it stands for
         self.depth_scale = float(str(np.float32(dev.first_depth_sensor().get_depth_scale())))
         stream = profile.get_stream(rs.stream.depth).as_video_stream_profile()
@@ -224,21 +241,41 @@ class RealSenseSource:
         self.camera = realsense_camera(self.intrinsics, self.depth_scale)
         self.name = source
 
-    def frames(self):
-        """The depth frames as they come (a recording: to its end, or without end with `loop`).
+    def _start(self):
+        """Start the SDK's pipeline (a recording: from its start); its profile."""
+        profile = self._pipe.start(self._cfg)
+        self._running = True
+        self._playback = None if self.device else profile.get_device().as_playback()
+        if self._playback is not None:
+            self._playback.set_real_time(False)  # the playback clock paces it, not the SDK
+        return profile
+
+    def _stop(self):
+        """Stop the SDK's pipeline, once."""
+        if self._running:
+            self._running = False
+            try:
+                self._pipe.stop()
+            except RuntimeError:
+                pass
+
+    def _pass(self, count: int | None = None):
+        """The SDK's depth frames to the recording's end (a device: without end), or `count` frames.
 
         A recording has ended when no frame comes and the SDK's playback has
         stopped (its position runs ahead of the frames handed out, so it
         cannot tell); a device that gives no frame for `_WAIT_MS` is an error.
+        A pass of a recording whose length is known (`count`: the first
+        pass's) ends at its last frame, without that wait.
         """
-        rs, waited, seen = self._rs, 0, False
-        while True:
+        rs, waited, seen, n = self._rs, 0, False, 0
+        while count is None or n < count:
             ok, got = self._pipe.try_wait_for_frames(_POLL_MS)
             if not ok:
                 waited += _POLL_MS
                 stopped = self._playback is not None \
                     and self._playback.current_status() == rs.playback_status.stopped
-                if stopped and seen and not self._loop:  # a loop restarts after its end
+                if stopped and seen:
                     return
                 if waited >= _WAIT_MS:
                     if self.device:
@@ -250,20 +287,61 @@ class RealSenseSource:
             if not depth:
                 continue
             seen = True
+            n += 1
             image = np.array(depth.get_data(), dtype=np.uint16, copy=True)
             yield LiveFrame(int(round(depth.get_timestamp() * 1e6)), self.frame_id, image, self.camera)
 
+    def frames(self):
+        """The depth frames as they come (a recording: to its end, or without end with `loop`).
+
+        A looped recording's later passes replay the first pass's decoded
+        frames when they fit in `REPLAY_BYTES`, else the SDK plays it again.
+        """
+        if self.device or not self._loop:
+            yield from self._pass()
+            return
+        kept, size, length = [], 0, None
+        while True:
+            n = 0
+            for frame in self._pass(length):  # later passes end at the first pass's length
+                n += 1
+                if kept is not None:
+                    size += frame.depth.nbytes
+                    if size <= REPLAY_BYTES:
+                        frame.depth.flags.writeable = False  # handed out again: nobody writes it
+                        kept.append(frame)
+                    else:
+                        kept = None  # too long to keep: the SDK plays every pass
+                yield frame
+            if n == 0:  # no depth frame in the recording: nothing to replay
+                return
+            length = length or n
+            if kept is not None:
+                with self._lock:
+                    self._stop()  # the SDK's part is done; later passes come from memory
+                while True:
+                    yield from kept
+            self._wait_stopped()
+            with self._lock:
+                if self._closed:
+                    return
+                self._stop()
+                self._start()
+
+    def _wait_stopped(self):
+        """Wait (up to `_WAIT_MS`) for the playback to stop at the recording's end.
+
+        Restarted before, the next pass may give no frame at all.
+        """
+        stopped, end = self._rs.playback_status.stopped, now() + _WAIT_MS / 1e3
+        while self._playback.current_status() != stopped and now() < end:
+            time.sleep(0.001)
+
     def close(self):
-        """Stop the SDK's pipeline (a looped playback's restart after its end let finish first)."""
-        if self._playback is not None and self._loop:
-            # librealsense 2.59 crashes (ros_reader::enable_stream) when stopped as it restarts
-            stopped, end = self._rs.playback_status.stopped, now() + _RESTART_S
-            while self._playback.current_status() == stopped and now() < end:
-                time.sleep(0.005)
-        try:
-            self._pipe.stop()
-        except RuntimeError:
-            pass
+        """Stop the SDK's pipeline (after a pass's restart under way, if any)."""
+        with self._lock:
+            self._closed = True
+            self._stop()
 
 
 # ------------------------------------------------------------------------- Ouster

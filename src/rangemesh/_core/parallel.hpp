@@ -8,10 +8,7 @@
 #pragma once
 
 #include <algorithm>
-#include <atomic>
-#include <chrono>
 #include <condition_variable>
-#include <cstdint>
 #include <exception>
 #include <functional>
 #include <mutex>
@@ -60,9 +57,7 @@ void split_run(index_t parts, index_t n, F&& part) {
 }
 
 // A second thread, started once a call: runs the half of each phase that `both` hands it while
-// the calling thread runs the other. Between phases each side spins a while (`WORKER_SPIN`)
-// before it sleeps: the strips hand over a dozen phases a call, some of a few microseconds, and
-// a sleeping thread takes tens of microseconds to wake.
+// the calling thread runs the other.
 class Worker {
   public:
     Worker() : thread_(polled_thread([this] { loop(); })) {}
@@ -70,7 +65,7 @@ class Worker {
     ~Worker() {
         {
             std::lock_guard<std::mutex> lock(mutex_);
-            stop_.store(true, std::memory_order_release);
+            stop_ = true;
         }
         wake_.notify_all();
         thread_.join();
@@ -82,17 +77,16 @@ class Worker {
     // Run `fa` on the worker and `fb` here; once both are done, rethrow what either threw.
     template <class A, class B>
     void both(A&& fa, B&& fb) {
-        task_ = std::forward<A>(fa);  // (the worker reads it only once `posted_` says so)
-        failed_ = nullptr;
-        const std::uint64_t phase = posted_.load(std::memory_order_relaxed) + 1;
         {
-            // under the lock: a worker about to sleep either sees the phase or is woken
             std::lock_guard<std::mutex> lock(mutex_);
-            posted_.store(phase, std::memory_order_release);
+            task_ = std::forward<A>(fa);
+            done_ = false;
+            failed_ = nullptr;
         }
         wake_.notify_all();
         const std::exception_ptr mine = caught(fb);
-        await([&] { return done_.load(std::memory_order_acquire) == phase; });
+        std::unique_lock<std::mutex> lock(mutex_);
+        wake_.wait(lock, [this] { return done_; });
         if (mine) std::rethrow_exception(mine);
         if (failed_) std::rethrow_exception(failed_);
     }
@@ -109,55 +103,27 @@ class Worker {
         return nullptr;
     }
 
-    // Until `ready()`: spinning for up to WORKER_SPIN, then asleep on `wake_`.
-    template <class Ready>
-    void await(Ready&& ready) {
-        const auto until = std::chrono::steady_clock::now() + WORKER_SPIN;
-        for (unsigned i = 1; !ready(); ++i) {
-            cpu_relax();
-            if (i % 64 == 0 && std::chrono::steady_clock::now() > until) {
-                std::unique_lock<std::mutex> lock(mutex_);
-                wake_.wait(lock, ready);
-                return;
-            }
-        }
-    }
-
-    static void cpu_relax() {
-#if defined(__x86_64__) || defined(__i386__)
-        __builtin_ia32_pause();
-#elif defined(__aarch64__)
-        asm volatile("yield");
-#endif
-    }
-
     void loop() {
-        std::uint64_t seen = 0;
+        std::unique_lock<std::mutex> lock(mutex_);
         for (;;) {
-            await([&] {
-                return posted_.load(std::memory_order_acquire) != seen || stop_.load(std::memory_order_acquire);
-            });
-            const std::uint64_t phase = posted_.load(std::memory_order_acquire);
-            if (phase == seen) return;  // stopped, nothing left to run
-            seen = phase;
-            failed_ = caught(task_);
-            {
-                std::lock_guard<std::mutex> lock(mutex_);  // (as in `both`)
-                done_.store(phase, std::memory_order_release);
-            }
+            wake_.wait(lock, [this] { return stop_ || task_; });
+            if (!task_) return;  // stopped, nothing left to run
+            std::function<void()> task = std::move(task_);
+            task_ = nullptr;
+            lock.unlock();
+            const std::exception_ptr failed = caught(task);
+            lock.lock();
+            failed_ = failed;
+            done_ = true;
             wake_.notify_all();
         }
     }
 
-    // How long a side spins for the other before it sleeps.
-    static constexpr std::chrono::microseconds WORKER_SPIN{20};
-
     std::mutex mutex_;
     std::condition_variable wake_;
     std::function<void()> task_;
-    std::exception_ptr failed_;  // the worker's, written before `done_`
-    std::atomic<std::uint64_t> posted_{0}, done_{0};  // the phases handed over and done
-    std::atomic<bool> stop_{false};
+    bool done_ = true, stop_ = false;
+    std::exception_ptr failed_;
     std::thread thread_;  // last: it starts once the members it uses exist
 };
 

@@ -875,6 +875,38 @@ def test_ctrl_c_leaves_a_readable_mcap(shared_data, tmp_path, reader, threads):
     assert len(csv.read_text().splitlines()) == counts["/rangemesh/mesh"] + 1
 
 
+def test_ctrl_c_while_a_frame_is_published_lets_its_stats_row_out_too(shared_data, tmp_path,
+                                                                      monkeypatch):
+    # Ctrl-C right after a frame's mesh went out (the subprocess test above caught it there 1 run
+    # in ~40: one mesh more than stats rows): the frame's stats row still goes out, then the run ends
+    sdk("foxglove")
+    make_reader, DecoderFactory = _decoder()
+    from rangemesh.live import run, sinks
+
+    publish = sinks.FoxgloveChannels.publish
+    sent = []
+
+    def publish_then_ctrl_c(self, *args):
+        publish(self, *args)
+        sent.append(1)
+        if len(sent) == 3:
+            signal.raise_signal(signal.SIGINT)
+
+    monkeypatch.setattr(sinks.FoxgloveChannels, "publish", publish_then_ctrl_c)
+    monkeypatch.setenv("RANGEMESH_THREADS", "1")
+    out = tmp_path / "run.mcap"
+    with pytest.raises(KeyboardInterrupt):
+        run(shared_data / REALSENSE, kind="ros", pace="fast", loop=True, vertices=300,
+            outputs=[out], quiet=True)
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    with open(out, "rb") as fh:
+        summary = make_reader(fh, decoder_factories=[DecoderFactory()]).get_summary()
+    counts = {summary.channels[k].topic: v
+              for k, v in summary.statistics.channel_message_counts.items()}
+    assert counts["/rangemesh/mesh"] == counts["/rangemesh/stats"] == 3
+    assert len((tmp_path / "run.rangemesh-live.csv").read_text().splitlines()) == 3 + 1
+
+
 @pytest.mark.parametrize("reader", ["ros", "realsense"])
 def test_one_and_two_threads_publish_the_same_meshes_in_the_same_order(shared_data, tmp_path,
                                                                        monkeypatch, reader):

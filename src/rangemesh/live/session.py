@@ -11,7 +11,9 @@ from __future__ import annotations
 
 import contextlib
 import os
+import signal
 import sys
+import threading
 from collections.abc import Iterator
 from pathlib import Path
 from typing import NamedTuple
@@ -39,6 +41,36 @@ class LiveMesh(NamedTuple):
     shape: tuple
     arrival: float
     mesh_seconds: float
+
+
+class _HeldInterrupt:
+    """Ctrl-C held while one frame's messages go out, raised once they are out.
+
+    A frame's mesh and its stats row then reach every sink together: an
+    interrupted run's MCAP has as many stats messages as meshes. It holds
+    only Python's own SIGINT handler, on the main thread (elsewhere a no-op).
+    """
+
+    def __init__(self):
+        self._active = (threading.current_thread() is threading.main_thread()
+                        and signal.getsignal(signal.SIGINT) is signal.default_int_handler)
+        self._pending = False
+
+    def _hold(self, signum, frame):
+        self._pending = True
+
+    def __enter__(self):
+        if self._active:
+            signal.signal(signal.SIGINT, self._hold)
+        return self
+
+    def __exit__(self, exc_type, exc, tb):
+        if self._active:
+            signal.signal(signal.SIGINT, signal.default_int_handler)
+            if self._pending and exc_type is None:
+                self._pending = False
+                raise KeyboardInterrupt
+        return False
 
 
 def _check_count(name: str, value, low: int):
@@ -306,17 +338,19 @@ def run(source: str | os.PathLike, *, foxglove: str | None = None, outputs=(),
             print(fox.url, file=url_stream, flush=True)
         meshes = contextlib.closing(_meshes(src, call, pace, frames, queue, clock, stats))
         with meshes as items:  # the source closed at once on Ctrl-C during publishing too
+            held = _HeldInterrupt()
             for item in items:
-                t0 = clock.now()
-                if fox is not None:
-                    fox.publish(item.stamp, item.frame_id, item.mesh, item.shape)
-                for sink in sinks:
-                    sink.write(item.stamp, item.mesh)
-                now = clock.now()
-                stats.published(item.stamp, item.arrival, now, item.mesh_seconds, now - t0,
-                                item.mesh.stats.vertices, item.mesh.stats.triangles)
-                if fox is not None:
-                    fox.log_stats(stats.figures(now))
+                with held:  # a frame's mesh, files and stats row all out, or none of them
+                    t0 = clock.now()
+                    if fox is not None:
+                        fox.publish(item.stamp, item.frame_id, item.mesh, item.shape)
+                    for sink in sinks:
+                        sink.write(item.stamp, item.mesh)
+                    now = clock.now()
+                    stats.published(item.stamp, item.arrival, now, item.mesh_seconds, now - t0,
+                                    item.mesh.stats.vertices, item.mesh.stats.triangles)
+                    if fox is not None:
+                        fox.log_stats(stats.figures(now))
                 if status.due(now):
                     status.show(stats.line(now), now)
     finally:

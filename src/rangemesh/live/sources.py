@@ -43,7 +43,11 @@ _WAIT_MS = 5000  # no frame from the SDK for this long: a device's error, a reco
 # a looped RealSense recording whose decoded depth frames fit in this many bytes is replayed from
 # memory after its first pass (the SDK decodes it once): 256 MiB, 436 frames of 640 x 480 z16
 REPLAY_BYTES = 256 * 2**20
-_POLL_MS = 50  # how long one wait for a RealSense frame lasts before the playback's state is read
+# how long one wait for a RealSense frame lasts before the playback's state is read: a camera's
+# frames come every 33 ms or less; a recording's end is seen within a few ms, so that a looped run at
+# --pace 30 does not hold a frame back while the first pass ends (it dropped one)
+_POLL_MS = 50
+_POLL_PLAYBACK_MS = 5
 
 
 class LiveFrame(NamedTuple):
@@ -269,10 +273,11 @@ class RealSenseSource:
         pass's) ends at its last frame, without that wait.
         """
         rs, waited, seen, n = self._rs, 0, False, 0
+        poll = _POLL_MS if self._playback is None else _POLL_PLAYBACK_MS
         while count is None or n < count:
-            ok, got = self._pipe.try_wait_for_frames(_POLL_MS)
+            ok, got = self._pipe.try_wait_for_frames(poll)
             if not ok:
-                waited += _POLL_MS
+                waited += poll
                 stopped = self._playback is not None \
                     and self._playback.current_status() == rs.playback_status.stopped
                 if stopped and seen:

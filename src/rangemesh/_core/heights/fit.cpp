@@ -22,7 +22,7 @@ struct Room {
 
     T* get(std::size_t n) {
         if (n > size) {
-            data.reset();  // (given back before the larger one is taken)
+            release();  // given back before the larger one is taken: empty, not stale, if new throws
             data.reset(new T[n]);
             size = n;
         }

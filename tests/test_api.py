@@ -212,6 +212,18 @@ def ray_cameras(shape):
             "spherical": spherical, "rays": rangemesh.Rays(spherical.directions)}
 
 
+@pytest.mark.parametrize("dtype", [np.uint8, np.uint16, np.uint32, np.int16, np.float32])
+def test_nonpositive_marks_zero_and_below_missing_in_every_dtype(dtype):
+    # an unsigned image skips the pass that looks for negative depths: zeros are still missing
+    image = np.array([[0, 5, 7], [3, 0, 9]], dtype)
+    if np.dtype(dtype).kind != "u":
+        image[1, 2] = -9
+    depth, valid = rangemesh.to_depth_and_mask(image, background="nonpositive")
+    want = [[False, True, True], [True, False, np.dtype(dtype).kind == "u"]]
+    assert valid.tolist() == want
+    assert depth.tolist() == [[0.0, 5.0, 7.0], [3.0, 0.0, 9.0 if want[1][2] else 0.0]]
+
+
 @pytest.mark.parametrize("kind", ["pinhole", "spherical", "rays"])
 def test_auto_takes_zero_and_below_as_no_return_before_a_sensor(kind):
     # F16, issue 41: a float image's 0 put vertices at the sensor (Spherical, Rays) or was

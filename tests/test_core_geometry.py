@@ -1,5 +1,6 @@
 """The compiled half-edge kernels against plain-Python references written from their definitions."""
 
+import math
 import os
 import subprocess
 import sys
@@ -150,6 +151,41 @@ def test_valid_range_and_covered_error_by_plain_loops(seed, h, w, share):
                 n += 1
     got = _core.covered_error(pred, depth, valid)
     assert (got.total, got.count) == (total, n)
+
+
+def _range_in_order(depth, valid):
+    """valid_range by its definition: one pixel after another, strict compares (a zero's sign)."""
+    lo, hi, n = math.inf, -math.inf, 0
+    for x, ok in zip(depth.ravel().tolist(), valid.ravel().tolist(), strict=True):
+        if ok:
+            n += 1
+            lo = x if x < lo else lo
+            hi = x if x > hi else hi
+    return (lo, hi, n) if n else (0.0, 0.0, 0)
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.integers(1, 6), st.integers(1, 11))
+def test_valid_range_signed_zeros_infinities_and_nan_as_the_plain_loop(seed, h, w):
+    # the range is taken in lanes: a zero bound's sign, infinities and NaN (which no compare
+    # passes) must come out as one pass in order has them, on widths that are no multiple of 4
+    rng = np.random.default_rng(seed)
+    depth = rng.choice([0.0, -0.0, 1.5, -2.0, np.inf, -np.inf, np.nan], (h, w))
+    valid = rng.random((h, w)) < 0.8
+    got = _core.valid_range(depth, valid)
+    want = _range_in_order(depth, valid)
+    assert [(float(x), math.copysign(1.0, x)) for x in (got.lo, got.hi)] + [got.count] == \
+        [(x, math.copysign(1.0, x)) for x in want[:2]] + [want[2]]
+
+
+def test_valid_range_zero_sign_by_hand():
+    # the first zero in scan order (column 1, -0.0) is the lower bound, not a later one (column 4,
+    # 0.0, which a lane holding columns 0 and 4 would give); the same for the upper bound
+    depth = np.array([[5.0, -0.0, 5.0, 5.0, 0.0]])
+    got = _core.valid_range(depth, np.ones(depth.shape, bool))
+    assert (math.copysign(1.0, got.lo), got.hi, got.count) == (-1.0, 5.0, 5)
+    got = _core.valid_range(-depth, np.ones(depth.shape, bool))
+    assert (got.lo, math.copysign(1.0, got.hi)) == (-5.0, 1.0)
 
 
 # --- fans ------------------------------------------------------------------------------------

@@ -173,7 +173,8 @@ def mask_into(arr: np.ndarray, background, depth: np.ndarray, valid: np.ndarray)
     below = isinstance(background, str)  # NONPOSITIVE: 0 here, the negative values below
     bg = 0.0 if background is None or below else float(background)
     mask_image(np.ascontiguousarray(arr), background is not None, bg, depth, valid)
-    if below and valid_range(depth, valid).lo < 0.0:  # one fast pass when none is negative
+    # (an unsigned image holds no negative value: no pass over it)
+    if below and arr.dtype.kind != "u" and valid_range(depth, valid).lo < 0.0:
         negative = depth < 0.0
         valid[negative] = False
         depth[negative] = 0.0

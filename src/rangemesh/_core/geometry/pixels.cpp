@@ -4,7 +4,10 @@
 
 namespace rangemesh {
 
-DepthRange valid_range(Grid<const double> depth, Grid<const bool> valid) {
+namespace {
+
+// `valid_range` one pixel after another: its order, which decides the sign of a zero bound.
+DepthRange valid_range_in_order(Grid<const double> depth, Grid<const bool> valid) {
     DepthRange out;
     double lo = INFINITY, hi = -INFINITY;
     for (index_t r = 0; r < depth.rows; ++r) {
@@ -21,6 +24,47 @@ DepthRange valid_range(Grid<const double> depth, Grid<const bool> valid) {
         out.lo = lo;
         out.hi = hi;
     }
+    return out;
+}
+
+}  // namespace
+
+DepthRange valid_range(Grid<const double> depth, Grid<const bool> valid) {
+    // Four lanes with no branch: the one chain of compares and a branch mispredicted on scattered
+    // holes took 3x mask_image's time (0.36 ms on a 640 x 480 frame). The bounds are the same
+    // values whatever the order (NaN is never below or above, a hole is +-inf, which no bound
+    // passes); only a zero's sign depends on it, so a zero bound is found again in order.
+    constexpr int LANES = 4;
+    double lo[LANES], hi[LANES];
+    std::fill(lo, lo + LANES, INFINITY);
+    std::fill(hi, hi + LANES, -INFINITY);
+    index_t count = 0;
+    const auto take = [&](int k, bool ok, double x) {
+        count += ok ? 1 : 0;
+        const double below = ok ? x : INFINITY, above = ok ? x : -INFINITY;
+        lo[k] = below < lo[k] ? below : lo[k];
+        hi[k] = above > hi[k] ? above : hi[k];
+    };
+    for (index_t r = 0; r < depth.rows; ++r) {
+        poll_interrupt();
+        const double* d = depth.row(r);
+        const bool* v = valid.row(r);
+        index_t c = 0;
+        for (; c + LANES <= depth.cols; c += LANES)
+            for (int k = 0; k < LANES; ++k) take(k, v[c + k], d[c + k]);
+        for (; c < depth.cols; ++c) take(0, v[c], d[c]);
+    }
+    DepthRange out;
+    if (count == 0) return out;
+    double l = lo[0], h = hi[0];
+    for (int k = 1; k < LANES; ++k) {
+        if (lo[k] < l) l = lo[k];
+        if (hi[k] > h) h = hi[k];
+    }
+    if (l == 0.0 || h == 0.0) return valid_range_in_order(depth, valid);
+    out.count = count;
+    out.lo = l;
+    out.hi = h;
     return out;
 }
 

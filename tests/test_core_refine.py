@@ -245,6 +245,26 @@ def test_background_beyond_the_corners_is_refused():
         _core.greedy_insert(depth, valid, (vr, vc, np.ones(5), tv, he), InsertSettings(10, -1.0, 1.0))
 
 
+def test_an_insertion_refused_half_way_leaves_the_next_one_unchanged():
+    # A thread keeps a small insertion's arrays for its next one (insertion.cpp `Kept`); one that
+    # throws after taking them must leave none stale behind: the same mesh before and after.
+    from rangemesh import triangulate
+
+    r, c = np.mgrid[0:16, 0:16]
+    d = 100.0 + r + 0.5 * c + ((r - 8) ** 2 + (c - 8) ** 2) * 0.1
+    before = triangulate(d, method="refine", vertices=10)
+    depth = np.ones((4, 4))
+    valid = np.ones((4, 4), bool)
+    valid[1, 1] = False
+    first = (np.array([0, 3, 3, 0, 1], np.int64), np.array([0, 0, 3, 3, 1], np.int64), np.ones(5),
+             np.array([0, 1, 2, 0, 2, 3], np.int64), np.array([-1, -1, 3, 2, -1, -1], np.int64))
+    with pytest.raises(ValueError, match="first four"):
+        _core.greedy_insert(depth, valid, first, InsertSettings(10, -1.0, 1.0))
+    after = triangulate(d, method="refine", vertices=10)
+    np.testing.assert_array_equal(after.faces, before.faces)
+    np.testing.assert_array_equal(after.vertices, before.vertices)
+
+
 def test_threads_setting(monkeypatch):
     monkeypatch.setattr(threads.os, "sched_getaffinity", lambda _: {0, 1, 2}, raising=False)
     monkeypatch.delenv("RANGEMESH_THREADS", raising=False)

@@ -22,8 +22,81 @@ bool Plane::holds(index_t pr, index_t pc, double pz, double span) const {
     return quantize(std::abs(pz - zp), span) == 0.0;
 }
 
+// A thread's arrays of its last insertion of at most KEPT_BYTES, emptied (`full`: held), or none.
+// A taken set leaves none behind, so an insertion that throws leaves nothing stale here.
+struct Insertion::Kept {
+    static constexpr std::size_t KEPT_BYTES = std::size_t{1} << 20;  // a 2000-pixel image's: some 100 kB
+    std::vector<index_t> vr, vc;
+    std::vector<double> vz;
+    std::vector<unsigned char> vbg;
+    std::vector<Vertex> vx;
+    std::vector<index_t> tv, he;
+    std::vector<TriangleKey> keyed;
+    std::vector<HeapLine> heap;
+    std::vector<index_t> slot, changed, stack, once;
+    bool full = false;
+
+    static Kept& of_thread() {
+        static thread_local Kept kept;
+        return kept;
+    }
+};
+
+void Insertion::take_kept() noexcept {
+    Kept& k = Kept::of_thread();
+    if (!k.full) return;
+    swap_kept(k);
+    k.full = false;
+}
+
+void Insertion::swap_kept(Kept& k) noexcept {
+    vr_.swap(k.vr);
+    vc_.swap(k.vc);
+    vz_.swap(k.vz);
+    vbg_.swap(k.vbg);
+    vx_.swap(k.vx);
+    tv_.swap(k.tv);
+    he_.swap(k.he);
+    keyed_.swap(k.keyed);
+    heap_.swap(k.heap);
+    slot_.swap(k.slot);
+    changed_.swap(k.changed);
+    stack_.swap(k.stack);
+    once_.swap(k.once);
+}
+
+// This insertion's arrays, emptied, as the thread's kept ones when they are small and the thread
+// keeps none; false when not (a moved-from insertion has none to give).
+bool Insertion::give_back() noexcept {
+    Kept& k = Kept::of_thread();
+    const std::size_t bytes = vr_.capacity() * sizeof(index_t) + vc_.capacity() * sizeof(index_t) +
+                              vz_.capacity() * sizeof(double) + vbg_.capacity() + vx_.capacity() * sizeof(Vertex) +
+                              tv_.capacity() * sizeof(index_t) + he_.capacity() * sizeof(index_t) +
+                              keyed_.capacity() * sizeof(TriangleKey) + heap_.capacity() * sizeof(HeapLine) +
+                              slot_.capacity() * sizeof(index_t) + changed_.capacity() * sizeof(index_t) +
+                              stack_.capacity() * sizeof(index_t) + once_.capacity() * sizeof(index_t);
+    if (k.full || bytes == 0 || bytes > Kept::KEPT_BYTES) return false;
+    vr_.clear();
+    vc_.clear();
+    vz_.clear();
+    vbg_.clear();
+    vx_.clear();
+    tv_.clear();
+    he_.clear();
+    keyed_.clear();
+    heap_.clear();
+    slot_.clear();
+    changed_.clear();
+    stack_.clear();
+    once_.clear();
+    swap_kept(k);  // (k's arrays are empty while it holds none: those a taker left)
+    k.full = true;
+    return true;
+}
+
 Insertion::Insertion(const Image& image, const FirstMesh& first, index_t reserve, index_t sr, index_t sc)
     : image_(image), sr_(sr), sc_(sc) {
+    take_kept();
     // stopped half way, no destructor runs: the arrays made so far are freed later all the same
     const FreeLater late(on_throw, vr_, vc_, vz_, vbg_, vx_, tv_, he_, keyed_, heap_, slot_);
     // (compared by division: (rows - 1) * sr overflows for a huge scale)
@@ -91,7 +164,9 @@ void Insertion::add_vertex(index_t r, index_t c, double z, bool background) {
 }
 
 // Under an error bound the arrays reach gigabytes: freed on a thread of their own.
-Insertion::~Insertion() { free_later(vr_, vc_, vz_, vbg_, vx_, tv_, he_, keyed_, heap_, slot_); }
+Insertion::~Insertion() {
+    if (!give_back()) free_later(vr_, vc_, vz_, vbg_, vx_, tv_, he_, keyed_, heap_, slot_);
+}
 
 TriangleKey Insertion::scan(index_t t) const {
     const index_t e = 3 * t;

@@ -133,6 +133,13 @@ class alignas(64) Insertion {
     // per step: the triangles it changed (with repeats), the flips still to test
     std::vector<index_t> changed_, stack_;
     std::vector<index_t> once_;  // the positions in `changed_` of its distinct triangles, in scan order
+
+    // The arrays a thread keeps from its last small insertion (insertion.cpp): taken at the
+    // start, so a small image's insertion allocates nothing, and given back emptied at the end.
+    struct Kept;
+    void take_kept() noexcept;
+    bool give_back() noexcept;
+    void swap_kept(Kept& k) noexcept;
 };
 
 }  // namespace rangemesh::refine

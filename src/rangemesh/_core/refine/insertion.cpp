@@ -42,54 +42,32 @@ struct Insertion::Kept {
     }
 };
 
+template <class F>
+void Insertion::pair_arrays(Kept& k, F&& f) noexcept {
+    f(vr_, k.vr), f(vc_, k.vc), f(vz_, k.vz), f(vbg_, k.vbg), f(vx_, k.vx), f(tv_, k.tv), f(he_, k.he);
+    f(keyed_, k.keyed), f(heap_, k.heap), f(slot_, k.slot), f(changed_, k.changed), f(stack_, k.stack);
+    f(once_, k.once);
+}
+
 void Insertion::take_kept() noexcept {
     Kept& k = Kept::of_thread();
     if (!k.full) return;
-    swap_kept(k);
+    pair_arrays(k, [](auto& mine, auto& kept) { mine.swap(kept); });
     k.full = false;
-}
-
-void Insertion::swap_kept(Kept& k) noexcept {
-    vr_.swap(k.vr);
-    vc_.swap(k.vc);
-    vz_.swap(k.vz);
-    vbg_.swap(k.vbg);
-    vx_.swap(k.vx);
-    tv_.swap(k.tv);
-    he_.swap(k.he);
-    keyed_.swap(k.keyed);
-    heap_.swap(k.heap);
-    slot_.swap(k.slot);
-    changed_.swap(k.changed);
-    stack_.swap(k.stack);
-    once_.swap(k.once);
 }
 
 // This insertion's arrays, emptied, as the thread's kept ones when they are small and the thread
 // keeps none; false when not (a moved-from insertion has none to give).
 bool Insertion::give_back() noexcept {
     Kept& k = Kept::of_thread();
-    const std::size_t bytes = vr_.capacity() * sizeof(index_t) + vc_.capacity() * sizeof(index_t) +
-                              vz_.capacity() * sizeof(double) + vbg_.capacity() + vx_.capacity() * sizeof(Vertex) +
-                              tv_.capacity() * sizeof(index_t) + he_.capacity() * sizeof(index_t) +
-                              keyed_.capacity() * sizeof(TriangleKey) + heap_.capacity() * sizeof(HeapLine) +
-                              slot_.capacity() * sizeof(index_t) + changed_.capacity() * sizeof(index_t) +
-                              stack_.capacity() * sizeof(index_t) + once_.capacity() * sizeof(index_t);
+    std::size_t bytes = 0;
+    pair_arrays(k, [&bytes](auto& mine, auto&) { bytes += mine.capacity() * sizeof(mine[0]); });
     if (k.full || bytes == 0 || bytes > Kept::KEPT_BYTES) return false;
-    vr_.clear();
-    vc_.clear();
-    vz_.clear();
-    vbg_.clear();
-    vx_.clear();
-    tv_.clear();
-    he_.clear();
-    keyed_.clear();
-    heap_.clear();
-    slot_.clear();
-    changed_.clear();
-    stack_.clear();
-    once_.clear();
-    swap_kept(k);  // (k's arrays are empty while it holds none: those a taker left)
+    // (k's arrays are empty while it holds none: those a taker left)
+    pair_arrays(k, [](auto& mine, auto& kept) {
+        mine.clear();
+        mine.swap(kept);
+    });
     k.full = true;
     return true;
 }

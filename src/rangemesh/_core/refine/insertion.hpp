@@ -139,7 +139,8 @@ class alignas(64) Insertion {
     struct Kept;
     void take_kept() noexcept;
     bool give_back() noexcept;
-    void swap_kept(Kept& k) noexcept;
+    template <class F>
+    void pair_arrays(Kept& k, F&& f) noexcept;  // f(this insertion's array, k's) for each of the 13
 };
 
 }  // namespace rangemesh::refine

@@ -207,15 +207,22 @@ def test_prune_dangling_by_hand():
     assert alive.tolist() == [True, False, True, False]
 
 
-@st.composite
-def live_meshes(draw):
-    n = draw(st.integers(3, 40))
-    seed = draw(st.integers(0, 2**32 - 1))
-    rng = np.random.default_rng(seed)
-    pts = np.unique(rng.integers(0, 9, size=(n, 2)), axis=0)
+def _random_delaunay(draw, most, side):
+    """``(rng, points, faces)``: Delaunay of 3 to `most` points of a `side` grid, or None (collinear)."""
+    n = draw(st.integers(3, most))
+    rng = np.random.default_rng(draw(st.integers(0, 2**32 - 1)))
+    pts = np.unique(rng.integers(0, side, size=(n, 2)), axis=0)
     if len(pts) < 3 or np.linalg.matrix_rank(pts[1:] - pts[0]) < 2:
         return None
-    faces = Delaunay(pts.astype(float)).simplices.astype(np.int64)
+    return rng, pts, Delaunay(pts.astype(float)).simplices.astype(np.int64)
+
+
+@st.composite
+def live_meshes(draw):
+    drawn = _random_delaunay(draw, 40, 9)
+    if drawn is None:
+        return None
+    rng, pts, faces = drawn
     _, he = _core.build_halfedges(np.ascontiguousarray(faces), len(pts))
     alive = rng.random(len(faces)) > draw(st.floats(0, 0.7))
     return faces, _core.neighbors_from_halfedges(he), alive, len(pts)
@@ -238,12 +245,10 @@ def test_prune_dangling_equals_the_definition(mesh):
 @st.composite
 def cut_triangulations(draw):
     """A Delaunay triangulation with some triangles cut away: its faces and twins (build_halfedges)."""
-    n = draw(st.integers(3, 60))
-    rng = np.random.default_rng(draw(st.integers(0, 2**32 - 1)))
-    pts = np.unique(rng.integers(0, 12, size=(n, 2)), axis=0)
-    if len(pts) < 3 or np.linalg.matrix_rank(pts[1:] - pts[0]) < 2:
+    drawn = _random_delaunay(draw, 60, 12)
+    if drawn is None:
         return None
-    faces = Delaunay(pts.astype(float)).simplices.astype(np.int64)
+    rng, pts, faces = drawn
     faces = np.ascontiguousarray(faces[rng.random(len(faces)) > draw(st.floats(0, 0.8))])
     if len(faces) == 0:
         return None

@@ -475,7 +475,8 @@ def test_a_running_batchs_temp_files_are_left_alone(tmp_path):
     import sys
 
     from rangemesh.batch import _clean_stale_parts, write_report
-    from rangemesh.io import atomic_path, part_owner
+    from rangemesh.io import atomic_path
+    from rangemesh.io.files import part_owner
 
     # a temp file of this (running) process, one of a process that is gone, one of another host
     with atomic_path(tmp_path / "m.ply") as mine:

@@ -525,7 +525,7 @@ def test_batch_writes_markers_read_back_by_rosbags(bags, frames, tmp_path, kind)
 
 def test_an_mcap_output_removes_what_killed_runs_left_beside_it(tmp_path):
     # F10: a killed batch's hidden partial bag (and report) of a process that is gone is removed
-    from rangemesh.io import part_owner
+    from rangemesh.io.files import part_owner
 
     path = write_bag(tmp_path / "s.bag", [image_topic([smooth()], "16UC1"),
                                           info_topic(size=(48, 64))], "ros1")

@@ -38,11 +38,11 @@ from .io import (
     NotDepthImage,
     atomic_path,
     bin_layout,
-    part_owner,
     read_color_image,
     read_scan,
     write_mesh,
 )
+from .io.files import part_owner
 from .mesh import Mesh
 from .metrics import evaluate
 from .pairing import check_pattern, color_for, colors_record

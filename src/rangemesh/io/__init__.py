@@ -25,9 +25,9 @@ One module a job, data flowing one way (entry points -> the table -> the formats
   file's comments) and `paths` (what every reader checks of a path).
 """
 
-from .files import atomic_path, part_owner
+from .files import atomic_path
 from .formats import FORMATS, IMAGE_SUFFIXES, MESH_SUFFIXES, Format
-from .headers import PNG_SIGNATURE, PngHeader, check_pillow_size, pillow_quiet, png_header, read_image_size
+from .headers import read_image_size
 from .images import NotDepthImage, read_color_image, read_range_image
 from .meshes import read_mesh, write_mesh
 from .scans import SCAN_SUFFIX, bin_layout, read_lidar_bin, read_scan
@@ -47,12 +47,5 @@ __all__ = [
     "write_mesh",
     "read_mesh",
     "atomic_path",
-    # imported by other modules of rangemesh (batch, recordings, preview)
     "NotDepthImage",
-    "PNG_SIGNATURE",
-    "PngHeader",
-    "check_pillow_size",
-    "part_owner",
-    "pillow_quiet",
-    "png_header",
 ]

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..io import PNG_SIGNATURE, PngHeader, check_pillow_size, pillow_quiet, png_header
+from ..io.headers import PNG_SIGNATURE, PngHeader, check_pillow_size, pillow_quiet, png_header
 
 __all__ = ["Payload", "DEPTH_SCALES", "COLOR_ENCODINGS", "payload_of", "is_depth",
            "depth_shape", "depth_image", "color_image"]

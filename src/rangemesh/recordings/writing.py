@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from .._optional import require
-from ..io import part_owner
+from ..io.files import part_owner
 from ..mesh import Mesh
 
 __all__ = ["marker_bytes", "MarkerBag", "MARKER_TYPE", "GREY"]

@@ -348,24 +348,54 @@ class CountSearch {
     bool has_best_ = false;
 };
 
+// A pinhole fit's inverse depths: its thread's room, kept from fit to fit, when free and at most
+// KEPT_INVERSE values, else the fit's own. A 640 x 480 frame's 2.4 MB, new each fit, were faulted
+// in again each time (glibc gives the heap's top back on free); at most 16 MB a thread stays.
+constexpr index_t KEPT_INVERSE = index_t{1} << 21;
+
+struct InverseRoom {
+    std::vector<double> values;
+    bool busy = false;
+};
+
+class InverseLease {
+  public:
+    explicit InverseLease(index_t n) {
+        static thread_local InverseRoom kept;
+        room_ = n <= KEPT_INVERSE && !kept.busy ? &kept : &own_;
+        room_->busy = true;
+        grow_polled(room_->values, static_cast<std::size_t>(n));
+    }
+    ~InverseLease() { room_->busy = false; }
+    InverseLease(const InverseLease&) = delete;
+    InverseLease& operator=(const InverseLease&) = delete;
+    double* data() { return room_->values.data(); }
+
+  private:
+    InverseRoom own_;
+    InverseRoom* room_;
+};
+
 // The image the heights are fitted in: depth, or inverse depth before a pinhole (whose flat
-// triangles are linear in it), and the range of its valid values (heights.py's `fit_heights`).
+// triangles are linear in it, written into `inverse`), and the range of its valid values
+// (heights.py's `fit_heights`).
 struct FitValues {
-    std::vector<double> inverse;  // pinhole only
     Grid<const double> values;
     double lo, hi;
 };
 
-FitValues fit_values(const Image& image, bool pinhole, const MeshRequest& req) {
-    FitValues v{{}, image.depth, req.lo, req.hi};
-    if (!pinhole) return v;
+FitValues fit_values(const Image& image, const MeshRequest& req, InverseLease* inverse) {
+    FitValues v{image.depth, req.lo, req.hi};
+    if (inverse == nullptr) return v;
     const index_t n = image.rows() * image.cols();
-    grow_polled(v.inverse, static_cast<std::size_t>(n));
-    for (index_t i = 0; i < n; ++i) {
-        poll_every(i);
-        v.inverse[i] = 1.0 / image.depth.data[i];
+    double* const inv = inverse->data();
+    const double* const depth = image.depth.data;
+    for (index_t s = 0; s < n; s += POLL_STRIDE) {  // polled by strides: the division vectorises
+        poll_interrupt();
+        const index_t e = std::min(n, s + POLL_STRIDE);
+        for (index_t i = s; i < e; ++i) inv[i] = 1.0 / depth[i];
     }
-    v.values = {v.inverse.data(), image.rows(), image.cols()};
+    v.values = {inv, image.rows(), image.cols()};
     if (req.lo > 0.0) {  // (the inverse of the largest depth is the smallest inverse exactly)
         v.lo = 1.0 / req.hi;
         v.hi = 1.0 / req.lo;
@@ -374,7 +404,7 @@ FitValues fit_values(const Image& image, bool pinhole, const MeshRequest& req) {
         for (index_t i = 0; i < n; ++i) {
             poll_every(i);
             if (!image.valid.data[i]) continue;
-            const double x = v.inverse[i];
+            const double x = inv[i];
             v.lo = first || x < v.lo ? x : v.lo;
             v.hi = first || x > v.hi ? x : v.hi;
             first = false;
@@ -408,7 +438,9 @@ struct FitStatus {
 FitStatus fitted_depths(const Image& image, bool pinhole, const ValidFaces& f, const MeshRequest& req,
                         std::vector<double>& z, const DirectSolve* direct = nullptr) {
     const index_t n_f = static_cast<index_t>(f.faces.size() / 3), n_v = static_cast<index_t>(f.pixels.size() / 2);
-    const FitValues v = fit_values(image, pinhole, req);
+    std::optional<InverseLease> inverse;
+    if (pinhole) inverse.emplace(image.rows() * image.cols());
+    const FitValues v = fit_values(image, req, inverse ? &*inverse : nullptr);
     // the vertices' rows and columns, the faces (3 a face) and their order, in one allocation:
     // a small mesh's fit is mostly set-up
     std::vector<index_t> ids(2 * n_v + 4 * n_f);
@@ -785,7 +817,9 @@ Meshing Refiner::counted(index_t want) {
 bool Refiner::collapsed(Meshing& m, index_t target) {
     if (m.mesh.faces.empty() || m.n_vertices() <= target) return false;
     const bool pinhole = camera_[0] == PINHOLE;
-    const FitValues v = fit_values(image_, pinhole, req_);
+    std::optional<InverseLease> inverse;
+    if (pinhole) inverse.emplace(image_.rows() * image_.cols());
+    const FitValues v = fit_values(image_, req_, inverse ? &*inverse : nullptr);
     const ValidFaces& f = m.mesh;
     const index_t n_v = m.n_vertices();
     std::vector<double> depth(n_v), z(n_v);

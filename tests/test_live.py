@@ -364,6 +364,20 @@ class _Feed:
         pass
 
 
+def test_with_two_threads_a_worker_takes_its_next_frame_itself(monkeypatch):
+    # a pacing thread took each frame and handed it to a free worker: two hand-overs of the GIL
+    # between a frame's end and the next one's start (live42d)
+    _two_workers(monkeypatch)
+    taken_on = set()
+    take = pacing.Playback.take
+    monkeypatch.setattr(pacing.Playback, "take",
+                        lambda self, now: taken_on.add(threading.current_thread().name)
+                        or take(self, now))
+    out = list(_live_with(monkeypatch, _Source(6), _Mesh, pace="fast"))
+    assert [m.mesh.index for m in out] == list(range(6))
+    assert taken_on and all(name.startswith("rangemesh-live-mesh") for name in taken_on), taken_on
+
+
 @pytest.mark.parametrize(("queue", "meshed", "dropped"), [(1, [0, 1, 5], 3), (2, [0, 1, 4, 5], 2)])
 def test_with_two_threads_the_newest_frames_win_when_both_are_busy(queue, meshed, dropped):
     # by hand: frames 0 and 1 keep both workers busy while 2, 3, then 4, 5 arrive; when a worker

@@ -576,6 +576,34 @@ def test_a_looped_realsense_recording_replays_its_first_pass_from_memory(shared_
     assert frames[2].depth is frames[0].depth and frames[5].depth is frames[1].depth
 
 
+def test_a_looped_ros_recording_reads_its_image_topics_once(shared_data, monkeypatch):
+    # each pass asked for the topics again, reading (and decompressing) each image topic's first
+    # message: 2.5 ms of the reader's 4 ms a frame on the 2-frame bag looped (live42d)
+    from rangemesh.live.sources import RosSource
+    from rangemesh.recordings import Recording
+
+    want = _ros_depths(shared_data)
+    reads = []  # the topics of each read through the recording's messages
+    read = Recording._messages
+    monkeypatch.setattr(Recording, "_messages",
+                        lambda rec, conns: reads.append({c.topic for c in conns}) or read(rec, conns))
+    src = RosSource(str(shared_data / REALSENSE), loop=True)
+    it = src.frames()
+    try:
+        frames = [next(it) for _ in range(2)]
+        reads.clear()  # the first pass's: the topics described, the CameraInfo read
+        frames += [next(it) for _ in range(4)]
+    finally:
+        it.close()
+        src.close()
+    assert [f.stamp for f in frames] == [360815089000, 360981765000] * 3
+    for f in frames:
+        assert np.array_equal(f.depth, want[f.stamp])
+    # passes 2 and 3: one read each, of the depth topic alone (the bag holds a colour topic too)
+    depth_topic = {"/device_0/sensor_0/Depth_0/image/data"}
+    assert reads == [depth_topic, depth_topic], reads
+
+
 def test_a_looped_realsense_recording_too_long_to_keep_is_played_by_the_sdk_each_pass(
         shared_data, monkeypatch):
     sdk("pyrealsense2")

@@ -667,6 +667,31 @@ def test_stopping_a_looped_realsense_playback_at_any_frame_neither_crashes_nor_l
     assert proc.returncode == 0 and proc.stdout.strip() == "ok", proc.stderr[-2000:]
 
 
+def test_closing_a_prefetch_whose_reader_waits_for_room_ends_it_at_once(monkeypatch):
+    # the reader waited up to a poll (50 ms) for room before it saw the stop: a two-thread run's
+    # end came that much after its last frame (live42d); a poll of an hour here shows it
+    from rangemesh.live import workers
+
+    monkeypatch.setattr(workers, "_POLL", 3600.0)
+    monkeypatch.setattr(workers, "_JOIN", 2.0)
+    read = []
+
+    def frames():
+        for i in range(100):
+            read.append(i)
+            yield i
+
+    ahead = workers.Prefetch(frames(), 2)
+    assert next(ahead) == 0
+    deadline = time.monotonic() + 20
+    while len(read) < 4 and time.monotonic() < deadline:  # 1 and 2 queued, 3 waiting for room
+        time.sleep(0.01)
+    t0 = time.monotonic()
+    ahead.close()
+    assert not ahead._thread.is_alive() and time.monotonic() - t0 < 1.0
+    assert read == [0, 1, 2, 3]  # nothing read after the stop
+
+
 def test_a_distorted_realsense_stream_meshes_with_exact_rays():
     from types import SimpleNamespace
 

@@ -78,10 +78,11 @@ class Prefetch:
         self._thread.start()
 
     def _put(self, item) -> bool:
+        """Queue `item`; False once stopped (`close` makes room: a put under way then ends)."""
         while not self._stop.is_set():
             try:
                 self._queue.put(item, timeout=_POLL)
-                return True
+                return not self._stop.is_set()
             except queues.Full:
                 continue
         return False
@@ -120,8 +121,19 @@ class Prefetch:
         raise StopIteration
 
     def close(self) -> None:
-        """Stop reading; wait for the thread to end."""
+        """Stop reading; wait for the thread to end.
+
+        The frames read ahead are let go, so that a reader waiting for room
+        ends at once: it waited up to `_POLL` (50 ms) after a run's last
+        frame, which a run of two threads counts (60 frames at 130 frames/s
+        last 0.46 s).
+        """
         self._stop.set()
+        try:
+            while True:
+                self._queue.get_nowait()
+        except queues.Empty:
+            pass
         self._thread.join(_JOIN)
 
 
@@ -177,7 +189,7 @@ def pooled(feed, mesh_one: Callable, workers: int, queue: int, frames: int | Non
             state["ended"] = True
             handed.put(_END)
             return None
-        if not acquire(unpublished):  # stopped while the caller held every frame
+        if not acquire(unpublished) or stop.is_set():  # stopped while the caller held them all
             return None
         try:
             item = next(taken, None)
@@ -232,6 +244,8 @@ def pooled(feed, mesh_one: Callable, workers: int, queue: int, frames: int | Non
             yield item.result()
     finally:
         stop.set()
+        for _ in threads:  # a worker waiting for the caller to let go of a frame ends at once
+            unpublished.release()
         feed.close()
         for t in threads:  # a frame being meshed is finished; a wait for one ends within _JOIN
             t.join(_JOIN)

@@ -24,6 +24,7 @@ from rangemesh.live.messages import SCENE_FIELDS, scene_update_bytes
 from rangemesh.live.pacing import Playback, paced, parse_pace
 from rangemesh.live.sources import LiveFrame, source_kind
 from rangemesh.live.stats import Stats
+from rangemesh.live.workers import Prefetch as workers_prefetch
 
 REALSENSE = "rosbag/librealsense_d435_single_depth_color_640x480.bag"
 PCAP = "lidar/OS-1-128_v2.3.0_1024x10_lb_n3.pcap"
@@ -376,6 +377,24 @@ def test_with_two_threads_a_worker_takes_its_next_frame_itself(monkeypatch):
     out = list(_live_with(monkeypatch, _Source(6), _Mesh, pace="fast"))
     assert [m.mesh.index for m in out] == list(range(6))
     assert taken_on and all(name.startswith("rangemesh-live-mesh") for name in taken_on), taken_on
+
+
+@pytest.mark.parametrize("reads_ahead", [False, True])
+def test_with_two_threads_only_a_source_that_does_not_read_ahead_itself_gets_a_reader(
+        monkeypatch, reads_ahead):
+    # the RealSense SDK reads ahead on threads of its own: a read-ahead thread between it and the
+    # workers only added a hand-over of the GIL a frame (live42d)
+    from rangemesh.live import session
+
+    _two_workers(monkeypatch)
+    made = []
+    monkeypatch.setattr(session, "Prefetch",
+                        lambda frames, ahead: made.append(ahead) or workers_prefetch(frames, ahead))
+    source = _Source(5)
+    source.reads_ahead = reads_ahead
+    out = list(_live_with(monkeypatch, source, _Mesh, pace="fast"))
+    assert [m.mesh.index for m in out] == list(range(5))
+    assert made == ([] if reads_ahead else [2])
 
 
 @pytest.mark.parametrize(("queue", "meshed", "dropped"), [(1, [0, 1, 5], 3), (2, [0, 1, 4, 5], 2)])

@@ -81,7 +81,7 @@ def _records(dtype, number: int, columns: dict) -> bytes:
     """Fixed-size submessages, one per row: tags filled, then each double column.
 
     Every byte of a record is a field's (the dtypes are packed): `numpy.empty`,
-    not `numpy.zeros`, whose zeroing releases the GIL (a hand-over a frame).
+    not `numpy.zeros`, whose zeroing lets go of the GIL (a waiting worker may take it).
     """
     n = len(next(iter(columns.values())))
     rec = np.empty(n, dtype)

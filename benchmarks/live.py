@@ -2,7 +2,7 @@
 
 Run ``python benchmarks/live.py`` (``--pace fast,30,recorded``, ``--threads 1,2``,
 ``--frames N``, ``--repeat K``, ``--only realsense|ros|ouster``, ``--sink none|mcap``,
-``--stages``).
+``--stages``, ``--per-thread``).
 Each run plays a recording looped (the RealSense bag holds 2 depth frames, the
 Ouster pcap 3 scans) through `rangemesh.live.run` at the default target until
 ``--frames`` meshes are published (to an MCAP file with ``--sink mcap``, the
@@ -28,6 +28,11 @@ to build and write a frame's messages (``publish_ms``). The machine's load
 ``taskset -c 0`` the process may use one core, so two threads give one. A
 thread count above one meshes that many frames at once (`rangemesh.live.workers`).
 
+``--per-thread`` also prints each thread's CPU time a frame, its median over the runs
+(`thread_cpu`): the caller's thread (publishing, and with one thread everything), the frame
+workers, the read-ahead thread; a thread's share of the GIL-held Python shows there, which
+the load slows less than the wall clock.
+
 ``--stages`` first measures each stage's CPU time a frame on one thread (`stages`:
 read, mesh, build, write, and the process's CPU a frame), which the load slows
 less than the wall clock, and the frames/s two workers on two cores could reach
@@ -39,12 +44,16 @@ longer.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import csv
 import io
 import os
+import re
+import resource
 import statistics
 import sys
 import tempfile
+import threading
 import time
 from pathlib import Path
 
@@ -79,16 +88,53 @@ def _load() -> str:
     return f"{os.getloadavg()[0]:.1f}"
 
 
+def _cpu(usage) -> float:
+    return usage.ru_utime + usage.ru_stime
+
+
+@contextlib.contextmanager
+def thread_cpu(into: dict):
+    """Each thread's CPU seconds within the block, by name (numbered names summed): ``into``.
+
+    The caller's thread by `resource.getrusage` before and after; every thread
+    started within, at its end (`threading.Thread.run` wrapped for the
+    block). Threads the SDKs start themselves are not counted (the process's
+    CPU, frames per CPU s, counts them).
+    """
+    run_thread = threading.Thread.run
+    lock = threading.Lock()
+
+    def counted(self):
+        try:
+            run_thread(self)
+        finally:
+            used = _cpu(resource.getrusage(resource.RUSAGE_THREAD))
+            with lock:
+                name = re.sub(r"_\d+$", "", self.name)
+                into[name] = into.get(name, 0.0) + used
+
+    threading.Thread.run = counted
+    start = _cpu(resource.getrusage(resource.RUSAGE_THREAD))
+    try:
+        yield into
+    finally:
+        threading.Thread.run = run_thread
+        into["caller"] = _cpu(resource.getrusage(resource.RUSAGE_THREAD)) - start
+
+
 def one_run(path, kw, pace, frames, sink) -> dict:
-    """One live run: its summary, frames per CPU second and the CSV's median times."""
+    """One live run: its summary, frames per CPU second, the CSV's median times, each thread's CPU."""
+    threads: dict = {}
     with tempfile.TemporaryDirectory() as tmp:
         out = [Path(tmp) / "live.mcap"] if sink == "mcap" else []
         table = Path(tmp) / "live.csv"
         c0 = time.process_time()
-        s = run(path, outputs=out, csv=table, quiet=True, pace=pace, loop=True, frames=frames,
-                status_stream=io.StringIO(), **kw)
+        with thread_cpu(threads):
+            s = run(path, outputs=out, csv=table, quiet=True, pace=pace, loop=True,
+                    frames=frames, status_stream=io.StringIO(), **kw)
         cpu = time.process_time() - c0
         rows = list(csv.DictReader(table.open()))
+    s["thread_ms"] = {k: 1e3 * v / s["frames_out"] for k, v in threads.items()}
     s["cpu_fps"] = s["frames_out"] / cpu
     s["mesh_ms"] = statistics.median(float(r["mesh_ms"]) for r in rows)
     s["publish_ms"] = statistics.median(float(r["publish_ms"]) for r in rows)
@@ -165,6 +211,9 @@ def main(argv=None) -> int:
     ap.add_argument("--sdk-every-pass", action="store_true",
                     help="pyrealsense2 plays every pass of the looped RealSense bag (no replay "
                          "from memory): measures its decoding of every frame")
+    ap.add_argument("--per-thread", action="store_true",
+                    help="also each thread's CPU ms a frame (the caller's, the workers', the "
+                         "read-ahead's), medians over the runs")
     ap.add_argument("--stages", action="store_true",
                     help="also each stage's CPU ms a frame on one thread (read, mesh, build, "
                          "write) and the frames/s two workers could reach from them")
@@ -219,6 +268,12 @@ def main(argv=None) -> int:
                       f"{_median(runs, 'mesh_ms'):7.1f}  {_median(runs, 'publish_ms'):6.2f}  "
                       f"{before}-{_load()}  (runs out/s: {outs}; dropped: "
                       f"{', '.join(map(str, drops))})", flush=True)
+                if args.per_thread:
+                    names = sorted({k for r in runs for k in r["thread_ms"]})
+                    per = {k: statistics.median(r["thread_ms"].get(k, 0.0) for r in runs)
+                           for k in names}
+                    print("           CPU ms a frame by thread: " + ", ".join(
+                        f"{k} {v:.2f}" for k, v in per.items()), flush=True)
     return 0
 
 

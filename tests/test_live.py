@@ -24,6 +24,7 @@ from rangemesh.live.messages import SCENE_FIELDS, scene_update_bytes
 from rangemesh.live.pacing import Playback, paced, parse_pace
 from rangemesh.live.sources import LiveFrame, source_kind
 from rangemesh.live.stats import Stats
+from rangemesh.live.workers import Prefetch as workers_prefetch
 
 REALSENSE = "rosbag/librealsense_d435_single_depth_color_640x480.bag"
 PCAP = "lidar/OS-1-128_v2.3.0_1024x10_lb_n3.pcap"
@@ -364,6 +365,38 @@ class _Feed:
         pass
 
 
+def test_with_two_threads_a_worker_takes_its_next_frame_itself(monkeypatch):
+    # a pacing thread took each frame and handed it to a free worker: two hand-overs of the GIL
+    # between a frame's end and the next one's start (live42d)
+    _two_workers(monkeypatch)
+    taken_on = set()
+    take = pacing.Playback.take
+    monkeypatch.setattr(pacing.Playback, "take",
+                        lambda self, now: taken_on.add(threading.current_thread().name)
+                        or take(self, now))
+    out = list(_live_with(monkeypatch, _Source(6), _Mesh, pace="fast"))
+    assert [m.mesh.index for m in out] == list(range(6))
+    assert taken_on and all(name.startswith("rangemesh-live-mesh") for name in taken_on), taken_on
+
+
+@pytest.mark.parametrize("reads_ahead", [False, True])
+def test_with_two_threads_only_a_source_that_does_not_read_ahead_itself_gets_a_reader(
+        monkeypatch, reads_ahead):
+    # the RealSense SDK reads ahead on threads of its own: a read-ahead thread between it and the
+    # workers only added a hand-over of the GIL a frame (live42d)
+    from rangemesh.live import session
+
+    _two_workers(monkeypatch)
+    made = []
+    monkeypatch.setattr(session, "Prefetch",
+                        lambda frames, ahead: made.append(ahead) or workers_prefetch(frames, ahead))
+    source = _Source(5)
+    source.reads_ahead = reads_ahead
+    out = list(_live_with(monkeypatch, source, _Mesh, pace="fast"))
+    assert [m.mesh.index for m in out] == list(range(5))
+    assert made == ([] if reads_ahead else [2])
+
+
 @pytest.mark.parametrize(("queue", "meshed", "dropped"), [(1, [0, 1, 5], 3), (2, [0, 1, 4, 5], 2)])
 def test_with_two_threads_the_newest_frames_win_when_both_are_busy(queue, meshed, dropped):
     # by hand: frames 0 and 1 keep both workers busy while 2, 3, then 4, 5 arrive; when a worker
@@ -562,6 +595,34 @@ def test_a_looped_realsense_recording_replays_its_first_pass_from_memory(shared_
     assert frames[2].depth is frames[0].depth and frames[5].depth is frames[1].depth
 
 
+def test_a_looped_ros_recording_reads_its_image_topics_once(shared_data, monkeypatch):
+    # each pass asked for the topics again, reading (and decompressing) each image topic's first
+    # message: 2.5 ms of the reader's 4 ms a frame on the 2-frame bag looped (live42d)
+    from rangemesh.live.sources import RosSource
+    from rangemesh.recordings import Recording
+
+    want = _ros_depths(shared_data)
+    reads = []  # the topics of each read through the recording's messages
+    read = Recording._messages
+    monkeypatch.setattr(Recording, "_messages",
+                        lambda rec, conns: reads.append({c.topic for c in conns}) or read(rec, conns))
+    src = RosSource(str(shared_data / REALSENSE), loop=True)
+    it = src.frames()
+    try:
+        frames = [next(it) for _ in range(2)]
+        reads.clear()  # the first pass's: the topics described, the CameraInfo read
+        frames += [next(it) for _ in range(4)]
+    finally:
+        it.close()
+        src.close()
+    assert [f.stamp for f in frames] == [360815089000, 360981765000] * 3
+    for f in frames:
+        assert np.array_equal(f.depth, want[f.stamp])
+    # passes 2 and 3: one read each, of the depth topic alone (the bag holds a colour topic too)
+    depth_topic = {"/device_0/sensor_0/Depth_0/image/data"}
+    assert reads == [depth_topic, depth_topic], reads
+
+
 def test_a_looped_realsense_recording_too_long_to_keep_is_played_by_the_sdk_each_pass(
         shared_data, monkeypatch):
     sdk("pyrealsense2")
@@ -623,6 +684,31 @@ def test_stopping_a_looped_realsense_playback_at_any_frame_neither_crashes_nor_l
                            str(shared_data / REALSENSE), "120"],
                           capture_output=True, text=True, env=ENV, timeout=600)
     assert proc.returncode == 0 and proc.stdout.strip() == "ok", proc.stderr[-2000:]
+
+
+def test_closing_a_prefetch_whose_reader_waits_for_room_ends_it_at_once(monkeypatch):
+    # the reader waited up to a poll (50 ms) for room before it saw the stop: a two-thread run's
+    # end came that much after its last frame (live42d); a poll of an hour here shows it
+    from rangemesh.live import workers
+
+    monkeypatch.setattr(workers, "_POLL", 3600.0)
+    monkeypatch.setattr(workers, "_JOIN", 2.0)
+    read = []
+
+    def frames():
+        for i in range(100):
+            read.append(i)
+            yield i
+
+    ahead = workers.Prefetch(frames(), 2)
+    assert next(ahead) == 0
+    deadline = time.monotonic() + 20
+    while len(read) < 4 and time.monotonic() < deadline:  # 1 and 2 queued, 3 waiting for room
+        time.sleep(0.01)
+    t0 = time.monotonic()
+    ahead.close()
+    assert not ahead._thread.is_alive() and time.monotonic() - t0 < 1.0
+    assert read == [0, 1, 2, 3]  # nothing read after the stop
 
 
 def test_a_distorted_realsense_stream_meshes_with_exact_rays():

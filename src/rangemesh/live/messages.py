@@ -33,6 +33,7 @@ SCENE_FIELDS = {
 }
 _F = SCENE_FIELDS
 _LEN, _I64, _VARINT = 2, 1, 0  # protobuf wire types
+_I32 = np.dtype("<i4")
 
 # a Point3 in `points`: tag, length 27, then x, y, z each a tag and a little-endian double
 _POINT = np.dtype([("tag", "u1"), ("len", "u1"), ("tx", "u1"), ("x", "<f8"), ("ty", "u1"),
@@ -77,9 +78,13 @@ def _timestamp(stamp: int) -> bytes:
 
 
 def _records(dtype, number: int, columns: dict) -> bytes:
-    """Fixed-size submessages, one per row: tags filled, then each double column."""
+    """Fixed-size submessages, one per row: tags filled, then each double column.
+
+    Every byte of a record is a field's (the dtypes are packed): `numpy.empty`,
+    not `numpy.zeros`, whose zeroing lets go of the GIL (a waiting worker may take it).
+    """
     n = len(next(iter(columns.values())))
-    rec = np.zeros(n, dtype)
+    rec = np.empty(n, dtype)
     rec["tag"] = number << 3 | _LEN
     rec["len"] = dtype.itemsize - 2
     for i, name in enumerate(columns):
@@ -107,7 +112,10 @@ def scene_update_bytes(vertices, faces, stamp: int, frame_id: str, colors=None) 
     bytes
     """
     v = np.asarray(vertices, np.float64).reshape(-1, 3)
-    f = np.ascontiguousarray(faces, dtype="<u4").reshape(-1)
+    f = np.asarray(faces)
+    # int32 faces (the meshes') are their uint32 bytes: a view, where a cast's copy releases the GIL
+    f = f.reshape(-1).view("<u4") if f.dtype == _I32 and f.flags.c_contiguous else \
+        np.ascontiguousarray(f, dtype="<u4").reshape(-1)
     tri = _field(_F["TriangleListPrimitive", "pose"],
                  _field(_F["Pose", "orientation"], _double(_F["Quaternion", "w"], 1.0)))
     if len(v):

@@ -143,8 +143,10 @@ def _meshes(src, call, pace, frames, queue, clock, stats) -> Iterator[LiveMesh]:
     if getattr(src, "wraps", False) and "wrap" not in call:  # a whole circle: --no-wrap opens it
         call = {**call, "wrap": True}
     workers = frame_workers()
-    # with workers, a recording is read and decoded on a thread of its own while they mesh
-    reader = Prefetch(src.frames(), workers) if workers > 1 and not src.device else None
+    # with workers, a recording is read and decoded on a thread of its own while they mesh,
+    # unless its SDK reads ahead itself (a thread between would add a hand-over of the GIL a frame)
+    reader = Prefetch(src.frames(), workers) \
+        if workers > 1 and not src.device and not getattr(src, "reads_ahead", False) else None
     feed = DeviceFeed(src.frames(), clock, max(queue, 8)) if src.device else \
         Playback(reader if reader is not None else src.frames(), pace, clock,
                  getattr(src, "fps", None))

@@ -206,6 +206,9 @@ class RealSenseSource:
     """
 
     frame_id = "realsense_depth_optical_frame"
+    # the SDK reads and decodes a recording on threads of its own (and a short looped one is
+    # replayed from memory): the frame workers take its frames without a read-ahead thread
+    reads_ahead = True
 
     def __init__(self, source: str, *, loop: bool = False):
         rs = require("pyrealsense2", "a RealSense camera or .bag")

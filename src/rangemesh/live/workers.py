@@ -1,4 +1,4 @@
-"""Frames meshed at once: a pool of meshing threads fed by the pacing, its meshes handed out in order.
+"""Frames meshed at once: meshing threads that take their frames from the pacing, handed out in order.
 
 With more than one thread for the run (`frame_workers`: ``RANGEMESH_THREADS``,
 at most the cores this process may use), `rangemesh.live.session` meshes
@@ -8,7 +8,7 @@ meshing releases the GIL, so the workers run side by side, and each mesh is
 the one a single thread makes. A recording's frames are read and decoded
 ahead on a thread of their own (`Prefetch`), while the caller's thread
 publishes. The pacing is that of one thread: a frame is taken from `paced`
-only when a worker is free, so frames that come while every worker is busy
+only when a worker is free, by that worker, so frames that come while every worker is busy
 wait in the queue (``--queue``) or are dropped, the newest winning; at
 ``--pace fast`` the playback releases a frame each time a worker asks, and
 none is dropped. The meshes are handed out in the frames' order, whatever
@@ -21,7 +21,7 @@ import os
 import queue as queues
 import threading
 from collections.abc import Callable, Iterator
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import Future
 
 from ..refine.threads import THREADS_VARIABLE, one_thread
 from .pacing import paced
@@ -78,10 +78,11 @@ class Prefetch:
         self._thread.start()
 
     def _put(self, item) -> bool:
+        """Queue `item`; False once stopped (`close` makes room: a put under way then ends)."""
         while not self._stop.is_set():
             try:
                 self._queue.put(item, timeout=_POLL)
-                return True
+                return not self._stop.is_set()
             except queues.Full:
                 continue
         return False
@@ -120,8 +121,19 @@ class Prefetch:
         raise StopIteration
 
     def close(self) -> None:
-        """Stop reading; wait for the thread to end."""
+        """Stop reading; wait for the thread to end.
+
+        The frames read ahead are let go, so that a reader waiting for room
+        ends at once: it waited up to `_POLL` (50 ms) after a run's last
+        frame, which a run of two threads counts (60 frames at 130 frames/s
+        last 0.46 s).
+        """
         self._stop.set()
+        try:
+            while True:
+                self._queue.get_nowait()
+        except queues.Empty:
+            pass
         self._thread.join(_JOIN)
 
 
@@ -132,7 +144,7 @@ def pooled(feed, mesh_one: Callable, workers: int, queue: int, frames: int | Non
     Parameters
     ----------
     feed : Playback or DeviceFeed
-        What `paced` takes the frames from (on a thread of this function's).
+        What `paced` takes the frames from (on the workers' threads, one at a time).
     mesh_one : callable
         ``mesh_one(frame, arrival)``: the frame's mesh (`LiveMesh`), called on
         a worker thread.
@@ -143,28 +155,25 @@ def pooled(feed, mesh_one: Callable, workers: int, queue: int, frames: int | Non
     frames : int, optional
         Stop after this many frames.
     stats : rangemesh.live.stats.Stats, optional
-        Told of arrivals and drops (by the pacing thread; the caller's thread
-        only publishes).
+        Told of arrivals and drops (by the worker taking a frame; the caller's
+        thread only publishes).
 
     Notes
     -----
-    At most ``UNPUBLISHED_PER_WORKER * workers`` frames are taken and not yet
-    handed back by the caller (meshing, meshed, being published): a caller
-    slower than the meshing holds the workers back, so frames wait in the
-    feed and the newest wins, as with one thread.
+    A worker that is done with a frame takes the next one itself, under a
+    lock that keeps the frames' order (no thread between: a frame's end and
+    the next one's start cost no hand-over of the GIL to a dispatching
+    thread and back). At most ``UNPUBLISHED_PER_WORKER * workers`` frames
+    are taken and not yet handed back by the caller (meshing, meshed, being
+    published): a caller slower than the meshing holds the workers back, so
+    frames wait in the feed and the newest wins, as with one thread.
     """
-    pool = ThreadPoolExecutor(workers, thread_name_prefix="rangemesh-live-mesh")
-    free = threading.Semaphore(workers)
     unpublished = threading.Semaphore(UNPUBLISHED_PER_WORKER * workers)
     handed: queues.Queue = queues.Queue()
     stop = threading.Event()
-
-    def work(frame, arrival):
-        try:
-            with one_thread():  # the workers use the cores: one native thread each
-                return mesh_one(frame, arrival)
-        finally:
-            free.release()
+    take = threading.Lock()  # one worker at a time takes a frame: the frames' order kept
+    taken = paced(feed, queue, stats)
+    state = {"n": 0, "ended": False}
 
     def acquire(slot) -> bool:
         while not stop.is_set():
@@ -172,25 +181,54 @@ def pooled(feed, mesh_one: Callable, workers: int, queue: int, frames: int | Non
                 return True
         return False
 
-    def dispatch():
-        try:
-            taken = paced(feed, queue, stats)
-            n = 0
-            while frames is None or n < frames:
-                # a worker free before the next frame is taken: later ones wait in the queue
-                if not (acquire(unpublished) and acquire(free)):
-                    return
-                item = next(taken, None)
-                if item is None or stop.is_set():
-                    break
-                handed.put(pool.submit(work, *item))
-                n += 1
+    def next_frame():
+        """The next frame and its place in `handed`, or None at the end (under `take`)."""
+        if state["ended"] or stop.is_set():
+            return None
+        if frames is not None and state["n"] >= frames:
+            state["ended"] = True
             handed.put(_END)
+            return None
+        if not acquire(unpublished) or stop.is_set():  # stopped while the caller held them all
+            return None
+        try:
+            item = next(taken, None)
         except BaseException as exc:  # the source's error, raised after the frames before it
+            state["ended"] = True
             handed.put(_Raised(exc))
+            return None
+        if item is None or stop.is_set():
+            state["ended"] = True
+            handed.put(_END)
+            return None
+        state["n"] += 1
+        slot: Future = Future()
+        handed.put(slot)
+        return item, slot
 
-    thread = threading.Thread(target=dispatch, daemon=True, name="rangemesh-live-pace")
-    thread.start()
+    meshing: set = set()  # the workers meshing a frame now
+
+    def work():
+        me = threading.current_thread()
+        with one_thread():  # the workers use the cores: one native thread each
+            while True:
+                with take:
+                    got = next_frame()
+                    if got is None:
+                        return
+                    meshing.add(me)
+                (frame, arrival), slot = got
+                try:
+                    slot.set_result(mesh_one(frame, arrival))
+                except BaseException as exc:  # raised on the caller's thread in its turn
+                    slot.set_exception(exc)
+                finally:
+                    meshing.discard(me)
+
+    threads = [threading.Thread(target=work, daemon=True, name=f"rangemesh-live-mesh_{i}")
+               for i in range(workers)]
+    for t in threads:
+        t.start()
     held = False
     try:
         while True:
@@ -206,6 +244,10 @@ def pooled(feed, mesh_one: Callable, workers: int, queue: int, frames: int | Non
             yield item.result()
     finally:
         stop.set()
+        for _ in threads:  # a worker waiting for the caller to let go of a frame ends at once
+            unpublished.release()
         feed.close()
-        pool.shutdown(wait=True, cancel_futures=True)
-        thread.join(_JOIN)
+        for t in threads:  # a frame being meshed is finished; a wait for one ends within _JOIN
+            t.join(_JOIN)
+            while t.is_alive() and t in meshing:
+                t.join(_JOIN)

@@ -231,6 +231,7 @@ class Recording:
                              f"({type(exc).__name__}: {_one_line(exc)})") from None
         self._reader = reader
         self._infos = None
+        self._topics = None
         return self
 
     def __exit__(self, *exc):
@@ -256,7 +257,16 @@ class Recording:
     # -- what it holds ----------------------------------------------------------------------
 
     def image_topics(self) -> list[ImageTopic]:
-        """Every image topic, with its encoding and size (`ImageTopic`), by topic name."""
+        """Every image topic, with its encoding and size (`ImageTopic`), by topic name (read once, kept).
+
+        Kept: a looped playback (``rangemesh live --loop``) asks at every pass, and each
+        asking reads (and decompresses) each topic's first message.
+        """
+        if self._topics is None:
+            self._topics = self._image_topics()
+        return list(self._topics)
+
+    def _image_topics(self) -> list[ImageTopic]:
         out = []
         topics = sorted({c.topic for c in self._reader.connections if c.msgtype in IMAGE_TYPES})
         for topic in topics:

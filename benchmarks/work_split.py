@@ -48,8 +48,8 @@ PARTS = [
      ["first scans", "tail, one vertex at a time", "insertion rounds", "diagonals by the error",
       "strips' copies out", "strip starts (grid, first Delaunay)", "seam's flips"]),
     ("assembly (valid faces, one fan a vertex)", "1", [ANON + "assemble("], []),
-    ("fit: sample of errors", "all", ["rangemesh::heights::sample_errors(", "~heights13sample_errors"], []),
-    ("fit: pass over the pixels", "all", ["rangemesh::heights::fit_blocks(", "~heights10fit_blocks"], []),
+    ("fit: sample of errors", "all", ["rangemesh::heights::sample_errors_checked(", "~heights21sample_errors_checked"], []),
+    ("fit: pass over the pixels", "all", ["rangemesh::heights::fit_blocks_checked(", "~heights18fit_blocks_checked"], []),
     ("fit: solve", "1", ["rangemesh::heights::solve_blocks("], []),
 ]
 TOTAL = "rangemesh::refine::refine_mesh("

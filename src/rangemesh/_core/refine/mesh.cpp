@@ -20,6 +20,7 @@
 #include "../heights/order.hpp"
 #include "../heights/pass.hpp"
 #include "../interrupt.hpp"
+#include "../parallel.hpp"
 #include "collapse.hpp"
 #include "deviation.hpp"
 #include "diagonals.hpp"
@@ -232,12 +233,12 @@ Meshing mesh_once(const Image& image, Span<const double> camera, const FirstMesh
     return meshing_of(image, camera, ins, req, false);
 }
 
-// The same on two strips (`insert_halves`).
+// The same on two strips (`insert_halves`), on the calling thread and `second` (or none).
 Meshing mesh_halves(const Image& image, Span<const double> camera, index_t asked, double max_sum,
-                    const MeshRequest& req) {
+                    const MeshRequest& req, Worker* second) {
     const HalvesRequest hreq{asked,  max_sum,          req.n_grid,           req.n_valid, req.sr,
                              req.sc, req.seam_density, req.seam_error_share, req.threads, req.flip};
-    const Halves halves = insert_halves(image, hreq);
+    const Halves halves = insert_halves(image, hreq, second);
     Meshing out;
     out.insertions = static_cast<index_t>(halves.vr.size());
     out.flips = halves.flips;
@@ -607,7 +608,12 @@ struct Candidate {
     Meshing meshing;
     std::vector<double> vertices;
     double achieved = 0.0;
+    index_t edges = -1;  // the mesh's distinct edges when counted beside its lift, else -1
 };
+
+// Meshes of at least this many faces count their edges on the call's second thread while this
+// one fits their depths (a thread's start costs about what counting 2000 faces' edges does).
+constexpr index_t EDGES_BESIDE_MIN_FACES = 2000;
 
 // The call's searches over meshings of one first mesh.
 class Refiner {
@@ -644,6 +650,8 @@ class Refiner {
     Meshing best_of(index_t want);
     bool collapsed(Meshing& m, index_t target);
     MeshResult finish_bounded(Candidate&& c);
+    Worker* worker(bool start);
+    bool lift_counting_edges(Candidate& c);
     MeshResult no_face(const Meshing& m) {
         empty_ = true;
         empty_walls_ = m.n_walls;
@@ -663,6 +671,7 @@ class Refiner {
     bool empty_ = false;                  // the search declined: no face left
     index_t empty_walls_ = 0;             // ... and the walls its mesh dropped
     bool rounded_ = false;                // the rounds ran (`finish` runs them otherwise)
+    std::optional<Worker> worker_;        // the call's second thread, once a part runs on two
 };
 
 // How each target is met; the searches below are the rules' one place.
@@ -704,11 +713,36 @@ Meshing Refiner::mesh(index_t asked, double max_sum) {
     ++out_.meshings;
     out_.asked = asked;
     if (!strips_ && !first_) first_ = first_mesh(image_, req_.n_grid, req_.sr, req_.sc);
-    Meshing m = strips_ ? mesh_halves(image_, camera_, asked, max_sum, req_)
+    Meshing m = strips_ ? mesh_halves(image_, camera_, asked, max_sum, req_, worker(true))
                         : mesh_once(image_, camera_, first_->view(), asked, max_sum, req_);
     insertions_ = m.insertions;
     flips_ = m.flips;
     return m;
+}
+
+// The call's second thread (with two threads asked for), started now when `start` and not yet
+// running: the strips of each meshing and the edges beside a lift then share one thread.
+Worker* Refiner::worker(bool start) {
+    if (req_.threads < 2) return nullptr;
+    if (!worker_ && start) worker_.emplace();
+    return worker_ ? &*worker_ : nullptr;
+}
+
+// `lift` of `c`'s mesh (its fit timed) while the second thread counts the mesh's edges, which
+// `finish` reports: on a large mesh the count overlaps the fit's own set-up (one thread else).
+bool Refiner::lift_counting_edges(Candidate& c) {
+    const ValidFaces& f = c.meshing.mesh;
+    const index_t n_f = static_cast<index_t>(f.faces.size() / 3);
+    bool lifted = false;
+    run_both(
+        worker(n_f >= EDGES_BESIDE_MIN_FACES),
+        [&] { c.edges = count_edges(Grid<const std::int32_t>{f.faces.data(), n_f, 3}, c.meshing.n_vertices()); },
+        [&] {
+            const auto t = std::chrono::steady_clock::now();
+            lifted = lift(f, req_.fit, c.vertices);
+            if (req_.fit) out_.fit_seconds = seconds_since(t);
+        });
+    return lifted;
 }
 
 // The vertices of `f` lifted from fitted or copied depths; false when the fit declines.
@@ -751,11 +785,14 @@ bool Refiner::bounded(Candidate& c) {
 MeshResult Refiner::finish(Candidate&& c) {
     if (needs_rounds(req_) && !rounded_) {  // max_edge after a count or an error bound
         rounds(c);
+        c.edges = -1;  // (new faces)
         if (req_.max_error >= 0.0) c.achieved = measure_(c.meshing.mesh, c.vertices);
     }
     ValidFaces& mesh = c.meshing.mesh;
     const index_t n_f = static_cast<index_t>(mesh.faces.size() / 3);
-    out_.edges = count_edges(Grid<const std::int32_t>{mesh.faces.data(), n_f, 3}, c.meshing.n_vertices());
+    out_.edges = c.edges >= 0
+                     ? c.edges
+                     : count_edges(Grid<const std::int32_t>{mesh.faces.data(), n_f, 3}, c.meshing.n_vertices());
     out_.faces = std::move(mesh.faces);
     out_.pixels = std::move(mesh.pixels);
     out_.vertices = std::move(c.vertices);
@@ -873,9 +910,7 @@ MeshResult Refiner::by_count() {
     Candidate c{req_.collapse > 1.0 ? best_of(req_.vertices) : counted(req_.vertices), {}, 0.0};
     if (c.meshing.mesh.faces.empty()) return no_face(c.meshing);
     if (needs_rounds(req_)) return finish(std::move(c));  // (the rounds lift the vertices)
-    const auto t = std::chrono::steady_clock::now();
-    if (!lift(c.meshing.mesh, req_.fit, c.vertices)) return MeshResult{};
-    if (req_.fit) out_.fit_seconds = seconds_since(t);
+    if (!lift_counting_edges(c)) return MeshResult{};
     return finish(std::move(c));
 }
 

@@ -174,13 +174,106 @@ struct Meshing {
     index_t n_vertices() const { return static_cast<index_t>(mesh.pixels.size() / 2); }
 };
 
+// Meshes of at least this many triangles find their valid faces on two threads when there are two.
+constexpr index_t SPLIT_VALID_MIN_TRIANGLES = 8000;
+
+// `valid_faces(vr, vc, tv, valid)` on the calling thread and `second`, each taking half the
+// triangles and half the vertices in three steps, and into `twins` `valid_twins`' of its faces
+// when a triangle is left out: the same faces, pixels and twins, in the same order.
+ValidFaces split_valid_faces(Span<const index_t> vr, Span<const index_t> vc, Span<const index_t> tv,
+                             Span<const index_t> he, Grid<const bool> valid, Worker* second,
+                             std::vector<index_t>& twins) {
+    const index_t n_t = tv.size / 3, n_v = vr.size;
+    require(vc.size == n_v, "valid_faces: vr and vc differ in length");
+    require(he.size == tv.size, "valid_twins: one twin a half-edge");
+    const index_t t_mid = n_t / 2, v_mid = n_v / 2;
+    const index_t t_end[2] = {t_mid, n_t}, t_begin[2] = {0, t_mid}, v_end[2] = {v_mid, n_v}, v_begin[2] = {0, v_mid};
+    const auto on_valid = [&](index_t v) {
+        require(0 <= v && v < n_v, "valid_faces: a vertex id out of range");
+        require(vr[v] >= 0 && vr[v] < valid.rows && vc[v] >= 0 && vc[v] < valid.cols,
+                "valid_faces: a vertex outside the image");
+        return valid(vr[v], vc[v]);
+    };
+    std::vector<index_t> face(n_t);  // a kept triangle's face (first 0), else -1
+    std::vector<unsigned char> used[2];  // the vertices each half's kept triangles use
+    std::vector<index_t> new_id(n_v, -1);
+    index_t n_keep[2] = {0, 0}, n_used[2] = {0, 0};
+    ValidFaces out;
+    bool all_kept = false;
+    // step `step` on half `k`: 0 the kept triangles, 1 the used vertices and kept triangles numbered
+    // in order, 2 the faces and twins
+    const auto half = [&](int step, int k) {
+        if (step == 0) {
+            fill_polled(used[k], n_v, static_cast<unsigned char>(0));
+            for (index_t v = v_begin[k]; v < v_end[k]; ++v) on_valid(v);  // (every vertex in the image)
+            for (index_t t = t_begin[k]; t < t_end[k]; ++t) {
+                poll_every(t);
+                const index_t a = tv[3 * t], b = tv[3 * t + 1], c = tv[3 * t + 2];
+                const bool keep = on_valid(a) && on_valid(b) && on_valid(c);
+                face[t] = keep ? 0 : -1;
+                if (keep) {
+                    used[k][a] = used[k][b] = used[k][c] = 1;
+                    ++n_keep[k];
+                }
+            }
+        } else if (step == 1) {
+            index_t next = 0;
+            if (k == 1)  // (the first half's count, counted again)
+                for (index_t v = 0; v < v_mid; ++v) next += used[0][v] | used[1][v];
+            for (index_t v = v_begin[k]; v < v_end[k]; ++v) {
+                poll_every(v);
+                if (!(used[0][v] | used[1][v])) continue;
+                out.pixels[2 * next] = static_cast<std::int32_t>(vr[v]);
+                out.pixels[2 * next + 1] = static_cast<std::int32_t>(vc[v]);
+                new_id[v] = next++;
+            }
+            n_used[k] = next;
+            index_t f = k == 0 ? 0 : n_keep[0];
+            for (index_t t = t_begin[k]; t < t_end[k]; ++t)
+                if (face[t] == 0) face[t] = f++;
+        } else {
+            for (index_t t = t_begin[k]; t < t_end[k]; ++t) {
+                poll_every(t);
+                if (face[t] < 0) continue;
+                for (int j = 0; j < 3; ++j) {
+                    out.faces[3 * face[t] + j] = static_cast<std::int32_t>(new_id[tv[3 * t + j]]);
+                    if (all_kept) continue;
+                    const index_t g = he[3 * t + j];
+                    twins[3 * face[t] + j] = g < 0 || face[g / 3] < 0 ? -1 : 3 * face[g / 3] + g % 3;
+                }
+            }
+        }
+    };
+    const auto both = [&](int step) { run_both(second, [&] { half(step, 0); }, [&] { half(step, 1); }); };
+    both(0);
+    fill_polled(out.faces, 3 * (n_keep[0] + n_keep[1]), std::int32_t{0});
+    fill_polled(out.pixels, 2 * n_v, std::int32_t{0});  // (cut to the used ones)
+    both(1);
+    out.pixels.resize(2 * n_used[1]);
+    all_kept = n_keep[0] + n_keep[1] == n_t;
+    if (!all_kept) fill_polled(twins, 3 * (n_keep[0] + n_keep[1]), index_t{0});
+    both(2);
+    return out;
+}
+
 // The valid faces of an insertion's mesh (triangles `tv`, twins `he`), with one fan each, its
-// walls dropped unless kept (insertion.py's `_assemble`); `n_walls` counts the dropped ones.
+// walls dropped unless kept (insertion.py's `_assemble`); `n_walls` counts the dropped ones. A
+// large mesh's valid faces are found on the calling thread and `second` when given.
 ValidFaces assemble(const Image& image, Span<const double> camera, Span<const index_t> vr, Span<const index_t> vc,
-                    Span<const index_t> tv, Span<const index_t> he, const MeshRequest& req, index_t& n_walls) {
-    ValidFaces f = valid_faces(vr, vc, tv, image.valid);
+                    Span<const index_t> tv, Span<const index_t> he, const MeshRequest& req, index_t& n_walls,
+                    Worker* second = nullptr) {
+    ValidFaces f;
+    std::vector<index_t> twins;
+    const bool split = second != nullptr && tv.size / 3 >= SPLIT_VALID_MIN_TRIANGLES;
+    if (split)
+        f = split_valid_faces(vr, vc, tv, he, image.valid, second, twins);
+    else
+        f = valid_faces(vr, vc, tv, image.valid);
     const index_t n_f = static_cast<index_t>(f.faces.size() / 3);
-    if (0 < n_f && n_f < tv.size / 3) f = one_fan_each(image, std::move(f), valid_twins(vr, vc, tv, he, image.valid));
+    if (0 < n_f && n_f < tv.size / 3) {
+        if (!split) twins = valid_twins(vr, vc, tv, he, image.valid);
+        f = one_fan_each(image, std::move(f), twins);
+    }
     if (!req.walls && !f.faces.empty()) f = drop_walls(image, camera, req.pixel_angle, std::move(f), req.jump, n_walls);
     return f;
 }
@@ -244,7 +337,7 @@ Meshing mesh_halves(const Image& image, Span<const double> camera, index_t asked
     out.flips = halves.flips;
     out.error_left = halves.total > 0.0;
     out.mesh = assemble(image, camera, view(halves.vr), view(halves.vc), view(halves.triangles), view(halves.halfedges),
-                        req, out.n_walls);
+                        req, out.n_walls, second);
     return out;
 }
 
@@ -612,7 +705,7 @@ struct Candidate {
 };
 
 // Meshes of at least this many faces count their edges on the call's second thread while this
-// one fits their depths (a thread's start costs about what counting 2000 faces' edges does).
+// one fits their depths (about 160 instructions a face: below, a thread's start would eat the gain).
 constexpr index_t EDGES_BESIDE_MIN_FACES = 2000;
 
 // The call's searches over meshings of one first mesh.

@@ -44,13 +44,20 @@ PARTS = [
     ("strips' copies out", "2", [ANON + "finish("], ["diagonals by the error"]),
     ("strip starts (grid, first Delaunay)", "2", [ANON + "strip_start("], []),
     ("seam's flips", "1", ["rangemesh::refine::flip_from_edges("], []),
-    ("seam, join, worker start", "1", ["rangemesh::refine::insert_halves("],
+    ("join (A copied beside B renumbered)", "2", ["~join_strips("], []),
+    ("seam's choice, worker start", "1", ["rangemesh::refine::insert_halves("],
      ["first scans", "tail, one vertex at a time", "insertion rounds", "diagonals by the error",
-      "strips' copies out", "strip starts (grid, first Delaunay)", "seam's flips"]),
-    ("assembly (valid faces, one fan a vertex)", "1", [ANON + "assemble("], []),
-    ("fit: sample of errors", "all", ["rangemesh::heights::sample_errors(", "~heights13sample_errors"], []),
-    ("fit: pass over the pixels", "all", ["rangemesh::heights::fit_blocks(", "~heights10fit_blocks"], []),
+      "strips' copies out", "strip starts (grid, first Delaunay)", "seam's flips",
+      "join (A copied beside B renumbered)"]),
+    ("assembly (valid faces on two threads, one fan a vertex)", "2",
+     [ANON + "assemble(", "~_Function_handler<void (), " + ANON + "split_valid_faces("], []),
+    ("fit: sample of errors", "all", ["rangemesh::heights::sample_errors_checked(", "~heights21sample_errors_checked"], []),
+    ("fit: pass over the pixels", "all", ["rangemesh::heights::fit_blocks_checked(", "~heights18fit_blocks_checked"], []),
     ("fit: solve", "1", ["rangemesh::heights::solve_blocks("], []),
+    ("fit: median, checks", "1", ["rangemesh::heights::fit_heights("],
+     ["fit: sample of errors", "fit: pass over the pixels", "fit: solve"]),
+    ("edges beside the fit's set-up", "2", ["~rangemesh::count_edges<int>(", ANON + "fitted_depths("],
+     ["fit: sample of errors", "fit: pass over the pixels", "fit: solve", "fit: median, checks"]),
 ]
 TOTAL = "rangemesh::refine::refine_mesh("
 THREAD = "<the thread>"  # (the key of a thread's whole count)
@@ -207,7 +214,7 @@ def main(argv=None):
         accounted = sum(sum(results[c]["parts"][p]) for p, *_ in PARTS)
         tot = results[c]["total"]
         rest.append(f"{100.0 * (tot - accounted) / tot:.1f} ({(tot - accounted) / 1e6:.1f})")
-    print("| edges, lift, fit's set-up, rest | 1 | " + " | ".join(rest) + " |")
+    print("| lift, count search, rest | 1 | " + " | ".join(rest) + " |")
     print("| **1-thread total, M instructions** | | "
           + " | ".join(f"{results[c]['total'] / 1e6:.0f}" for c in cols) + " |")
     serial = []

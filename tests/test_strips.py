@@ -308,6 +308,25 @@ def test_flipped_strips_are_the_same_on_one_thread_or_two(name, background, monk
     assert not np.array_equal(two[2], plain[2])  # (flipped)
 
 
+def test_a_large_strip_mesh_is_the_same_on_one_thread_or_two(monkeypatch):
+    """The strips' join, the valid faces of a mesh of 8000 triangles or more and the count of its
+    edges run on the second thread with two (issue 44): the same faces, vertices and edge count.
+    """
+    image, _ = rgbd_frame()
+    meshes = {}
+    for threads in (1, 2):
+        monkeypatch.setenv("RANGEMESH_THREADS", str(threads))
+        meshes[threads] = triangulate(image, background=0, vertices=6000, method="refine")
+    one, two = meshes[1], meshes[2]
+    assert two.stats.strips == 2 and len(two.faces) >= 8000  # (where the valid faces are split)
+    assert np.array_equal(one.faces, two.faces) and np.array_equal(one.pixels, two.pixels)
+    assert np.array_equal(one.vertices.view(np.int64), two.vertices.view(np.int64))
+    # the edge count against the faces' own distinct undirected edges
+    f = two.faces
+    pairs = np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), axis=1)
+    assert one.stats.edges == two.stats.edges == len(np.unique(pairs, axis=0))
+
+
 def _python_steps(depth, valid, camera, ref, extent, exponent, vertices, max_error, max_vertices, *,
                   fit, diagonals, walls=True, jump=0.05, **_):
     """`insertion._native`'s stand-in: the Python steps it replaced (the tests' reference)."""

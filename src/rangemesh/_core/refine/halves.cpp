@@ -126,54 +126,93 @@ double seam_error(const std::vector<double>& z, const bool* ok, const std::vecto
     return numpy_sum(err.data(), static_cast<index_t>(err.size()));
 }
 
-// Strip B's vertices renumbered after A's, its seam vertices A's own (strips.py's `_join`).
-Halves join(const StripMesh& a, const StripMesh& b, index_t m) {
-    std::vector<std::pair<index_t, index_t>> seam_a;  // (row, id) of A's seam vertices
-    for (std::size_t i = 0; i < a.vr.size(); ++i)
-        if (a.vc[i] == m) seam_a.emplace_back(a.vr[i], static_cast<index_t>(i));
-    std::sort(seam_a.begin(), seam_a.end());
-    Halves out;
-    out.vr = a.vr;
-    out.vc = a.vc;
-    std::vector<index_t> new_id(b.vr.size());
-    for (std::size_t j = 0; j < b.vr.size(); ++j) {
-        if (b.vc[j] != m) {
-            new_id[j] = static_cast<index_t>(out.vr.size());
-            out.vr.push_back(b.vr[j]);
-            out.vc.push_back(b.vc[j]);
-            continue;
-        }
-        const auto at = std::lower_bound(seam_a.begin(), seam_a.end(), std::pair<index_t, index_t>{b.vr[j], -1});
-        require(at != seam_a.end() && at->first == b.vr[j], "strip_insert: the strips' seams differ");
-        new_id[j] = at->second;
-    }
-    out.triangles = a.triangles;
-    for (const index_t v : b.triangles) out.triangles.push_back(new_id[v]);
-    out.total = a.total + b.total;
-    return out;
-}
+}  // namespace
 
-// The joined mesh's twins, A's half-edges down the seam paired with B's the other way
-// (strips.py's `_joined_halfedges`); returns A's seam half-edges, in order.
-std::vector<index_t> join_halfedges(const StripMesh& a, const StripMesh& b, const Halves& j, index_t m,
-                                    std::vector<index_t>& he) {
-    const index_t n_a = static_cast<index_t>(a.halfedges.size()), n_v = static_cast<index_t>(j.vc.size());
-    he = a.halfedges;
-    for (const index_t e : b.halfedges) he.push_back(e >= 0 ? e + n_a : -1);
-    std::vector<index_t> seam_a;
-    std::vector<std::pair<index_t, index_t>> keys_b;  // (v * n_v + u, e) of B's u -> v
-    for (index_t e = 0; e < static_cast<index_t>(he.size()); ++e) {
-        const index_t u = j.triangles[e], v = j.triangles[nxt(e)];
-        if (he[e] >= 0 || j.vc[u] != m || j.vc[v] != m) continue;
-        if (e < n_a)
-            seam_a.push_back(e);
-        else
-            keys_b.emplace_back(v * n_v + u, e);
-    }
-    require(seam_a.size() == keys_b.size(), "strip_insert: the strips' edges down the seam differ");
+std::vector<index_t> join_strips(const StripMesh& a, const StripMesh& b, index_t m, Worker* second, Halves& out,
+                                 std::vector<double>* sums) {
+    const index_t n_av = static_cast<index_t>(a.vr.size()), n_bv = static_cast<index_t>(b.vr.size());
+    const index_t n_a = static_cast<index_t>(a.triangles.size()), n_b = static_cast<index_t>(b.triangles.size());
+    require(static_cast<index_t>(a.halfedges.size()) == n_a && static_cast<index_t>(b.halfedges.size()) == n_b,
+            "strip_insert: one twin a half-edge");
+    out.vr.resize(n_av + n_bv);  // (cut to the vertices B adds once counted)
+    out.vc.resize(n_av + n_bv);
+    out.triangles.resize(n_a + n_b);
+    out.halfedges.resize(n_a + n_b);
+    if (sums != nullptr) sums->resize(a.sums.size() + b.sums.size());
+    // B's vertex ids in the joined mesh, written out when `write`; returns the joined vertex count.
+    // Each part numbers them for itself: a step a vertex, against several a half-edge.
+    const auto number_b = [&](std::vector<index_t>& new_id, bool write) {
+        std::vector<std::pair<index_t, index_t>> seam_ids;  // (row, id) of A's seam vertices
+        for (index_t i = 0; i < n_av; ++i)
+            if (a.vc[i] == m) seam_ids.emplace_back(a.vr[i], i);
+        std::sort(seam_ids.begin(), seam_ids.end());
+        new_id.resize(n_bv);
+        index_t next = n_av;
+        for (index_t j = 0; j < n_bv; ++j) {
+            poll_every(j);
+            if (b.vc[j] != m) {
+                if (write) {
+                    out.vr[next] = b.vr[j];
+                    out.vc[next] = b.vc[j];
+                }
+                new_id[j] = next++;
+                continue;
+            }
+            const auto at =
+                std::lower_bound(seam_ids.begin(), seam_ids.end(), std::pair<index_t, index_t>{b.vr[j], -1});
+            require(at != seam_ids.end() && at->first == b.vr[j], "strip_insert: the strips' seams differ");
+            new_id[j] = at->second;
+        }
+        return next;
+    };
+    // B's half-edges [begin, end) renumbered; (v * n_v + u, e) of those down the seam (u -> v) into `keys`
+    const auto renumber_b = [&](const std::vector<index_t>& new_id, index_t n_v, index_t begin, index_t end,
+                                std::vector<std::pair<index_t, index_t>>& keys) {
+        for (index_t e = begin; e < end; ++e) {
+            poll_every(e);
+            const index_t u = b.triangles[e], g = b.halfedges[e];
+            out.triangles[n_a + e] = new_id[u];
+            out.halfedges[n_a + e] = g >= 0 ? g + n_a : -1;
+            if (g < 0 && b.vc[u] == m && b.vc[b.triangles[nxt(e)]] == m)
+                keys.emplace_back(new_id[b.triangles[nxt(e)]] * n_v + new_id[u], n_a + e);
+        }
+    };
+    // A's copies and seam scan weigh about half of B's renumbering: A's part takes a third of B's half-edges
+    const index_t cut = n_b / 3;
+    std::vector<index_t> seam_a;                                 // A's half-edges down the seam, in order
+    std::vector<std::pair<index_t, index_t>> keys_lo, keys_hi;  // B's, before and after `cut`
+    index_t n_v = n_av;
+    const auto part_a = [&] {
+        std::copy(a.vr.begin(), a.vr.end(), out.vr.begin());
+        std::copy(a.vc.begin(), a.vc.end(), out.vc.begin());
+        std::copy(a.triangles.begin(), a.triangles.end(), out.triangles.begin());
+        std::copy(a.halfedges.begin(), a.halfedges.end(), out.halfedges.begin());
+        if (sums != nullptr) std::copy(a.sums.begin(), a.sums.end(), sums->begin());
+        for (index_t e = 0; e < n_a; ++e) {
+            poll_every(e);
+            if (a.halfedges[e] < 0 && a.vc[a.triangles[e]] == m && a.vc[a.triangles[nxt(e)]] == m) seam_a.push_back(e);
+        }
+        std::vector<index_t> new_id;
+        renumber_b(new_id, number_b(new_id, false), 0, cut, keys_lo);
+    };
+    const auto part_b = [&] {
+        std::vector<index_t> new_id;
+        n_v = number_b(new_id, true);
+        renumber_b(new_id, n_v, cut, n_b, keys_hi);
+        if (sums != nullptr)
+            std::copy(b.sums.begin(), b.sums.end(), sums->begin() + static_cast<index_t>(a.sums.size()));
+    };
+    run_both(second, part_a, part_b);
+    out.vr.resize(n_v);
+    out.vc.resize(n_v);
+    out.total = a.total + b.total;
+    std::vector<std::pair<index_t, index_t>>& keys_b = keys_lo;
+    keys_b.insert(keys_b.end(), keys_hi.begin(), keys_hi.end());
     std::sort(keys_b.begin(), keys_b.end());
+    require(seam_a.size() == keys_b.size(), "strip_insert: the strips' edges down the seam differ");
+    std::vector<index_t>& he = out.halfedges;
     for (const index_t e : seam_a) {
-        const index_t key = j.triangles[e] * n_v + j.triangles[nxt(e)];
+        const index_t key = out.triangles[e] * n_v + out.triangles[nxt(e)];
         const auto at = std::lower_bound(keys_b.begin(), keys_b.end(), std::pair<index_t, index_t>{key, -1});
         require(at != keys_b.end() && at->first == key, "strip_insert: the strips' edges down the seam differ");
         he[e] = at->second;
@@ -182,14 +221,16 @@ std::vector<index_t> join_halfedges(const StripMesh& a, const StripMesh& b, cons
     return seam_a;
 }
 
-}  // namespace
-
-Halves insert_halves(const Image& image, const HalvesRequest& req) {
-    // the second thread started first (its start overlaps the seam's choice): the strips' first
-    // meshes run on both threads too
+Halves insert_halves(const Image& image, const HalvesRequest& req, Worker* second) {
+    // a second thread of its own when the caller has none, started first (its start overlaps the
+    // seam's choice): the strips' first meshes run on both threads too
     std::optional<Worker> worker;
-    if (req.threads >= 2) worker.emplace();
-    Worker* const second = worker ? &*worker : nullptr;
+    if (req.threads < 2) {
+        second = nullptr;
+    } else if (second == nullptr) {
+        worker.emplace();
+        second = &*worker;
+    }
     const index_t h = image.rows(), w = image.cols(), m = seam_column(image.valid);
     std::vector<double> z(h);
     const std::unique_ptr<bool[]> ok(new bool[h]);
@@ -239,18 +280,16 @@ Halves insert_halves(const Image& image, const HalvesRequest& req) {
     index_t on_seam = 0;
     for (std::size_t i = 0; i < left.vr.size(); ++i) on_seam += left.vc[i] == m && image.valid(left.vr[i], m);
     require(on_seam == shared, "insert_halves: the seam's vertices are the left strip's on its column");
-    Halves out = join(s.left, s.right, m);
+    Halves out;
+    std::vector<double> sums;  // (the seam's flips only)
+    const std::vector<index_t> first = join_strips(s.left, s.right, m, second, out, req.flip ? &sums : nullptr);
     out.flips = s.left.flips + s.right.flips;
     out.total = out.total + seam;
-    std::vector<index_t>& he = out.halfedges;  // (the assembly walks the stars by them)
-    const std::vector<index_t> first = join_halfedges(s.left, s.right, out, m, he);
     if (req.flip) {
-        std::vector<double> sums = s.left.sums;
-        sums.insert(sums.end(), s.right.sums.begin(), s.right.sums.end());
         const FlipMesh mesh{view(out.vr),
                             view(out.vc),
                             {out.triangles.data(), static_cast<index_t>(out.triangles.size())},
-                            {he.data(), static_cast<index_t>(he.size())},
+                            {out.halfedges.data(), static_cast<index_t>(out.halfedges.size())},
                             {sums.data(), static_cast<index_t>(sums.size())}};
         out.flips += flip_from_edges(image, mesh, view(first), false).flips;  // (checked as made)
     }

@@ -7,6 +7,10 @@
 
 #include "image.hpp"
 
+namespace rangemesh {
+class Worker;
+}
+
 namespace rangemesh::refine {
 
 // What the strips are asked for; the rules' values live in strips.py.
@@ -28,6 +32,18 @@ struct Halves {
     double total = 0.0;  // the strips' summed error, the seam's own pixels included
 };
 
-Halves insert_halves(const Image& image, const HalvesRequest& req);
+// With `req.threads` of 2 or more, the strips and their join run on two threads: the calling one and
+// `second` (the caller's, kept from call to call), or one started for the call when none is given.
+Halves insert_halves(const Image& image, const HalvesRequest& req, Worker* second = nullptr);
+
+struct StripMesh;
+
+// The strips joined on column `m` into `out` (strips.py's `_join` and `_joined_halfedges`): B's
+// vertices renumbered after A's, its seam vertices A's own, B's half-edges after A's, and A's
+// half-edges down the seam paired with B's the other way; `sums` (when given) the strips'
+// triangle sums, A's first. A's part is copied on `second` (or none) while B's is renumbered on
+// the calling thread; the seam's pairs are then matched. Returns A's seam half-edges, in order.
+std::vector<index_t> join_strips(const StripMesh& a, const StripMesh& b, index_t m, Worker* second, Halves& out,
+                                 std::vector<double>* sums);
 
 }  // namespace rangemesh::refine

@@ -20,6 +20,7 @@
 #include "../heights/order.hpp"
 #include "../heights/pass.hpp"
 #include "../interrupt.hpp"
+#include "../parallel.hpp"
 #include "collapse.hpp"
 #include "deviation.hpp"
 #include "diagonals.hpp"
@@ -173,13 +174,106 @@ struct Meshing {
     index_t n_vertices() const { return static_cast<index_t>(mesh.pixels.size() / 2); }
 };
 
+// Meshes of at least this many triangles find their valid faces on two threads when there are two.
+constexpr index_t SPLIT_VALID_MIN_TRIANGLES = 8000;
+
+// `valid_faces(vr, vc, tv, valid)` on the calling thread and `second`, each taking half the
+// triangles and half the vertices in three steps, and into `twins` `valid_twins`' of its faces
+// when a triangle is left out: the same faces, pixels and twins, in the same order.
+ValidFaces split_valid_faces(Span<const index_t> vr, Span<const index_t> vc, Span<const index_t> tv,
+                             Span<const index_t> he, Grid<const bool> valid, Worker* second,
+                             std::vector<index_t>& twins) {
+    const index_t n_t = tv.size / 3, n_v = vr.size;
+    require(vc.size == n_v, "valid_faces: vr and vc differ in length");
+    require(he.size == tv.size, "valid_twins: one twin a half-edge");
+    const index_t t_mid = n_t / 2, v_mid = n_v / 2;
+    const index_t t_end[2] = {t_mid, n_t}, t_begin[2] = {0, t_mid}, v_end[2] = {v_mid, n_v}, v_begin[2] = {0, v_mid};
+    const auto on_valid = [&](index_t v) {
+        require(0 <= v && v < n_v, "valid_faces: a vertex id out of range");
+        require(vr[v] >= 0 && vr[v] < valid.rows && vc[v] >= 0 && vc[v] < valid.cols,
+                "valid_faces: a vertex outside the image");
+        return valid(vr[v], vc[v]);
+    };
+    std::vector<index_t> face(n_t);  // a kept triangle's face (first 0), else -1
+    std::vector<unsigned char> used[2];  // the vertices each half's kept triangles use
+    std::vector<index_t> new_id(n_v, -1);
+    index_t n_keep[2] = {0, 0}, n_used[2] = {0, 0};
+    ValidFaces out;
+    bool all_kept = false;
+    // step `step` on half `k`: 0 the kept triangles, 1 the used vertices and kept triangles numbered
+    // in order, 2 the faces and twins
+    const auto half = [&](int step, int k) {
+        if (step == 0) {
+            fill_polled(used[k], n_v, static_cast<unsigned char>(0));
+            for (index_t v = v_begin[k]; v < v_end[k]; ++v) on_valid(v);  // (every vertex in the image)
+            for (index_t t = t_begin[k]; t < t_end[k]; ++t) {
+                poll_every(t);
+                const index_t a = tv[3 * t], b = tv[3 * t + 1], c = tv[3 * t + 2];
+                const bool keep = on_valid(a) && on_valid(b) && on_valid(c);
+                face[t] = keep ? 0 : -1;
+                if (keep) {
+                    used[k][a] = used[k][b] = used[k][c] = 1;
+                    ++n_keep[k];
+                }
+            }
+        } else if (step == 1) {
+            index_t next = 0;
+            if (k == 1)  // (the first half's count, counted again)
+                for (index_t v = 0; v < v_mid; ++v) next += used[0][v] | used[1][v];
+            for (index_t v = v_begin[k]; v < v_end[k]; ++v) {
+                poll_every(v);
+                if (!(used[0][v] | used[1][v])) continue;
+                out.pixels[2 * next] = static_cast<std::int32_t>(vr[v]);
+                out.pixels[2 * next + 1] = static_cast<std::int32_t>(vc[v]);
+                new_id[v] = next++;
+            }
+            n_used[k] = next;
+            index_t f = k == 0 ? 0 : n_keep[0];
+            for (index_t t = t_begin[k]; t < t_end[k]; ++t)
+                if (face[t] == 0) face[t] = f++;
+        } else {
+            for (index_t t = t_begin[k]; t < t_end[k]; ++t) {
+                poll_every(t);
+                if (face[t] < 0) continue;
+                for (int j = 0; j < 3; ++j) {
+                    out.faces[3 * face[t] + j] = static_cast<std::int32_t>(new_id[tv[3 * t + j]]);
+                    if (all_kept) continue;
+                    const index_t g = he[3 * t + j];
+                    twins[3 * face[t] + j] = g < 0 || face[g / 3] < 0 ? -1 : 3 * face[g / 3] + g % 3;
+                }
+            }
+        }
+    };
+    const auto both = [&](int step) { run_both(second, [&] { half(step, 0); }, [&] { half(step, 1); }); };
+    both(0);
+    fill_polled(out.faces, 3 * (n_keep[0] + n_keep[1]), std::int32_t{0});
+    fill_polled(out.pixels, 2 * n_v, std::int32_t{0});  // (cut to the used ones)
+    both(1);
+    out.pixels.resize(2 * n_used[1]);
+    all_kept = n_keep[0] + n_keep[1] == n_t;
+    if (!all_kept) fill_polled(twins, 3 * (n_keep[0] + n_keep[1]), index_t{0});
+    both(2);
+    return out;
+}
+
 // The valid faces of an insertion's mesh (triangles `tv`, twins `he`), with one fan each, its
-// walls dropped unless kept (insertion.py's `_assemble`); `n_walls` counts the dropped ones.
+// walls dropped unless kept (insertion.py's `_assemble`); `n_walls` counts the dropped ones. A
+// large mesh's valid faces are found on the calling thread and `second` when given.
 ValidFaces assemble(const Image& image, Span<const double> camera, Span<const index_t> vr, Span<const index_t> vc,
-                    Span<const index_t> tv, Span<const index_t> he, const MeshRequest& req, index_t& n_walls) {
-    ValidFaces f = valid_faces(vr, vc, tv, image.valid);
+                    Span<const index_t> tv, Span<const index_t> he, const MeshRequest& req, index_t& n_walls,
+                    Worker* second = nullptr) {
+    ValidFaces f;
+    std::vector<index_t> twins;
+    const bool split = second != nullptr && tv.size / 3 >= SPLIT_VALID_MIN_TRIANGLES;
+    if (split)
+        f = split_valid_faces(vr, vc, tv, he, image.valid, second, twins);
+    else
+        f = valid_faces(vr, vc, tv, image.valid);
     const index_t n_f = static_cast<index_t>(f.faces.size() / 3);
-    if (0 < n_f && n_f < tv.size / 3) f = one_fan_each(image, std::move(f), valid_twins(vr, vc, tv, he, image.valid));
+    if (0 < n_f && n_f < tv.size / 3) {
+        if (!split) twins = valid_twins(vr, vc, tv, he, image.valid);
+        f = one_fan_each(image, std::move(f), twins);
+    }
     if (!req.walls && !f.faces.empty()) f = drop_walls(image, camera, req.pixel_angle, std::move(f), req.jump, n_walls);
     return f;
 }
@@ -232,18 +326,18 @@ Meshing mesh_once(const Image& image, Span<const double> camera, const FirstMesh
     return meshing_of(image, camera, ins, req, false);
 }
 
-// The same on two strips (`insert_halves`).
+// The same on two strips (`insert_halves`), on the calling thread and `second` (or none).
 Meshing mesh_halves(const Image& image, Span<const double> camera, index_t asked, double max_sum,
-                    const MeshRequest& req) {
+                    const MeshRequest& req, Worker* second) {
     const HalvesRequest hreq{asked,  max_sum,          req.n_grid,           req.n_valid, req.sr,
                              req.sc, req.seam_density, req.seam_error_share, req.threads, req.flip};
-    const Halves halves = insert_halves(image, hreq);
+    const Halves halves = insert_halves(image, hreq, second);
     Meshing out;
     out.insertions = static_cast<index_t>(halves.vr.size());
     out.flips = halves.flips;
     out.error_left = halves.total > 0.0;
     out.mesh = assemble(image, camera, view(halves.vr), view(halves.vc), view(halves.triangles), view(halves.halfedges),
-                        req, out.n_walls);
+                        req, out.n_walls, second);
     return out;
 }
 
@@ -639,7 +733,12 @@ struct Candidate {
     Meshing meshing;
     std::vector<double> vertices;
     double achieved = 0.0;
+    index_t edges = -1;  // the mesh's distinct edges when counted beside its lift, else -1
 };
+
+// Meshes of at least this many faces count their edges on the call's second thread while this
+// one fits their depths (about 160 instructions a face: below, a thread's start would eat the gain).
+constexpr index_t EDGES_BESIDE_MIN_FACES = 2000;
 
 // The call's searches over meshings of one first mesh.
 class Refiner {
@@ -676,6 +775,8 @@ class Refiner {
     Meshing best_of(index_t want);
     bool collapsed(Meshing& m, index_t target);
     MeshResult finish_bounded(Candidate&& c);
+    Worker* worker(bool start);
+    bool lift_counting_edges(Candidate& c);
     MeshResult no_face(const Meshing& m) {
         empty_ = true;
         empty_walls_ = m.n_walls;
@@ -695,6 +796,7 @@ class Refiner {
     bool empty_ = false;                  // the search declined: no face left
     index_t empty_walls_ = 0;             // ... and the walls its mesh dropped
     bool rounded_ = false;                // the rounds ran (`finish` runs them otherwise)
+    std::optional<Worker> worker_;        // the call's second thread, once a part runs on two
 };
 
 // How each target is met; the searches below are the rules' one place.
@@ -736,11 +838,36 @@ Meshing Refiner::mesh(index_t asked, double max_sum) {
     ++out_.meshings;
     out_.asked = asked;
     if (!strips_ && !first_) first_ = first_mesh(image_, req_.n_grid, req_.sr, req_.sc);
-    Meshing m = strips_ ? mesh_halves(image_, camera_, asked, max_sum, req_)
+    Meshing m = strips_ ? mesh_halves(image_, camera_, asked, max_sum, req_, worker(true))
                         : mesh_once(image_, camera_, first_->view(), asked, max_sum, req_);
     insertions_ = m.insertions;
     flips_ = m.flips;
     return m;
+}
+
+// The call's second thread (with two threads asked for), started now when `start` and not yet
+// running: the strips of each meshing and the edges beside a lift then share one thread.
+Worker* Refiner::worker(bool start) {
+    if (req_.threads < 2) return nullptr;
+    if (!worker_ && start) worker_.emplace();
+    return worker_ ? &*worker_ : nullptr;
+}
+
+// `lift` of `c`'s mesh (its fit timed) while the second thread counts the mesh's edges, which
+// `finish` reports: on a large mesh the count overlaps the fit's own set-up (one thread else).
+bool Refiner::lift_counting_edges(Candidate& c) {
+    const ValidFaces& f = c.meshing.mesh;
+    const index_t n_f = static_cast<index_t>(f.faces.size() / 3);
+    bool lifted = false;
+    run_both(
+        worker(n_f >= EDGES_BESIDE_MIN_FACES),
+        [&] { c.edges = count_edges(Grid<const std::int32_t>{f.faces.data(), n_f, 3}, c.meshing.n_vertices()); },
+        [&] {
+            const auto t = std::chrono::steady_clock::now();
+            lifted = lift(f, req_.fit, c.vertices);
+            if (req_.fit) out_.fit_seconds = seconds_since(t);
+        });
+    return lifted;
 }
 
 // The vertices of `f` lifted from fitted or copied depths; false when the fit declines.
@@ -783,11 +910,14 @@ bool Refiner::bounded(Candidate& c) {
 MeshResult Refiner::finish(Candidate&& c) {
     if (needs_rounds(req_) && !rounded_) {  // max_edge after a count or an error bound
         rounds(c);
+        c.edges = -1;  // (new faces)
         if (req_.max_error >= 0.0) c.achieved = measure_(c.meshing.mesh, c.vertices);
     }
     ValidFaces& mesh = c.meshing.mesh;
     const index_t n_f = static_cast<index_t>(mesh.faces.size() / 3);
-    out_.edges = count_edges(Grid<const std::int32_t>{mesh.faces.data(), n_f, 3}, c.meshing.n_vertices());
+    out_.edges = c.edges >= 0
+                     ? c.edges
+                     : count_edges(Grid<const std::int32_t>{mesh.faces.data(), n_f, 3}, c.meshing.n_vertices());
     out_.faces = std::move(mesh.faces);
     out_.pixels = std::move(mesh.pixels);
     out_.vertices = std::move(c.vertices);
@@ -907,9 +1037,7 @@ MeshResult Refiner::by_count() {
     Candidate c{req_.collapse > 1.0 ? best_of(req_.vertices) : counted(req_.vertices), {}, 0.0};
     if (c.meshing.mesh.faces.empty()) return no_face(c.meshing);
     if (needs_rounds(req_)) return finish(std::move(c));  // (the rounds lift the vertices)
-    const auto t = std::chrono::steady_clock::now();
-    if (!lift(c.meshing.mesh, req_.fit, c.vertices)) return MeshResult{};
-    if (req_.fit) out_.fit_seconds = seconds_since(t);
+    if (!lift_counting_edges(c)) return MeshResult{};
     return finish(std::move(c));
 }
 

@@ -77,11 +77,12 @@ def main(argv=None) -> int:
                 mesh = triangulate(image.depth, background=image.background, camera=camera, **kw)
                 steps = cg_steps(mesh, masked, valid, camera)
                 cells.append(f"{steps}, {peers.filled_error(mesh, masked, valid):.5f}")
-                depths.append(mesh.vertices[:, 2] if camera is None else np.linalg.norm(mesh.vertices, axis=1))
+                xyz = mesh.vertices
+                depths.append(xyz[:, 2] if camera is None else np.linalg.norm(xyz, axis=1))
             d = masked[valid]
             change = max(float(np.abs(z - depths[0]).max()) for z in depths) / float(d.max() - d.min())
-            print(f"| {image.name} | {budget} | {mesh.stats.vertices} | {' | '.join(cells)} | {100 * change:.4f} |",
-                  flush=True)
+            print(f"| {image.name} | {budget} | {mesh.stats.vertices} | {' | '.join(cells)} "
+                  f"| {100 * change:.4f} |", flush=True)
     finally:
         heights.CG_RTOL = keep
     return 0

@@ -584,7 +584,7 @@ def test_the_fit_samples_about_2000_faces_when_it_has_many():
 
 
 @given(st.integers(0, 2**31), st.integers(1, 40), st.integers(2, 50), st.integers(2, 50),
-       st.sampled_from([1, 3, 8]))
+       st.sampled_from([1, 3, 4, 8]))
 def test_face_order_sorts_by_the_cell_of_the_top_left_corner(seed, n, h, w, tile):
     # against numpy: the stable sort by (row // tile, col // tile) of each face's smallest row
     # and smallest column, cells in row-major order
@@ -600,6 +600,8 @@ def test_face_order_sorts_by_the_cell_of_the_top_left_corner(seed, n, h, w, tile
     np.testing.assert_array_equal(face_order(faces, pr, pc, h, w, tile), want)
     with pytest.raises(ValueError, match="outside the image"):
         face_order(faces, pr + h, pc, h, w, tile)
+    with pytest.raises(ValueError, match="vertex id is out of range"):
+        face_order(faces + 30, pr, pc, h, w, tile)
 
 
 def test_the_fit_does_not_depend_on_the_order_it_visits_the_faces(monkeypatch):

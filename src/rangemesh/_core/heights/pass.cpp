@@ -49,6 +49,9 @@ Corners ccw_corners(const FitMesh& mesh, index_t t) {
     return {a, b, c};
 }
 
+// Faces fewer columns wide than this test each pixel of their bounding box (no walk set-up).
+constexpr index_t BOX_MAX_WIDTH = 8;
+
 // Calls visit(la, lb, lc, value, error) for each valid pixel the face owns on the rows that are
 // multiples of `row_stride`: la, lb, lc the barycentric weights of corners a, b, c, `value` the
 // pixel's and `error` its distance to the mesh at the vertices' copied values. Returns how many
@@ -93,11 +96,42 @@ index_t visit_pixels(const FitMesh& mesh, const FitImage& image, Corners v, inde
         }
     };
     if (row_stride == 1) {
-        // every row: TriangleSpans' walk, the same spans at two edge steps a row instead of
-        // TriangleRows' three steps and three clips, and half its set-up's divisions; the edge
-        // functions at (r, c) are orient(P, Q, (r, c)) = s c - t r + k, for edge P -> Q
+        // the edge functions at (r, c) are orient(P, Q, (r, c)) = s c - t r + k, for edge P -> Q
         const index_t t0 = bc - ac, t1 = cc - bc, t2 = ac - cc;
         const index_t k0 = t0 * ar - d0 * ac, k1 = t1 * br - d1 * bc, k2 = t2 * cr - d2 * cc;
+        const index_t left = std::min(ac, std::min(bc, cc));
+        const index_t right = std::max(ac, std::max(bc, cc));
+        if (right - left < BOX_MAX_WIDTH) {
+            // a narrow face: each row's span found by stepping along its bounding box's row, no
+            // set-up beyond the edge functions. A pixel is the face's where each edge function
+            // is > 0, or 0 on an edge that owns it: the spans of TriangleRows, in the same order
+            const index_t o0 = own.ab ? 0 : 1, o1 = own.bc ? 0 : 1, o2 = own.ca ? 0 : 1;
+            // g = w - o at the box's left column: the pixel is the face's where no g is negative
+            index_t g0 = d0 * left - t0 * top + k0 - o0, g1 = d1 * left - t1 * top + k1 - o1,
+                    g2 = d2 * left - t2 * top + k2 - o2;
+            for (index_t r = top; r <= bottom; ++r, g0 -= t0, g1 -= t1, g2 -= t2) {
+                index_t h0 = g0, h1 = g1, h2 = g2, col = left;
+                while (col < right && (h0 | h1 | h2) < 0) {  // to the span's first pixel
+                    ++col;
+                    h0 += d0;
+                    h1 += d1;
+                    h2 += d2;
+                }
+                if ((h0 | h1 | h2) < 0) continue;  // none on this row
+                const index_t first = col, w0 = h0 + o0, w1 = h1 + o1, w2 = h2 + o2;
+                // to its last (a triangle is convex: its pixels on a row are one run)
+                while (col < right && ((h0 + d0) | (h1 + d1) | (h2 + d2)) >= 0) {
+                    ++col;
+                    h0 += d0;
+                    h1 += d1;
+                    h2 += d2;
+                }
+                row(r, first, col, w0, w1, w2);
+            }
+            return count;
+        }
+        // else TriangleSpans' walk, the same spans at two edge steps a row instead of
+        // TriangleRows' three steps and three clips, and half its set-up's divisions
         TriangleSpans spans(ar, ac, br, bc, cr, cc, own.ab, own.bc, own.ca);
         spans.walk([&](index_t r, index_t first, index_t last) {
             row(r, first, last, d0 * first - t0 * r + k0, d1 * first - t1 * r + k1, d2 * first - t2 * r + k2);

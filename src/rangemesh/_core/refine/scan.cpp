@@ -343,6 +343,10 @@ __attribute__((target("avx"))) double runs_sum_avx(const Image& image, const Pla
 }
 #endif
 
+// Triangles at least this many columns wide are summed by `plane_sum`, narrower ones by
+// `plane_errors` a pixel at a time.
+constexpr index_t WIDE_COLUMNS = 16;
+
 // `plane_errors`' sum over counter-clockwise ABC (area > 0) with its visit inlined; with SSE2
 // the errors (w1 zA + w2 zB + w0 zC) / area of two columns at once (each lane the IEEE operation
 // of the scalar loop, so the same errors bit for bit), added to the sum one at a time in
@@ -463,9 +467,11 @@ TriangleKey scan_triangle(const Image& image, const Corner& a, const Corner& b, 
     const index_t h = image.rows(), w = image.cols();
     Records records(image.span);
     double total = 0.0;
-    if (area > 0)
+    // a narrow triangle's rows are too short to pay for the wide loops' set-up (and a raw call's
+    // triangle may be turned the wrong way or flat)
+    if (area > 0 && std::max({a.c, b.c, cn.c}) - std::min({a.c, b.c, cn.c}) + 1 >= WIDE_COLUMNS)
         total = plane_sum(image, a, b, cn, own, records);
-    else  // (a raw call's triangle turned the wrong way or flat)
+    else
         plane_errors(
             image, {a.r, a.c, a.z}, {b.r, b.c, b.z}, {cn.r, cn.c, cn.z}, own,
             [&](index_t r, index_t c, double err) {

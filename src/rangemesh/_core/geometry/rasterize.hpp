@@ -2,6 +2,7 @@
 #pragma once
 
 #include "../views.hpp"
+#include "pixels.hpp"
 
 namespace rangemesh {
 
@@ -30,5 +31,18 @@ struct ValueTarget {
 };
 
 void rasterize(FaceValues faces, ValueTarget out);
+
+// How a render's stored value reads as depth: as it is, 1 / value, or 1 / value / scale.
+struct DepthMap {
+    enum Kind { same, inverse, inverse_scaled } kind = same;
+    double scale = 1.0;
+};
+
+// `covered_error(pred, claimed, depth, valid, map, range)`: |map(pred) - depth| summed over the
+// valid pixels a render claimed where map(pred) is finite, and their number, and with `range`
+// `valid_range(depth, valid)`; the same total, count and range bit for bit (four pixels at once
+// where AVX runs, the sum still added in row-major order).
+CoveredError claimed_error(Grid<const double> pred, Grid<const unsigned char> claimed, Grid<const double> depth,
+                           Grid<const bool> valid, DepthMap map, DepthRange* range);
 
 }  // namespace rangemesh

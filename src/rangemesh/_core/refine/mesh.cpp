@@ -662,14 +662,11 @@ class ErrorMeasure {
         DepthRange* range = has_range_ ? nullptr : &range_;
         const Grid<const double> pred{b.pred.get(), ref_.depth.rows, w};
         const Grid<const unsigned char> claimed{b.claimed.data(), ref_.depth.rows, w};
-        const double scale = camera_[5];
-        const CoveredError e =
-            !inverse ? covered_error(
-                           pred, claimed, ref_.depth, ref_.valid, [](double p) { return p; }, range)
-            : stored ? covered_error(
-                           pred, claimed, ref_.depth, ref_.valid, [](double p) { return 1.0 / p; }, range)
-                     : covered_error(
-                           pred, claimed, ref_.depth, ref_.valid, [scale](double p) { return 1.0 / p / scale; }, range);
+        const DepthMap map{!inverse ? DepthMap::same
+                           : stored ? DepthMap::inverse
+                                    : DepthMap::inverse_scaled,
+                           camera_[5]};
+        const CoveredError e = claimed_error(pred, claimed, ref_.depth, ref_.valid, map, range);
         has_range_ = true;
         if (e.count == 0) return std::numeric_limits<double>::quiet_NaN();
         return per_span(e.total / static_cast<double>(e.count), range_.hi - range_.lo);

@@ -2,12 +2,29 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 #include <limits>
+#include <vector>
 
 #include "../geometry/ownership.hpp"
 #include "../geometry/predicates.hpp"
 #include "../geometry/raster.hpp"
 #include "keys.hpp"
+
+#if defined(__SSE2__) || defined(_M_X64) || (defined(_M_IX86_FP) && _M_IX86_FP >= 2)
+#include <emmintrin.h>
+#define RANGEMESH_SCAN_SSE2 1
+#else
+#define RANGEMESH_SCAN_SSE2 0
+#endif
+// AVX where the compiler can target it in one function and the processor has it (asked at run time)
+#if (defined(__GNUC__) || defined(__clang__)) && (defined(__x86_64__) || defined(__i386__))
+#include <immintrin.h>
+#define RANGEMESH_SCAN_AVX 1
+#else
+#define RANGEMESH_SCAN_AVX 0
+#endif
 
 namespace rangemesh::refine {
 
@@ -158,6 +175,277 @@ class Records {
     index_t n_ = 0;
 };
 
+// A pixel's error against the records: the scan's rule, one pixel at a time in row-major order.
+inline void note(Records& records, index_t r, index_t c, double err, const Corner& a, const Corner& b,
+                 const Corner& cn) {
+    if (err > records.largest() && !is_corner(r, c, a, b, cn)) records.add(r, c, err);
+}
+
+// A triangle's plane, `plane_errors`' way: its corners' depths, 1 / area, and the edge functions
+// w = s col - t r + k (for edge P -> Q, s = qr - pr, t = qc - pc), which grow by f = s a column.
+struct PlaneRows {
+    double az, bz, cz, inv;
+    index_t s0, t0, k0, s1, t1, k1, s2, t2, k2;
+    double f0, f1, f2;
+
+    PlaneRows(const Corner& a, const Corner& b, const Corner& cn)
+        : az(a.z),
+          bz(b.z),
+          cz(cn.z),
+          inv(1.0 / static_cast<double>(orient(a.r, a.c, b.r, b.c, cn.r, cn.c))),
+          s0(b.r - a.r),
+          t0(b.c - a.c),
+          k0(t0 * a.r - s0 * a.c),
+          s1(cn.r - b.r),
+          t1(cn.c - b.c),
+          k1(t1 * b.r - s1 * b.c),
+          s2(a.r - cn.r),
+          t2(a.c - cn.c),
+          k2(t2 * cn.r - s2 * cn.c),
+          f0(static_cast<double>(s0)),
+          f1(static_cast<double>(s1)),
+          f2(static_cast<double>(s2)) {}
+
+    // |depth - plane| at a column whose edge functions are w0, w1, w2: the one formula.
+    double error(double depth, double w0, double w1, double w2) const {
+        return std::abs(depth - (w1 * az + w2 * bz + w0 * cz) * inv);
+    }
+};
+
+// One row's pixels of a triangle: columns first..last of row r, and the edge functions at `first`.
+struct RowRun {
+    index_t r, first, last;
+    double w0, w1, w2;
+};
+
+// The scalar loop over columns col..last of row r from edge functions w0, w1, w2.
+inline void row_sum(const Image& image, const PlaneRows& p, index_t r, index_t col, index_t last, double w0, double w1,
+                    double w2, double& total, Records& records, const Corner& a, const Corner& b, const Corner& cn) {
+    const double* drow = image.depth.row(r);
+    const bool* vrow = image.valid.row(r);
+    for (; col <= last; ++col) {
+        if (vrow[col]) {
+            const double err = p.error(drow[col], w0, w1, w2);
+            total += err;
+            note(records, r, col, err, a, b, cn);
+        }
+        w0 += p.f0;
+        w1 += p.f1;
+        w2 += p.f2;
+    }
+}
+
+#if RANGEMESH_SCAN_AVX
+// Whether the processor (and its system) runs AVX: asked once.
+bool has_avx() {
+    static const bool avx = (__builtin_cpu_init(), __builtin_cpu_supports("avx") != 0);
+    return avx;
+}
+
+// Four lanes' masks: lane k all ones where bit k of the index is set.
+alignas(32) constexpr std::uint64_t LANE_MASKS[16][4] = {
+    {0, 0, 0, 0},         {~0ull, 0, 0, 0},         {0, ~0ull, 0, 0},         {~0ull, ~0ull, 0, 0},
+    {0, 0, ~0ull, 0},     {~0ull, 0, ~0ull, 0},     {0, ~0ull, ~0ull, 0},     {~0ull, ~0ull, ~0ull, 0},
+    {0, 0, 0, ~0ull},     {~0ull, 0, 0, ~0ull},     {0, ~0ull, 0, ~0ull},     {~0ull, ~0ull, 0, ~0ull},
+    {0, 0, ~0ull, ~0ull}, {~0ull, 0, ~0ull, ~0ull}, {0, ~0ull, ~0ull, ~0ull}, {~0ull, ~0ull, ~0ull, ~0ull}};
+
+// What a group of four columns reads besides its row: the plane's lanes.
+struct FourLanes {
+    __m256d za, zb, zc, scale, magnitude, g0, g1, g2;
+};
+
+// The errors of the four columns from `col` (edge functions v0, v1, v2, moved on four columns),
+// those of the lanes in `lanes` that are valid added to `total` one at a time, in order.
+__attribute__((target("avx"), always_inline)) inline void sum_four(const double* drow, const bool* vrow, index_t r,
+                                                                   index_t col, unsigned lanes, const FourLanes& k,
+                                                                   __m256d& v0, __m256d& v1, __m256d& v2, __m256d& top,
+                                                                   double& total, Records& records, const Corner& a,
+                                                                   const Corner& b, const Corner& cn) {
+    const __m256d plane = _mm256_mul_pd(
+        _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(v1, k.za), _mm256_mul_pd(v2, k.zb)), _mm256_mul_pd(v0, k.zc)),
+        k.scale);
+    __m256d err = _mm256_and_pd(_mm256_sub_pd(_mm256_loadu_pd(drow + col), plane), k.magnitude);
+    v0 = _mm256_add_pd(v0, k.g0);
+    v1 = _mm256_add_pd(v1, k.g1);
+    v2 = _mm256_add_pd(v2, k.g2);
+    // the valid pixels' bytes (0 or 1) gathered into bits 0..3 by one product
+    std::uint32_t four;
+    std::memcpy(&four, vrow + col, sizeof four);
+    const unsigned counted = ((four * 0x01020408u) >> 24) & lanes;
+    err = _mm256_and_pd(err, _mm256_load_pd(reinterpret_cast<const double*>(LANE_MASKS[counted])));
+    if (_mm256_movemask_pd(_mm256_cmp_pd(err, top, _CMP_GT_OQ)) == 0) {  // no record
+        const __m128d lo = _mm256_castpd256_pd128(err), hi = _mm256_extractf128_pd(err, 1);
+        total += _mm_cvtsd_f64(lo);
+        total += _mm_cvtsd_f64(_mm_unpackhi_pd(lo, lo));
+        total += _mm_cvtsd_f64(hi);
+        total += _mm_cvtsd_f64(_mm_unpackhi_pd(hi, hi));
+        return;
+    }
+    alignas(32) double e[4];
+    _mm256_store_pd(e, err);
+    for (index_t j = 0; j < 4; ++j)
+        if ((counted >> j) & 1u) {
+            total += e[j];
+            note(records, r, col + j, e[j], a, b, cn);
+        }
+    top = _mm256_set1_pd(records.largest());
+}
+
+// The rows' sum, four columns at once: each lane the IEEE operation of the scalar loop (the
+// edge functions w + j f and w + 4 f are whole numbers below 2^53, exact), the errors added to
+// the sum one at a time in row-major order, 0 for a pixel not counted (invalid, or past the
+// row's last: the sum starts at +0 and only grows, so adding +0 changes nothing), and four
+// errors that all stay at or below the largest so far checked against the records once. A
+// row's last group reads its four columns even past its last, within the image row; within 3
+// columns of the image's right side the scalar loop goes on.
+__attribute__((target("avx"))) double runs_sum_avx(const Image& image, const PlaneRows& p, const RowRun* runs,
+                                                   index_t n_runs, Records& records, const Corner& a, const Corner& b,
+                                                   const Corner& cn) {
+    const index_t cols = image.cols();
+    const FourLanes k{_mm256_set1_pd(p.az),
+                      _mm256_set1_pd(p.bz),
+                      _mm256_set1_pd(p.cz),
+                      _mm256_set1_pd(p.inv),
+                      _mm256_castsi256_pd(_mm256_set1_epi64x(0x7fffffffffffffff)),
+                      _mm256_set1_pd(4.0 * p.f0),
+                      _mm256_set1_pd(4.0 * p.f1),
+                      _mm256_set1_pd(4.0 * p.f2)};
+    const __m256d lane = _mm256_set_pd(3.0, 2.0, 1.0, 0.0);
+    const __m256d d0 = _mm256_mul_pd(lane, _mm256_set1_pd(p.f0)), d1 = _mm256_mul_pd(lane, _mm256_set1_pd(p.f1)),
+                  d2 = _mm256_mul_pd(lane, _mm256_set1_pd(p.f2));
+    double total = 0.0;
+    __m256d top = _mm256_set1_pd(records.largest());
+    for (index_t i = 0; i < n_runs; ++i) {
+        const RowRun& run = runs[i];
+        const index_t r = run.r, last = run.last;
+        // (the image row's last four columns start at `cols - 4`)
+        const index_t end = std::min(last, cols - 1) - 3;
+        index_t col = run.first;
+        const double* drow = image.depth.row(r);
+        const bool* vrow = image.valid.row(r);
+        __m256d v0 = _mm256_add_pd(_mm256_set1_pd(run.w0), d0);
+        __m256d v1 = _mm256_add_pd(_mm256_set1_pd(run.w1), d1);
+        __m256d v2 = _mm256_add_pd(_mm256_set1_pd(run.w2), d2);
+        for (; col <= end; col += 4) sum_four(drow, vrow, r, col, 15u, k, v0, v1, v2, top, total, records, a, b, cn);
+        if (col <= last && col + 3 < cols) {  // the row's last pixels, 1 to 3
+            sum_four(drow, vrow, r, col, (1u << static_cast<unsigned>(last - col + 1)) - 1u, k, v0, v1, v2, top, total,
+                     records, a, b, cn);
+            col += 4;
+        }
+        if (col <= last) {
+            row_sum(image, p, r, col, last, _mm_cvtsd_f64(_mm256_castpd256_pd128(v0)),
+                    _mm_cvtsd_f64(_mm256_castpd256_pd128(v1)), _mm_cvtsd_f64(_mm256_castpd256_pd128(v2)), total,
+                    records, a, b, cn);
+            top = _mm256_set1_pd(records.largest());
+        }
+    }
+    return total;
+}
+#endif
+
+// Triangles at least this many columns wide are summed by `plane_sum`, narrower ones by
+// `plane_errors` a pixel at a time.
+constexpr index_t WIDE_COLUMNS = 16;
+
+// `plane_errors`' sum over counter-clockwise ABC (area > 0) with its visit inlined; with SSE2
+// the errors (w1 zA + w2 zB + w0 zC) / area of two columns at once (each lane the IEEE operation
+// of the scalar loop, so the same errors bit for bit), added to the sum one at a time in
+// row-major order, and a pair of valid pixels whose errors both stay at or below the largest
+// so far checked against the records once.
+double plane_sum(const Image& image, const Corner& a, const Corner& b, const Corner& cn, EdgeOwnership own,
+                 Records& records) {
+#if RANGEMESH_SCAN_AVX
+    if (has_avx()) {  // the rows first, then their pixels in one function of AVX code
+        thread_local std::vector<RowRun> kept;  // room for a run a row, kept for the thread's next scan
+        TriangleSpans spans(a.r, a.c, b.r, b.c, cn.r, cn.c, own.ab, own.bc, own.ca);
+        std::vector<RowRun>& runs = kept;
+        const std::size_t rows = static_cast<std::size_t>(spans.bottom() - spans.top() + 1);
+        if (runs.size() < rows) runs.resize(rows);
+        RowRun* const out = runs.data();
+        index_t n = 0;
+        const PlaneRows p(a, b, cn);
+        spans.walk([&](index_t r, index_t first, index_t last) {
+            out[n++] = RowRun{r,
+                              first,
+                              last,
+                              static_cast<double>(p.s0 * first - p.t0 * r + p.k0),
+                              static_cast<double>(p.s1 * first - p.t1 * r + p.k1),
+                              static_cast<double>(p.s2 * first - p.t2 * r + p.k2)};
+            return true;
+        });
+        return runs_sum_avx(image, p, out, n, records, a, b, cn);
+    }
+#endif
+    const index_t area = orient(a.r, a.c, b.r, b.c, cn.r, cn.c);
+    const double inv = 1.0 / static_cast<double>(area);
+    const double az = a.z, bz = b.z, cz = cn.z;
+    const index_t s0 = b.r - a.r, t0 = b.c - a.c, s1 = cn.r - b.r, t1 = cn.c - b.c, s2 = a.r - cn.r, t2 = a.c - cn.c;
+    const index_t k0 = t0 * a.r - s0 * a.c, k1 = t1 * b.r - s1 * b.c, k2 = t2 * cn.r - s2 * cn.c;
+    const double f0 = static_cast<double>(s0), f1 = static_cast<double>(s1), f2 = static_cast<double>(s2);
+    double total = 0.0;
+#if RANGEMESH_SCAN_SSE2
+    const __m128d za = _mm_set1_pd(az), zb = _mm_set1_pd(bz), zc = _mm_set1_pd(cz), scale = _mm_set1_pd(inv);
+    const __m128d magnitude = _mm_castsi128_pd(_mm_set1_epi64x(0x7fffffffffffffff));
+    // (the edge functions are whole numbers below 2^53: w + 2 f is (w + f) + f exactly)
+    const __m128d g0 = _mm_set1_pd(2.0 * f0), g1 = _mm_set1_pd(2.0 * f1), g2 = _mm_set1_pd(2.0 * f2);
+#endif
+    TriangleSpans spans(a.r, a.c, b.r, b.c, cn.r, cn.c, own.ab, own.bc, own.ca);
+    spans.walk([&](index_t r, index_t first, index_t last) {
+        const double* drow = image.depth.row(r);
+        const bool* vrow = image.valid.row(r);
+        double w0 = static_cast<double>(s0 * first - t0 * r + k0);
+        double w1 = static_cast<double>(s1 * first - t1 * r + k1);
+        double w2 = static_cast<double>(s2 * first - t2 * r + k2);
+        index_t col = first;
+#if RANGEMESH_SCAN_SSE2
+        if (col < last) {
+            __m128d v0 = _mm_set_pd(w0 + f0, w0), v1 = _mm_set_pd(w1 + f1, w1), v2 = _mm_set_pd(w2 + f2, w2);
+            __m128d top = _mm_set1_pd(records.largest());
+            for (; col < last; col += 2) {
+                const __m128d plane = _mm_mul_pd(
+                    _mm_add_pd(_mm_add_pd(_mm_mul_pd(v1, za), _mm_mul_pd(v2, zb)), _mm_mul_pd(v0, zc)), scale);
+                const __m128d err = _mm_and_pd(_mm_sub_pd(_mm_loadu_pd(drow + col), plane), magnitude);
+                v0 = _mm_add_pd(v0, g0);
+                v1 = _mm_add_pd(v1, g1);
+                v2 = _mm_add_pd(v2, g2);
+                const double e0 = _mm_cvtsd_f64(err), e1 = _mm_cvtsd_f64(_mm_unpackhi_pd(err, err));
+                std::uint16_t both;
+                std::memcpy(&both, vrow + col, sizeof both);
+                if (both == 0x0101 && _mm_movemask_pd(_mm_cmpgt_pd(err, top)) == 0) {  // valid, no record
+                    total += e0;
+                    total += e1;
+                    continue;
+                }
+                if (vrow[col]) {
+                    total += e0;
+                    note(records, r, col, e0, a, b, cn);
+                }
+                if (vrow[col + 1]) {
+                    total += e1;
+                    note(records, r, col + 1, e1, a, b, cn);
+                }
+                top = _mm_set1_pd(records.largest());
+            }
+            w0 = _mm_cvtsd_f64(v0);
+            w1 = _mm_cvtsd_f64(v1);
+            w2 = _mm_cvtsd_f64(v2);
+        }
+#endif
+        for (; col <= last; ++col) {
+            if (vrow[col]) {
+                const double err = std::abs(drow[col] - (w1 * az + w2 * bz + w0 * cz) * inv);
+                total += err;
+                note(records, r, col, err, a, b, cn);
+            }
+            w0 += f0;
+            w1 += f1;
+            w2 += f2;
+        }
+        return true;
+    });
+    return total;
+}
+
 }  // namespace
 
 TriangleKey scan_triangle(const Image& image, const Corner& a, const Corner& b, const Corner& cn, EdgeOwnership own) {
@@ -179,13 +467,18 @@ TriangleKey scan_triangle(const Image& image, const Corner& a, const Corner& b, 
     const index_t h = image.rows(), w = image.cols();
     Records records(image.span);
     double total = 0.0;
-    plane_errors(
-        image, {a.r, a.c, a.z}, {b.r, b.c, b.z}, {cn.r, cn.c, cn.z}, own,
-        [&](index_t r, index_t c, double err) {
-            total += err;
-            if (err > records.largest() && !is_corner(r, c, a, b, cn)) records.add(r, c, err);
-        },
-        [] { return true; });
+    // a narrow triangle's rows are too short to pay for the wide loops' set-up (and a raw call's
+    // triangle may be turned the wrong way or flat)
+    if (area > 0 && std::max({a.c, b.c, cn.c}) - std::min({a.c, b.c, cn.c}) + 1 >= WIDE_COLUMNS)
+        total = plane_sum(image, a, b, cn, own, records);
+    else
+        plane_errors(
+            image, {a.r, a.c, a.z}, {b.r, b.c, b.z}, {cn.r, cn.c, cn.z}, own,
+            [&](index_t r, index_t c, double err) {
+                total += err;
+                note(records, r, c, err, a, b, cn);
+            },
+            [] { return true; });
     const Records::Entry first = records.first_of_largest_key();
     double best = first.key, best_err = first.err;
     index_t best_r = first.r, best_c = first.c;

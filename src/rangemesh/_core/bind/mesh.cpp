@@ -9,6 +9,7 @@
 #include <limits>
 #include <memory>
 #include <optional>
+#include <utility>
 #include <vector>
 
 #include "../geometry/pixels.hpp"
@@ -165,27 +166,119 @@ refine::DirectSolve direct_of(nb::handle direct_solve) {
 // A 2-D C-contiguous image of any dtype: `refine_image` dispatches on it (one kernel a dtype, no copy).
 using AnyImage = nb::ndarray<nb::ro, nb::ndim<2>, nb::c_contig, nb::device::cpu>;
 
+// The count and extremes of the valid depths, taken a row at a time (as `valid_range`: four
+// lanes with no branch). The bounds are those of any order but for a zero's sign, which a small
+// call never reads: a range holding 0 declines.
+class RangeLanes {
+  public:
+    void add_row(const double* d, const bool* v, index_t cols) {
+        index_t c = 0;
+        for (; c + LANES <= cols; c += LANES)
+            for (int k = 0; k < LANES; ++k) take(k, v[c + k], d[c + k]);
+        for (; c < cols; ++c) take(0, v[c], d[c]);
+    }
+    DepthRange range() const {
+        DepthRange out;
+        if (count_ == 0) return out;
+        out.count = count_;
+        out.lo = lo_[0];
+        out.hi = hi_[0];
+        for (int k = 1; k < LANES; ++k) {
+            if (lo_[k] < out.lo) out.lo = lo_[k];
+            if (hi_[k] > out.hi) out.hi = hi_[k];
+        }
+        return out;
+    }
+
+  private:
+    static constexpr int LANES = 4;
+    double lo_[LANES] = {INFINITY, INFINITY, INFINITY, INFINITY};
+    double hi_[LANES] = {-INFINITY, -INFINITY, -INFINITY, -INFINITY};
+    index_t count_ = 0;
+
+    void take(int k, bool ok, double x) {
+        count_ += ok ? 1 : 0;
+        const double below = ok ? x : INFINITY, above = ok ? x : -INFINITY;
+        lo_[k] = below < lo_[k] ? below : lo_[k];
+        hi_[k] = above > hi_[k] ? above : hi_[k];
+    }
+};
+
+// `mask_image` and the valid range of its result in one pass, a row at a time while it is in
+// cache; false for another dtype.
 template <class T>
-bool mask_as(const AnyImage& image, bool has_background, double background, Grid<double> depth, Grid<bool> valid) {
+bool mask_as(const AnyImage& image, bool has_background, double background, Grid<double> depth, Grid<bool> valid,
+             RangeLanes& lanes) {
     if (image.dtype() != nb::dtype<T>()) return false;
-    mask_image(Grid<const T>{static_cast<const T*>(image.data()), depth.rows, depth.cols}, has_background, background,
-               depth, valid);
+    const T* in = static_cast<const T*>(image.data());
+    for (index_t r = 0; r < depth.rows; ++r) {
+        mask_image(Grid<const T>{in + r * depth.cols, 1, depth.cols}, has_background, background,
+                   Grid<double>{depth.row(r), 1, depth.cols}, Grid<bool>{valid.row(r), 1, depth.cols});
+        lanes.add_row(depth.row(r), valid.row(r), depth.cols);
+    }
     return true;
 }
 
-// `mask_image` of an image of a dtype the kernels take; false for another dtype.
-bool mask_any(const AnyImage& image, bool has_background, double background, Grid<double> depth, Grid<bool> valid) {
-    return mask_as<double>(image, has_background, background, depth, valid) ||
-           mask_as<float>(image, has_background, background, depth, valid) ||
-           mask_as<std::uint16_t>(image, has_background, background, depth, valid) ||
-           mask_as<std::uint8_t>(image, has_background, background, depth, valid) ||
-           mask_as<std::int16_t>(image, has_background, background, depth, valid) ||
-           mask_as<std::int32_t>(image, has_background, background, depth, valid) ||
-           mask_as<std::uint32_t>(image, has_background, background, depth, valid) ||
-           mask_as<std::int64_t>(image, has_background, background, depth, valid) ||
-           mask_as<std::uint64_t>(image, has_background, background, depth, valid) ||
-           mask_as<std::int8_t>(image, has_background, background, depth, valid);
+// `mask_image` of an image of a dtype the kernels take and its valid range; false for another dtype.
+bool mask_any(const AnyImage& image, bool has_background, double background, Grid<double> depth, Grid<bool> valid,
+              RangeLanes& lanes) {
+    return mask_as<double>(image, has_background, background, depth, valid, lanes) ||
+           mask_as<float>(image, has_background, background, depth, valid, lanes) ||
+           mask_as<std::uint16_t>(image, has_background, background, depth, valid, lanes) ||
+           mask_as<std::uint8_t>(image, has_background, background, depth, valid, lanes) ||
+           mask_as<std::int16_t>(image, has_background, background, depth, valid, lanes) ||
+           mask_as<std::int32_t>(image, has_background, background, depth, valid, lanes) ||
+           mask_as<std::uint32_t>(image, has_background, background, depth, valid, lanes) ||
+           mask_as<std::int64_t>(image, has_background, background, depth, valid, lanes) ||
+           mask_as<std::uint64_t>(image, has_background, background, depth, valid, lanes) ||
+           mask_as<std::int8_t>(image, has_background, background, depth, valid, lanes);
 }
+
+// A small call's masked image, kept by its thread from call to call (at most KEPT_PIXELS): a
+// call takes them (none left behind, so a nested or failed call finds none) and gives them back.
+struct ImageBuffers {
+    static constexpr index_t KEPT_PIXELS = index_t{1} << 13;  // 72 kB; a small image has < 2000 pixels
+    std::unique_ptr<double[]> depth;
+    std::unique_ptr<bool[]> valid;
+    index_t size = 0;
+
+    static ImageBuffers& of_thread() {
+        static thread_local ImageBuffers kept;
+        return kept;
+    }
+    void swap(ImageBuffers& o) noexcept {
+        depth.swap(o.depth);
+        valid.swap(o.valid);
+        std::swap(size, o.size);
+    }
+};
+
+// Buffers for `n` pixels: the thread's kept ones when they are large enough, else new; given back
+// at the end when they are at most KEPT_PIXELS and larger than any the thread kept meanwhile.
+class ImageLease {
+  public:
+    explicit ImageLease(index_t n) {
+        ImageBuffers& kept = ImageBuffers::of_thread();
+        if (kept.size >= n) {
+            own_.swap(kept);
+            return;
+        }
+        own_.depth.reset(new double[static_cast<std::size_t>(n)]);
+        own_.valid.reset(new bool[static_cast<std::size_t>(n)]);
+        own_.size = n;
+    }
+    ~ImageLease() {
+        ImageBuffers& kept = ImageBuffers::of_thread();
+        if (own_.size <= ImageBuffers::KEPT_PIXELS && own_.size > kept.size) own_.swap(kept);
+    }
+    ImageLease(const ImageLease&) = delete;
+    ImageLease& operator=(const ImageLease&) = delete;
+    double* depth() const { return own_.depth.get(); }
+    bool* valid() const { return own_.valid.get(); }
+
+  private:
+    ImageBuffers own_;
+};
 
 double seconds_since(std::chrono::steady_clock::time_point t) {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
@@ -207,21 +300,26 @@ nb::object refine_image(const AnyImage& image, double background, bool fill_gaps
     check_input(rows >= 2 && cols >= 2, "refine_image: an image of at least 2x2 pixels");
     check_input(min_valid >= asked.vertices && asked.vertices > 0 && band >= 1.0,
                 "refine_image: min_valid at least the vertices asked, above 0; band at least 1");
-    std::vector<double> depth(static_cast<std::size_t>(n));
-    const std::unique_ptr<bool[]> valid(new bool[static_cast<std::size_t>(n)]);
+    const ImageLease buffers(n);
+    double* const depth = buffers.depth();
+    bool* const valid = buffers.valid();
     std::unique_ptr<bool[]> before;  // the mask before gaps are filled: an error bound's reference
-    const Grid<double> d{depth.data(), rows, cols};
-    const Grid<bool> v{valid.get(), rows, cols};
+    const Grid<double> d{depth, rows, cols};
+    const Grid<bool> v{valid, rows, cols};
     const DepthRange range = run_released(
         [&] {
-            check_input(mask_any(image, has_background, background, d, v),
+            RangeLanes lanes;
+            check_input(mask_any(image, has_background, background, d, v, lanes),
                         "refine_image: image of float32, float64 or an integer dtype");
-            if (reference_before_fill && fill_gaps) {
+            DepthRange masked = lanes.range();
+            // (with no invalid pixel there is no gap to fill: the mask is the reference)
+            if (!fill_gaps || masked.count == n) return masked;
+            if (reference_before_fill) {
                 before.reset(new bool[static_cast<std::size_t>(n)]);
-                std::copy(valid.get(), valid.get() + n, before.get());
+                std::copy(valid, valid + n, before.get());
             }
-            if (fill_gaps) paper::fill_gaps_inplace(d, v);
-            return valid_range(Grid<const double>{depth.data(), rows, cols}, Grid<const bool>{valid.get(), rows, cols});
+            paper::fill_gaps_inplace(d, v);
+            return valid_range(Grid<const double>{depth, rows, cols}, Grid<const bool>{valid, rows, cols});
         },
         n);
     const double top = std::max(std::abs(range.lo), std::abs(range.hi));
@@ -235,7 +333,7 @@ nb::object refine_image(const AnyImage& image, double background, bool fill_gaps
     static constexpr double unit[6] = {0.0, 1.0, 1.0, 1.0, 0.0, 0.0};  // Orthographic().as_array()
     const Span<const double> camera{unit, 6};
     check_request(req, rows, cols, camera);
-    const refine::Image img{{depth.data(), rows, cols}, {valid.get(), rows, cols}, req.hi - req.lo};
+    const refine::Image img{{depth, rows, cols}, {valid, rows, cols}, req.hi - req.lo};
     const refine::Reference ref{img.depth, before ? Grid<const bool>{before.get(), rows, cols} : img.valid};
     const refine::DirectSolve direct = direct_of(direct_solve);
     const double prepare = seconds_since(t0);

@@ -2,13 +2,20 @@
 // with named fields, one function between them.
 #include <nanobind/stl/optional.h>
 
+// NumPy's C API in this file alone (its table a static of this translation unit), for NumPy 1.26 on
+#define NPY_NO_DEPRECATED_API NPY_1_25_API_VERSION
+#define NPY_TARGET_VERSION NPY_1_25_API_VERSION
+#include <numpy/arrayobject.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <limits>
 #include <memory>
 #include <optional>
+#include <type_traits>
 #include <utility>
 #include <vector>
 
@@ -166,16 +173,18 @@ refine::DirectSolve direct_of(nb::handle direct_solve) {
 // A 2-D C-contiguous image of any dtype: `refine_image` dispatches on it (one kernel a dtype, no copy).
 using AnyImage = nb::ndarray<nb::ro, nb::ndim<2>, nb::c_contig, nb::device::cpu>;
 
-// The count and extremes of the valid depths, taken a row at a time (as `valid_range`: four
-// lanes with no branch). The bounds are those of any order but for a zero's sign, which a small
-// call never reads: a range holding 0 declines.
+// The count and extremes of the valid depths (as `valid_range`: four lanes with no branch). The
+// bounds are those of any order but for a zero's sign, which a small call never reads: a range
+// holding 0 declines.
 class RangeLanes {
   public:
-    void add_row(const double* d, const bool* v, index_t cols) {
-        index_t c = 0;
-        for (; c + LANES <= cols; c += LANES)
-            for (int k = 0; k < LANES; ++k) take(k, v[c + k], d[c + k]);
-        for (; c < cols; ++c) take(0, v[c], d[c]);
+    static constexpr int LANES = 4;
+
+    void take(int k, bool ok, double x) {
+        count_ += ok ? 1 : 0;
+        const double below = ok ? x : INFINITY, above = ok ? x : -INFINITY;
+        lo_[k] = below < lo_[k] ? below : lo_[k];
+        hi_[k] = above > hi_[k] ? above : hi_[k];
     }
     DepthRange range() const {
         DepthRange out;
@@ -191,47 +200,52 @@ class RangeLanes {
     }
 
   private:
-    static constexpr int LANES = 4;
     double lo_[LANES] = {INFINITY, INFINITY, INFINITY, INFINITY};
     double hi_[LANES] = {-INFINITY, -INFINITY, -INFINITY, -INFINITY};
     index_t count_ = 0;
-
-    void take(int k, bool ok, double x) {
-        count_ += ok ? 1 : 0;
-        const double below = ok ? x : INFINITY, above = ok ? x : -INFINITY;
-        lo_[k] = below < lo_[k] ? below : lo_[k];
-        hi_[k] = above > hi_[k] ? above : hi_[k];
-    }
 };
 
-// `mask_image` and the valid range of its result in one pass, a row at a time while it is in
-// cache; false for another dtype.
+// `mask_image` and the valid range of its result in one loop over the pixels (a third of the
+// two passes' instructions on a small image); false for another dtype. `mask_image`'s rule on
+// each pixel: NaN, inf and `bg` (NaN: none) are invalid, compared as float64 (for an integer
+// type of 4 bytes or less the same as its compare as T: such a value is exact in float64).
 template <class T>
-bool mask_as(const AnyImage& image, bool has_background, double background, Grid<double> depth, Grid<bool> valid,
-             RangeLanes& lanes) {
+bool mask_as(const AnyImage& image, double bg, Grid<double> depth, Grid<bool> valid, RangeLanes& lanes) {
     if (image.dtype() != nb::dtype<T>()) return false;
+    constexpr double big = std::numeric_limits<double>::max();
+    constexpr int LANES = RangeLanes::LANES;
+    const auto put = [&](int k, T value, double& d, bool& v) {
+        const double x = static_cast<double>(value);
+        const bool ok = static_cast<bool>(static_cast<int>(std::abs(x) <= big) & static_cast<int>(x != bg));
+        d = ok ? x : 0.0;
+        v = ok;
+        lanes.take(k, ok, x);
+    };
     const T* in = static_cast<const T*>(image.data());
     for (index_t r = 0; r < depth.rows; ++r) {
-        mask_image(Grid<const T>{in + r * depth.cols, 1, depth.cols}, has_background, background,
-                   Grid<double>{depth.row(r), 1, depth.cols}, Grid<bool>{valid.row(r), 1, depth.cols});
-        lanes.add_row(depth.row(r), valid.row(r), depth.cols);
+        poll_interrupt();
+        const T* row = in + r * depth.cols;
+        double* d = depth.row(r);
+        bool* v = valid.row(r);
+        index_t c = 0;
+        for (; c + LANES <= depth.cols; c += LANES)
+            for (int k = 0; k < LANES; ++k) put(k, row[c + k], d[c + k], v[c + k]);
+        for (; c < depth.cols; ++c) put(0, row[c], d[c], v[c]);
     }
     return true;
 }
 
 // `mask_image` of an image of a dtype the kernels take and its valid range; false for another dtype.
-bool mask_any(const AnyImage& image, bool has_background, double background, Grid<double> depth, Grid<bool> valid,
-              RangeLanes& lanes) {
-    return mask_as<double>(image, has_background, background, depth, valid, lanes) ||
-           mask_as<float>(image, has_background, background, depth, valid, lanes) ||
-           mask_as<std::uint16_t>(image, has_background, background, depth, valid, lanes) ||
-           mask_as<std::uint8_t>(image, has_background, background, depth, valid, lanes) ||
-           mask_as<std::int16_t>(image, has_background, background, depth, valid, lanes) ||
-           mask_as<std::int32_t>(image, has_background, background, depth, valid, lanes) ||
-           mask_as<std::uint32_t>(image, has_background, background, depth, valid, lanes) ||
-           mask_as<std::int64_t>(image, has_background, background, depth, valid, lanes) ||
-           mask_as<std::uint64_t>(image, has_background, background, depth, valid, lanes) ||
-           mask_as<std::int8_t>(image, has_background, background, depth, valid, lanes);
+bool mask_any(const AnyImage& image, double bg, Grid<double> depth, Grid<bool> valid, RangeLanes& lanes) {
+    return mask_as<double>(image, bg, depth, valid, lanes) || mask_as<float>(image, bg, depth, valid, lanes) ||
+           mask_as<std::uint16_t>(image, bg, depth, valid, lanes) ||
+           mask_as<std::uint8_t>(image, bg, depth, valid, lanes) ||
+           mask_as<std::int16_t>(image, bg, depth, valid, lanes) ||
+           mask_as<std::int32_t>(image, bg, depth, valid, lanes) ||
+           mask_as<std::uint32_t>(image, bg, depth, valid, lanes) ||
+           mask_as<std::int64_t>(image, bg, depth, valid, lanes) ||
+           mask_as<std::uint64_t>(image, bg, depth, valid, lanes) ||
+           mask_as<std::int8_t>(image, bg, depth, valid, lanes);
 }
 
 // A small call's masked image, kept by its thread from call to call (at most KEPT_PIXELS): a
@@ -280,6 +294,22 @@ class ImageLease {
     ImageBuffers own_;
 };
 
+// A new NumPy array of `rows` x `cols` values copied from `values`: a small call's result. Made by
+// NumPy's C API, it costs a tenth of a nanobind export (numpy.asarray of a DLPack view, then its
+// owner's chain of deallocations): 11K instructions of the 16 x 16 call's three arrays.
+template <class T>
+nb::object numpy_copy(const std::vector<T>& values, std::size_t rows, std::size_t cols) {
+    static_assert(std::is_same_v<T, double> || std::is_same_v<T, std::int32_t>);
+    require(values.size() == rows * cols, "numpy_copy: rows x cols values");
+    npy_intp dims[2] = {static_cast<npy_intp>(rows), static_cast<npy_intp>(cols)};
+    constexpr int type = std::is_same_v<T, double> ? NPY_FLOAT64 : NPY_INT32;
+    PyObject* a = PyArray_SimpleNew(2, dims, type);
+    if (a == nullptr) throw nb::python_error();
+    if (!values.empty())
+        std::memcpy(PyArray_DATA(reinterpret_cast<PyArrayObject*>(a)), values.data(), values.size() * sizeof(T));
+    return nb::steal(a);
+}
+
 double seconds_since(std::chrono::steady_clock::time_point t) {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
 }
@@ -293,7 +323,6 @@ double seconds_since(std::chrono::steady_clock::time_point t) {
 // infinities (NaN: nothing else).
 nb::object refine_image(const AnyImage& image, double background, bool fill_gaps, bool reference_before_fill,
                         const MeshRequest& asked, index_t min_valid, double band, nb::handle direct_solve) {
-    const bool has_background = !std::isnan(background);  // (NaN: none, as `mask_image` takes it)
     const auto t0 = std::chrono::steady_clock::now();
     const index_t rows = static_cast<index_t>(image.shape(0)), cols = static_cast<index_t>(image.shape(1));
     const index_t n = rows * cols;
@@ -309,7 +338,7 @@ nb::object refine_image(const AnyImage& image, double background, bool fill_gaps
     const DepthRange range = run_released(
         [&] {
             RangeLanes lanes;
-            check_input(mask_any(image, has_background, background, d, v, lanes),
+            check_input(mask_any(image, background, d, v, lanes),  // (NaN: no marker)
                         "refine_image: image of float32, float64 or an integer dtype");
             DepthRange masked = lanes.range();
             // (with no invalid pixel there is no gap to fill: the mask is the reference)
@@ -340,15 +369,15 @@ nb::object refine_image(const AnyImage& image, double background, bool fill_gaps
     MeshResult res = run_released([&] { return refine::refine_mesh(img, camera, ref, req, direct); }, n);
     if (res.outcome != refine::MeshOutcome::done || res.faces.empty()) return nb::none();
     const std::size_t n_v = res.pixels.size() / 2, n_f = res.faces.size() / 3;
-    return nb::make_tuple(to_numpy(std::move(res.vertices), n_v, 3), to_numpy(std::move(res.faces), n_f, 3),
-                          to_numpy(std::move(res.pixels), n_v, 2), range.count, res.edges, res.insertions, res.flips,
-                          res.strips, res.meshings, res.fitted, res.fit_seconds, res.seconds, prepare, res.achieved,
-                          res.asked);
+    return nb::make_tuple(numpy_copy(res.vertices, n_v, 3), numpy_copy(res.faces, n_f, 3),
+                          numpy_copy(res.pixels, n_v, 2), range.count, res.edges, res.insertions, res.flips, res.strips,
+                          res.meshings, res.fitted, res.fit_seconds, res.seconds, prepare, res.achieved, res.asked);
 }
 
 }  // namespace
 
 void bind_refine_mesh(nb::module_& m) {
+    if (PyArray_ImportNumPyAPI() < 0) throw nb::python_error();  // (numpy_copy's table)
     bind_request(m);
     bind_result(m);
     m.def(

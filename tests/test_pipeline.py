@@ -451,6 +451,24 @@ def test_a_small_call_is_the_general_call_bit_for_bit(image, vertices, backgroun
     _same_call(got, want)
 
 
+@settings(max_examples=80)
+@given(_small_images(), st.sampled_from([None, 3, 10, 40]))
+def test_a_refine_meshs_edge_count_is_its_faces_distinct_edges(image, vertices):
+    # the native call counts the edges from the insertion's half-edges when it keeps every
+    # triangle ((3 F + hull half-edges) / 2); here numpy counts the faces' distinct pairs
+    import warnings
+
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # (a zero marker's warning)
+            mesh = triangulate(image, vertices=vertices)
+    except ValueError:  # (an image the checks refuse)
+        return
+    f = mesh.faces.astype(np.int64)
+    pairs = np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), axis=1)
+    assert mesh.stats.edges == len(np.unique(pairs, axis=0))
+
+
 def test_a_small_call_is_one_native_call(monkeypatch):
     # issue 44's fixed cost: "the whole refine call, its target search included, is one native
     # function; Python checks the arguments and wraps the result"

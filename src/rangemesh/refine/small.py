@@ -41,6 +41,14 @@ _BAND = 2.0**DEPTH_BAND
 _REQUESTS: dict = {}  # (count or None, the fit's rule, fit, flip): the request, made once (read only)
 _new = object.__new__
 _set = object.__setattr__
+_RULE: list = [None, None]  # the last height rule's values and rule
+# The instance dicts a small call's Stats and Mesh copy, in the fields' order (the values set
+# here are those no small call changes; the others are set at each call)
+_STATS = {"vertices": 0, "edges": 0, "triangles": 0, "flipped_edges": 0, "grid_shape": None,
+          "sampled_points": 0, "flip_tests": None, "seconds": None, "target": None, "reason": "",
+          "method": "refine", "insertions": 0, "strips": 1, "heights": "pixel"}
+_MESH = {"vertices": None, "faces": None, "pixels": None, "camera": _UNIT, "image_shape": None,
+         "stats": None, "colors": None, "texture": None, "attributes": None}
 
 
 def _request(vertices: int | None, rule, fit: bool, flip: bool) -> _core.RefineRequest:
@@ -85,7 +93,14 @@ def mesh_small(image, vertices: int | None, background: float, fill_gaps: bool, 
         When the call started (`now`), the clock of ``stats.seconds``.
     """
     h, w = image.shape
-    rule = _heights.height_rule(h * w)
+    # (`height_rule(h * w)`: one thread below SMALL_PIXELS, tests/test_pipeline.py; its values
+    # read at each call, the rule looked up only when they change: a fifth of its cost)
+    values = (_heights.OUTLIER_MADS, _heights.OUTLIER_FLOOR, _heights.RIDGE, _heights.CG_RTOL,
+              _heights.RESIDUAL_STRIDE, _heights.RESIDUAL_MIN, _heights.RESIDUAL_SAMPLE,
+              _heights.ORDER_TILE, _heights.ORDER_MIN_PIXELS, 1)
+    if values != _RULE[0]:
+        _RULE[:] = values, _heights._rule(values)
+    rule = _RULE[1]
     fit, flip = NONE_MEANS["heights"] == "fit", NONE_MEANS["diagonals"] == "error"
     req = _REQUESTS.get((vertices, rule, fit, flip)) or _request(vertices, rule, fit, flip)
     want = req.vertices
@@ -101,22 +116,34 @@ def mesh_small(image, vertices: int | None, background: float, fill_gaps: bool, 
     else:
         target = _target(vertices, got, n_valid, h * w, meshings, achieved, asked, want)
     t4 = now()
-    # (dict displays set as the instance dicts, in the fields' order: what `with_fields` and
-    # `Target.from_record` make, at a third of their cost; tests/test_refine.py holds the fields)
+    # (copies of a made Stats' and Mesh's instance dicts, their changing fields set: what
+    # `with_fields` and `Target.from_record` make, at a fraction of their cost; a new dict a
+    # call costs as much again; tests/test_refine.py holds the fields)
+    s = _STATS.copy()
+    s["vertices"] = s["sampled_points"] = got
+    s["edges"] = edges
+    s["triangles"] = len(faces)
+    s["flipped_edges"] = flips
+    s["flip_tests"] = {}
+    s["seconds"] = {"prepare": prepare, "insertion": seconds - fit_seconds, "fit": fit_seconds,
+                    "search": t4 - t0 - prepare - seconds, "total": t4 - t0} if fit else \
+        {"prepare": prepare, "insertion": seconds, "search": t4 - t0 - prepare - seconds,
+         "total": t4 - t0}
+    s["target"] = target
+    s["insertions"] = insertions
+    s["strips"] = strips
+    s["heights"] = "fit" if fit and fitted else "pixel"
     stats = _new(Stats)
-    _set(stats, "__dict__", {
-        "vertices": got, "edges": edges, "triangles": len(faces), "flipped_edges": flips,
-        "grid_shape": None, "sampled_points": got, "flip_tests": {},
-        "seconds": {"prepare": prepare, "insertion": seconds - fit_seconds, "fit": fit_seconds,
-                    "search": t4 - t0 - prepare - seconds, "total": t4 - t0} if fit else
-                   {"prepare": prepare, "insertion": seconds, "search": t4 - t0 - prepare - seconds,
-                    "total": t4 - t0},
-        "target": target, "reason": "", "method": "refine", "insertions": insertions,
-        "strips": strips, "heights": "fit" if fit and fitted else "pixel"})
+    _set(stats, "__dict__", s)
+    m = _MESH.copy()
+    m["vertices"] = points
+    m["faces"] = faces
+    m["pixels"] = pixels
+    m["image_shape"] = (h, w)
+    m["stats"] = stats
+    m["attributes"] = {}
     mesh = _new(Mesh)
-    _set(mesh, "__dict__", {
-        "vertices": points, "faces": faces, "pixels": pixels, "camera": _UNIT, "image_shape": (h, w),
-        "stats": stats, "colors": None, "texture": None, "attributes": {}})
+    _set(mesh, "__dict__", m)
     return mesh
 
 

@@ -2,13 +2,21 @@
 // with named fields, one function between them.
 #include <nanobind/stl/optional.h>
 
+// NumPy's C API in this file alone (its table a static of this translation unit), for NumPy 1.26 on
+#define NPY_NO_DEPRECATED_API NPY_1_25_API_VERSION
+#define NPY_TARGET_VERSION NPY_1_25_API_VERSION
+#include <numpy/arrayobject.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <limits>
 #include <memory>
 #include <optional>
+#include <type_traits>
+#include <utility>
 #include <vector>
 
 #include "../geometry/pixels.hpp"
@@ -165,26 +173,141 @@ refine::DirectSolve direct_of(nb::handle direct_solve) {
 // A 2-D C-contiguous image of any dtype: `refine_image` dispatches on it (one kernel a dtype, no copy).
 using AnyImage = nb::ndarray<nb::ro, nb::ndim<2>, nb::c_contig, nb::device::cpu>;
 
+// The count and extremes of the valid depths (as `valid_range`: four lanes with no branch). The
+// bounds are those of any order but for a zero's sign, which a small call never reads: a range
+// holding 0 declines.
+class RangeLanes {
+  public:
+    static constexpr int LANES = 4;
+
+    void take(int k, bool ok, double x) {
+        count_ += ok ? 1 : 0;
+        const double below = ok ? x : INFINITY, above = ok ? x : -INFINITY;
+        lo_[k] = below < lo_[k] ? below : lo_[k];
+        hi_[k] = above > hi_[k] ? above : hi_[k];
+    }
+    DepthRange range() const {
+        DepthRange out;
+        if (count_ == 0) return out;
+        out.count = count_;
+        out.lo = lo_[0];
+        out.hi = hi_[0];
+        for (int k = 1; k < LANES; ++k) {
+            if (lo_[k] < out.lo) out.lo = lo_[k];
+            if (hi_[k] > out.hi) out.hi = hi_[k];
+        }
+        return out;
+    }
+
+  private:
+    double lo_[LANES] = {INFINITY, INFINITY, INFINITY, INFINITY};
+    double hi_[LANES] = {-INFINITY, -INFINITY, -INFINITY, -INFINITY};
+    index_t count_ = 0;
+};
+
+// `mask_image` and the valid range of its result in one loop over the pixels (a third of the
+// two passes' instructions on a small image); false for another dtype. `mask_image`'s rule on
+// each pixel: NaN, inf and `bg` (NaN: none) are invalid, compared as float64 (for an integer
+// type of 4 bytes or less the same as its compare as T: such a value is exact in float64).
 template <class T>
-bool mask_as(const AnyImage& image, bool has_background, double background, Grid<double> depth, Grid<bool> valid) {
+bool mask_as(const AnyImage& image, double bg, Grid<double> depth, Grid<bool> valid, RangeLanes& lanes) {
     if (image.dtype() != nb::dtype<T>()) return false;
-    mask_image(Grid<const T>{static_cast<const T*>(image.data()), depth.rows, depth.cols}, has_background, background,
-               depth, valid);
+    constexpr double big = std::numeric_limits<double>::max();
+    constexpr int LANES = RangeLanes::LANES;
+    const auto put = [&](int k, T value, double& d, bool& v) {
+        const double x = static_cast<double>(value);
+        const bool ok = static_cast<bool>(static_cast<int>(std::abs(x) <= big) & static_cast<int>(x != bg));
+        d = ok ? x : 0.0;
+        v = ok;
+        lanes.take(k, ok, x);
+    };
+    const T* in = static_cast<const T*>(image.data());
+    for (index_t r = 0; r < depth.rows; ++r) {
+        poll_interrupt();
+        const T* row = in + r * depth.cols;
+        double* d = depth.row(r);
+        bool* v = valid.row(r);
+        index_t c = 0;
+        for (; c + LANES <= depth.cols; c += LANES)
+            for (int k = 0; k < LANES; ++k) put(k, row[c + k], d[c + k], v[c + k]);
+        for (; c < depth.cols; ++c) put(0, row[c], d[c], v[c]);
+    }
     return true;
 }
 
-// `mask_image` of an image of a dtype the kernels take; false for another dtype.
-bool mask_any(const AnyImage& image, bool has_background, double background, Grid<double> depth, Grid<bool> valid) {
-    return mask_as<double>(image, has_background, background, depth, valid) ||
-           mask_as<float>(image, has_background, background, depth, valid) ||
-           mask_as<std::uint16_t>(image, has_background, background, depth, valid) ||
-           mask_as<std::uint8_t>(image, has_background, background, depth, valid) ||
-           mask_as<std::int16_t>(image, has_background, background, depth, valid) ||
-           mask_as<std::int32_t>(image, has_background, background, depth, valid) ||
-           mask_as<std::uint32_t>(image, has_background, background, depth, valid) ||
-           mask_as<std::int64_t>(image, has_background, background, depth, valid) ||
-           mask_as<std::uint64_t>(image, has_background, background, depth, valid) ||
-           mask_as<std::int8_t>(image, has_background, background, depth, valid);
+// `mask_image` of an image of a dtype the kernels take and its valid range; false for another dtype.
+bool mask_any(const AnyImage& image, double bg, Grid<double> depth, Grid<bool> valid, RangeLanes& lanes) {
+    return mask_as<double>(image, bg, depth, valid, lanes) || mask_as<float>(image, bg, depth, valid, lanes) ||
+           mask_as<std::uint16_t>(image, bg, depth, valid, lanes) ||
+           mask_as<std::uint8_t>(image, bg, depth, valid, lanes) ||
+           mask_as<std::int16_t>(image, bg, depth, valid, lanes) ||
+           mask_as<std::int32_t>(image, bg, depth, valid, lanes) ||
+           mask_as<std::uint32_t>(image, bg, depth, valid, lanes) ||
+           mask_as<std::int64_t>(image, bg, depth, valid, lanes) ||
+           mask_as<std::uint64_t>(image, bg, depth, valid, lanes) ||
+           mask_as<std::int8_t>(image, bg, depth, valid, lanes);
+}
+
+// A small call's masked image, kept by its thread from call to call (at most KEPT_PIXELS): a
+// call takes them (none left behind, so a nested or failed call finds none) and gives them back.
+struct ImageBuffers {
+    static constexpr index_t KEPT_PIXELS = index_t{1} << 13;  // 72 kB; a small image has < 2000 pixels
+    std::unique_ptr<double[]> depth;
+    std::unique_ptr<bool[]> valid;
+    index_t size = 0;
+
+    static ImageBuffers& of_thread() {
+        static thread_local ImageBuffers kept;
+        return kept;
+    }
+    void swap(ImageBuffers& o) noexcept {
+        depth.swap(o.depth);
+        valid.swap(o.valid);
+        std::swap(size, o.size);
+    }
+};
+
+// Buffers for `n` pixels: the thread's kept ones when they are large enough, else new; given back
+// at the end when they are at most KEPT_PIXELS and larger than any the thread kept meanwhile.
+class ImageLease {
+  public:
+    explicit ImageLease(index_t n) {
+        ImageBuffers& kept = ImageBuffers::of_thread();
+        if (kept.size >= n) {
+            own_.swap(kept);
+            return;
+        }
+        own_.depth.reset(new double[static_cast<std::size_t>(n)]);
+        own_.valid.reset(new bool[static_cast<std::size_t>(n)]);
+        own_.size = n;
+    }
+    ~ImageLease() {
+        ImageBuffers& kept = ImageBuffers::of_thread();
+        if (own_.size <= ImageBuffers::KEPT_PIXELS && own_.size > kept.size) own_.swap(kept);
+    }
+    ImageLease(const ImageLease&) = delete;
+    ImageLease& operator=(const ImageLease&) = delete;
+    double* depth() const { return own_.depth.get(); }
+    bool* valid() const { return own_.valid.get(); }
+
+  private:
+    ImageBuffers own_;
+};
+
+// A new NumPy array of `rows` x `cols` values copied from `values`: a small call's result. Made by
+// NumPy's C API, it costs a tenth of a nanobind export (numpy.asarray of a DLPack view, then its
+// owner's chain of deallocations): 11K instructions of the 16 x 16 call's three arrays.
+template <class T>
+nb::object numpy_copy(const std::vector<T>& values, std::size_t rows, std::size_t cols) {
+    static_assert(std::is_same_v<T, double> || std::is_same_v<T, std::int32_t>);
+    require(values.size() == rows * cols, "numpy_copy: rows x cols values");
+    npy_intp dims[2] = {static_cast<npy_intp>(rows), static_cast<npy_intp>(cols)};
+    constexpr int type = std::is_same_v<T, double> ? NPY_FLOAT64 : NPY_INT32;
+    PyObject* a = PyArray_SimpleNew(2, dims, type);
+    if (a == nullptr) throw nb::python_error();
+    if (!values.empty())
+        std::memcpy(PyArray_DATA(reinterpret_cast<PyArrayObject*>(a)), values.data(), values.size() * sizeof(T));
+    return nb::steal(a);
 }
 
 double seconds_since(std::chrono::steady_clock::time_point t) {
@@ -200,28 +323,32 @@ double seconds_since(std::chrono::steady_clock::time_point t) {
 // infinities (NaN: nothing else).
 nb::object refine_image(const AnyImage& image, double background, bool fill_gaps, bool reference_before_fill,
                         const MeshRequest& asked, index_t min_valid, double band, nb::handle direct_solve) {
-    const bool has_background = !std::isnan(background);  // (NaN: none, as `mask_image` takes it)
     const auto t0 = std::chrono::steady_clock::now();
     const index_t rows = static_cast<index_t>(image.shape(0)), cols = static_cast<index_t>(image.shape(1));
     const index_t n = rows * cols;
     check_input(rows >= 2 && cols >= 2, "refine_image: an image of at least 2x2 pixels");
     check_input(min_valid >= asked.vertices && asked.vertices > 0 && band >= 1.0,
                 "refine_image: min_valid at least the vertices asked, above 0; band at least 1");
-    std::vector<double> depth(static_cast<std::size_t>(n));
-    const std::unique_ptr<bool[]> valid(new bool[static_cast<std::size_t>(n)]);
+    const ImageLease buffers(n);
+    double* const depth = buffers.depth();
+    bool* const valid = buffers.valid();
     std::unique_ptr<bool[]> before;  // the mask before gaps are filled: an error bound's reference
-    const Grid<double> d{depth.data(), rows, cols};
-    const Grid<bool> v{valid.get(), rows, cols};
+    const Grid<double> d{depth, rows, cols};
+    const Grid<bool> v{valid, rows, cols};
     const DepthRange range = run_released(
         [&] {
-            check_input(mask_any(image, has_background, background, d, v),
+            RangeLanes lanes;
+            check_input(mask_any(image, background, d, v, lanes),  // (NaN: no marker)
                         "refine_image: image of float32, float64 or an integer dtype");
-            if (reference_before_fill && fill_gaps) {
+            DepthRange masked = lanes.range();
+            // (with no invalid pixel there is no gap to fill: the mask is the reference)
+            if (!fill_gaps || masked.count == n) return masked;
+            if (reference_before_fill) {
                 before.reset(new bool[static_cast<std::size_t>(n)]);
-                std::copy(valid.get(), valid.get() + n, before.get());
+                std::copy(valid, valid + n, before.get());
             }
-            if (fill_gaps) paper::fill_gaps_inplace(d, v);
-            return valid_range(Grid<const double>{depth.data(), rows, cols}, Grid<const bool>{valid.get(), rows, cols});
+            paper::fill_gaps_inplace(d, v);
+            return valid_range(Grid<const double>{depth, rows, cols}, Grid<const bool>{valid, rows, cols});
         },
         n);
     const double top = std::max(std::abs(range.lo), std::abs(range.hi));
@@ -235,22 +362,22 @@ nb::object refine_image(const AnyImage& image, double background, bool fill_gaps
     static constexpr double unit[6] = {0.0, 1.0, 1.0, 1.0, 0.0, 0.0};  // Orthographic().as_array()
     const Span<const double> camera{unit, 6};
     check_request(req, rows, cols, camera);
-    const refine::Image img{{depth.data(), rows, cols}, {valid.get(), rows, cols}, req.hi - req.lo};
+    const refine::Image img{{depth, rows, cols}, {valid, rows, cols}, req.hi - req.lo};
     const refine::Reference ref{img.depth, before ? Grid<const bool>{before.get(), rows, cols} : img.valid};
     const refine::DirectSolve direct = direct_of(direct_solve);
     const double prepare = seconds_since(t0);
     MeshResult res = run_released([&] { return refine::refine_mesh(img, camera, ref, req, direct); }, n);
     if (res.outcome != refine::MeshOutcome::done || res.faces.empty()) return nb::none();
     const std::size_t n_v = res.pixels.size() / 2, n_f = res.faces.size() / 3;
-    return nb::make_tuple(to_numpy(std::move(res.vertices), n_v, 3), to_numpy(std::move(res.faces), n_f, 3),
-                          to_numpy(std::move(res.pixels), n_v, 2), range.count, res.edges, res.insertions, res.flips,
-                          res.strips, res.meshings, res.fitted, res.fit_seconds, res.seconds, prepare, res.achieved,
-                          res.asked);
+    return nb::make_tuple(numpy_copy(res.vertices, n_v, 3), numpy_copy(res.faces, n_f, 3),
+                          numpy_copy(res.pixels, n_v, 2), range.count, res.edges, res.insertions, res.flips, res.strips,
+                          res.meshings, res.fitted, res.fit_seconds, res.seconds, prepare, res.achieved, res.asked);
 }
 
 }  // namespace
 
 void bind_refine_mesh(nb::module_& m) {
+    if (PyArray_ImportNumPyAPI() < 0) throw nb::python_error();  // (numpy_copy's table)
     bind_request(m);
     bind_result(m);
     m.def(

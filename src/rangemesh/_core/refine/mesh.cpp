@@ -167,6 +167,7 @@ ValidFaces drop_walls(const Image& image, Span<const double> camera, double pixe
 struct Meshing {
     ValidFaces mesh;
     index_t insertions = 0, flips = 0, n_walls = 0;
+    index_t edges = -1;  // the distinct edges of `mesh` when its assembly counted them, else -1
     bool error_left = false;  // the insertion's summed error (before any flip) is above 0
     // with rounds to come (`needs_rounds`): the insertion, unflipped, to go on inserting into
     std::shared_ptr<Insertion> ins;
@@ -259,9 +260,11 @@ ValidFaces split_valid_faces(Span<const index_t> vr, Span<const index_t> vc, Spa
 // The valid faces of an insertion's mesh (triangles `tv`, twins `he`), with one fan each, its
 // walls dropped unless kept (insertion.py's `_assemble`); `n_walls` counts the dropped ones. A
 // large mesh's valid faces are found on the calling thread and `second` when given.
+// `edges`: the faces' distinct edges when every triangle is kept (each edge one half-edge of a
+// triangle and its twin, or one on the hull: (3 F + hull half-edges) / 2), else -1.
 ValidFaces assemble(const Image& image, Span<const double> camera, Span<const index_t> vr, Span<const index_t> vc,
                     Span<const index_t> tv, Span<const index_t> he, const MeshRequest& req, index_t& n_walls,
-                    Worker* second = nullptr) {
+                    index_t& edges, Worker* second = nullptr) {
     ValidFaces f;
     std::vector<index_t> twins;
     const bool split = second != nullptr && tv.size / 3 >= SPLIT_VALID_MIN_TRIANGLES;
@@ -270,6 +273,9 @@ ValidFaces assemble(const Image& image, Span<const double> camera, Span<const in
     else
         f = valid_faces(vr, vc, tv, image.valid);
     const index_t n_f = static_cast<index_t>(f.faces.size() / 3);
+    edges = -1;
+    if (n_f > 0 && n_f == tv.size / 3 && req.walls && he.size == tv.size)
+        edges = (3 * n_f + static_cast<index_t>(std::count(he.begin(), he.end(), index_t{-1}))) / 2;
     if (0 < n_f && n_f < tv.size / 3) {
         if (!split) twins = valid_twins(vr, vc, tv, he, image.valid);
         f = one_fan_each(image, std::move(f), twins);
@@ -305,8 +311,8 @@ Meshing meshing_of(const Image& image, Span<const double> camera, Insertion& ins
             view(ins.vertex_rows()), view(ins.vertex_cols()), tv, he, {sums.data(), static_cast<index_t>(sums.size())}};
         out.flips = flip_by_error(image, mesh, false).flips;  // (the insertion's own arrays)
     }
-    out.mesh =
-        assemble(image, camera, view(ins.vertex_rows()), view(ins.vertex_cols()), view(tv), view(he), req, out.n_walls);
+    out.mesh = assemble(image, camera, view(ins.vertex_rows()), view(ins.vertex_cols()), view(tv), view(he), req,
+                        out.n_walls, out.edges);
     return out;
 }
 
@@ -336,8 +342,9 @@ Meshing mesh_halves(const Image& image, Span<const double> camera, index_t asked
     out.insertions = static_cast<index_t>(halves.vr.size());
     out.flips = halves.flips;
     out.error_left = halves.total > 0.0;
+    index_t edges = -1;  // (left counted by count_edges: two strips' seam)
     out.mesh = assemble(image, camera, view(halves.vr), view(halves.vc), view(halves.triangles), view(halves.halfedges),
-                        req, out.n_walls, second);
+                        req, out.n_walls, edges, second);
     return out;
 }
 
@@ -858,7 +865,10 @@ bool Refiner::lift_counting_edges(Candidate& c) {
     bool lifted = false;
     run_both(
         worker(n_f >= EDGES_BESIDE_MIN_FACES),
-        [&] { c.edges = count_edges(Grid<const std::int32_t>{f.faces.data(), n_f, 3}, c.meshing.n_vertices()); },
+        [&] {  // (unless the assembly counted them)
+            if (c.meshing.edges < 0)
+                c.edges = count_edges(Grid<const std::int32_t>{f.faces.data(), n_f, 3}, c.meshing.n_vertices());
+        },
         [&] {
             const auto t = std::chrono::steady_clock::now();
             lifted = lift(f, req_.fit, c.vertices);
@@ -912,7 +922,10 @@ MeshResult Refiner::finish(Candidate&& c) {
     }
     ValidFaces& mesh = c.meshing.mesh;
     const index_t n_f = static_cast<index_t>(mesh.faces.size() / 3);
-    out_.edges = c.edges >= 0
+    // the assembly's count unless rounds or a collapse changed the mesh since, else the one beside
+    // the lift
+    out_.edges = c.meshing.edges >= 0 && !needs_rounds(req_) && req_.collapse == 0.0 ? c.meshing.edges
+                 : c.edges >= 0
                      ? c.edges
                      : count_edges(Grid<const std::int32_t>{mesh.faces.data(), n_f, 3}, c.meshing.n_vertices());
     out_.faces = std::move(mesh.faces);
@@ -961,6 +974,7 @@ bool Refiner::collapsed(Meshing& m, index_t target) {
     CollapseCount count;
     if (!collapse_mesh(values, {f, z, target, req_.fit}, out, count)) return false;
     m.mesh = std::move(out);
+    m.edges = -1;
     return true;
 }
 

@@ -2,7 +2,8 @@
 
 Read from the ``#include`` lines under ``src/rangemesh/_core`` (docs/core.md, "Layout"):
 
-* the top-level headers (``views.hpp``, ``interrupt.hpp``, ``parallel.hpp``) include no folder;
+* the top-level headers (``views.hpp``, ``interrupt.hpp``, ``parallel.hpp``, ``simd.hpp``) include
+  no folder;
 * ``geometry/`` includes only itself and the top-level headers;
 * a family (``paper/``, ``refine/``, ``heights/``) includes itself, ``geometry/`` and the
   top-level headers, never another family sideways; the one layer between families is

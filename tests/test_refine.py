@@ -104,6 +104,51 @@ def test_max_error_is_measured_alike_at_every_width_and_camera(width, camera):
     assert m.stats.target.achieved == pytest.approx(e, rel=1e-12, abs=0.0)
 
 
+_SCALAR_CHILD = r"""
+import hashlib, json, sys
+import numpy as np
+import rangemesh
+from rangemesh import _core
+
+crops = np.load(sys.argv[1])
+out = {"avx": bool(_core._uses_avx())}
+for name in ("tum", "nyu", "chair", "venus"):
+    image = crops[name]
+    background = 2047 if name == "nyu" else 0
+    for kw in ({"max_error": 0.5}, {"vertices": 400}, {"vertices": 400, "camera": rangemesh.Pinhole(
+            120.0, 120.0, image.shape[1] / 2, image.shape[0] / 2, 0.001)}):
+        m = rangemesh.triangulate(image, background=background, method="refine", **kw)
+        h = hashlib.sha256(m.vertices.tobytes() + m.faces.tobytes()
+                           + np.float64(m.stats.target.achieved).tobytes())
+        out[name + " " + " ".join(sorted(kw))] = h.hexdigest()
+print(json.dumps(out))
+"""
+
+
+def test_the_scalar_loops_give_the_four_lane_loops_meshes_bit_for_bit():
+    # the insertion's scans and the error bound's render and sum take four pixels at once where
+    # AVX runs (simd.hpp); RANGEMESH_NO_AVX=1 runs their scalar loops: the same meshes and errors
+    import json
+    import os
+    import subprocess
+    import sys
+
+    from rangemesh import _core
+
+    if not _core._uses_avx():
+        pytest.skip("this machine runs the scalar loops only")
+    runs = {}
+    for off in ("1", "0"):
+        env = {**os.environ, "RANGEMESH_NO_AVX": off}
+        p = subprocess.run([sys.executable, "-c", _SCALAR_CHILD, str(CROPS)], capture_output=True,
+                           text=True, env=env, timeout=600)
+        assert p.returncode == 0, p.stderr
+        runs[off] = json.loads(p.stdout)
+    assert runs["1"].pop("avx") is False and runs["0"].pop("avx") is True
+    assert len(runs["1"]) == 12
+    assert runs["1"] == runs["0"]
+
+
 def test_max_error_is_met_with_few_vertices_to_spare():
     """One pass, by construction: stopping one insertion earlier would miss the bound."""
     from rangemesh import _core

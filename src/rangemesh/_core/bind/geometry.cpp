@@ -15,6 +15,7 @@
 #include "../geometry/pixels.hpp"
 #include "../geometry/raster.hpp"
 #include "../geometry/rasterize.hpp"
+#include "../simd.hpp"
 #include "bindings.hpp"
 #include "numpy.hpp"
 #include "release.hpp"
@@ -287,6 +288,14 @@ void check_heap(const Out1<double>& keys, const Out1<index_t>& heap, const Out1<
 // The shared primitives that only kernels use, exposed for the tests (names with a leading
 // underscore): the heap's moves on NumPy arrays, and a triangle's row scan.
 void bind_geometry_tests(nb::module_& m) {
+    // whether the four-lane loops run (simd.hpp): the tests run the scalar ones with RANGEMESH_NO_AVX
+    m.def("_uses_avx", [] {
+#if RANGEMESH_AVX
+        return has_avx();
+#else
+        return false;
+#endif
+    });
     m.def("_heap_sift_up", [](Out1<double> keys, Out1<index_t> heap, Out1<index_t> slot, index_t i) {
         check_heap(keys, heap, slot, static_cast<index_t>(heap.shape(0)));
         check_input(0 <= i && i < static_cast<index_t>(heap.shape(0)), "heap: the position is in the heap");

@@ -10,13 +10,7 @@
 #include "predicates.hpp"
 #include "raster.hpp"
 
-// AVX where the compiler can target it in one function and the processor has it (asked at run time)
-#if (defined(__GNUC__) || defined(__clang__)) && (defined(__x86_64__) || defined(__i386__))
-#include <immintrin.h>
-#define RANGEMESH_RENDER_AVX 1
-#else
-#define RANGEMESH_RENDER_AVX 0
-#endif
+#include "../simd.hpp"
 
 namespace rangemesh {
 
@@ -122,13 +116,7 @@ void raster_row(RenderRow<Claim> line, const Triangle& k, index_t first, index_t
     }
 }
 
-#if RANGEMESH_RENDER_AVX
-// Whether the processor (and its system) runs AVX: asked once.
-bool has_avx() {
-    static const bool avx = (__builtin_cpu_init(), __builtin_cpu_supports("avx") != 0);
-    return avx;
-}
-
+#if RANGEMESH_AVX
 // `raster_row<false>` into a claims mask, four columns at once: each lane the IEEE operations of
 // `put` (the weights w + j d and w + 4 d are whole numbers, exact), four free pixels written at
 // once, any other group a pixel at a time; the last 0 to 3 columns by `put`.
@@ -176,7 +164,7 @@ __attribute__((target("avx"))) void raster_row_avx(RenderRow<unsigned char> line
 template <class Claim>
 void raster_inner_row(RenderRow<Claim> line, const Triangle& k, index_t first, index_t last, double w0, double w1,
                       double w2, double d0, double d1, double d2) {
-#if RANGEMESH_RENDER_AVX
+#if RANGEMESH_AVX
     if constexpr (std::is_same_v<Claim, unsigned char>) {
         if (last - first >= 3 && has_avx()) {
             raster_row_avx(line, k, first, last, w0, w1, w2, d0, d1, d2);
@@ -249,13 +237,7 @@ void raster_all(FaceValues faces, Grid<double> value, Grid<Claim> claim) {
     }
 }
 
-// Four lanes' masks: lane k all ones where bit k of the index is set.
-alignas(32) constexpr std::uint64_t LANE_MASKS[16][4] = {
-    {0, 0, 0, 0},         {~0ull, 0, 0, 0},         {0, ~0ull, 0, 0},         {~0ull, ~0ull, 0, 0},
-    {0, 0, ~0ull, 0},     {~0ull, 0, ~0ull, 0},     {0, ~0ull, ~0ull, 0},     {~0ull, ~0ull, ~0ull, 0},
-    {0, 0, 0, ~0ull},     {~0ull, 0, 0, ~0ull},     {0, ~0ull, 0, ~0ull},     {~0ull, ~0ull, 0, ~0ull},
-    {0, 0, ~0ull, ~0ull}, {~0ull, 0, ~0ull, ~0ull}, {0, ~0ull, ~0ull, ~0ull}, {~0ull, ~0ull, ~0ull, ~0ull}};
-
+#if RANGEMESH_AVX
 // `claimed_error` one pixel at a time.
 template <class Map>
 void claimed_row(const double* prow, const unsigned char* crow, const double* drow, const bool* vrow, index_t c,
@@ -270,7 +252,6 @@ void claimed_row(const double* prow, const unsigned char* crow, const double* dr
     }
 }
 
-#if RANGEMESH_RENDER_AVX
 // `claimed_error`'s rows, four pixels at once: map(pred) and |map(pred) - depth| lane by lane
 // (the scalar loop's IEEE operations), 0 where a pixel is not counted (invalid, unclaimed, not
 // finite: the sum starts at +0 and only grows, so adding +0 changes nothing), the four added in
@@ -372,7 +353,7 @@ CoveredError claimed_error(Grid<const double> pred, Grid<const unsigned char> cl
                 claimed.cols == depth.cols && valid.rows == depth.rows && valid.cols == depth.cols,
             "claimed_error: the render, its claims, the depth and the mask differ in shape");
     CoveredError out;
-#if RANGEMESH_RENDER_AVX
+#if RANGEMESH_AVX
     if (has_avx()) {
         if (map.kind == DepthMap::same)
             claimed_error_avx<DepthMap::same>(pred, claimed, depth, valid, map.scale, out, range);

@@ -463,9 +463,10 @@ class InverseLease {
   public:
     explicit InverseLease(index_t n) {
         static thread_local InverseRoom kept;
-        room_ = n <= KEPT_INVERSE && !kept.busy ? &kept : &own_;
+        InverseRoom* const room = n <= KEPT_INVERSE && !kept.busy ? &kept : &own_;
+        grow_polled(room->values, static_cast<std::size_t>(n));  // may throw: marked busy after
+        room_ = room;
         room_->busy = true;
-        grow_polled(room_->values, static_cast<std::size_t>(n));
     }
     ~InverseLease() { room_->busy = false; }
     InverseLease(const InverseLease&) = delete;

@@ -20,7 +20,7 @@ namespace rangemesh::refine {
 
 // The least-squares heights' rules (rangemesh/refine/heights.py holds the values and reasons).
 struct HeightRule {
-    double outlier_mads = 6.0, outlier_floor = 1e-9, ridge = 1e-3, rtol = 1e-8;
+    double outlier_mads = 6.0, outlier_floor = 1e-9, ridge = 1e-3, rtol = 1e-6;
     index_t residual_stride = 4, residual_min = 500, residual_sample = 2000;
     index_t order_tile = 8, order_min_pixels = 150000;
     int threads = 1;  // for the pass over the pixels of meshes of SPLIT_MIN_FACES faces or more

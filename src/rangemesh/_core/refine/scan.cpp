@@ -18,13 +18,7 @@
 #else
 #define RANGEMESH_SCAN_SSE2 0
 #endif
-// AVX where the compiler can target it in one function and the processor has it (asked at run time)
-#if (defined(__GNUC__) || defined(__clang__)) && (defined(__x86_64__) || defined(__i386__))
-#include <immintrin.h>
-#define RANGEMESH_SCAN_AVX 1
-#else
-#define RANGEMESH_SCAN_AVX 0
-#endif
+#include "../simd.hpp"
 
 namespace rangemesh::refine {
 
@@ -235,20 +229,7 @@ inline void row_sum(const Image& image, const PlaneRows& p, index_t r, index_t c
     }
 }
 
-#if RANGEMESH_SCAN_AVX
-// Whether the processor (and its system) runs AVX: asked once.
-bool has_avx() {
-    static const bool avx = (__builtin_cpu_init(), __builtin_cpu_supports("avx") != 0);
-    return avx;
-}
-
-// Four lanes' masks: lane k all ones where bit k of the index is set.
-alignas(32) constexpr std::uint64_t LANE_MASKS[16][4] = {
-    {0, 0, 0, 0},         {~0ull, 0, 0, 0},         {0, ~0ull, 0, 0},         {~0ull, ~0ull, 0, 0},
-    {0, 0, ~0ull, 0},     {~0ull, 0, ~0ull, 0},     {0, ~0ull, ~0ull, 0},     {~0ull, ~0ull, ~0ull, 0},
-    {0, 0, 0, ~0ull},     {~0ull, 0, 0, ~0ull},     {0, ~0ull, 0, ~0ull},     {~0ull, ~0ull, 0, ~0ull},
-    {0, 0, ~0ull, ~0ull}, {~0ull, 0, ~0ull, ~0ull}, {0, ~0ull, ~0ull, ~0ull}, {~0ull, ~0ull, ~0ull, ~0ull}};
-
+#if RANGEMESH_AVX
 // What a group of four columns reads besides its row: the plane's lanes.
 struct FourLanes {
     __m256d za, zb, zc, scale, magnitude, g0, g1, g2;
@@ -354,7 +335,7 @@ constexpr index_t WIDE_COLUMNS = 16;
 // so far checked against the records once.
 double plane_sum(const Image& image, const Corner& a, const Corner& b, const Corner& cn, EdgeOwnership own,
                  Records& records) {
-#if RANGEMESH_SCAN_AVX
+#if RANGEMESH_AVX
     if (has_avx()) {  // the rows first, then their pixels in one function of AVX code
         thread_local std::vector<RowRun> kept;  // room for a run a row, kept for the thread's next scan
         TriangleSpans spans(a.r, a.c, b.r, b.c, cn.r, cn.c, own.ab, own.bc, own.ca);

@@ -250,6 +250,11 @@ class RealSenseSource:
 
     def _start(self):
         """Start the SDK's pipeline (a recording: from its start); its profile."""
+        if not self.device:
+            # a recording is made non-real-time before it starts: set after `start`, a call held
+            # up on a busy machine let the SDK play its first frames in real time and drop them
+            resolved = self._cfg.resolve(self._rs.pipeline_wrapper(self._pipe))
+            resolved.get_device().as_playback().set_real_time(False)
         profile = self._pipe.start(self._cfg)
         self._running = True
         self._playback = None if self.device else profile.get_device().as_playback()

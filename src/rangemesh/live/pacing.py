@@ -140,7 +140,7 @@ class Playback:
         return 0
 
     def close(self) -> None:
-        """Nothing to stop: the frames are read on the caller's thread."""
+        """Nothing to stop: the playback starts no thread (its frames are read by whoever takes them)."""
 
 
 class DeviceFeed:

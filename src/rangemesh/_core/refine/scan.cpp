@@ -175,37 +175,6 @@ inline void note(Records& records, index_t r, index_t c, double err, const Corne
     if (err > records.largest() && !is_corner(r, c, a, b, cn)) records.add(r, c, err);
 }
 
-// A triangle's plane, `plane_errors`' way: its corners' depths, 1 / area, and the edge functions
-// w = s col - t r + k (for edge P -> Q, s = qr - pr, t = qc - pc), which grow by f = s a column.
-struct PlaneRows {
-    double az, bz, cz, inv;
-    index_t s0, t0, k0, s1, t1, k1, s2, t2, k2;
-    double f0, f1, f2;
-
-    PlaneRows(const Corner& a, const Corner& b, const Corner& cn)
-        : az(a.z),
-          bz(b.z),
-          cz(cn.z),
-          inv(1.0 / static_cast<double>(orient(a.r, a.c, b.r, b.c, cn.r, cn.c))),
-          s0(b.r - a.r),
-          t0(b.c - a.c),
-          k0(t0 * a.r - s0 * a.c),
-          s1(cn.r - b.r),
-          t1(cn.c - b.c),
-          k1(t1 * b.r - s1 * b.c),
-          s2(a.r - cn.r),
-          t2(a.c - cn.c),
-          k2(t2 * cn.r - s2 * cn.c),
-          f0(static_cast<double>(s0)),
-          f1(static_cast<double>(s1)),
-          f2(static_cast<double>(s2)) {}
-
-    // |depth - plane| at a column whose edge functions are w0, w1, w2: the one formula.
-    double error(double depth, double w0, double w1, double w2) const {
-        return std::abs(depth - (w1 * az + w2 * bz + w0 * cz) * inv);
-    }
-};
-
 // One row's pixels of a triangle: columns first..last of row r, and the edge functions at `first`.
 struct RowRun {
     index_t r, first, last;
@@ -346,23 +315,19 @@ double plane_sum(const Image& image, const Corner& a, const Corner& b, const Cor
         index_t n = 0;
         const PlaneRows p(a, b, cn);
         spans.walk([&](index_t r, index_t first, index_t last) {
-            out[n++] = RowRun{r,
-                              first,
-                              last,
-                              static_cast<double>(p.s0 * first - p.t0 * r + p.k0),
-                              static_cast<double>(p.s1 * first - p.t1 * r + p.k1),
-                              static_cast<double>(p.s2 * first - p.t2 * r + p.k2)};
+            RowRun& run = out[n++];
+            run.r = r;
+            run.first = first;
+            run.last = last;
+            p.edges_at(r, first, run.w0, run.w1, run.w2);
             return true;
         });
         return runs_sum_avx(image, p, out, n, records, a, b, cn);
     }
 #endif
-    const index_t area = orient(a.r, a.c, b.r, b.c, cn.r, cn.c);
-    const double inv = 1.0 / static_cast<double>(area);
-    const double az = a.z, bz = b.z, cz = cn.z;
-    const index_t s0 = b.r - a.r, t0 = b.c - a.c, s1 = cn.r - b.r, t1 = cn.c - b.c, s2 = a.r - cn.r, t2 = a.c - cn.c;
-    const index_t k0 = t0 * a.r - s0 * a.c, k1 = t1 * b.r - s1 * b.c, k2 = t2 * cn.r - s2 * cn.c;
-    const double f0 = static_cast<double>(s0), f1 = static_cast<double>(s1), f2 = static_cast<double>(s2);
+    const PlaneRows p(a, b, cn);
+    // in locals: read through a struct, the compiler reloads them every pixel
+    const double inv = p.inv, az = p.az, bz = p.bz, cz = p.cz, f0 = p.f0, f1 = p.f1, f2 = p.f2;
     double total = 0.0;
 #if RANGEMESH_SCAN_SSE2
     const __m128d za = _mm_set1_pd(az), zb = _mm_set1_pd(bz), zc = _mm_set1_pd(cz), scale = _mm_set1_pd(inv);
@@ -374,9 +339,8 @@ double plane_sum(const Image& image, const Corner& a, const Corner& b, const Cor
     spans.walk([&](index_t r, index_t first, index_t last) {
         const double* drow = image.depth.row(r);
         const bool* vrow = image.valid.row(r);
-        double w0 = static_cast<double>(s0 * first - t0 * r + k0);
-        double w1 = static_cast<double>(s1 * first - t1 * r + k1);
-        double w2 = static_cast<double>(s2 * first - t2 * r + k2);
+        double w0, w1, w2;
+        p.edges_at(r, first, w0, w1, w2);
         index_t col = first;
 #if RANGEMESH_SCAN_SSE2
         if (col < last) {

@@ -140,6 +140,24 @@ def test_ouster_batch_to_mcap_needs_a_rosbags_that_writes_it(shared_data, tmp_pa
         assert sum(1 for _ in reader.messages()) == 3
 
 
+def test_ouster_eval_of_a_mesh_file_gives_the_errors_mesh_reported(shared_data, tmp_path):
+    sdk("ouster.sdk")
+    rec = ["--meta", shared_data / META, "--frame", 1]
+    out, bare = tmp_path / "scan1.ply", tmp_path / "bare.ply"
+    made = _rangemesh("mesh", shared_data / PCAP, *rec, "--vertices", 600, "--pixels", "-o", out)
+    assert made.returncode == 0, made.stderr
+    got = _rangemesh("eval", shared_data / PCAP, out, *rec)
+    assert got.returncode == 0, got.stderr
+    # the file read back (offsets taken off, pixels from its columns) against the mesh in memory
+    for line in ("relative error", "max deviation"):
+        (want,) = [x for x in made.stderr.splitlines() if x.startswith(line)]
+        assert want in got.stdout, (want, got.stdout)
+    # without its pixels a ray camera cannot place the mesh: one line naming --pixels
+    assert _rangemesh("mesh", shared_data / PCAP, *rec, "--vertices", 600, "-o", bare).returncode == 0
+    p = _rangemesh("eval", shared_data / PCAP, bare, *rec)
+    assert p.returncode == 2 and p.stderr.count("\n") == 1 and "--pixels" in p.stderr, p.stderr
+
+
 def test_ouster_frame_past_the_end_and_camera_flags_are_one_line(shared_data, tmp_path):
     sdk("ouster.sdk")
     p = _rangemesh("mesh", shared_data / PCAP, "--meta", shared_data / META, "--frame", 3,

@@ -16,6 +16,7 @@ from .common import (
     _resolve_background,
 )
 from .options import _add_camera_options, _add_cleanup_options, _add_image_options
+from .ouster import add_ouster_options, without_scan_offsets
 
 
 def handle(args):
@@ -24,9 +25,13 @@ def handle(args):
     given = any(x is not None for x in (args.scale, args.intrinsics, args.depth_scale, args.beams,
                                          args.camera, args.sensor))
     _check_depth_scale(args, image)
-    camera = _camera(args, image.shape) if given else None  # None: the camera the file records
+    # an Ouster scan's camera is the SDK's rays; else None: the camera the file records
+    ouster = getattr(args, "scan_camera", None)
+    camera = ouster if ouster is not None else _camera(args, image.shape) if given else None
     try:
         mesh = read_mesh(args.mesh, camera=camera, image_shape=image.shape)
+        if ouster is not None:
+            mesh = without_scan_offsets(args, mesh, args.mesh)
         # 'auto' by the mesh's camera, as `mesh` took it
         ev = evaluate(mesh, image, background=_resolve_background(args.background, image,
                                                                    mesh.camera),
@@ -51,7 +56,8 @@ HELP = "the paper's relative error of any mesh file"
 DESCRIPTION = """\
 Compare a mesh file with its range image: relative error (mean |depth - mesh| / depth range),
 RMS, max, edge band, uncovered share. PLY files written by rangemesh record their camera; for
-other files give the camera the mesh was made with.
+other files give the camera the mesh was made with. An Ouster recording (.pcap, .osf) is read as
+`mesh` reads it (--meta, --frame); its mesh file needs its vertices' pixels (mesh --pixels).
 """
 
 
@@ -62,4 +68,5 @@ def add_arguments(e) -> None:
     _add_image_options(e)
     _add_cleanup_options(e)
     _add_camera_options(e)
+    add_ouster_options(e)
     e.add_argument("--json", action="store_true", help="print as JSON on stdout")

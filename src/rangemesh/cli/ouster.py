@@ -124,6 +124,23 @@ def default_ouster_output(args) -> Path:
     return image.with_name(f"{image.stem}.frame{0 if args.frame is None else args.frame}.ply")
 
 
+def without_scan_offsets(args, mesh, path):
+    """A mesh file of an Ouster scan, its vertices moved back onto the rays (`evaluate`'s frame).
+
+    The file's vertices carry the beam-origin offsets `mesh` added; its pixels (``--pixels``)
+    say which, and are what a ray camera needs to compare the mesh with the scan.
+    """
+    offsets = getattr(args, "scan_offsets", None)
+    if mesh.pixels is None or len(mesh.pixels) != len(mesh.vertices):
+        raise UserError(f"{path}: an Ouster scan's mesh is compared pixel by pixel: write it with "
+                        f"--pixels (rangemesh mesh REC.pcap --pixels ...)")
+    if offsets is None:
+        return mesh
+    from ..recordings.ouster import with_offsets
+
+    return with_offsets(mesh, -np.asarray(offsets))
+
+
 def with_scan_offsets(args, mesh):
     """The mesh with the Ouster scan's beam-origin offsets added (the SDK's exact points)."""
     offsets = getattr(args, "scan_offsets", None)

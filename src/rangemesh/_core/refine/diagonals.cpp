@@ -233,14 +233,10 @@ class Flipper {
         require(mesh.vc.size == mesh.vr.size && mesh.halfedges.size == mesh.triangles.size &&
                     mesh.triangles.size == 3 * mesh.sums.size,
                 "flips: one column a vertex, one twin a half-edge, one sum a triangle");
-        const FreeLater late(on_throw, vz_, queued_, stack_);  // (no destructor when stopped here)
+        const FreeLater late(on_throw, vz_, ok_, queued_, stack_);  // (no destructor when stopped here)
         const index_t n_v = mesh.vr.size;
         if (!checked) {  // the caller's own arrays, checked when made: the depths and the -1 sums alone
-            fill_polled(vz_, n_v, 0.0);
-            for (index_t v = 0; v < n_v; ++v) {
-                poll_every(v);
-                if (valid(v)) vz_[v] = image.depth(mesh.vr[v], mesh.vc[v]);
-            }
+            vertex_depths();
             mark_background();
             fill_polled(queued_, mesh.triangles.size, static_cast<unsigned char>(0));
             stack_.reserve(mesh.triangles.size);
@@ -258,26 +254,40 @@ class Flipper {
             check_input(twin_ok(tri, he, k),
                         "flips: a twin below -1 or out of range, or twins that do not run back along one edge");
         }
-        // the vertex depths; triangles with a background vertex get sum -1 (never flipped)
-        fill_polled(vz_, n_v, 0.0);
         for (index_t v = 0; v < n_v; ++v) {
             poll_every(v);
             check_input(0 <= mesh.vr[v] && mesh.vr[v] < image.rows() && 0 <= mesh.vc[v] && mesh.vc[v] < image.cols(),
                         "flips: the vertices must be pixels of the image");
-            if (valid(v)) vz_[v] = image.depth(mesh.vr[v], mesh.vc[v]);
         }
+        // the vertex depths; triangles with a background vertex get sum -1 (never flipped)
+        vertex_depths();
         mark_background();
         fill_polled(queued_, mesh.triangles.size, static_cast<unsigned char>(0));
         stack_.reserve(mesh.triangles.size);
     }
 
-    ~Flipper() { free_later(vz_, queued_, stack_); }
+    ~Flipper() { free_later(vz_, ok_, queued_, stack_); }
     Flipper(const Flipper&) = delete;
     Flipper& operator=(const Flipper&) = delete;
 
     bool valid(index_t v) const { return image_.valid(m_.vr[v], m_.vc[v]); }
     bool all_valid(index_t t) const {
-        return valid(m_.triangles[3 * t]) && valid(m_.triangles[3 * t + 1]) && valid(m_.triangles[3 * t + 2]);
+        return (ok_[m_.triangles[3 * t]] & ok_[m_.triangles[3 * t + 1]] & ok_[m_.triangles[3 * t + 2]]) != 0;
+    }
+
+    // Each vertex's depth and whether its pixel is valid, read from the image once: a triangle's
+    // corners then cost a byte each, not a vertex's pixel and the image's validity.
+    void vertex_depths() {
+        const index_t n_v = m_.vr.size;
+        fill_polled(vz_, n_v, 0.0);
+        fill_polled(ok_, n_v, static_cast<unsigned char>(0));
+        for (index_t v = 0; v < n_v; ++v) {
+            poll_every(v);
+            if (valid(v)) {
+                ok_[v] = 1;
+                vz_[v] = image_.depth(m_.vr[v], m_.vc[v]);
+            }
+        }
     }
 
     // Sum -1 for the triangles with a background vertex: never flipped.
@@ -393,6 +403,7 @@ class Flipper {
     const Image& image_;
     FlipMesh m_;
     std::vector<double> vz_;
+    std::vector<unsigned char> ok_;  // 1 where the vertex's pixel is valid
     std::vector<unsigned char> queued_;
     std::vector<index_t> stack_;
 };

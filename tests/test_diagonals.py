@@ -100,6 +100,110 @@ def test_triangle_error_stops_once_the_key_is_reached():
     assert triangle_error(*tri, ErrorScan(base=3.0, span=1.0, stop=key(6.5))) == 4.0
 
 
+def _serial_sum(corners, z, own, depth, valid, base=0.0, span=1.0, stop=np.inf):
+    """plane.hpp's sum in plain Python floats: its formula, pixels in row-major order.
+
+    Each owned pixel's error |depth - (w1 zA + w2 zB + w0 zC) / area| (w the integer edge
+    functions of AB, BC, CA), added one at a time; left after a row with owned pixels once
+    quantize(base + sum) >= stop, as `triangle_error`'s docstring says.
+    """
+    (ar, ac), (br, bc), (cr, cc) = corners
+    area = (br - ar) * (cc - ac) - (bc - ac) * (cr - ar)
+    inv = 1.0 / float(area)
+    total = 0.0
+    for r in range(depth.shape[0]):
+        owned = False
+        for col in range(depth.shape[1]):
+            w0 = (br - ar) * (col - ac) - (bc - ac) * (r - ar)
+            w1 = (cr - br) * (col - bc) - (cc - bc) * (r - br)
+            w2 = (ar - cr) * (col - cc) - (ac - cc) * (r - cr)
+            if all(w > 0 or (w == 0 and ok) for w, ok in zip((w0, w1, w2), own, strict=True)):
+                owned = True
+                if valid[r, col]:
+                    plane = (float(w1) * z[0] + float(w2) * z[1] + float(w0) * z[2]) * inv
+                    total += abs(float(depth[r, col]) - plane)
+        if owned and np.floor((base + total) / span * 2.0**32 + 0.5) >= stop:
+            break
+    return total
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 2**31), st.lists(st.integers(0, 34), min_size=6, max_size=6),
+       st.lists(st.booleans(), min_size=3, max_size=3), st.sampled_from([None, 0.3, 2.0]))
+def test_triangle_error_of_a_large_triangle_is_the_row_major_sum_bit_for_bit(seed, coords, own, stop_at):
+    # boxes above 128 pixels take the four-lane walk where AVX runs: its lanes must give the
+    # scalar loop's errors and its sum their row-major order, exactly (a 35 x 35 image: rows
+    # whose last groups of four reach the image's right side take the scalar remainder)
+    rng = np.random.default_rng(seed)
+    a, b, c = (coords[0], coords[1]), (coords[2], coords[3]), (coords[4], coords[5])
+    area = _orient(np.array(a), np.array(b), np.array(c))
+    if area == 0:
+        return
+    if area < 0:
+        b, c = c, b
+    depth = rng.uniform(0, 10, (35, 35)) * np.pi
+    valid = rng.uniform(size=(35, 35)) > 0.15
+    depth[~valid] = np.nan  # (never read: a lane past the run or on a hole is left out)
+    z = tuple(rng.uniform(0, 10, 3).tolist())
+    span, base = 10.0, 1.5
+    stop = np.inf if stop_at is None else float(np.floor((base + stop_at * abs(area)) / span * 2.0**32 + 0.5))
+    scan = ErrorScan(*own) if stop_at is None else ErrorScan(*own, base=base, span=span, stop=stop)
+    got = triangle_error((a[0], b[0], c[0]), (a[1], b[1], c[1]), z, depth, valid, scan)
+    expected = _serial_sum((a, b, c), z, own, depth, valid, *((0.0, 1.0, np.inf) if stop_at is None
+                                                             else (base, span, stop)))
+    assert got == expected
+
+
+_NO_AVX_CHILD = r"""
+import hashlib, json, sys
+import numpy as np
+import rangemesh
+from rangemesh import _core
+from rangemesh._core import InsertSettings, flip_by_error, valid_range
+from rangemesh.refine import insertion
+
+crops = np.load(sys.argv[1])
+out, boxes = {"avx": bool(_core._uses_avx())}, []
+for name in ("tum", "nyu", "chair"):
+    depth, valid = rangemesh.pipeline.prepare(crops[name].astype(float), rangemesh.MeshParams(),
+                                              2047 if name == "nyu" else 0)
+    depth = depth * np.pi  # (whole depths would make many sums exact in any order)
+    lo, hi, n_valid = valid_range(depth, valid)
+    for n in (20, 60, 300):
+        start = insertion.first_mesh(depth, valid, insertion.grid_size(n, n_valid, False))
+        ins = _core.greedy_insert(depth, valid, start, InsertSettings(n, -1.0, hi - lo, sums=True))
+        vr, vc, tv, he, tsum = (np.array(x) for x in (ins.vr, ins.vc, ins.tv, ins.he, ins.tsum))
+        f = tv.reshape(-1, 3)
+        boxes += ((np.ptp(vr[f], axis=1) + 1) * (np.ptp(vc[f], axis=1) + 1)).tolist()
+        flips, tests = flip_by_error((vr, vc, tv, he, tsum), depth, valid, hi - lo)
+        out[f"{name} {n}"] = [flips, tests, hashlib.sha256(tv.tobytes() + tsum.tobytes()).hexdigest()]
+out["large boxes"] = sum(b > 128 for b in boxes)
+print(json.dumps(out))
+"""
+
+
+def test_the_scalar_walk_gives_the_four_lane_walks_flips_bit_for_bit():
+    # RANGEMESH_NO_AVX=1 runs the flips' scalar box walk: the same flips and the same sums
+    import json
+    import os
+    import subprocess
+    import sys
+
+    if not _core._uses_avx():
+        pytest.skip("this machine runs the scalar loops only")
+    runs = {}
+    for off in ("1", "0"):
+        env = {**os.environ, "RANGEMESH_NO_AVX": off}
+        p = subprocess.run([sys.executable, "-c", _NO_AVX_CHILD, str(CROPS)], capture_output=True,
+                           text=True, env=env, timeout=600)
+        assert p.returncode == 0, p.stderr
+        runs[off] = json.loads(p.stdout)
+    assert runs["1"].pop("avx") is False and runs["0"].pop("avx") is True
+    assert runs["1"]["large boxes"] > 20  # (the four-lane walk had triangles to scan)
+    assert all(v[0] > 0 for key, v in runs["1"].items() if key.endswith(" 300"))  # (flips to compare)
+    assert runs["1"] == runs["0"]
+
+
 def _square(depth, diagonal):
     """The image's four corners as a mesh of two triangles cut along `diagonal`."""
     h, w = depth.shape

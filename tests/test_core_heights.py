@@ -1,5 +1,6 @@
 """The compiled least-squares depth kernels against plain-Python references (tests/reference_heights.py)."""
 
+import json
 import os
 import subprocess
 import sys
@@ -147,6 +148,84 @@ def test_the_sample_on_several_threads_is_the_sample_on_one():
             settings.threads = threads
             more = _core.fit_sample_errors(*args, settings)
             assert np.array_equal(one.view(np.int64), more.view(np.int64))
+
+
+def _large_faces():
+    """A mesh of few, large faces over a noisy 61 x 75 image with holes and outliers: rows of
+    every length mod 4, rows that end 1 to 3 columns from the right side, pixels beyond a bound."""
+    rng = np.random.default_rng(7)
+    h, w = 61, 75
+    r, c = np.mgrid[0:h, 0:w]
+    image = 3.0 + 0.02 * r - 0.01 * c + 0.05 * rng.standard_normal((h, w))
+    image[rng.random((h, w)) < 0.03] += 4.0
+    valid = rng.random((h, w)) > 0.1
+    pts = np.array([[0, 0], [0, w - 1], [h - 1, 0], [h - 1, w - 1], [30, 37], [10, 60], [50, 12],
+                    [20, 20], [45, 72], [5, 30], [60, 40], [33, 74]])
+    faces = Delaunay(pts.astype(float)).simplices.astype(np.int64)
+    faces[::2] = faces[::2, ::-1]
+    rows, cols = (np.ascontiguousarray(pts[:, k], dtype=np.int64) for k in (0, 1))
+    order = np.arange(len(faces), dtype=np.int64)[::-1].copy()
+    return faces, order, rows, cols, np.ascontiguousarray(image[rows, cols]), image, valid
+
+
+def test_large_faces_blocks_and_errors_are_the_references():
+    # faces of long rows are summed four columns at once where AVX runs (pass.cpp)
+    faces, order, rows, cols, values, image, valid = _large_faces()
+    for threshold in (0.1, np.inf):
+        got = _core.fit_blocks(faces, order, _pixels(rows, cols), values, image, valid, threshold)
+        want_ids, want_block, want_rhs, want_used = ref.blocks(faces, order, rows, cols, values, image, valid,
+                                                               threshold)
+        np.testing.assert_array_equal(got.ids, want_ids)
+        np.testing.assert_allclose(got.block, want_block, rtol=1e-12, atol=1e-12)
+        np.testing.assert_allclose(got.rhs, want_rhs, rtol=1e-12, atol=1e-12)
+        assert got.used == want_used
+        assert 0 < got.used < valid.sum() or threshold == np.inf
+    for row_stride, face_stride in ((1, 1), (1, 2), (4, 1)):
+        want = ref.errors(faces, order, rows, cols, values, image, valid, row_stride, face_stride)
+        got = _core.fit_sample_errors(faces, order, _pixels(rows, cols), values, image, valid,
+                                      _sampling(row_stride, face_stride, image.size))
+        np.testing.assert_allclose(got, want, rtol=0, atol=1e-12)  # in the same order
+
+
+_FOUR_LANE_CHILD = r"""
+import hashlib, json
+import numpy as np
+from rangemesh import _core
+from rangemesh.camera import Orthographic
+from rangemesh.refine.heights import fit_heights
+from tests.test_core_heights import _large_faces, _pixels, _sampling
+
+faces, order, rows, cols, values, image, valid = _large_faces()
+pixels = _pixels(rows, cols)
+out = {"avx": bool(_core._uses_avx())}
+def digest(*arrays):
+    return hashlib.sha256(b"".join(np.ascontiguousarray(a).tobytes() for a in arrays)).hexdigest()
+for threshold in (0.1, 0.3, np.inf):
+    b = _core.fit_blocks(faces, order, pixels, values, image, valid, threshold)
+    out[f"blocks {threshold}"] = [digest(b.ids, b.block, b.rhs), int(b.used)]
+for strides in ((1, 1), (1, 2), (4, 1)):
+    e = _core.fit_sample_errors(faces, order, pixels, values, image, valid, _sampling(*strides, image.size))
+    out[f"errors {strides}"] = [digest(e), len(e)]
+out["fit"] = digest(fit_heights(pixels, faces, image, valid, Orthographic()))
+print(json.dumps(out))
+"""
+
+
+def test_the_scalar_pass_gives_the_four_lane_pass_blocks_and_errors_bit_for_bit():
+    # RANGEMESH_NO_AVX=1 runs the scalar loops (simd.hpp): the same sums, errors and fit
+    if not _core._uses_avx():
+        pytest.skip("this machine runs the scalar loops only")
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    runs = {}
+    for off in ("1", "0"):
+        env = {**os.environ, "RANGEMESH_NO_AVX": off}
+        p = subprocess.run([sys.executable, "-c", _FOUR_LANE_CHILD], capture_output=True, text=True, env=env,
+                           cwd=root, timeout=600)
+        assert p.returncode == 0, p.stderr
+        runs[off] = json.loads(p.stdout)
+    assert runs["1"].pop("avx") is False and runs["0"].pop("avx") is True
+    assert len(runs["1"]) == 7
+    assert runs["1"] == runs["0"]
 
 
 @given(st.lists(st.one_of(st.floats(0, 1e6), st.sampled_from([0.0, 1.0, 2.5, float("nan"), float("inf")])),

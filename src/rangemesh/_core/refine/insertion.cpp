@@ -156,22 +156,28 @@ TriangleKey Insertion::scan(index_t t) const {
     return scan_triangle(image_, a, b, c, own);
 }
 
-// Ask the caches for the depth and valid rows of triangle t's bounding box: a step rescans
-// about six small triangles scattered over the image, a few rows each, and a scan meets each
-// row's first cache line cold; asked for all at once, the waits overlap.
-void Insertion::prefetch_pixels(index_t t) const {
+// Ask the caches for what a rescan of triangle t reads and writes: the depth and valid rows of
+// its bounding box and its key row. A step rescans about six small triangles scattered over the
+// image, a few rows each, and each met its lines cold, one wait after the other; asked for all
+// at once, the waits overlap. (Inlined: a call of its own cost more than its branches.)
+inline void Insertion::prefetch_rescan(index_t t) const {
 #if defined(__GNUC__) || defined(__clang__)
+    __builtin_prefetch(&keyed_[t], 1);
     const Vertex &a = vx_[tv_[3 * t]], &b = vx_[tv_[3 * t + 1]], &c = vx_[tv_[3 * t + 2]];
-    const index_t r0 = std::min({a.r, b.r, c.r}), r1 = std::max({a.r, b.r, c.r});
-    const index_t c0 = std::min({a.c, b.c, c.c}), c1 = std::max({a.c, b.c, c.c});
+    // (ternaries, not std::min of a list: those compile to branches that mispredict)
+    const std::int32_t rab0 = a.r < b.r ? a.r : b.r, rab1 = a.r < b.r ? b.r : a.r;
+    const std::int32_t cab0 = a.c < b.c ? a.c : b.c, cab1 = a.c < b.c ? b.c : a.c;
+    const index_t r0 = rab0 < c.r ? rab0 : c.r, r1 = rab1 < c.r ? c.r : rab1;
+    const index_t c0 = cab0 < c.c ? cab0 : c.c, c1 = cab1 < c.c ? c.c : cab1;
     if (r1 - r0 > 32) return;  // a large triangle: its rows are long, streamed by the hardware
-    for (index_t r = r0; r <= r1; ++r) {
-        const double* d = image_.depth.row(r);
+    const index_t w = image_.cols();
+    const double* d = image_.depth.row(r0);
+    const bool* v = image_.valid.row(r0);
+    for (index_t r = r0; r <= r1; ++r, d += w, v += w) {
         __builtin_prefetch(d + c0);
         __builtin_prefetch(d + c1);
-        __builtin_prefetch(image_.valid.row(r) + c0);
+        __builtin_prefetch(v + c0);
     }
-    __asm__ __volatile__("");  // a side effect: without it GCC finds the function pure and drops its calls
 #else
     (void)t;
 #endif
@@ -253,6 +259,14 @@ void Insertion::split_side(index_t x, index_t y, const Corners& abc, index_t p, 
 void Insertion::insert(index_t t, index_t p, const Plane* guard) {
     const Span<index_t> he{he_.data(), static_cast<index_t>(he_.size())};
     const index_t e = 3 * t;
+    // the flips below test the far corner of each neighbour: asked for at once, their cache
+    // misses overlap instead of waiting one after the other in legalize's loop
+#if defined(__GNUC__) || defined(__clang__)
+    for (int k = 0; k < 3; ++k) {
+        const index_t h = he_[e + k];
+        if (h >= 0) __builtin_prefetch(&vx_[tv_[prv(h)]]);
+    }
+#endif
     const index_t pr = vr_[p], pc = vc_[p];
     int on = -1;
     for (int k = 0; k < 3; ++k) {
@@ -304,6 +318,15 @@ void Insertion::insert(index_t t, index_t p, const Plane* guard) {
     for (int i = 0; i < n_outer; ++i) legalize(outer[i], guard);
 }
 
+namespace {
+
+// `nxt` and `prv` in arithmetic, no branch: which slot a twin half-edge takes is a coin toss
+// to the branch predictor.
+inline index_t next_he(index_t e) { return e + 1 - 3 * static_cast<index_t>(e % 3 == 2); }
+inline index_t prev_he(index_t e) { return e - 1 + 3 * static_cast<index_t>(e % 3 == 0); }
+
+}  // namespace
+
 // Lawson flips from half-edge `e0`, whose opposite vertex is the new point P. Half-edge a runs
 // A -> B in triangle ABC (C = P), its twin b runs B -> A in BAD:
 //
@@ -331,7 +354,7 @@ void Insertion::legalize(index_t e0, const Plane* guard) {
         stack_.pop_back();
         const index_t b = he_[a];
         if (b < 0) continue;
-        const index_t al = nxt(a), ar = prv(a), bn = nxt(b), bp = prv(b);
+        const index_t al = next_he(a), ar = prev_he(a), bn = next_he(b), bp = prev_he(b);
         const Vertex& pa = vx_[tv_[a]];
         const Vertex& pb = vx_[tv_[al]];
         const Vertex& pc = vx_[tv_[ar]];
@@ -418,7 +441,7 @@ void Insertion::advance(const Stop& stop) {
             const index_t i = split_fit ? n_changed - 1 - j : j;
             if (!visited_before(i, split_fit)) once_.push_back(i);  // changed twice: one scan is enough
         }
-        for (const index_t i : once_) prefetch_pixels(changed_[i]);
+        for (const index_t i : once_) prefetch_rescan(changed_[i]);
         const QuadHeapView h = heap();
         for (const index_t i : once_) {
             const index_t s = changed_[i];

@@ -87,7 +87,7 @@ class alignas(64) Insertion {
     Corner corner(index_t v) const { return {vx_[v].r, vx_[v].c, vx_[v].z, v < 4 && vbg_[v] != 0}; }
     void add_vertex(index_t r, index_t c, double z, bool background);
     TriangleKey scan(index_t t) const;
-    void prefetch_pixels(index_t t) const;
+    void prefetch_rescan(index_t t) const;
     bool fit_child(index_t t, TriangleKey& out) const;
     void make_room();
     void resize_triangles(index_t cap_t);

@@ -41,8 +41,8 @@ NAME = "rangemesh_at_base"
 def import_commit(commit: str, folder: Path):
     """The package as it was at `commit`, built (its compiled core too) and imported as `NAME`.
 
-    The commit's tree is built into a wheel (``pip wheel``, about a minute) and
-    unpacked under `folder`; its package folder is renamed. The extension keeps
+    The commit's tree is built into a wheel (``pip wheel``, about a minute, in a nanobind domain
+    of its own) and unpacked under `folder`; its package folder is renamed. The extension keeps
     its file name, whose init symbol does not depend on the package's name, and
     the package imports itself relatively only: it runs as is beside this one.
     """
@@ -53,8 +53,10 @@ def import_commit(commit: str, folder: Path):
         t.extractall(src, filter="data")
     wheels = folder / "wheels"
     print(f"building {commit} ...", file=sys.stderr, flush=True)
-    subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w", str(wheels), str(src)],
-                   check=True)
+    # its own nanobind domain: two builds of one tree register the same types (nanobind aborts
+    # on "refusing to add duplicate key") unless their domains differ
+    subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w", str(wheels),
+                    "-C", f"cmake.define.CMAKE_CXX_FLAGS=-DNB_DOMAIN={NAME}", str(src)], check=True)
     (wheel,) = wheels.glob("rangemesh-*.whl")
     with zipfile.ZipFile(wheel) as z:
         z.extractall(folder / "site")

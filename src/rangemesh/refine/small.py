@@ -39,7 +39,8 @@ __all__ = ["SMALL_PIXELS", "mesh_small"]
 SMALL_PIXELS = _core.SMALL_IMAGE_PIXELS
 # `depth_exponent`'s band: depths beyond it are scaled by the general path.
 _BAND = 2.0**DEPTH_BAND
-_REQUESTS: dict = {}  # (count or None, the fit's rule, fit, flip): the request, made once (read only)
+# (count or None, the fit's rule, fit, flip): the request and its vertices, made once (read only)
+_REQUESTS: dict = {}
 _with_dict = _core.new_with_dict
 _RULE: list = [None, None]  # the last height rule's values and rule
 # The instance dicts a small call's Stats and Mesh copy, in the fields' order (the values set
@@ -51,8 +52,8 @@ _MESH = {"vertices": None, "faces": None, "pixels": None, "camera": _UNIT, "imag
          "stats": None, "colors": None, "texture": None, "attributes": None}
 
 
-def _request(vertices: int | None, rule, fit: bool, flip: bool) -> _core.RefineRequest:
-    """The request of a count (None: the default target) on a small image, made once.
+def _request(vertices: int | None, rule, fit: bool, flip: bool) -> tuple[_core.RefineRequest, int]:
+    """The request of a count (None: the default target) on a small image and its vertices, made once.
 
     `fit` and `flip`: what None means for ``heights`` and ``diagonals`` (`NONE_MEANS`).
     """
@@ -71,8 +72,8 @@ def _request(vertices: int | None, rule, fit: bool, flip: bool) -> _core.RefineR
     req.heights = rule
     if len(_REQUESTS) >= 256:  # (a long run of distinct counts: start again)
         _REQUESTS.clear()
-    _REQUESTS[vertices, rule, fit, flip] = req
-    return req
+    made = _REQUESTS[vertices, rule, fit, flip] = req, req.vertices  # (a read of the binding's field costs)
+    return made
 
 
 def mesh_small(image, vertices: int | None, int_background: float, float_background: float,
@@ -103,8 +104,7 @@ def mesh_small(image, vertices: int | None, int_background: float, float_backgro
         _RULE[:] = values, _heights._rule(values)
     rule = _RULE[1]
     fit, flip = NONE_MEANS["heights"] == "fit", NONE_MEANS["diagonals"] == "error"
-    req = _REQUESTS.get((vertices, rule, fit, flip)) or _request(vertices, rule, fit, flip)
-    want = req.vertices
+    req, want = _REQUESTS.get((vertices, rule, fit, flip)) or _request(vertices, rule, fit, flip)
     out = _core.refine_image(image, int_background, float_background, fill_gaps, vertices is None, req,
                              want, _BAND, _heights._direct_solve)
     if out is None:

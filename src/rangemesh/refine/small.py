@@ -106,7 +106,7 @@ def mesh_small(image, vertices: int | None, int_background: float, float_backgro
     fit, flip = NONE_MEANS["heights"] == "fit", NONE_MEANS["diagonals"] == "error"
     req, want = _REQUESTS.get((vertices, rule, fit, flip)) or _request(vertices, rule, fit, flip)
     out = _core.refine_image(image, int_background, float_background, fill_gaps, vertices is None, req,
-                             want, _BAND, _heights._direct_solve)
+                             _BAND, _heights._direct_solve)
     if out is None:
         return None
     shape = image.shape

@@ -345,17 +345,16 @@ double seconds_since(std::chrono::steady_clock::time_point t) {
 // The whole refine call of an orthographic image, unit scales (`rangemesh.refine.small`): the
 // preparation (background masked, single-pixel gaps filled, the valid range) and `refine_mesh`
 // in one call. None (declined) where the library's general path has more to do or to say: an
-// image that is no `small_image`, fewer than `min_valid` valid pixels, a valid range beyond the
+// image that is no `small_image`, fewer valid pixels than the vertices asked, a valid range beyond the
 // float range or holding 0 (a zero marker's warning), a largest depth magnitude outside
 // [1 / band, band] (depths scaled first), no face left, or a call that declined. `int_background`
 // and `float_background`: what marks missing depth besides NaN and infinities in an integer
 // image and in a float one (NaN: nothing else).
 nb::object refine_image(nb::handle image_object, double int_background, double float_background, bool fill_gaps,
-                        bool reference_before_fill, const MeshRequest& asked, index_t min_valid, double band,
-                        nb::handle direct_solve) {
+                        bool reference_before_fill, const MeshRequest& asked, double band, nb::handle direct_solve) {
     const auto t0 = std::chrono::steady_clock::now();
-    check_input(min_valid >= asked.vertices && asked.vertices > 0 && band >= 1.0,
-                "refine_image: min_valid at least the vertices asked, above 0; band at least 1");
+    check_input(asked.vertices > 0 && band >= 1.0, "refine_image: the vertices asked above 0, band at least 1");
+    const index_t min_valid = asked.vertices;
     PyArrayObject* const image = small_image(image_object);
     if (image == nullptr) return nb::none();
     const index_t rows = static_cast<index_t>(PyArray_DIM(image, 0)), cols = static_cast<index_t>(PyArray_DIM(image, 1));
@@ -507,8 +506,8 @@ void bind_refine_mesh(nb::module_& m) {
           "An instance of ``cls`` (a class made by ``object.__new__`` whose instances take a __dict__) with "
           "``fields`` (a dict, not copied) as its __dict__, neither __new__ nor __init__ called.");
     m.def("refine_image", &refine_image, nb::arg("image"), nb::arg("int_background"), nb::arg("float_background"),
-          nb::arg("fill_gaps"), nb::arg("reference_before_fill"), nb::arg("request"), nb::arg("min_valid"),
-          nb::arg("band"), nb::arg("direct_solve").none(),
+          nb::arg("fill_gaps"), nb::arg("reference_before_fill"), nb::arg("request"), nb::arg("band"),
+          nb::arg("direct_solve").none(),
           "The whole refine call of a small image (an (H, W) C-contiguous, aligned, native-order ndarray of float64, "
           "float32 or an integer dtype, H, W >= 2, H * W < SMALL_IMAGE_PIXELS), unit orthographic camera: masked "
           "(NaN, inf and ``float_background`` in a float image, ``int_background`` in an integer one, unless it "
@@ -516,7 +515,7 @@ void bind_refine_mesh(nb::module_& m) {
           "n_valid, lo and hi set from the image; the error bound's reference is the mask before the fill when "
           "``reference_before_fill``). Returns ``(vertices, faces, pixels, n_valid, edges, insertions, flips, "
           "strips, meshings, fitted, fit_seconds, seconds, prepare_seconds, achieved, asked)``, or None where the "
-          "general path has more to do: another image, fewer than ``min_valid`` valid pixels, a range beyond "
+          "general path has more to do: another image, fewer valid pixels than ``request.vertices``, a range beyond "
           "the float range or holding 0, a largest depth magnitude outside [1 / band, band], no face.");
 }
 

@@ -486,6 +486,55 @@ def test_a_small_call_is_one_native_call(monkeypatch):
     assert calls == ["refine_image", "refine_image"]
 
 
+def test_new_with_dict_makes_what_object_new_and_a_set_dict_make():
+    # the small call's Stats and Mesh: ``object.__new__(cls)`` given `fields` as its __dict__ by
+    # ``object.__setattr__``, neither __new__ nor __init__ of the class run
+    import abc
+    import collections
+    import dataclasses
+
+    from rangemesh import _core
+
+    class Plain:
+        def __init__(self):
+            raise AssertionError("__init__ called")
+
+    fields = {"a": 1}
+    obj = _core.new_with_dict(Plain, fields)
+    assert type(obj) is Plain and obj.__dict__ is fields and obj.a == 1
+    obj.b = 2
+    assert fields == {"a": 1, "b": 2}
+
+    @dataclasses.dataclass(frozen=True)
+    class Frozen:
+        x: int
+        y: list
+
+    made = _core.new_with_dict(Frozen, {"x": 3, "y": [4]})
+    assert made == Frozen(3, [4]) and repr(made).endswith("Frozen(x=3, y=[4])")
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        made.x = 5
+
+    class Slotted:
+        __slots__ = ("a",)
+
+    class OwnNew:
+        def __new__(cls):
+            return object.__new__(cls)
+
+    class Abstract(abc.ABC):
+        @abc.abstractmethod
+        def f(self): ...
+
+    class Sub(dict):
+        pass
+
+    for cls, value in ((Slotted, {}), (OwnNew, {}), (Abstract, {}), (int, {}), (Plain, [("a", 1)]),
+                       (Plain, Sub(a=1)), (Plain, collections.OrderedDict(a=1)), ("Plain", {})):
+        with pytest.raises(ValueError, match="new_with_dict"):
+            _core.new_with_dict(cls, value)
+
+
 @pytest.mark.parametrize("name", [o.name for o in rangemesh.params.OPTION_TABLE])
 def test_a_call_giving_any_option_is_checked_as_before(name):
     # the small call takes only calls that give no option: each option given, even a bad one,

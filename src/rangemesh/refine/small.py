@@ -35,12 +35,13 @@ __all__ = ["SMALL_PIXELS", "mesh_small"]
 # FIT_SPLIT_MIN_FACES faces (the fit's pass on one thread), never two strips (STRIP_MIN_PIXELS)
 # and the default target's cap is its least (`default_vertex_cap`): tests/test_refine.py holds
 # these to it. A larger image's call costs milliseconds: the general path's steps weigh nothing there.
-SMALL_PIXELS = 2000
+# (the native call declines larger images: the figure is its own)
+SMALL_PIXELS = _core.SMALL_IMAGE_PIXELS
 # `depth_exponent`'s band: depths beyond it are scaled by the general path.
 _BAND = 2.0**DEPTH_BAND
-_REQUESTS: dict = {}  # (count or None, the fit's rule, fit, flip): the request, made once (read only)
-_new = object.__new__
-_set = object.__setattr__
+# (count or None, the fit's rule, fit, flip): the request and its vertices, made once (read only)
+_REQUESTS: dict = {}
+_with_dict = _core.new_with_dict
 _RULE: list = [None, None]  # the last height rule's values and rule
 # The instance dicts a small call's Stats and Mesh copy, in the fields' order (the values set
 # here are those no small call changes; the others are set at each call)
@@ -51,8 +52,8 @@ _MESH = {"vertices": None, "faces": None, "pixels": None, "camera": _UNIT, "imag
          "stats": None, "colors": None, "texture": None, "attributes": None}
 
 
-def _request(vertices: int | None, rule, fit: bool, flip: bool) -> _core.RefineRequest:
-    """The request of a count (None: the default target) on a small image, made once.
+def _request(vertices: int | None, rule, fit: bool, flip: bool) -> tuple[_core.RefineRequest, int]:
+    """The request of a count (None: the default target) on a small image and its vertices, made once.
 
     `fit` and `flip`: what None means for ``heights`` and ``diagonals`` (`NONE_MEANS`).
     """
@@ -71,28 +72,29 @@ def _request(vertices: int | None, rule, fit: bool, flip: bool) -> _core.RefineR
     req.heights = rule
     if len(_REQUESTS) >= 256:  # (a long run of distinct counts: start again)
         _REQUESTS.clear()
-    _REQUESTS[vertices, rule, fit, flip] = req
-    return req
+    made = _REQUESTS[vertices, rule, fit, flip] = req, req.vertices  # (a read of the binding's field costs)
+    return made
 
 
-def mesh_small(image, vertices: int | None, background: float, fill_gaps: bool, t0: float,
-               now) -> Mesh | None:
-    """`triangulate(image, vertices=vertices)` of a small checked image, or None (declined).
+def mesh_small(image, vertices: int | None, int_background: float, float_background: float,
+               fill_gaps: bool, t0: float, now) -> Mesh | None:
+    """`triangulate(image, vertices=vertices)` of a small image, or None (declined).
 
     Parameters
     ----------
-    image : (H, W) C-contiguous ndarray of a dtype the kernels take
-        Fewer than `SMALL_PIXELS` pixels, at least 2 a side.
+    image : ndarray
+        The native call declines anything but a C-contiguous (H, W) array of a dtype the kernels
+        take, fewer than `SMALL_PIXELS` pixels, at least 2 a side.
     vertices : int or None
-        A count from 3 to H * W, or None: the default target.
-    background : float
-        What marks missing depth besides NaN and infinities (NaN: nothing else).
+        A count from 3 to below `SMALL_PIXELS`, or None: the default target.
+    int_background, float_background : float
+        What marks missing depth besides NaN and infinities in an integer image and in a float
+        one (NaN: nothing else).
     fill_gaps : bool
         Fill single-pixel gaps.
     t0 : float
         When the call started (`now`), the clock of ``stats.seconds``.
     """
-    h, w = image.shape
     # (`height_rule(h * w)`: one thread below SMALL_PIXELS, tests/test_pipeline.py; its values
     # read at each call, the rule looked up only when they change: a fifth of its cost)
     values = (_heights.OUTLIER_MADS, _heights.OUTLIER_FLOOR, _heights.RIDGE, _heights.CG_RTOL,
@@ -102,19 +104,19 @@ def mesh_small(image, vertices: int | None, background: float, fill_gaps: bool, 
         _RULE[:] = values, _heights._rule(values)
     rule = _RULE[1]
     fit, flip = NONE_MEANS["heights"] == "fit", NONE_MEANS["diagonals"] == "error"
-    req = _REQUESTS.get((vertices, rule, fit, flip)) or _request(vertices, rule, fit, flip)
-    want = req.vertices
-    out = _core.refine_image(image, background, fill_gaps, vertices is None, req, want, _BAND,
-                             _heights._direct_solve)
+    req, want = _REQUESTS.get((vertices, rule, fit, flip)) or _request(vertices, rule, fit, flip)
+    out = _core.refine_image(image, int_background, float_background, fill_gaps, vertices is None, req,
+                             _BAND, _heights._direct_solve)
     if out is None:
         return None
+    shape = image.shape
     (points, faces, pixels, n_valid, edges, insertions, flips, strips, meshings, fitted, fit_seconds,
      seconds, prepare, achieved, asked) = out
     got = len(pixels)
     if vertices is not None and got == vertices:  # (the record of a count met: one a count)
         target = _MET.get((got, meshings)) or _met(got, meshings)
     else:
-        target = _target(vertices, got, n_valid, h * w, meshings, achieved, asked, want)
+        target = _target(vertices, got, n_valid, shape[0] * shape[1], meshings, achieved, asked, want)
     t4 = now()
     # (copies of a made Stats' and Mesh's instance dicts, their changing fields set: what
     # `with_fields` and `Target.from_record` make, at a fraction of their cost; a new dict a
@@ -133,18 +135,15 @@ def mesh_small(image, vertices: int | None, background: float, fill_gaps: bool, 
     s["insertions"] = insertions
     s["strips"] = strips
     s["heights"] = "fit" if fit and fitted else "pixel"
-    stats = _new(Stats)
-    _set(stats, "__dict__", s)
+    stats = _with_dict(Stats, s)
     m = _MESH.copy()
     m["vertices"] = points
     m["faces"] = faces
     m["pixels"] = pixels
-    m["image_shape"] = (h, w)
+    m["image_shape"] = shape
     m["stats"] = stats
     m["attributes"] = {}
-    mesh = _new(Mesh)
-    _set(mesh, "__dict__", m)
-    return mesh
+    return _with_dict(Mesh, m)
 
 
 _MET: dict = {}  # (count, meshings): the Target of a count met, made once (frozen: shared)

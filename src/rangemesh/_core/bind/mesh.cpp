@@ -170,8 +170,26 @@ refine::DirectSolve direct_of(nb::handle direct_solve) {
     };
 }
 
-// A 2-D C-contiguous image of any dtype: `refine_image` dispatches on it (one kernel a dtype, no copy).
-using AnyImage = nb::ndarray<nb::ro, nb::ndim<2>, nb::c_contig, nb::device::cpu>;
+// Images of fewer pixels take `refine_image` (rangemesh/refine/small.py's SMALL_PIXELS, its reasons).
+constexpr index_t SMALL_IMAGE_PIXELS = 2000;
+
+// `refine_image`'s image: a NumPy array of 2 dimensions, at least 2 x 2 and fewer than
+// SMALL_IMAGE_PIXELS pixels, C-contiguous, aligned, in native byte order, of float64, float32
+// or an integer type of 1, 2, 4 or 8 bytes; null for anything else (the general path's to
+// check). Read through NumPy's C API: a tenth of nanobind's ndarray import on a small call.
+PyArrayObject* small_image(nb::handle image) {
+    if (!PyArray_Check(image.ptr())) return nullptr;
+    auto* a = reinterpret_cast<PyArrayObject*>(image.ptr());
+    if (PyArray_NDIM(a) != 2 || !PyArray_IS_C_CONTIGUOUS(a) || !PyArray_ISALIGNED(a) || !PyArray_ISNOTSWAPPED(a))
+        return nullptr;
+    const npy_intp rows = PyArray_DIM(a, 0), cols = PyArray_DIM(a, 1);
+    if (rows < 2 || cols < 2 || rows * cols >= SMALL_IMAGE_PIXELS) return nullptr;
+    const char kind = PyArray_DESCR(a)->kind;
+    const npy_intp size = PyArray_ITEMSIZE(a);
+    const bool ok = kind == 'f' ? size == 8 || size == 4
+                                : (kind == 'i' || kind == 'u') && (size == 1 || size == 2 || size == 4 || size == 8);
+    return ok ? a : nullptr;
+}
 
 // The count and extremes of the valid depths (as `valid_range`: four lanes with no branch). The
 // bounds are those of any order but for a zero's sign, which a small call never reads: a range
@@ -206,12 +224,11 @@ class RangeLanes {
 };
 
 // `mask_image` and the valid range of its result in one loop over the pixels (a third of the
-// two passes' instructions on a small image); false for another dtype. `mask_image`'s rule on
-// each pixel: NaN, inf and `bg` (NaN: none) are invalid, compared as float64 (for an integer
-// type of 4 bytes or less the same as its compare as T: such a value is exact in float64).
+// two passes' instructions on a small image). `mask_image`'s rule on each pixel: NaN, inf and
+// `bg` (NaN: none) are invalid, compared as float64 (for an integer type of 4 bytes or less the
+// same as its compare as T: such a value is exact in float64).
 template <class T>
-bool mask_as(const AnyImage& image, double bg, Grid<double> depth, Grid<bool> valid, RangeLanes& lanes) {
-    if (image.dtype() != nb::dtype<T>()) return false;
+void mask_as(const void* image, double bg, Grid<double> depth, Grid<bool> valid, RangeLanes& lanes) {
     constexpr double big = std::numeric_limits<double>::max();
     constexpr int LANES = RangeLanes::LANES;
     const auto put = [&](int k, T value, double& d, bool& v) {
@@ -221,7 +238,7 @@ bool mask_as(const AnyImage& image, double bg, Grid<double> depth, Grid<bool> va
         v = ok;
         lanes.take(k, ok, x);
     };
-    const T* in = static_cast<const T*>(image.data());
+    const T* in = static_cast<const T*>(image);
     for (index_t r = 0; r < depth.rows; ++r) {
         poll_interrupt();
         const T* row = in + r * depth.cols;
@@ -232,20 +249,31 @@ bool mask_as(const AnyImage& image, double bg, Grid<double> depth, Grid<bool> va
             for (int k = 0; k < LANES; ++k) put(k, row[c + k], d[c + k], v[c + k]);
         for (; c < depth.cols; ++c) put(0, row[c], d[c], v[c]);
     }
-    return true;
 }
 
-// `mask_image` of an image of a dtype the kernels take and its valid range; false for another dtype.
-bool mask_any(const AnyImage& image, double bg, Grid<double> depth, Grid<bool> valid, RangeLanes& lanes) {
-    return mask_as<double>(image, bg, depth, valid, lanes) || mask_as<float>(image, bg, depth, valid, lanes) ||
-           mask_as<std::uint16_t>(image, bg, depth, valid, lanes) ||
-           mask_as<std::uint8_t>(image, bg, depth, valid, lanes) ||
-           mask_as<std::int16_t>(image, bg, depth, valid, lanes) ||
-           mask_as<std::int32_t>(image, bg, depth, valid, lanes) ||
-           mask_as<std::uint32_t>(image, bg, depth, valid, lanes) ||
-           mask_as<std::int64_t>(image, bg, depth, valid, lanes) ||
-           mask_as<std::uint64_t>(image, bg, depth, valid, lanes) ||
-           mask_as<std::int8_t>(image, bg, depth, valid, lanes);
+// `mask_image` of a `small_image` and its valid range, by its dtype: `float_bg` marks missing depth
+// in a float image, `int_bg` in an integer one.
+void mask_any(PyArrayObject* image, double int_bg, double float_bg, Grid<double> depth, Grid<bool> valid,
+              RangeLanes& lanes) {
+    const void* data = PyArray_DATA(image);
+    const bool is_signed = PyArray_DESCR(image)->kind == 'i';
+    switch (PyArray_DESCR(image)->kind == 'f' ? -PyArray_ITEMSIZE(image) : PyArray_ITEMSIZE(image)) {
+        case -8: return mask_as<double>(data, float_bg, depth, valid, lanes);
+        case -4: return mask_as<float>(data, float_bg, depth, valid, lanes);
+        case 1:
+            return is_signed ? mask_as<std::int8_t>(data, int_bg, depth, valid, lanes)
+                             : mask_as<std::uint8_t>(data, int_bg, depth, valid, lanes);
+        case 2:
+            return is_signed ? mask_as<std::int16_t>(data, int_bg, depth, valid, lanes)
+                             : mask_as<std::uint16_t>(data, int_bg, depth, valid, lanes);
+        case 4:
+            return is_signed ? mask_as<std::int32_t>(data, int_bg, depth, valid, lanes)
+                             : mask_as<std::uint32_t>(data, int_bg, depth, valid, lanes);
+        case 8:
+            return is_signed ? mask_as<std::int64_t>(data, int_bg, depth, valid, lanes)
+                             : mask_as<std::uint64_t>(data, int_bg, depth, valid, lanes);
+        default: throw InvariantError("refine_image: small_image let another dtype through");
+    }
 }
 
 // A small call's masked image, kept by its thread from call to call (at most KEPT_PIXELS): a
@@ -316,19 +344,21 @@ double seconds_since(std::chrono::steady_clock::time_point t) {
 
 // The whole refine call of an orthographic image, unit scales (`rangemesh.refine.small`): the
 // preparation (background masked, single-pixel gaps filled, the valid range) and `refine_mesh`
-// in one call. None (declined) where the library's general path has more to do or to say: fewer
-// than `min_valid` valid pixels, a valid range beyond the float range or holding 0 (a zero
-// marker's warning), a largest depth magnitude outside [1 / band, band] (depths scaled first),
-// no face left, or a call that declined. `background`: what marks missing depth besides NaN and
-// infinities (NaN: nothing else).
-nb::object refine_image(const AnyImage& image, double background, bool fill_gaps, bool reference_before_fill,
-                        const MeshRequest& asked, index_t min_valid, double band, nb::handle direct_solve) {
+// in one call. None (declined) where the library's general path has more to do or to say: an
+// image that is no `small_image`, fewer valid pixels than the vertices asked, a valid range beyond the
+// float range or holding 0 (a zero marker's warning), a largest depth magnitude outside
+// [1 / band, band] (depths scaled first), no face left, or a call that declined. `int_background`
+// and `float_background`: what marks missing depth besides NaN and infinities in an integer
+// image and in a float one (NaN: nothing else).
+nb::object refine_image(nb::handle image_object, double int_background, double float_background, bool fill_gaps,
+                        bool reference_before_fill, const MeshRequest& asked, double band, nb::handle direct_solve) {
     const auto t0 = std::chrono::steady_clock::now();
-    const index_t rows = static_cast<index_t>(image.shape(0)), cols = static_cast<index_t>(image.shape(1));
+    check_input(asked.vertices > 0 && band >= 1.0, "refine_image: the vertices asked above 0, band at least 1");
+    const index_t min_valid = asked.vertices;
+    PyArrayObject* const image = small_image(image_object);
+    if (image == nullptr) return nb::none();
+    const index_t rows = static_cast<index_t>(PyArray_DIM(image, 0)), cols = static_cast<index_t>(PyArray_DIM(image, 1));
     const index_t n = rows * cols;
-    check_input(rows >= 2 && cols >= 2, "refine_image: an image of at least 2x2 pixels");
-    check_input(min_valid >= asked.vertices && asked.vertices > 0 && band >= 1.0,
-                "refine_image: min_valid at least the vertices asked, above 0; band at least 1");
     const ImageLease buffers(n);
     double* const depth = buffers.depth();
     bool* const valid = buffers.valid();
@@ -338,8 +368,7 @@ nb::object refine_image(const AnyImage& image, double background, bool fill_gaps
     const DepthRange range = run_released(
         [&] {
             RangeLanes lanes;
-            check_input(mask_any(image, background, d, v, lanes),  // (NaN: no marker)
-                        "refine_image: image of float32, float64 or an integer dtype");
+            mask_any(image, int_background, float_background, d, v, lanes);  // (NaN: no marker)
             DepthRange masked = lanes.range();
             // (with no invalid pixel there is no gap to fill: the mask is the reference)
             if (!fill_gaps || masked.count == n) return masked;
@@ -372,6 +401,20 @@ nb::object refine_image(const AnyImage& image, double background, bool fill_gaps
     return nb::make_tuple(numpy_copy(res.vertices, n_v, 3), numpy_copy(res.faces, n_f, 3),
                           numpy_copy(res.pixels, n_v, 2), range.count, res.edges, res.insertions, res.flips, res.strips,
                           res.meshings, res.fitted, res.fit_seconds, res.seconds, prepare, res.achieved, res.asked);
+}
+
+// An instance of `cls` whose __dict__ is `fields` (not copied), neither __new__ nor __init__
+// called: what ``object.__new__(cls)`` and ``object.__setattr__(obj, "__dict__", fields)`` make of
+// a class that takes them, at a fifth of their cost (no empty dict made and dropped between).
+nb::object new_with_dict(nb::handle cls, nb::handle fields) {
+    check_input(PyType_Check(cls.ptr()) && PyDict_CheckExact(fields.ptr()), "new_with_dict: a class and a dict");
+    auto* type = reinterpret_cast<PyTypeObject*>(cls.ptr());
+    check_input(type->tp_new == PyBaseObject_Type.tp_new && !PyType_HasFeature(type, Py_TPFLAGS_IS_ABSTRACT) &&
+                    (PyType_HasFeature(type, Py_TPFLAGS_MANAGED_DICT) || type->tp_dictoffset != 0),
+                "new_with_dict: a class made by object.__new__ whose instances take a __dict__");
+    nb::object obj = nb::steal(type->tp_alloc(type, 0));
+    if (!obj.is_valid() || PyObject_GenericSetDict(obj.ptr(), fields.ptr(), nullptr) < 0) throw nb::python_error();
+    return obj;
 }
 
 }  // namespace
@@ -458,17 +501,22 @@ void bind_refine_mesh(nb::module_& m) {
         "``request.vertices`` vertices or, with ``request.max_error``, the relative error against "
         "``ref_depth``, ``ref_valid`` (default: depth, valid) is met; a fit that does not converge is solved by "
         "``direct_solve(ids, block, rhs, h0)`` (None: the call declines). Returns a RefineResult.");
-    m.def("refine_image", &refine_image, nb::arg("image").noconvert(), nb::arg("background"), nb::arg("fill_gaps"),
-          nb::arg("reference_before_fill"), nb::arg("request"), nb::arg("min_valid"), nb::arg("band"),
+    m.attr("SMALL_IMAGE_PIXELS") = SMALL_IMAGE_PIXELS;
+    m.def("new_with_dict", &new_with_dict, nb::arg("cls"), nb::arg("fields"),
+          "An instance of ``cls`` (a class made by ``object.__new__`` whose instances take a __dict__) with "
+          "``fields`` (a dict, not copied) as its __dict__, neither __new__ nor __init__ called.");
+    m.def("refine_image", &refine_image, nb::arg("image"), nb::arg("int_background"), nb::arg("float_background"),
+          nb::arg("fill_gaps"), nb::arg("reference_before_fill"), nb::arg("request"), nb::arg("band"),
           nb::arg("direct_solve").none(),
-          "The whole refine call of an (H, W) C-contiguous image, unit orthographic camera: masked (NaN, inf "
-          "and ``background`` unless it is NaN), single-pixel gaps filled when ``fill_gaps``, then "
-          "``refine_mesh`` with ``request`` (its n_valid, lo and hi set from the image; the error bound's "
-          "reference is the mask before the fill when ``reference_before_fill``). Returns ``(vertices, faces, "
-          "pixels, n_valid, edges, insertions, flips, strips, meshings, fitted, fit_seconds, seconds, "
-          "prepare_seconds, achieved, asked)``, or None where the general path has more to do: fewer than "
-          "``min_valid`` valid pixels, a range beyond the float range or holding 0, a largest depth magnitude "
-          "outside [1 / band, band], no face.");
+          "The whole refine call of a small image (an (H, W) C-contiguous, aligned, native-order ndarray of float64, "
+          "float32 or an integer dtype, H, W >= 2, H * W < SMALL_IMAGE_PIXELS), unit orthographic camera: masked "
+          "(NaN, inf and ``float_background`` in a float image, ``int_background`` in an integer one, unless it "
+          "is NaN), single-pixel gaps filled when ``fill_gaps``, then ``refine_mesh`` with ``request`` (its "
+          "n_valid, lo and hi set from the image; the error bound's reference is the mask before the fill when "
+          "``reference_before_fill``). Returns ``(vertices, faces, pixels, n_valid, edges, insertions, flips, "
+          "strips, meshings, fitted, fit_seconds, seconds, prepare_seconds, achieved, asked)``, or None where the "
+          "general path has more to do: another image, fewer valid pixels than ``request.vertices``, a range beyond "
+          "the float range or holding 0, a largest depth magnitude outside [1 / band, band], no face.");
 }
 
 }  // namespace rangemesh::bind

@@ -58,7 +58,7 @@ import peers  # noqa: E402  (the sibling script: images, peers and timing)
 
 from rangemesh.camera import Spherical  # noqa: E402
 from rangemesh.pipeline import triangulate  # noqa: E402
-from rangemesh.refine.threads import THREADS_VARIABLE  # noqa: E402
+from rangemesh.threads import THREADS_VARIABLE  # noqa: E402
 
 FRACTIONS = (0.01, 0.03, 0.10)
 MIN_VERTICES = 50

@@ -16,7 +16,7 @@ SDK bag played by pyrealsense2; ``ros``, the same bag read as a ROS bag (the
 ROS reader, ``--source ros``); ``ouster``, the Ouster pcap with its metadata.
 
 For each source, pace and thread count (``RANGEMESH_THREADS``, set in this
-process before the run: `rangemesh.refine.threads` reads it at each call) it
+process before the run: `rangemesh.threads` reads it at each call) it
 prints the medians over the runs of what the session records
 (`rangemesh.live.stats.Stats.summary`): frames/s in and out, frames dropped,
 the latency from a frame's release by the playback clock to its publication

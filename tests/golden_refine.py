@@ -147,11 +147,11 @@ def meshing(strips=False, threads=None):
     which meshes one strip or two), ``(threads, strips)``: the threads it was
     given for two strips (None when asked for one) and the strips of its mesh
     (None when it declined). Threads are those of the strips and of the fit
-    (`rangemesh.refine.threads`).
+    (`rangemesh.threads`).
     """
+    from rangemesh import threads as threads_module
     from rangemesh.refine import heights, insertion
     from rangemesh.refine import strips as strips_module
-    from rangemesh.refine import threads as threads_module
 
     calls = []
     refine_mesh = insertion._core.refine_mesh

@@ -14,8 +14,8 @@ import math
 import numpy as np
 
 from rangemesh import _core
+from rangemesh import threads as _threads
 from rangemesh.blocks import blocks, concat, take
-from rangemesh.refine import threads as _threads
 from rangemesh.refine.start import first_mesh
 from rangemesh.refine.strips import SEAM_DENSITY, SEAM_ERROR_SHARE
 
@@ -78,7 +78,7 @@ def strip_insert(depth, valid, vertices, span, scales, n_grid, *, max_sum=-1.0, 
     threads : int, optional
         1 runs the strips one after the other; default 2 where this process
         may use two cores and ``RANGEMESH_THREADS`` is not 1
-        (`rangemesh.refine.threads`). The mesh is the same either way.
+        (`rangemesh.threads`). The mesh is the same either way.
     rounds : bool, default True
         False inserts every vertex one at a time (the tail's order): the
         same mesh, on one thread, unless the last round stopped a strip by

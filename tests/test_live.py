@@ -321,7 +321,7 @@ def test_meshes_come_out_in_the_frames_order_whatever_order_they_are_made_in(mon
 
 
 def test_each_worker_meshes_with_one_native_thread(monkeypatch):
-    from rangemesh.refine import threads as refine_threads
+    from rangemesh import threads as refine_threads
 
     _two_workers(monkeypatch)
     seen = []

@@ -163,6 +163,18 @@ def test_tile_threads_follow_workers_within_the_cores_and_the_batch_cap(monkeypa
     assert _tile_threads(4) == 1
 
 
+def test_tile_threads_are_one_within_a_live_frame_worker(monkeypatch):
+    from rangemesh.paper.sampling import _tile_threads
+    from rangemesh.threads import one_thread
+
+    monkeypatch.delenv("RANGEMESH_THREADS", raising=False)
+    cores = len(os.sched_getaffinity(0))
+    assert _tile_threads(4) == min(4, cores)
+    with one_thread():  # the live workers already use the cores, a frame each
+        assert _tile_threads(4) == 1
+    assert _tile_threads(4) == min(4, cores)
+
+
 def test_weights_into_a_strided_buffer_are_the_same():
     rng = np.random.default_rng(3)
     d = rng.uniform(0, 100, (30, 40))

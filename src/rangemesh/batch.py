@@ -397,7 +397,7 @@ def dask_client(scheduler: str | None, workers: int | None, connect_timeout: flo
     cluster = None
     if scheduler is None:
         # One single-threaded process per core: method="refine"'s second thread
-        # (`rangemesh.refine.threads`) would only oversubscribe the cores.
+        # (`rangemesh.threads`) would only oversubscribe the cores.
         with _script_not_rerun():
             cluster = dd.LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True,
                                       dashboard_address=":0", silence_logs=40,  # any free port

@@ -245,7 +245,7 @@ class MeshParams:
             "processes: `rangemesh.mesh_many`). ``method='refine'`` decides itself: on images "
             "of 60,000 valid pixels or more, from 2000 vertices or under an error bound, it "
             "meshes two strips of the image on two threads where the process may use two "
-            "cores (`rangemesh.refine.threads`; ``RANGEMESH_THREADS=1`` keeps one); its mesh "
+            "cores (`rangemesh.threads`; ``RANGEMESH_THREADS=1`` keeps one); its mesh "
             "too is the same either way.",
         flag=Flag("threads sharing stage one's tiles; the mesh is the same for any number "
                   "(default {default})", "int"))

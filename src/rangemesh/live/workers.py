@@ -3,7 +3,7 @@
 With more than one thread for the run (`frame_workers`: ``RANGEMESH_THREADS``,
 at most the cores this process may use), `rangemesh.live.session` meshes
 several frames at once, each on a worker thread of its own that meshes with
-one native thread (`rangemesh.refine.threads.one_thread`): the native
+one native thread (`rangemesh.threads.one_thread`): the native
 meshing releases the GIL, so the workers run side by side, and each mesh is
 the one a single thread makes. A recording's frames are read and decoded
 ahead on a thread of their own (`Prefetch`), while the caller's thread
@@ -23,7 +23,7 @@ import threading
 from collections.abc import Callable, Iterator
 from concurrent.futures import Future
 
-from ..refine.threads import THREADS_VARIABLE, one_thread
+from ..threads import THREADS_VARIABLE, one_thread
 from .pacing import paced
 
 __all__ = ["frame_workers", "cores", "Prefetch", "pooled", "UNPUBLISHED_PER_WORKER"]

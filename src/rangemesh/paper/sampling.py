@@ -9,7 +9,6 @@ background value ever reaches arithmetic (SPEC P1).
 from __future__ import annotations
 
 import math
-import os
 
 import numpy as np
 
@@ -18,6 +17,7 @@ from ..blocks import blocks
 from ..geometry.curvature import curvature, valid_span  # shared steps, their names kept here
 from ..params import MeshParams
 from ..prepare import fill_gaps, fill_gaps_inplace  # noqa: F401 - shared steps, re-exported
+from ..threads import threads
 
 __all__ = [
     "fill_gaps",
@@ -93,15 +93,12 @@ def sampling_weights(depth: np.ndarray, valid: np.ndarray, params: MeshParams, *
 
 
 def _tile_threads(workers: int) -> int:
-    """Threads for stage one's tiles: `workers`, but no more than the cores this process may use.
+    """Threads for stage one's tiles: `workers`, within the limits of `rangemesh.threads`.
 
-    ``RANGEMESH_THREADS`` caps them too: batch workers set it to 1, one thread
-    per process (`rangemesh.refine.threads`).
+    The cores this process may use, ``RANGEMESH_THREADS`` (batch workers set it to 1), and one
+    within a live frame worker.
     """
-    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
-    cap = os.environ.get("RANGEMESH_THREADS", "")
-    limit = min(cores or 1, int(cap)) if cap.isdigit() and int(cap) > 0 else cores or 1
-    return max(1, min(int(workers), limit))
+    return threads(workers)
 
 
 def tile_bounds(n: int, tiles: int, *, name: str = "tiles") -> np.ndarray:

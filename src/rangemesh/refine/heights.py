@@ -24,7 +24,7 @@ import numpy as np
 
 from .. import _core
 from ..camera import Pinhole
-from .threads import threads
+from ..threads import threads
 
 __all__ = ["fit_heights", "height_rule"]
 
@@ -102,7 +102,7 @@ def _rule(values: tuple) -> _core.HeightRule:
 
 
 def _default_threads() -> int:
-    """The pass's threads when the caller names none: `rangemesh.refine.threads.threads`."""
+    """The pass's threads when the caller names none: `rangemesh.threads.threads`."""
     return threads()
 
 
@@ -173,7 +173,7 @@ def fit_heights(pixels: np.ndarray, faces: np.ndarray, depth: np.ndarray, valid:
         caller has it: a pass over the image less.
     threads : int, optional
         Threads of the pass over the pixels (meshes of 4000 faces or more);
-        by default `rangemesh.refine.threads.threads`. The result is the same
+        by default `rangemesh.threads.threads`. The result is the same
         bit for bit for any number.
 
     Returns

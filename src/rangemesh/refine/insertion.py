@@ -7,6 +7,7 @@ import math
 import numpy as np
 
 from .. import _core
+from .. import threads as _threads
 from .._core import (
     EXACT_SPAN,
     valid_range,
@@ -15,7 +16,6 @@ from ..camera import _UNIT, Orthographic, pixel_aspect
 from ..mesh import Mesh, Stats, empty_mesh, with_fields
 from ..render import deviation_scale
 from . import heights as _heights
-from . import threads as _threads
 from .heights import height_rule
 from .start import corner_depths, first_mesh, valid_hull
 from .strips import SEAM_DENSITY, SEAM_ERROR_SHARE, use_strips

@@ -1,8 +1,9 @@
-"""How many threads a call of method="refine" may use: the one place that decides.
+"""How many native threads a meshing call may use: the one place that decides.
 
-The strips (`rangemesh.refine.strips`) run their two halves on two native
-threads inside the compiled core, and the fit's pass (`rangemesh.refine.heights`)
-splits its faces between threads the same way. The result never depends on
+Refine's strips (`rangemesh.refine.strips`) run their two halves on two native
+threads inside the compiled core, its fit's pass (`rangemesh.refine.heights`)
+splits its faces between threads the same way, and the paper's stage one shares
+its tiles between threads (`rangemesh.paper.sampling`). No result depends on
 the number of threads.
 """
 
@@ -18,17 +19,18 @@ __all__ = ["threads", "THREADS_VARIABLE", "one_thread"]
 THREADS_VARIABLE = "RANGEMESH_THREADS"
 
 
-def threads() -> int:
-    """Two where this process may use two cores, unless ``RANGEMESH_THREADS`` says fewer; else one.
+def threads(most: int = 2) -> int:
+    """`most` threads (refine's two), within the cores and ``RANGEMESH_THREADS``; at least one.
 
-    One on a thread within `one_thread` (a frame worker of `rangemesh.live`).
+    No more than the cores this process may use, nor than ``RANGEMESH_THREADS`` says. One on a
+    thread within `one_thread` (a frame worker of `rangemesh.live`).
     """
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
     value = os.environ.get(THREADS_VARIABLE, "").strip()
-    setting = int(value) if value.isdigit() else 2
+    setting = int(value) if value.isdigit() else most
     if getattr(_local, "one", False):  # a worker of a pool that already uses the cores
         setting = 1
-    return max(1, min(2, cores or 1, setting))
+    return max(1, min(int(most), cores or 1, setting))
 
 
 _local = threading.local()

@@ -62,13 +62,17 @@ for _ in range(int(sys.argv[2])):
 '''
 
 
+# string hashes and BLAS threads drift a run's count by about +-10K a call; fixed, runs repeat it
+STEADY = {**os.environ, "PYTHONHASHSEED": "0", "OPENBLAS_NUM_THREADS": "1"}
+
+
 def instructions(arg: str, which: str, calls: int = 2000) -> float:
     """Instructions a call of `which` ('ours' or 'theirs') in the tree `arg`, by callgrind."""
     counts = []
     for n in (0, calls):
         out = subprocess.run(["valgrind", "--tool=callgrind", "--callgrind-out-file=/dev/null",
                               sys.executable, "-c", COUNT, arg, str(n), which],
-                             capture_output=True, text=True, cwd="/")
+                             capture_output=True, text=True, cwd="/", env=STEADY)
         line = next(x for x in out.stderr.splitlines() if "Collected" in x)
         counts.append(int(line.split()[-1]))
     return (counts[1] - counts[0]) / calls

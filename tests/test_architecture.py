@@ -183,3 +183,20 @@ def test_no_bound_callable_takes_more_than_eight_arguments():
     assert counts["StripMesh.vr"] == 0 and counts["InsertSettings.span"] == 1  # a getter, a setter
     assert len(counts) > 100
     assert {name: n for name, n in counts.items() if n > 8} == {}
+
+
+def test_the_core_prints_nothing_and_reads_only_rangemesh_variables():
+    # (review44d) a library kernel writes to no stream (its callers may own stderr) and is
+    # steered by no environment variable beyond the documented RANGEMESH_* ones
+    import re
+
+    core = ROOT / "src" / "rangemesh" / "_core"
+    found = []
+    for path in sorted(core.rglob("*.[ch]pp")):
+        for n, line in enumerate(path.read_text().splitlines(), 1):
+            code = line.split("//")[0]
+            names = re.findall(r"getenv\(\s*\"([^\"]*)\"", code)
+            if re.search(r"\b(f?printf|puts|std::cout|std::cerr)\b", code) or any(
+                    not s.startswith("RANGEMESH_") for s in names):
+                found.append(f"{path.relative_to(core)}:{n}: {line.strip()}")
+    assert found == []

@@ -228,6 +228,76 @@ def test_the_scalar_pass_gives_the_four_lane_pass_blocks_and_errors_bit_for_bit(
     assert runs["1"] == runs["0"]
 
 
+_SHAPES_CHILD = r"""
+import hashlib, json
+import numpy as np
+from scipy.spatial import Delaunay
+from rangemesh import _core
+
+def digest(*arrays):
+    return hashlib.sha256(b"".join(np.ascontiguousarray(a).tobytes() for a in arrays)).hexdigest()
+
+out, wide = {"avx": bool(_core._uses_avx())}, 0
+for seed in range(300):
+    rng = np.random.default_rng(seed)
+    h, w = int(rng.integers(2, 30)), 12 + seed % 4 + 4 * int(rng.integers(0, 8))  # every width mod 4
+    r, c = np.mgrid[0:h, 0:w]
+    image = (2.0 + 0.03 * r - 0.02 * c + 0.05 * rng.standard_normal((h, w))) * np.pi
+    image -= 4.0 * (seed % 2)  # (negative values on odd seeds)
+    image[rng.random((h, w)) < 0.05] = -0.0
+    valid = rng.random((h, w)) > rng.choice([0.0, 0.1, 0.4])
+    valid[:, -1 - seed % 3:] &= rng.random((h, 1 + seed % 3)) > 0.5  # holes at the right side
+    image[~valid] = (np.nan, np.inf, -0.0, 1e300)[seed % 4]
+    if seed % 5 == 0:
+        image[valid & (rng.random((h, w)) < 0.02)] = (np.nan, np.inf, -np.inf)[seed % 3]
+    pts = [[0, 0], [0, w - 1], [h - 1, 0], [h - 1, w - 1]]
+    pts += [[int(rng.integers(0, h)), int(rng.integers(0, w))] for _ in range(int(rng.integers(0, 5)))]
+    pts = np.unique(np.array(pts), axis=0)
+    try:
+        faces = Delaunay(pts.astype(float)).simplices.astype(np.int64)
+    except Exception:  # (all points on a line: no faces)
+        continue
+    faces[::2] = faces[::2, ::-1]
+    rows, cols = (np.ascontiguousarray(pts[:, k], dtype=np.int64) for k in (0, 1))
+    for f in faces:
+        (ar, br, cr), (ac, bc, cc) = rows[f], cols[f]
+        area = abs((br - ar) * (cc - ac) - (bc - ac) * (cr - ar))
+        wide += int(np.ptp(cols[f]) >= 8 and area >= 12 * (np.ptp(rows[f]) + 1))
+    pixels = np.ascontiguousarray(np.stack([rows, cols], axis=1))
+    values = np.ascontiguousarray(np.where(valid[rows, cols], image[rows, cols], 1.5))
+    order = rng.permutation(len(faces)).astype(np.int64)
+    res = []
+    for threshold in (0.05, 0.3, np.inf):
+        b = _core.fit_blocks(faces, order, pixels, values, image, valid, threshold)
+        res.append([digest(b.ids, b.block, b.rhs), int(b.used)])
+    s = _core.FitSettings()
+    s.row_stride, s.face_stride, s.capacity = 1, 1, 2 * image.size
+    res.append(digest(np.asarray(_core.fit_sample_errors(faces, order, pixels, values, image, valid, s))))
+    out[str(seed)] = res
+out["wide faces"] = wide
+print(json.dumps(out))
+"""
+
+
+def test_the_scalar_pass_gives_the_four_lane_pass_bit_for_bit_at_every_width():
+    # (review44d) faces of long rows over images of every width mod 4, rows ending 0 to 3
+    # columns from the right side, negative and -0.0 values, non-finite or huge values at holes
+    # and some at valid pixels: the four-lane sums, counts and errors are the scalar loop's
+    if not _core._uses_avx():
+        pytest.skip("this machine runs the scalar loops only")
+    runs = {}
+    for off in ("1", "0"):
+        env = {**os.environ, "RANGEMESH_NO_AVX": off}
+        p = subprocess.run([sys.executable, "-c", _SHAPES_CHILD], capture_output=True, text=True, env=env,
+                           timeout=600)
+        assert p.returncode == 0, p.stderr
+        runs[off] = json.loads(p.stdout)
+    assert runs["1"].pop("avx") is False and runs["0"].pop("avx") is True
+    assert runs["1"]["wide faces"] > 300  # (the four-lane loops had faces to sum)
+    assert len(runs["1"]) > 250
+    assert runs["1"] == runs["0"]
+
+
 @given(st.lists(st.one_of(st.floats(0, 1e6), st.sampled_from([0.0, 1.0, 2.5, float("nan"), float("inf")])),
                 min_size=1, max_size=200))
 def test_the_median_is_numpys(values):

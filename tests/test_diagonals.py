@@ -154,6 +154,39 @@ def test_triangle_error_of_a_large_triangle_is_the_row_major_sum_bit_for_bit(see
     assert got == expected
 
 
+
+@settings(max_examples=120, deadline=None)
+@given(st.integers(0, 2**31), st.integers(5, 30), st.integers(9, 44),
+       st.lists(st.integers(0, 10**6), min_size=5, max_size=5),
+       st.lists(st.booleans(), min_size=3, max_size=3), st.sampled_from([np.nan, np.inf, -0.0, 1e300]),
+       st.sampled_from([None, 0.3]))
+def test_triangle_error_at_the_right_side_of_any_width_is_the_row_major_sum_bit_for_bit(
+        seed, h, w, at, own, hole, stop_at):
+    # (review44d) a large triangle with a corner on the image's right column, widths of every
+    # remainder mod 4: its rows' last groups of four end 0 to 3 columns from the right side;
+    # holes hold non-finite or huge depths and some valid depths are -0.0: neither may reach the sum
+    rng = np.random.default_rng(seed)
+    a, b, c = (at[0] % h, w - 1), (at[1] % h, at[2] % w), (at[3] % h, at[4] % (w // 2 + 1))
+    area = _orient(np.array(a), np.array(b), np.array(c))
+    rows = max(a[0], b[0], c[0]) - min(a[0], b[0], c[0]) + 1
+    cols = max(a[1], b[1], c[1]) - min(a[1], b[1], c[1]) + 1
+    if area == 0 or rows * cols <= 128:  # (small boxes take the scalar walk alone)
+        return
+    if area < 0:
+        b, c = c, b
+    depth = rng.uniform(-5, 10, (h, w)) * np.pi
+    depth[rng.uniform(size=(h, w)) < 0.05] = -0.0
+    valid = rng.uniform(size=(h, w)) > 0.2
+    depth[~valid] = hole
+    z = tuple(rng.uniform(-5, 10, 3).tolist())
+    span, base = 10.0, 1.5
+    stop = np.inf if stop_at is None else float(np.floor((base + stop_at * abs(area)) / span * 2.0**32 + 0.5))
+    scan = ErrorScan(*own) if stop_at is None else ErrorScan(*own, base=base, span=span, stop=stop)
+    got = triangle_error((a[0], b[0], c[0]), (a[1], b[1], c[1]), z, depth, valid, scan)
+    expected = _serial_sum((a, b, c), z, own, depth, valid, *((0.0, 1.0, np.inf) if stop_at is None
+                                                             else (base, span, stop)))
+    assert np.float64(got).view(np.int64) == np.float64(expected).view(np.int64)  # bit for bit
+
 _NO_AVX_CHILD = r"""
 import hashlib, json, sys
 import numpy as np

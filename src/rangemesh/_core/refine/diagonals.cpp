@@ -413,9 +413,7 @@ class Flipper {
 FlipCount flip_by_error(const Image& image, const FlipMesh& mesh, bool checked) {
     Flipper f(image, mesh, checked);
     f.push_all();
-    FlipCount n = f.run();
-    if (std::getenv("FLIPS_COUNT")) fprintf(stderr, "tests %ld flips %ld\n", (long)n.tests, (long)n.flips);
-    return n;
+    return f.run();
 }
 
 FlipCount flip_from_edges(const Image& image, const FlipMesh& mesh, Span<const index_t> first, bool checked) {

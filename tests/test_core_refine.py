@@ -21,9 +21,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from rangemesh import _core
+from rangemesh import _core, threads
 from rangemesh._core import InsertSettings, valid_range
-from rangemesh.refine import insertion, threads
+from rangemesh.refine import insertion
 
 STEPS = 2.0**32
 

@@ -1,6 +1,7 @@
 // Four lanes of AVX where the compiler can target it in one function and the processor has it
-// (asked at run time). The kernels that use it (the insertion's scans, the error bound's render
-// and sum) keep their scalar loop beside it and do each lane's IEEE operations as that loop
+// (asked at run time). The kernels that use it (the insertion's scans, the flip tests' long rows,
+// the fit's pass and error sample on faces of long rows, the error bound's render and sum) keep
+// their scalar loop beside it and do each lane's IEEE operations as that loop
 // does, so a result never depends on whether AVX ran.
 #pragma once
 

@@ -6,6 +6,7 @@
 #pragma once
 
 #include <algorithm>
+#include <cstdint>
 
 #include "../views.hpp"
 
@@ -152,7 +153,11 @@ struct QuadHeapView {
 #if defined(__GNUC__) || defined(__clang__)
             // the grandchildren, four lines in a row, asked for now: a branch's speculation would
             // have loaded the next level early, and without branches nothing else does
-            for (int k = 0; k < 4; ++k) __builtin_prefetch(at + 4 * first + 1 + 4 * k);
+            // (by address, not pointer arithmetic: at the bottom levels they lie past the heap)
+            const auto base = reinterpret_cast<std::uintptr_t>(at + first);
+            for (std::uintptr_t k = 0; k < 4; ++k)
+                __builtin_prefetch(reinterpret_cast<const void*>(
+                    base + sizeof(HeapEntry) * (3 * static_cast<std::uintptr_t>(first) + 1 + 4 * k)));
 #endif
             const bool u1 = (c[1].key > c[0].key) | ((c[1].key == c[0].key) & (c[1].id < c[0].id));
             const bool u3 = (c[3].key > c[2].key) | ((c[3].key == c[2].key) & (c[3].id < c[2].id));

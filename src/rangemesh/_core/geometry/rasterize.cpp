@@ -282,7 +282,7 @@ __attribute__((target("avx"))) void claimed_error_avx(Grid<const double> pred, G
             std::memcpy(&v4, vrow + c, sizeof v4);
             std::memcpy(&c4, crow + c, sizeof c4);
             if (range != nullptr) {  // (bytes 0 or 1: gathered into bits 0..3 by one product)
-                const unsigned bits = (v4 * 0x01020408u) >> 24;
+                const unsigned bits = ((v4 * 0x01020408u) >> 24) & 15u;  // (& 15: a table row even for bool bytes > 1)
                 const __m256d ok = _mm256_load_pd(reinterpret_cast<const double*>(LANE_MASKS[bits]));
                 const __m256d x = _mm256_loadu_pd(drow + c);
                 const __m256d in = _mm256_and_pd(ok, x);  // x, or +0 where not valid
@@ -297,7 +297,8 @@ __attribute__((target("avx"))) void claimed_error_avx(Grid<const double> pred, G
             if (kind == DepthMap::inverse_scaled) p = _mm256_div_pd(p, by);
             const __m256d finite = _mm256_cmp_pd(_mm256_and_pd(p, magnitude), inf, _CMP_LT_OQ);
             const __m256d counted = _mm256_and_pd(
-                finite, _mm256_load_pd(reinterpret_cast<const double*>(LANE_MASKS[(both * 0x01020408u) >> 24])));
+                finite,
+                _mm256_load_pd(reinterpret_cast<const double*>(LANE_MASKS[((both * 0x01020408u) >> 24) & 15u])));
             const __m256d err =
                 _mm256_and_pd(_mm256_and_pd(_mm256_sub_pd(p, _mm256_loadu_pd(drow + c)), magnitude), counted);
             const __m128d lo = _mm256_castpd256_pd128(err), hi = _mm256_extractf128_pd(err, 1);

@@ -258,8 +258,10 @@ void mask_any(PyArrayObject* image, double int_bg, double float_bg, Grid<double>
     const void* data = PyArray_DATA(image);
     const bool is_signed = PyArray_DESCR(image)->kind == 'i';
     switch (PyArray_DESCR(image)->kind == 'f' ? -PyArray_ITEMSIZE(image) : PyArray_ITEMSIZE(image)) {
-        case -8: return mask_as<double>(data, float_bg, depth, valid, lanes);
-        case -4: return mask_as<float>(data, float_bg, depth, valid, lanes);
+        case -8:
+            return mask_as<double>(data, float_bg, depth, valid, lanes);
+        case -4:
+            return mask_as<float>(data, float_bg, depth, valid, lanes);
         case 1:
             return is_signed ? mask_as<std::int8_t>(data, int_bg, depth, valid, lanes)
                              : mask_as<std::uint8_t>(data, int_bg, depth, valid, lanes);
@@ -272,7 +274,8 @@ void mask_any(PyArrayObject* image, double int_bg, double float_bg, Grid<double>
         case 8:
             return is_signed ? mask_as<std::int64_t>(data, int_bg, depth, valid, lanes)
                              : mask_as<std::uint64_t>(data, int_bg, depth, valid, lanes);
-        default: throw InvariantError("refine_image: small_image let another dtype through");
+        default:
+            throw InvariantError("refine_image: small_image let another dtype through");
     }
 }
 
@@ -357,7 +360,8 @@ nb::object refine_image(nb::handle image_object, double int_background, double f
     const index_t min_valid = asked.vertices;
     PyArrayObject* const image = small_image(image_object);
     if (image == nullptr) return nb::none();
-    const index_t rows = static_cast<index_t>(PyArray_DIM(image, 0)), cols = static_cast<index_t>(PyArray_DIM(image, 1));
+    const index_t rows = static_cast<index_t>(PyArray_DIM(image, 0)),
+                  cols = static_cast<index_t>(PyArray_DIM(image, 1));
     const index_t n = rows * cols;
     const ImageLease buffers(n);
     double* const depth = buffers.depth();

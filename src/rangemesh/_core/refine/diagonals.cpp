@@ -155,9 +155,9 @@ __attribute__((target("avx"))) double box_error_avx(const Image& image, const Po
                 _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(v1, za), _mm256_mul_pd(v2, zb)), _mm256_mul_pd(v0, zc)),
                 scale);
             __m256d err = _mm256_and_pd(_mm256_sub_pd(_mm256_loadu_pd(drow + col), plane), magnitude);
-            const unsigned in = static_cast<unsigned>(_mm256_movemask_pd(_mm256_and_pd(
-                _mm256_and_pd(_mm256_cmp_pd(v0, lo0, _CMP_GE_OQ), _mm256_cmp_pd(v1, lo1, _CMP_GE_OQ)),
-                _mm256_cmp_pd(v2, lo2, _CMP_GE_OQ))));
+            const unsigned in = static_cast<unsigned>(_mm256_movemask_pd(
+                _mm256_and_pd(_mm256_and_pd(_mm256_cmp_pd(v0, lo0, _CMP_GE_OQ), _mm256_cmp_pd(v1, lo1, _CMP_GE_OQ)),
+                              _mm256_cmp_pd(v2, lo2, _CMP_GE_OQ))));
             v0 = _mm256_add_pd(v0, g0);
             v1 = _mm256_add_pd(v1, g1);
             v2 = _mm256_add_pd(v2, g2);

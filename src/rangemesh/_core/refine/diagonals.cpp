@@ -22,6 +22,26 @@ namespace {
 // 91 % of the flips' triangles have at most 64; 128 measured best, all of them 1 % more).
 constexpr index_t BOX_PIXELS = 128;
 
+// The box walk's edge functions of counter-clockwise ABC: w = s col - t r + k for edge P -> Q
+// (s = qr - pr, t = qc - pc), as plane_errors has them; a pixel is the triangle's when every
+// w > 0, or w == 0 on an edge it owns: x = w - bias >= 0. y: x at the start of the box's first row.
+struct BoxEdges {
+    index_t s0, t0, s1, t1, s2, t2, bias0, bias1, bias2, r0, r1, c0, c1, y0, y1, y2;
+};
+
+BoxEdges box_edges(const Point& a, const Point& b, const Point& c, EdgeOwnership own) {
+    BoxEdges e{};
+    e.s0 = b.r - a.r, e.t0 = b.c - a.c, e.s1 = c.r - b.r, e.t1 = c.c - b.c, e.s2 = a.r - c.r, e.t2 = a.c - c.c;
+    const index_t k0 = e.t0 * a.r - e.s0 * a.c, k1 = e.t1 * b.r - e.s1 * b.c, k2 = e.t2 * c.r - e.s2 * c.c;
+    e.bias0 = own.ab ? 0 : 1, e.bias1 = own.bc ? 0 : 1, e.bias2 = own.ca ? 0 : 1;
+    e.r0 = std::min(a.r, std::min(b.r, c.r)), e.r1 = std::max(a.r, std::max(b.r, c.r));
+    e.c0 = std::min(a.c, std::min(b.c, c.c)), e.c1 = std::max(a.c, std::max(b.c, c.c));
+    e.y0 = e.s0 * e.c0 - e.t0 * e.r0 + k0 - e.bias0;
+    e.y1 = e.s1 * e.c0 - e.t1 * e.r0 + k1 - e.bias1;
+    e.y2 = e.s2 * e.c0 - e.t2 * e.r0 + k2 - e.bias2;
+    return e;
+}
+
 // `plane_errors`' sum over counter-clockwise ABC (area > 0) by a walk of its bounding box: each
 // pixel tested by the three edge functions, exact integers, with no division an edge to set up
 // (on a small triangle the setup costs more than its pixels). The same pixels in the same order
@@ -32,16 +52,7 @@ double box_error(const Image& image, const Point& a, const Point& b, const Point
                  double base, double stop, double cut) {
     const double inv = 1.0 / static_cast<double>(area);
     const double az = a.z, bz = b.z, cz = c.z;
-    // w = s col - t r + k for edge P -> Q (s = qr - pr, t = qc - pc), as plane_errors has them
-    const index_t s0 = b.r - a.r, t0 = b.c - a.c, s1 = c.r - b.r, t1 = c.c - b.c, s2 = a.r - c.r, t2 = a.c - c.c;
-    const index_t k0 = t0 * a.r - s0 * a.c, k1 = t1 * b.r - s1 * b.c, k2 = t2 * c.r - s2 * c.c;
-    // a pixel is the triangle's when every w > 0, or w == 0 on an edge it owns: x = w - bias >= 0
-    const index_t bias0 = own.ab ? 0 : 1, bias1 = own.bc ? 0 : 1, bias2 = own.ca ? 0 : 1;
-    const index_t r0 = std::min(a.r, std::min(b.r, c.r)), r1 = std::max(a.r, std::max(b.r, c.r));
-    const index_t c0 = std::min(a.c, std::min(b.c, c.c)), c1 = std::max(a.c, std::max(b.c, c.c));
-    // x at the start of each row of the box
-    index_t y0 = s0 * c0 - t0 * r0 + k0 - bias0, y1 = s1 * c0 - t1 * r0 + k1 - bias1,
-            y2 = s2 * c0 - t2 * r0 + k2 - bias2;
+    auto [s0, t0, s1, t1, s2, t2, bias0, bias1, bias2, r0, r1, c0, c1, y0, y1, y2] = box_edges(a, b, c, own);
     double total = 0.0;
     for (index_t r = r0; r <= r1; ++r, y0 -= t0, y1 -= t1, y2 -= t2) {
         index_t x0 = y0, x1 = y1, x2 = y2, col = c0;
@@ -111,13 +122,7 @@ __attribute__((target("avx"))) double box_error_avx(const Image& image, const Po
                                                     double cut) {
     const double inv = 1.0 / static_cast<double>(area);
     const double az = a.z, bz = b.z, cz = c.z;
-    const index_t s0 = b.r - a.r, t0 = b.c - a.c, s1 = c.r - b.r, t1 = c.c - b.c, s2 = a.r - c.r, t2 = a.c - c.c;
-    const index_t k0 = t0 * a.r - s0 * a.c, k1 = t1 * b.r - s1 * b.c, k2 = t2 * c.r - s2 * c.c;
-    const index_t bias0 = own.ab ? 0 : 1, bias1 = own.bc ? 0 : 1, bias2 = own.ca ? 0 : 1;
-    const index_t r0 = std::min(a.r, std::min(b.r, c.r)), r1 = std::max(a.r, std::max(b.r, c.r));
-    const index_t c0 = std::min(a.c, std::min(b.c, c.c)), c1 = std::max(a.c, std::max(b.c, c.c));
-    index_t y0 = s0 * c0 - t0 * r0 + k0 - bias0, y1 = s1 * c0 - t1 * r0 + k1 - bias1,
-            y2 = s2 * c0 - t2 * r0 + k2 - bias2;
+    auto [s0, t0, s1, t1, s2, t2, bias0, bias1, bias2, r0, r1, c0, c1, y0, y1, y2] = box_edges(a, b, c, own);
     const double f0 = static_cast<double>(s0), f1 = static_cast<double>(s1), f2 = static_cast<double>(s2);
     const double h0 = static_cast<double>(bias0), h1 = static_cast<double>(bias1), h2 = static_cast<double>(bias2);
     const index_t cols = image.cols();

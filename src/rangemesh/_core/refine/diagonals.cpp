@@ -42,6 +42,24 @@ BoxEdges box_edges(const Point& a, const Point& b, const Point& c, EdgeOwnership
     return e;
 }
 
+// Where a box row's pixels start when some x is negative at its left column: a row's pixels are
+// one run (the triangle is convex), starting where the last edge whose x is negative there and
+// grows to the right (s > 0) reaches 0; one whose x does not grow (s <= 0) leaves the row none.
+// Moves col and the x's to the run's first pixel; false when the row has none.
+inline bool run_start(index_t s0, index_t s1, index_t s2, index_t c1, index_t& x0, index_t& x1, index_t& x2,
+                      index_t& col) {
+    if ((x0 < 0 && s0 <= 0) || (x1 < 0 && s1 <= 0) || (x2 < 0 && s2 <= 0)) return false;
+    index_t n = 0;
+    if (x0 < 0) n = (s0 - 1 - x0) / s0;  // (ceil(-x / s), both positive)
+    if (x1 < 0) n = std::max(n, (s1 - 1 - x1) / s1);
+    if (x2 < 0) n = std::max(n, (s2 - 1 - x2) / s2);
+    col += n;
+    x0 += n * s0;
+    x1 += n * s1;
+    x2 += n * s2;
+    return col <= c1 && (x0 | x1 | x2) >= 0;  // (an edge that shrinks to the right ends it first)
+}
+
 // `plane_errors`' sum over counter-clockwise ABC (area > 0) by a walk of its bounding box: each
 // pixel tested by the three edge functions, exact integers, with no division an edge to set up
 // (on a small triangle the setup costs more than its pixels). The same pixels in the same order
@@ -56,21 +74,7 @@ double box_error(const Image& image, const Point& a, const Point& b, const Point
     double total = 0.0;
     for (index_t r = r0; r <= r1; ++r, y0 -= t0, y1 -= t1, y2 -= t2) {
         index_t x0 = y0, x1 = y1, x2 = y2, col = c0;
-        if ((x0 | x1 | x2) < 0) {
-            // a row's pixels are one run (the triangle is convex): it starts where the last edge
-            // whose x is negative at the box's left column and grows to the right (s > 0)
-            // reaches 0; one whose x does not grow to the right (s <= 0) leaves the row none
-            if ((x0 < 0 && s0 <= 0) || (x1 < 0 && s1 <= 0) || (x2 < 0 && s2 <= 0)) continue;
-            index_t n = 0;
-            if (x0 < 0) n = (s0 - 1 - x0) / s0;  // (ceil(-x / s), both positive)
-            if (x1 < 0) n = std::max(n, (s1 - 1 - x1) / s1);
-            if (x2 < 0) n = std::max(n, (s2 - 1 - x2) / s2);
-            col += n;
-            x0 += n * s0;
-            x1 += n * s1;
-            x2 += n * s2;
-            if (col > c1 || (x0 | x1 | x2) < 0) continue;  // (an edge that shrinks to the right ends it first)
-        }
+        if ((x0 | x1 | x2) < 0 && !run_start(s0, s1, s2, c1, x0, x1, x2, col)) continue;
         const double* drow = image.depth.row(r);
         const bool* vrow = image.valid.row(r);
         if constexpr (LongRows) {
@@ -137,18 +141,7 @@ __attribute__((target("avx"))) double box_error_avx(const Image& image, const Po
     double total = 0.0;
     for (index_t r = r0; r <= r1; ++r, y0 -= t0, y1 -= t1, y2 -= t2) {
         index_t x0 = y0, x1 = y1, x2 = y2, col = c0;
-        if ((x0 | x1 | x2) < 0) {  // (as box_error)
-            if ((x0 < 0 && s0 <= 0) || (x1 < 0 && s1 <= 0) || (x2 < 0 && s2 <= 0)) continue;
-            index_t n = 0;
-            if (x0 < 0) n = (s0 - 1 - x0) / s0;
-            if (x1 < 0) n = std::max(n, (s1 - 1 - x1) / s1);
-            if (x2 < 0) n = std::max(n, (s2 - 1 - x2) / s2);
-            col += n;
-            x0 += n * s0;
-            x1 += n * s1;
-            x2 += n * s2;
-            if (col > c1 || (x0 | x1 | x2) < 0) continue;
-        }
+        if ((x0 | x1 | x2) < 0 && !run_start(s0, s1, s2, c1, x0, x1, x2, col)) continue;
         const double* drow = image.depth.row(r);
         const bool* vrow = image.valid.row(r);
         __m256d v0 = _mm256_add_pd(_mm256_set1_pd(static_cast<double>(x0 + bias0)), d0);

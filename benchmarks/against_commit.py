@@ -7,10 +7,11 @@ so both versions run in one process, call after call: on this shared, noisy
 machine only alternating calls give ratios worth quoting. For every image of
 ``../shared/data`` and every synthetic scene, at 1 %, 3 % and 10 % of its valid
 pixels as vertex counts (``method="refine"``, the LiDAR scan with its beams'
-camera, as in ``budgets.py``; ``--diagonals`` to pass one), it prints both medians, their ratio (this
-checkout / COMMIT) and whether the meshes are the same bit for bit; then the
-medians of the ratios over all cases, the small images (at most 40,000
-pixels) and the others.
+camera, as in ``budgets.py``; ``--diagonals`` to pass one; ``--default-target`` for
+the default target alone, no ``vertices=``, each call ``--repeat`` times), it
+prints both medians, their ratio (this checkout / COMMIT) and whether the
+meshes are the same bit for bit; then the medians of the ratios over all
+cases, the small images (at most 40,000 pixels) and the others.
 """
 
 from __future__ import annotations
@@ -85,6 +86,8 @@ def main(argv=None):
                     help="alternating calls on small images (a third on larger ones)")
     ap.add_argument("--diagonals", choices=("delaunay", "error"), default=None,
                     help="passed to both calls (COMMIT must know it); default: not passed")
+    ap.add_argument("--default-target", action="store_true",
+                    help="time the default target (no vertices=) instead of the 1/3/10 %% budgets")
     args = ap.parse_args(argv)
     data, images = peers.selected_images(args)
     rows = []
@@ -97,17 +100,19 @@ def main(argv=None):
             cam_now, cam_base = cameras(image, data, base)
             _, valid = peers.to_depth_and_mask(image.depth, image.background)
             small = image.depth.size <= SMALL_PIXELS
-            repeat = args.repeat if small else max(args.repeat // 3, 3)
-            for frac, n in budgets.vertex_budgets(valid):
+            repeat = args.repeat if small or args.default_target else max(args.repeat // 3, 3)
+            cases = [("default", None)] if args.default_target else budgets.vertex_budgets(valid)
+            for frac, n in cases:
+                # (the default target: no vertices=, as `rangemesh.triangulate(depth)` is called)
+                asked = {} if n is None else {"vertices": n}
 
-                def old(n=n, image=image, cam=cam_base):
+                def old(asked=asked, image=image, cam=cam_base):
                     return base.triangulate(image.depth, background=image.background,
-                                            vertices=n, method="refine", camera=cam, **extra)
+                                            method="refine", camera=cam, **asked, **extra)
 
-                def new(n=n, image=image, cam=cam_now):
+                def new(asked=asked, image=image, cam=cam_now):
                     return rangemesh.triangulate(image.depth, background=image.background,
-                                                 vertices=n, method="refine", camera=cam,
-                                                 **extra)
+                                                 method="refine", camera=cam, **asked, **extra)
 
                 a, b = old(), new()
                 same = (a.faces.shape == b.faces.shape and (a.faces == b.faces).all()
@@ -115,7 +120,9 @@ def main(argv=None):
                         and (a.vertices == b.vertices).all())
                 _, (ms_old, ms_new) = peers.alternating_ms((old, new), repeat)
                 rows.append((small, ms_new / ms_old))
-                print(f"| {image.name[:30]} | {frac:.0%} | {n} | {ms_old:.2f} | {ms_new:.2f} | "
+                label = frac if n is None else f"{frac:.0%}"
+                print(f"| {image.name[:30]} | {label} | {n or len(b.vertices)} | {ms_old:.2f} | "
+                      f"{ms_new:.2f} | "
                       f"{ms_new / ms_old:.3f} | {'yes' if same else 'NO'} |", flush=True)
     for label, sel in (("all", rows), ("small images", [r for r in rows if r[0]]),
                        ("larger images", [r for r in rows if not r[0]])):

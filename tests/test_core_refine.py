@@ -167,6 +167,44 @@ def test_a_spike_is_inserted_first():
     assert expected > 1.0 and total == pytest.approx(expected)
 
 
+@settings(max_examples=80, deadline=None)
+@given(st.integers(5, 14), st.integers(5, 14), st.integers(0, 2**32 - 1),
+       st.sampled_from([0.1, 0.4, 0.8]))
+def test_a_background_corner_is_covered_by_the_valid_pixel_farthest_from_its_opposite_edge(
+        h, w, seed, density):
+    # Missing depth at the image's corners and in specks: each of the two first triangles, every
+    # corner background, is keyed by its valid pixel of the largest background-corner weight
+    # (barycentric, exact integers; the first in row-major order among equals), and the first
+    # insertion takes that of the triangle whose key, 1 + weight / area cover keys, is larger.
+    rng = np.random.default_rng(seed)
+    valid = rng.random((h, w)) < density
+    for r, c in ((0, 0), (h - 1, 0), (h - 1, w - 1), (0, w - 1)):
+        valid[r, c] = False
+    depth = 1.0 + rng.random((h, w))
+    vr = np.array([0, h - 1, h - 1, 0], np.int64)
+    vc = np.array([0, 0, w - 1, w - 1], np.int64)
+    tv = np.array([0, 1, 2, 0, 2, 3], np.int64)
+    he = np.array([-1, -1, 3, 2, -1, -1], np.int64)
+    ranked = []
+    for t in range(2):
+        corners, pixels = _owned_pixels(tv, he, t, vr, vc)
+        (ar, ac), (br, bc), (cr, cc) = corners
+        best, best_px = -1, None
+        for r, c in pixels:  # row-major
+            if not valid[r, c]:
+                continue
+            weight = max(_orient(br, bc, cr, cc, r, c), _orient(cr, cc, ar, ac, r, c),
+                         _orient(ar, ac, br, bc, r, c))
+            if weight > best:
+                best, best_px = weight, (r, c)
+        if best_px is not None:
+            ranked.append((best / _orient(ar, ac, br, bc, cr, cc), best_px))
+    if not ranked or (len(ranked) == 2 and ranked[0][0] == ranked[1][0]):
+        return  # no valid pixel, or a tie the definition leaves to the triangles' ids
+    out = _core.greedy_insert(depth, valid, (vr, vc, np.ones(4), tv, he), InsertSettings(1, -1.0, 1.0))
+    assert (out.vr[4], out.vc[4]) == max(ranked)[1]
+
+
 @settings(max_examples=60, deadline=None)
 @given(st.integers(0, 2**32 - 1), st.sampled_from([0.05, 0.3, 0.9, 3.0]))
 def test_the_first_pixel_of_the_largest_key_wins_near_ties(seed, step):

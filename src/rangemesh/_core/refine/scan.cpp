@@ -80,19 +80,40 @@ Cover cover_pixel(const Corner& a, const Corner& b, const Corner& cn, EdgeOwners
                                            weight(span.w0 + s0 * n, span.w1 + s1 * n, span.w2 + s2 * n));
             if (bound < best.weight) return true;
         }
-        for (index_t c = span.first; c <= span.last; ++c) {
-            if (!valid(r, c)) continue;
+        // The weight, a largest of linear functions, is convex along the row: over the row's
+        // competing pixels it is largest at the first or the last, and where another competing
+        // pixel equals that largest so does the first. So the row's winner (its first of the
+        // largest weight) is the first unless the last weighs more; the pixels between are only
+        // walked past from each end to the nearest competing one.
+        const bool* vrow = valid.row(r);
+        const auto competes = [&](index_t c, index_t& w) {
             const index_t k = c - span.first;
             const index_t w0 = span.w0 + s0 * k, w1 = span.w1 + s1 * k, w2 = span.w2 + s2 * k;
-            best.seen = true;
-            if (is_corner(r, c, a, b, cn)) continue;
-            if ((w0 == 0 && !lost0) || (w1 == 0 && !lost1) || (w2 == 0 && !lost2)) continue;
-            const index_t w = weight(w0, w1, w2);
-            if (w > best.weight) {  // row-major visit: an equal weight never replaces the first
-                best.weight = w;
-                best.r = r;
-                best.c = c;
+            if (is_corner(r, c, a, b, cn)) return false;
+            if ((w0 == 0 && !lost0) || (w1 == 0 && !lost1) || (w2 == 0 && !lost2)) return false;
+            w = weight(w0, w1, w2);
+            return true;
+        };
+        index_t first = span.first, w_first = -1;
+        for (; first <= span.last; ++first) {
+            if (!vrow[first]) {
+                // the invalid pixels after it passed eight at a time (a background region's)
+                std::uint64_t eight = 0;
+                while (first + 8 <= span.last && (std::memcpy(&eight, vrow + first + 1, 8), eight == 0)) first += 8;
+                continue;
             }
+            best.seen = true;
+            if (competes(first, w_first)) break;
+        }
+        if (first > span.last) return true;  // no competing pixel in the row
+        index_t last = span.last, w_last = -1;
+        while (last > first && !(vrow[last] && competes(last, w_last))) --last;
+        const bool last_wins = last > first && w_last > w_first;
+        const index_t w = last_wins ? w_last : w_first;
+        if (w > best.weight) {  // row-major visit: an equal weight never replaces the first
+            best.weight = w;
+            best.r = r;
+            best.c = last_wins ? last : first;
         }
         return true;
     });

@@ -1,6 +1,9 @@
 #include "pixels.hpp"
 
 #include <algorithm>
+#include <cstring>
+
+#include "../simd.hpp"
 
 namespace rangemesh {
 
@@ -27,9 +30,68 @@ DepthRange valid_range_in_order(Grid<const double> depth, Grid<const bool> valid
     return out;
 }
 
+#if RANGEMESH_AVX
+// `valid_range`'s lanes in AVX: each lane keeps its bound as the scalar lanes do (an invalid
+// pixel is +-inf there, which no bound passes; `min_pd(x, lo)` is `x < lo ? x : lo`, so NaN
+// is never taken); a zero bound is found again in order by the caller.
+__attribute__((target("avx"))) DepthRange valid_range_avx(Grid<const double> depth, Grid<const bool> valid, double& low,
+                                                          double& high) {
+    const __m256d inf = _mm256_set1_pd(INFINITY), minus_inf = _mm256_set1_pd(-INFINITY);
+    __m256d lo = inf, hi = minus_inf;
+    double lo_rest = INFINITY, hi_rest = -INFINITY;
+    index_t count = 0;
+    for (index_t r = 0; r < depth.rows; ++r) {
+        poll_interrupt();
+        const double* d = depth.row(r);
+        const bool* v = valid.row(r);
+        index_t c = 0;
+        for (; c + 4 <= depth.cols; c += 4) {
+            std::uint32_t four;
+            std::memcpy(&four, v + c, sizeof four);
+            // the valid flags (bytes 0 or 1) gathered into bits 0..3 by one product
+            const unsigned bits = ((four * 0x01020408u) >> 24) & 15u;
+            const __m256d ok = _mm256_load_pd(reinterpret_cast<const double*>(LANE_MASKS[bits]));
+            const __m256d in = _mm256_and_pd(ok, _mm256_loadu_pd(d + c));  // x, or +0 where not valid
+            lo = _mm256_min_pd(_mm256_or_pd(in, _mm256_andnot_pd(ok, inf)), lo);
+            hi = _mm256_max_pd(_mm256_or_pd(in, _mm256_andnot_pd(ok, minus_inf)), hi);
+            count += __builtin_popcount(bits);
+        }
+        for (; c < depth.cols; ++c) {
+            if (!v[c]) continue;
+            ++count;
+            lo_rest = d[c] < lo_rest ? d[c] : lo_rest;
+            hi_rest = d[c] > hi_rest ? d[c] : hi_rest;
+        }
+    }
+    alignas(32) double l[4], h[4];
+    _mm256_store_pd(l, lo);
+    _mm256_store_pd(h, hi);
+    low = lo_rest;
+    high = hi_rest;
+    for (int k = 0; k < 4; ++k) {
+        if (l[k] < low) low = l[k];
+        if (h[k] > high) high = h[k];
+    }
+    DepthRange out;
+    out.count = count;
+    return out;
+}
+#endif
+
 }  // namespace
 
 DepthRange valid_range(Grid<const double> depth, Grid<const bool> valid) {
+#if RANGEMESH_AVX
+    if (has_avx()) {
+        double l = 0.0, h = 0.0;
+        DepthRange out = valid_range_avx(depth, valid, l, h);
+        if (out.count == 0) return DepthRange{};
+        if (l == 0.0 || h == 0.0) return valid_range_in_order(depth, valid);
+        out.lo = l;
+        out.hi = h;
+        return out;
+    }
+#endif
     // Four lanes with no branch: the one chain of compares and a branch mispredicted on scattered
     // holes took 3x mask_image's time (0.36 ms on a 640 x 480 frame). The bounds are the same
     // values whatever the order (NaN is never below or above, a hole is +-inf, which no bound

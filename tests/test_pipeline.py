@@ -486,6 +486,34 @@ def test_a_small_call_is_one_native_call(monkeypatch):
     assert calls == ["refine_image", "refine_image"]
 
 
+def test_the_small_calls_native_function_refuses_a_count_its_request_does_not_hold():
+    # refine_image makes the Mesh and its Target too: a count other than the request's (or not
+    # an int) would be recorded as asked and missed, and a `made` of other parts would be read
+    # as one: refused, naming the argument
+    import time
+
+    from rangemesh import _core
+    from rangemesh.refine import small
+
+    r, c = np.mgrid[0:16, 0:16]
+    depth = 100.0 + r + 0.5 * c
+    req = _core.RefineRequest()  # (the image rectangle first, heights and diagonals as inserted)
+    req.vertices, req.fit, req.flip = 10, False, False
+    call = lambda vertices, made=small._MADE: _core.refine_image(  # noqa: E731
+        depth, vertices, 0.0, math.nan, True, req, small._BAND, None, time.perf_counter(), time.perf_counter,
+        made)
+    mesh = call(10)
+    assert len(mesh.pixels) == 10 and mesh.stats.target.met and mesh.stats.target.requested == 10
+    assert mesh.stats.heights == "pixel" and "fit" not in mesh.stats.seconds
+    for vertices in (11, 9, 10.0, True, 2**70, "10"):
+        with pytest.raises(ValueError, match="refine_image: vertices"):
+            call(vertices)
+    for made in (small._MADE[:5], list(small._MADE), small._MADE[:2] + ([],) + small._MADE[3:],
+                 small._MADE[:5] + (None,)):
+        with pytest.raises(ValueError, match="refine_image: made"):
+            call(10, made)
+
+
 def test_new_with_dict_makes_what_object_new_and_a_set_dict_make():
     # the small call's Stats and Mesh: ``object.__new__(cls)`` given `fields` as its __dict__ by
     # ``object.__setattr__``, neither __new__ nor __init__ of the class run

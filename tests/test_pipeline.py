@@ -486,6 +486,47 @@ def test_a_small_call_is_one_native_call(monkeypatch):
     assert calls == ["refine_image", "refine_image"]
 
 
+@pytest.mark.parametrize("w", range(2, 10))
+def test_a_small_float64_calls_mask_is_the_general_masks_at_every_width(monkeypatch, w):
+    # the small call masks float64 images four pixels at a time (SSE2) and the rest one by one:
+    # NaN, +-inf and the marker (-0.0 too) missing wherever they fall in a group of four, the
+    # largest float and the marker's neighbour kept; the mesh and stats those of the general
+    # path, and the call declined exactly where numpy's mask and range say it must be
+    from rangemesh import _core
+    from rangemesh.params import DEFAULT_TARGET
+    from rangemesh.refine.small import _BAND
+
+    made = []
+    real = _core.refine_image
+
+    def spy(*args):
+        out = real(*args)
+        made.append(out is not None)
+        return out
+
+    monkeypatch.setattr(_core, "refine_image", spy)
+    rng = np.random.default_rng(w)
+    for h in (2, 3, 5):
+        r, c = np.mgrid[0:h, 0:w]
+        image = 100.0 + r + 0.5 * c + rng.normal(0, 0.3, (h, w))
+        flat = image.reshape(-1)
+        picks = rng.permutation(flat.size)[:max(1, flat.size // 4)]
+        flat[picks] = rng.choice([np.nan, np.inf, -np.inf, 7.5, np.nextafter(7.5, 8)], picks.size)
+        big = np.full((h, w), 100.0)
+        big.reshape(-1)[picks[:1]] = np.finfo(np.float64).max  # (beyond the band: declined)
+        for image, background, vertices in [(image, b, v) for b in ("auto", 7.5, None, -0.0)
+                                            for v in (3, None)] + [(big, None, 3)]:
+            kwargs = {"background": background, "vertices": vertices}
+            want, _ = _general(monkeypatch, image, **kwargs)
+            made.clear()
+            _same_call(triangulate(image, **kwargs), want)
+            depths = image[np.isfinite(image) & ((background in ("auto", None)) | (image != background))]
+            top = np.abs(depths).max(initial=0.0)
+            meshed = len(depths) >= (vertices or DEFAULT_TARGET.min_vertices) and len(want.faces) > 0 \
+                and 1 / _BAND <= top <= _BAND and depths.min() > 0
+            assert made == [meshed]
+
+
 def test_the_small_calls_native_function_refuses_a_count_its_request_does_not_hold():
     # refine_image makes the Mesh and its Target too: a count other than the request's (or not
     # an int) would be recorded as asked and missed, and a `made` of other parts would be read

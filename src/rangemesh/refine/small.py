@@ -39,9 +39,8 @@ __all__ = ["SMALL_PIXELS", "mesh_small"]
 SMALL_PIXELS = _core.SMALL_IMAGE_PIXELS
 # `depth_exponent`'s band: depths beyond it are scaled by the general path.
 _BAND = 2.0**DEPTH_BAND
-# (count or None, the fit's rule, fit, flip): the request, made once (read only)
+# `_request`'s key: the request, made once (read only)
 _REQUESTS: dict = {}
-_RULE: list = [None, None]  # the last height rule's values and rule
 # The instance dicts a small call's Stats and Mesh copy, in the fields' order (the values set
 # here are those no small call changes; the others are set at each call)
 _STATS = {"vertices": 0, "edges": 0, "triangles": 0, "flipped_edges": 0, "grid_shape": None,
@@ -51,11 +50,13 @@ _MESH = {"vertices": None, "faces": None, "pixels": None, "camera": _UNIT, "imag
          "stats": None, "colors": None, "texture": None, "attributes": None}
 
 
-def _request(vertices: int | None, rule, fit: bool, flip: bool) -> _core.RefineRequest:
-    """The request of a count (None: the default target) on a small image, made once.
+def _request(key: tuple) -> _core.RefineRequest:
+    """The request of `mesh_small`'s `key` on a small image, made once.
 
-    `fit` and `flip`: what None means for ``heights`` and ``diagonals`` (`NONE_MEANS`).
+    `key`: the count (None: the default target), what None means for ``heights`` and
+    ``diagonals`` (`NONE_MEANS`) and the values of `height_rule` but its threads.
     """
+    vertices, fit, flip = key[0], key[1] == "fit", key[2] == "error"
     req = _core.RefineRequest()
     if vertices is None:  # `_plan` with max_vertices = the cap, every valid pixel at least as many
         cap = DEFAULT_TARGET.min_vertices
@@ -68,10 +69,10 @@ def _request(vertices: int | None, rule, fit: bool, flip: bool) -> _core.RefineR
     settings = (flip, fit, True, 0.05, MAX_RUNS, MAX_BISECT_RUNS)
     if settings != _REQUEST_SETTINGS:
         req.flip, req.fit, req.walls, req.jump, req.max_runs, req.max_bisect_runs = settings
-    req.heights = rule
+    req.heights = _heights._rule(key[3:] + (1,))
     if len(_REQUESTS) >= 256:  # (a long run of distinct counts: start again)
         _REQUESTS.clear()
-    _REQUESTS[vertices, rule, fit, flip] = req
+    _REQUESTS[key] = req
     return req
 
 
@@ -96,16 +97,12 @@ def mesh_small(image, vertices: int | None, int_background: float, float_backgro
     now : callable
         That clock, read where the call ends.
     """
-    # (`height_rule(h * w)`: one thread below SMALL_PIXELS, tests/test_pipeline.py; its values
-    # read at each call, the rule looked up only when they change: a fifth of its cost)
-    values = (_heights.OUTLIER_MADS, _heights.OUTLIER_FLOOR, _heights.RIDGE, _heights.CG_RTOL,
-              _heights.RESIDUAL_STRIDE, _heights.RESIDUAL_MIN, _heights.RESIDUAL_SAMPLE,
-              _heights.ORDER_TILE, _heights.ORDER_MIN_PIXELS, 1)
-    if values != _RULE[0]:
-        _RULE[:] = values, _heights._rule(values)
-    rule = _RULE[1]
-    fit, flip = NONE_MEANS["heights"] == "fit", NONE_MEANS["diagonals"] == "error"
-    req = _REQUESTS.get((vertices, rule, fit, flip)) or _request(vertices, rule, fit, flip)
+    # (`height_rule(h * w)`'s values, one thread below SMALL_PIXELS (tests/test_pipeline.py), and
+    # what None means, read at each call as the general path reads them: a request's key)
+    key = (vertices, NONE_MEANS["heights"], NONE_MEANS["diagonals"], _heights.OUTLIER_MADS,
+           _heights.OUTLIER_FLOOR, _heights.RIDGE, _heights.CG_RTOL, _heights.RESIDUAL_STRIDE,
+           _heights.RESIDUAL_MIN, _heights.RESIDUAL_SAMPLE, _heights.ORDER_TILE, _heights.ORDER_MIN_PIXELS)
+    req = _REQUESTS.get(key) or _request(key)
     # (its Stats and Mesh made by the native call too, from _MADE: tests/test_pipeline.py holds
     # them to the general path's)
     return _core.refine_image(image, vertices, int_background, float_background, fill_gaps, req, _BAND,

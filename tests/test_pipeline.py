@@ -527,6 +527,21 @@ def test_a_small_float64_calls_mask_is_the_general_masks_at_every_width(monkeypa
             assert made == [meshed]
 
 
+@pytest.mark.parametrize("name, value", [("RIDGE", 10.0), ("OUTLIER_MADS", 0.5), ("CG_RTOL", 0.3)])
+def test_a_small_call_reads_the_fits_values_at_each_call(monkeypatch, name, value):
+    # the small call's request is made once per count and values of refine.heights (the
+    # benchmarks set them): a changed value meshes as the general path does with it
+    from rangemesh.refine import heights
+
+    r, c = np.mgrid[0:16, 0:16]
+    depth = 100.0 + r + 0.5 * c + ((r - 8) ** 2 + (c - 8) ** 2) * 0.1 + np.sin(r * c)
+    before = triangulate(depth, vertices=10)
+    monkeypatch.setattr(heights, name, value)
+    got, (want, _) = triangulate(depth, vertices=10), _general(monkeypatch, depth, vertices=10)
+    _same_call(got, want)
+    assert not np.array_equal(got.vertices, before.vertices)
+
+
 def test_the_small_calls_native_function_refuses_a_count_its_request_does_not_hold():
     # refine_image makes the Mesh and its Target too: a count other than the request's (or not
     # an int) would be recorded as asked and missed, and a `made` of other parts would be read

@@ -486,6 +486,90 @@ def test_a_small_call_is_one_native_call(monkeypatch):
     assert calls == ["refine_image", "refine_image"]
 
 
+@pytest.mark.parametrize("w", range(2, 10))
+def test_a_small_float64_calls_mask_is_the_general_masks_at_every_width(monkeypatch, w):
+    # the small call masks float64 images four pixels at a time (SSE2) and the rest one by one:
+    # NaN, +-inf and the marker (-0.0 too) missing wherever they fall in a group of four, the
+    # largest float and the marker's neighbour kept; the mesh and stats those of the general
+    # path, and the call declined exactly where numpy's mask and range say it must be
+    from rangemesh import _core
+    from rangemesh.params import DEFAULT_TARGET
+    from rangemesh.refine.small import _BAND
+
+    made = []
+    real = _core.refine_image
+
+    def spy(*args):
+        out = real(*args)
+        made.append(out is not None)
+        return out
+
+    monkeypatch.setattr(_core, "refine_image", spy)
+    rng = np.random.default_rng(w)
+    for h in (2, 3, 5):
+        r, c = np.mgrid[0:h, 0:w]
+        image = 100.0 + r + 0.5 * c + rng.normal(0, 0.3, (h, w))
+        flat = image.reshape(-1)
+        picks = rng.permutation(flat.size)[:max(1, flat.size // 4)]
+        flat[picks] = rng.choice([np.nan, np.inf, -np.inf, 7.5, np.nextafter(7.5, 8)], picks.size)
+        big = np.full((h, w), 100.0)
+        big.reshape(-1)[picks[:1]] = np.finfo(np.float64).max  # (beyond the band: declined)
+        for image, background, vertices in [(image, b, v) for b in ("auto", 7.5, None, -0.0)
+                                            for v in (3, None)] + [(big, None, 3)]:
+            kwargs = {"background": background, "vertices": vertices}
+            want, _ = _general(monkeypatch, image, **kwargs)
+            made.clear()
+            _same_call(triangulate(image, **kwargs), want)
+            depths = image[np.isfinite(image) & ((background in ("auto", None)) | (image != background))]
+            top = np.abs(depths).max(initial=0.0)
+            meshed = len(depths) >= (vertices or DEFAULT_TARGET.min_vertices) and len(want.faces) > 0 \
+                and 1 / _BAND <= top <= _BAND and depths.min() > 0
+            assert made == [meshed]
+
+
+@pytest.mark.parametrize("name, value", [("RIDGE", 10.0), ("OUTLIER_MADS", 0.5), ("CG_RTOL", 0.3)])
+def test_a_small_call_reads_the_fits_values_at_each_call(monkeypatch, name, value):
+    # the small call's request is made once per count and values of refine.heights (the
+    # benchmarks set them): a changed value meshes as the general path does with it
+    from rangemesh.refine import heights
+
+    r, c = np.mgrid[0:16, 0:16]
+    depth = 100.0 + r + 0.5 * c + ((r - 8) ** 2 + (c - 8) ** 2) * 0.1 + np.sin(r * c)
+    before = triangulate(depth, vertices=10)
+    monkeypatch.setattr(heights, name, value)
+    got, (want, _) = triangulate(depth, vertices=10), _general(monkeypatch, depth, vertices=10)
+    _same_call(got, want)
+    assert not np.array_equal(got.vertices, before.vertices)
+
+
+def test_the_small_calls_native_function_refuses_a_count_its_request_does_not_hold():
+    # refine_image makes the Mesh and its Target too: a count other than the request's (or not
+    # an int) would be recorded as asked and missed, and a `made` of other parts would be read
+    # as one: refused, naming the argument
+    import time
+
+    from rangemesh import _core
+    from rangemesh.refine import small
+
+    r, c = np.mgrid[0:16, 0:16]
+    depth = 100.0 + r + 0.5 * c
+    req = _core.RefineRequest()  # (the image rectangle first, heights and diagonals as inserted)
+    req.vertices, req.fit, req.flip = 10, False, False
+    call = lambda vertices, made=small._MADE: _core.refine_image(  # noqa: E731
+        depth, vertices, 0.0, math.nan, True, req, small._BAND, None, time.perf_counter(), time.perf_counter,
+        made)
+    mesh = call(10)
+    assert len(mesh.pixels) == 10 and mesh.stats.target.met and mesh.stats.target.requested == 10
+    assert mesh.stats.heights == "pixel" and "fit" not in mesh.stats.seconds
+    for vertices in (11, 9, 10.0, True, 2**70, "10"):
+        with pytest.raises(ValueError, match="refine_image: vertices"):
+            call(vertices)
+    for made in (small._MADE[:5], list(small._MADE), small._MADE[:2] + ([],) + small._MADE[3:],
+                 small._MADE[:5] + (None,)):
+        with pytest.raises(ValueError, match="refine_image: made"):
+            call(10, made)
+
+
 def test_new_with_dict_makes_what_object_new_and_a_set_dict_make():
     # the small call's Stats and Mesh: ``object.__new__(cls)`` given `fields` as its __dict__ by
     # ``object.__setattr__``, neither __new__ nor __init__ of the class run

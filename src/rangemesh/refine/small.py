@@ -39,10 +39,8 @@ __all__ = ["SMALL_PIXELS", "mesh_small"]
 SMALL_PIXELS = _core.SMALL_IMAGE_PIXELS
 # `depth_exponent`'s band: depths beyond it are scaled by the general path.
 _BAND = 2.0**DEPTH_BAND
-# (count or None, the fit's rule, fit, flip): the request and its vertices, made once (read only)
+# `_request`'s key: the request, made once (read only)
 _REQUESTS: dict = {}
-_with_dict = _core.new_with_dict
-_RULE: list = [None, None]  # the last height rule's values and rule
 # The instance dicts a small call's Stats and Mesh copy, in the fields' order (the values set
 # here are those no small call changes; the others are set at each call)
 _STATS = {"vertices": 0, "edges": 0, "triangles": 0, "flipped_edges": 0, "grid_shape": None,
@@ -52,11 +50,13 @@ _MESH = {"vertices": None, "faces": None, "pixels": None, "camera": _UNIT, "imag
          "stats": None, "colors": None, "texture": None, "attributes": None}
 
 
-def _request(vertices: int | None, rule, fit: bool, flip: bool) -> tuple[_core.RefineRequest, int]:
-    """The request of a count (None: the default target) on a small image and its vertices, made once.
+def _request(key: tuple) -> _core.RefineRequest:
+    """The request of `mesh_small`'s `key` on a small image, made once.
 
-    `fit` and `flip`: what None means for ``heights`` and ``diagonals`` (`NONE_MEANS`).
+    `key`: the count (None: the default target), what None means for ``heights`` and
+    ``diagonals`` (`NONE_MEANS`) and the values of `height_rule` but its threads.
     """
+    vertices, fit, flip = key[0], key[1] == "fit", key[2] == "error"
     req = _core.RefineRequest()
     if vertices is None:  # `_plan` with max_vertices = the cap, every valid pixel at least as many
         cap = DEFAULT_TARGET.min_vertices
@@ -69,11 +69,11 @@ def _request(vertices: int | None, rule, fit: bool, flip: bool) -> tuple[_core.R
     settings = (flip, fit, True, 0.05, MAX_RUNS, MAX_BISECT_RUNS)
     if settings != _REQUEST_SETTINGS:
         req.flip, req.fit, req.walls, req.jump, req.max_runs, req.max_bisect_runs = settings
-    req.heights = rule
+    req.heights = _heights._rule(key[3:] + (1,))
     if len(_REQUESTS) >= 256:  # (a long run of distinct counts: start again)
         _REQUESTS.clear()
-    made = _REQUESTS[vertices, rule, fit, flip] = req, req.vertices  # (a read of the binding's field costs)
-    return made
+    _REQUESTS[key] = req
+    return req
 
 
 def mesh_small(image, vertices: int | None, int_background: float, float_background: float,
@@ -94,56 +94,19 @@ def mesh_small(image, vertices: int | None, int_background: float, float_backgro
         Fill single-pixel gaps.
     t0 : float
         When the call started (`now`), the clock of ``stats.seconds``.
+    now : callable
+        That clock, read where the call ends.
     """
-    # (`height_rule(h * w)`: one thread below SMALL_PIXELS, tests/test_pipeline.py; its values
-    # read at each call, the rule looked up only when they change: a fifth of its cost)
-    values = (_heights.OUTLIER_MADS, _heights.OUTLIER_FLOOR, _heights.RIDGE, _heights.CG_RTOL,
-              _heights.RESIDUAL_STRIDE, _heights.RESIDUAL_MIN, _heights.RESIDUAL_SAMPLE,
-              _heights.ORDER_TILE, _heights.ORDER_MIN_PIXELS, 1)
-    if values != _RULE[0]:
-        _RULE[:] = values, _heights._rule(values)
-    rule = _RULE[1]
-    fit, flip = NONE_MEANS["heights"] == "fit", NONE_MEANS["diagonals"] == "error"
-    req, want = _REQUESTS.get((vertices, rule, fit, flip)) or _request(vertices, rule, fit, flip)
-    out = _core.refine_image(image, int_background, float_background, fill_gaps, vertices is None, req,
-                             _BAND, _heights._direct_solve)
-    if out is None:
-        return None
-    shape = image.shape
-    (points, faces, pixels, n_valid, edges, insertions, flips, strips, meshings, fitted, fit_seconds,
-     seconds, prepare, achieved, asked) = out
-    got = len(pixels)
-    if vertices is not None and got == vertices:  # (the record of a count met: one a count)
-        target = _MET.get((got, meshings)) or _met(got, meshings)
-    else:
-        target = _target(vertices, got, n_valid, shape[0] * shape[1], meshings, achieved, asked, want)
-    t4 = now()
-    # (copies of a made Stats' and Mesh's instance dicts, their changing fields set: what
-    # `with_fields` and `Target.from_record` make, at a fraction of their cost; a new dict a
-    # call costs as much again; tests/test_refine.py holds the fields)
-    s = _STATS.copy()
-    s["vertices"] = s["sampled_points"] = got
-    s["edges"] = edges
-    s["triangles"] = len(faces)
-    s["flipped_edges"] = flips
-    s["flip_tests"] = {}
-    s["seconds"] = {"prepare": prepare, "insertion": seconds - fit_seconds, "fit": fit_seconds,
-                    "search": t4 - t0 - prepare - seconds, "total": t4 - t0} if fit else \
-        {"prepare": prepare, "insertion": seconds, "search": t4 - t0 - prepare - seconds,
-         "total": t4 - t0}
-    s["target"] = target
-    s["insertions"] = insertions
-    s["strips"] = strips
-    s["heights"] = "fit" if fit and fitted else "pixel"
-    stats = _with_dict(Stats, s)
-    m = _MESH.copy()
-    m["vertices"] = points
-    m["faces"] = faces
-    m["pixels"] = pixels
-    m["image_shape"] = shape
-    m["stats"] = stats
-    m["attributes"] = {}
-    return _with_dict(Mesh, m)
+    # (`height_rule(h * w)`'s values, one thread below SMALL_PIXELS (tests/test_pipeline.py), and
+    # what None means, read at each call as the general path reads them: a request's key)
+    key = (vertices, NONE_MEANS["heights"], NONE_MEANS["diagonals"], _heights.OUTLIER_MADS,
+           _heights.OUTLIER_FLOOR, _heights.RIDGE, _heights.CG_RTOL, _heights.RESIDUAL_STRIDE,
+           _heights.RESIDUAL_MIN, _heights.RESIDUAL_SAMPLE, _heights.ORDER_TILE, _heights.ORDER_MIN_PIXELS)
+    req = _REQUESTS.get(key) or _request(key)
+    # (its Stats and Mesh made by the native call too, from _MADE: tests/test_pipeline.py holds
+    # them to the general path's)
+    return _core.refine_image(image, vertices, int_background, float_background, fill_gaps, req, _BAND,
+                              _heights._direct_solve, t0, now, _MADE)
 
 
 _MET: dict = {}  # (count, meshings): the Target of a count met, made once (frozen: shared)
@@ -165,3 +128,16 @@ def _target(vertices, got, n_valid, n_pixels, meshings, achieved, asked, want) -
     else:
         record = _count_record(got, vertices, meshings, n_valid, n_pixels, True)
     return Target.from_record(record, vertices=got, default=vertices is None)
+
+
+def _target_of(vertices, got, n_valid, n_pixels, meshings, achieved, asked, want) -> Target:
+    """`_target`, or `_met`'s of a count met: the Target of a call `_MET` does not hold."""
+    if vertices is not None and got == vertices:
+        return _met(got, meshings)
+    return _target(vertices, got, n_valid, n_pixels, meshings, achieved, asked, want)
+
+
+# What `_core.refine_image` makes a small call's Mesh of: the classes, copies of their instance
+# dicts (their fields in order, those no small call changes set), the Targets of counts met
+# (looked up by (count, meshings)), and the Target of any other call
+_MADE = (Stats, Mesh, _STATS, _MESH, _MET, _target_of)

@@ -19,6 +19,10 @@
 #include <utility>
 #include <vector>
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
 #include "../geometry/pixels.hpp"
 #include "../paper/sampling.hpp"
 #include "../refine/mesh.hpp"
@@ -204,6 +208,12 @@ class RangeLanes {
         lo_[k] = below < lo_[k] ? below : lo_[k];
         hi_[k] = above > hi_[k] ? above : hi_[k];
     }
+    // Valid depths counted and bounded elsewhere (`mask_float64`'s lanes).
+    void add(index_t count, double lo, double hi) {
+        count_ += count;
+        lo_[0] = lo < lo_[0] ? lo : lo_[0];
+        hi_[0] = hi > hi_[0] ? hi : hi_[0];
+    }
     DepthRange range() const {
         DepthRange out;
         if (count_ == 0) return out;
@@ -251,6 +261,50 @@ void mask_as(const void* image, double bg, Grid<double> depth, Grid<bool> valid,
     }
 }
 
+#if defined(__SSE2__)
+// Four pixels' valid flags (bytes 0 or 1, little-endian) from the bits of their two movemasks.
+constexpr std::uint32_t FOUR_FLAGS[16] = {0x00000000, 0x00000001, 0x00000100, 0x00000101, 0x00010000, 0x00010001,
+                                          0x00010100, 0x00010101, 0x01000000, 0x01000001, 0x01000100, 0x01000101,
+                                          0x01010000, 0x01010001, 0x01010100, 0x01010101};
+
+// `mask_as<double>` four pixels at a time in two SSE2 pairs (every x86-64 has SSE2): the same rule
+// a pixel, the same depths and flags. Over the image as one row: a small image's buffers and its
+// C-contiguous pixels run on from row to row, and its few thousand pixels need no poll.
+void mask_float64(const double* in, double bg, Grid<double> depth, Grid<bool> valid, RangeLanes& lanes) {
+    const index_t n = depth.rows * depth.cols;
+    double* const d = depth.data;
+    bool* const v = valid.data;
+    const __m128d magnitude = _mm_castsi128_pd(_mm_set1_epi64x(0x7fffffffffffffff));
+    const __m128d big = _mm_set1_pd(std::numeric_limits<double>::max()), marker = _mm_set1_pd(bg);
+    const __m128d up = _mm_set1_pd(INFINITY), down = _mm_set1_pd(-INFINITY);
+    __m128d lo = up, hi = down;
+    __m128i count = _mm_setzero_si128();  // (a valid lane's mask, all ones, is -1: subtracted)
+    const auto pair = [&](const double* x2, double* d2) {
+        const __m128d x = _mm_loadu_pd(x2);
+        // |x| <= max (false for NaN) and x != bg (true for a NaN bg: unordered)
+        const __m128d ok = _mm_and_pd(_mm_cmple_pd(_mm_and_pd(x, magnitude), big), _mm_cmpneq_pd(x, marker));
+        const __m128d kept = _mm_and_pd(ok, x);  // (+0.0 where not valid)
+        _mm_storeu_pd(d2, kept);
+        count = _mm_sub_epi64(count, _mm_castpd_si128(ok));
+        lo = _mm_min_pd(lo, _mm_or_pd(kept, _mm_andnot_pd(ok, up)));
+        hi = _mm_max_pd(hi, _mm_or_pd(kept, _mm_andnot_pd(ok, down)));
+        return _mm_movemask_pd(ok);
+    };
+    index_t i = 0;
+    for (; i + 4 <= n; i += 4) {
+        const int bits = pair(in + i, d + i) | pair(in + i + 2, d + i + 2) << 2;
+        std::memcpy(v + i, &FOUR_FLAGS[bits], 4);
+    }
+    alignas(16) double los[2], his[2];
+    alignas(16) std::int64_t counts[2];
+    _mm_store_pd(los, lo);
+    _mm_store_pd(his, hi);
+    _mm_store_si128(reinterpret_cast<__m128i*>(counts), count);
+    lanes.add(counts[0] + counts[1], los[0] < los[1] ? los[0] : los[1], his[0] > his[1] ? his[0] : his[1]);
+    if (i < n) mask_as<double>(in + i, bg, {d + i, 1, n - i}, {v + i, 1, n - i}, lanes);
+}
+#endif
+
 // `mask_image` of a `small_image` and its valid range, by its dtype: `float_bg` marks missing depth
 // in a float image, `int_bg` in an integer one.
 void mask_any(PyArrayObject* image, double int_bg, double float_bg, Grid<double> depth, Grid<bool> valid,
@@ -259,7 +313,11 @@ void mask_any(PyArrayObject* image, double int_bg, double float_bg, Grid<double>
     const bool is_signed = PyArray_DESCR(image)->kind == 'i';
     switch (PyArray_DESCR(image)->kind == 'f' ? -PyArray_ITEMSIZE(image) : PyArray_ITEMSIZE(image)) {
         case -8:
+#if defined(__SSE2__)
+            return mask_float64(static_cast<const double*>(data), float_bg, depth, valid, lanes);
+#else
             return mask_as<double>(data, float_bg, depth, valid, lanes);
+#endif
         case -4:
             return mask_as<float>(data, float_bg, depth, valid, lanes);
         case 1:
@@ -345,18 +403,119 @@ double seconds_since(std::chrono::steady_clock::time_point t) {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
 }
 
+// An interned str for each key of a small call's Stats and Mesh, made once (kept for the
+// process: a static nb::object would be freed after the interpreter).
+struct SmallKeys {
+    PyObject *vertices, *sampled_points, *edges, *triangles, *flipped_edges, *flip_tests, *seconds, *target,
+        *insertions, *strips, *heights, *faces, *pixels, *image_shape, *stats, *attributes, *prepare, *insertion, *fit,
+        *search, *total, *pixel;
+
+    static const SmallKeys& get() {
+        static const SmallKeys keys = [] {
+            const auto s = [](const char* name) {
+                PyObject* o = PyUnicode_InternFromString(name);
+                if (o == nullptr) throw nb::python_error();
+                return o;
+            };
+            return SmallKeys{s("vertices"),   s("sampled_points"), s("edges"),     s("triangles"),   s("flipped_edges"),
+                             s("flip_tests"), s("seconds"),        s("target"),    s("insertions"),  s("strips"),
+                             s("heights"),    s("faces"),          s("pixels"),    s("image_shape"), s("stats"),
+                             s("attributes"), s("prepare"),        s("insertion"), s("fit"),         s("search"),
+                             s("total"),      s("pixel")};
+        }();
+        return keys;
+    }
+};
+
+// d[key] = value, `value` a new reference (null: the error raised making it).
+void put(PyObject* d, PyObject* key, PyObject* value) {
+    const nb::object owned = nb::steal(value);
+    if (!owned.is_valid() || PyDict_SetItem(d, key, owned.ptr()) < 0) throw nb::python_error();
+}
+
+nb::object new_with_dict(nb::handle cls, nb::handle fields);
+
+// A small call's Mesh as `rangemesh.refine.small` made it from the call's values: copies of the
+// instance dicts of `made` = (Stats, Mesh, a Stats' fields, a Mesh's fields, the Targets of counts
+// met, target_of), the changing fields set. The Target of a count met is made[4][got, meshings]
+// when there, else target_of(vertices, got, n_valid, n_pixels, meshings, achieved, asked, want).
+nb::object small_mesh(const MeshResult& res, nb::handle vertices, const MeshRequest& asked, index_t n_valid,
+                      index_t rows, index_t cols, double prepare, double t0, nb::handle now, nb::handle made) {
+    const SmallKeys& k = SmallKeys::get();
+    PyObject* const* m = &PyTuple_GET_ITEM(made.ptr(), 0);
+    const std::size_t n_v = res.pixels.size() / 2, n_f = res.faces.size() / 3;
+    const auto got = static_cast<index_t>(n_v);
+    nb::object target;
+    if (!vertices.is_none() && got == asked.vertices) {
+        const nb::object key = nb::steal(Py_BuildValue("(nn)", got, res.meshings));
+        if (!key.is_valid()) throw nb::python_error();
+        target = nb::borrow(PyDict_GetItemWithError(m[4], key.ptr()));
+        if (!target.is_valid() && PyErr_Occurred()) throw nb::python_error();
+    }
+    if (!target.is_valid())
+        target = nb::borrow(m[5])(vertices, got, n_valid, rows * cols, res.meshings, res.achieved, res.asked,
+                                  asked.vertices);
+    const double t4 = nb::cast<double>(nb::borrow(now)());
+    const nb::object s = nb::steal(PyDict_Copy(m[2]));
+    if (!s.is_valid()) throw nb::python_error();
+    PyObject* const d = s.ptr();
+    put(d, k.vertices, PyLong_FromSsize_t(got));
+    put(d, k.sampled_points, PyLong_FromSsize_t(got));
+    put(d, k.edges, PyLong_FromSsize_t(res.edges));
+    put(d, k.triangles, PyLong_FromSsize_t(static_cast<Py_ssize_t>(n_f)));
+    put(d, k.flipped_edges, PyLong_FromSsize_t(res.flips));
+    put(d, k.flip_tests, PyDict_New());
+    const nb::object seconds = nb::steal(PyDict_New());
+    if (!seconds.is_valid()) throw nb::python_error();
+    // (Python's float arithmetic, left to right, as the general path's)
+    put(seconds.ptr(), k.prepare, PyFloat_FromDouble(prepare));
+    put(seconds.ptr(), k.insertion, PyFloat_FromDouble(asked.fit ? res.seconds - res.fit_seconds : res.seconds));
+    if (asked.fit) put(seconds.ptr(), k.fit, PyFloat_FromDouble(res.fit_seconds));
+    put(seconds.ptr(), k.search, PyFloat_FromDouble(t4 - t0 - prepare - res.seconds));
+    put(seconds.ptr(), k.total, PyFloat_FromDouble(t4 - t0));
+    put(d, k.seconds, seconds.inc_ref().ptr());
+    put(d, k.target, target.inc_ref().ptr());
+    put(d, k.insertions, PyLong_FromSsize_t(res.insertions));
+    put(d, k.strips, PyLong_FromSsize_t(res.strips));
+    put(d, k.heights, nb::borrow(asked.fit && res.fitted ? k.fit : k.pixel).release().ptr());
+    const nb::object stats = new_with_dict(m[0], s);
+    const nb::object mesh = nb::steal(PyDict_Copy(m[3]));
+    if (!mesh.is_valid()) throw nb::python_error();
+    PyObject* const e = mesh.ptr();
+    put(e, k.vertices, numpy_copy(res.vertices, n_v, 3).release().ptr());
+    put(e, k.faces, numpy_copy(res.faces, n_f, 3).release().ptr());
+    put(e, k.pixels, numpy_copy(res.pixels, n_v, 2).release().ptr());
+    put(e, k.image_shape, Py_BuildValue("(nn)", rows, cols));
+    put(e, k.stats, stats.inc_ref().ptr());
+    put(e, k.attributes, PyDict_New());
+    return new_with_dict(m[1], mesh);
+}
+
 // The whole refine call of an orthographic image, unit scales (`rangemesh.refine.small`): the
-// preparation (background masked, single-pixel gaps filled, the valid range) and `refine_mesh`
-// in one call. None (declined) where the library's general path has more to do or to say: an
-// image that is no `small_image`, fewer valid pixels than the vertices asked, a valid range beyond the
-// float range or holding 0 (a zero marker's warning), a largest depth magnitude outside
-// [1 / band, band] (depths scaled first), no face left, or a call that declined. `int_background`
-// and `float_background`: what marks missing depth besides NaN and infinities in an integer
-// image and in a float one (NaN: nothing else).
-nb::object refine_image(nb::handle image_object, double int_background, double float_background, bool fill_gaps,
-                        bool reference_before_fill, const MeshRequest& asked, double band, nb::handle direct_solve) {
-    const auto t0 = std::chrono::steady_clock::now();
+// preparation (background masked, single-pixel gaps filled, the valid range), `refine_mesh` and
+// its Mesh (`small_mesh`) in one call. None (declined) where the library's general path has more
+// to do or to say: an image that is no `small_image`, fewer valid pixels than the vertices asked,
+// a valid range beyond the float range or holding 0 (a zero marker's warning), a largest depth
+// magnitude outside [1 / band, band] (depths scaled first), no face left, or a call that
+// declined. `vertices`: None (the default target; its error bound's reference is the mask before
+// the gaps are filled) or the request's count. `int_background` and `float_background`: what
+// marks missing depth besides NaN and infinities in an integer image and in a float one (NaN:
+// nothing else).
+nb::object refine_image(nb::handle image_object, nb::handle vertices, double int_background, double float_background,
+                        bool fill_gaps, const MeshRequest& asked, double band, nb::handle direct_solve, double t0,
+                        nb::handle now, nb::handle made) {
+    const auto start = std::chrono::steady_clock::now();
     check_input(asked.vertices > 0 && band >= 1.0, "refine_image: the vertices asked above 0, band at least 1");
+    const bool count = !vertices.is_none();
+    const Py_ssize_t n_asked = count && PyLong_CheckExact(vertices.ptr()) ? PyLong_AsSsize_t(vertices.ptr()) : -1;
+    PyErr_Clear();  // (an int beyond Py_ssize_t: refused below)
+    check_input(!count || n_asked == asked.vertices, "refine_image: vertices None or the request's count");
+    PyObject* const m = made.ptr();
+    check_input(PyTuple_CheckExact(m) && PyTuple_GET_SIZE(m) == 6 && PyDict_CheckExact(PyTuple_GET_ITEM(m, 2)) &&
+                    PyDict_CheckExact(PyTuple_GET_ITEM(m, 3)) && PyDict_CheckExact(PyTuple_GET_ITEM(m, 4)) &&
+                    PyCallable_Check(PyTuple_GET_ITEM(m, 5)) && PyCallable_Check(now.ptr()),
+                "refine_image: made (Stats, Mesh, two dicts of fields, a dict, a function) and now a clock");
+    const bool reference_before_fill = !count;
     const index_t min_valid = asked.vertices;
     PyArrayObject* const image = small_image(image_object);
     if (image == nullptr) return nb::none();
@@ -398,13 +557,10 @@ nb::object refine_image(nb::handle image_object, double int_background, double f
     const refine::Image img{{depth, rows, cols}, {valid, rows, cols}, req.hi - req.lo};
     const refine::Reference ref{img.depth, before ? Grid<const bool>{before.get(), rows, cols} : img.valid};
     const refine::DirectSolve direct = direct_of(direct_solve);
-    const double prepare = seconds_since(t0);
+    const double prepare = seconds_since(start);
     MeshResult res = run_released([&] { return refine::refine_mesh(img, camera, ref, req, direct); }, n);
     if (res.outcome != refine::MeshOutcome::done || res.faces.empty()) return nb::none();
-    const std::size_t n_v = res.pixels.size() / 2, n_f = res.faces.size() / 3;
-    return nb::make_tuple(numpy_copy(res.vertices, n_v, 3), numpy_copy(res.faces, n_f, 3),
-                          numpy_copy(res.pixels, n_v, 2), range.count, res.edges, res.insertions, res.flips, res.strips,
-                          res.meshings, res.fitted, res.fit_seconds, res.seconds, prepare, res.achieved, res.asked);
+    return small_mesh(res, vertices, asked, range.count, rows, cols, prepare, t0, now, made);
 }
 
 // An instance of `cls` whose __dict__ is `fields` (not copied), neither __new__ nor __init__
@@ -509,18 +665,21 @@ void bind_refine_mesh(nb::module_& m) {
     m.def("new_with_dict", &new_with_dict, nb::arg("cls"), nb::arg("fields"),
           "An instance of ``cls`` (a class made by ``object.__new__`` whose instances take a __dict__) with "
           "``fields`` (a dict, not copied) as its __dict__, neither __new__ nor __init__ called.");
-    m.def("refine_image", &refine_image, nb::arg("image"), nb::arg("int_background"), nb::arg("float_background"),
-          nb::arg("fill_gaps"), nb::arg("reference_before_fill"), nb::arg("request"), nb::arg("band"),
-          nb::arg("direct_solve").none(),
+    m.def("refine_image", &refine_image, nb::arg("image"), nb::arg("vertices").none(), nb::arg("int_background"),
+          nb::arg("float_background"), nb::arg("fill_gaps"), nb::arg("request"), nb::arg("band"),
+          nb::arg("direct_solve").none(), nb::arg("t0"), nb::arg("now"), nb::arg("made"),
           "The whole refine call of a small image (an (H, W) C-contiguous, aligned, native-order ndarray of float64, "
-          "float32 or an integer dtype, H, W >= 2, H * W < SMALL_IMAGE_PIXELS), unit orthographic camera: masked "
-          "(NaN, inf and ``float_background`` in a float image, ``int_background`` in an integer one, unless it "
-          "is NaN), single-pixel gaps filled when ``fill_gaps``, then ``refine_mesh`` with ``request`` (its "
-          "n_valid, lo and hi set from the image; the error bound's reference is the mask before the fill when "
-          "``reference_before_fill``). Returns ``(vertices, faces, pixels, n_valid, edges, insertions, flips, "
-          "strips, meshings, fitted, fit_seconds, seconds, prepare_seconds, achieved, asked)``, or None where the "
-          "general path has more to do: another image, fewer valid pixels than ``request.vertices``, a range beyond "
-          "the float range or holding 0, a largest depth magnitude outside [1 / band, band], no face.");
+          "float32 or an integer dtype, H, W >= 2, H * W < SMALL_IMAGE_PIXELS), unit orthographic camera, and its "
+          "Mesh: masked (NaN, inf and ``float_background`` in a float image, ``int_background`` in an integer one, "
+          "unless it is NaN), single-pixel gaps filled when ``fill_gaps``, then ``refine_mesh`` with ``request`` "
+          "(its n_valid, lo and hi set from the image; ``vertices`` None, the default target: the error bound's "
+          "reference is the mask before the fill; else the request's count). The Mesh and its Stats are copies of "
+          "the fields ``made[2]`` and ``made[3]`` given to ``made[0]`` (Stats) and ``made[1]`` (Mesh), the "
+          "changing ones set; ``stats.seconds`` from ``t0`` to ``now()``; ``stats.target`` from the dict "
+          "``made[4]`` by ``(vertices, meshings)`` for a count met, else ``made[5](vertices, got, n_valid, "
+          "n_pixels, meshings, achieved, asked, want)``. None where the general path has more to do: another "
+          "image, fewer valid pixels than ``request.vertices``, a range beyond the float range or holding 0, a "
+          "largest depth magnitude outside [1 / band, band], no face.");
 }
 
 }  // namespace rangemesh::bind

@@ -107,7 +107,7 @@ Insertion::Insertion(const Image& image, const FirstMesh& first, index_t reserve
     // no more vertices than pixels: a larger reserve (a raw call's INT64_MAX) buys nothing
     reserve = std::min(std::max<index_t>(reserve, 0), image.rows() * image.cols());
     // a small floor: the triangle arrays are zeroed, and on a small image that costs more than the work
-    const index_t cap_v = std::max({index_t(32), 2 * n_v, n_v + reserve + 8});
+    const index_t cap_v = std::max({index_t(16), 2 * n_v, n_v + reserve + 8});
     const index_t cap_t = 2 * cap_v + 8;
     vr_.reserve(cap_v);
     vc_.reserve(cap_v);

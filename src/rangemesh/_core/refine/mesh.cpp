@@ -900,7 +900,9 @@ bool Refiner::lift(const ValidFaces& f, bool fit, std::vector<double>& vertices)
 bool Refiner::bounded(Candidate& c) {
     const auto t = std::chrono::steady_clock::now();
     const ValidFaces& f = c.meshing.mesh;
-    if (!lift(f, req_.fit, c.vertices)) return false;
+    const bool lifted = lift(f, req_.fit, c.vertices);
+    if (req_.fit) out_.fit_seconds += seconds_since(t);  // the fit only: the renders below are the search's
+    if (!lifted) return false;
     c.achieved = measure_(f, c.vertices);
     if (req_.fit && c.achieved > req_.max_error) {
         std::vector<double> copied;
@@ -911,7 +913,6 @@ bool Refiner::bounded(Candidate& c) {
             c.achieved = copied_error;
         }
     }
-    if (req_.fit) out_.fit_seconds += seconds_since(t);
     return true;
 }
 

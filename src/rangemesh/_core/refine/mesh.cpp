@@ -804,6 +804,7 @@ class Refiner {
     index_t empty_walls_ = 0;             // ... and the walls its mesh dropped
     bool rounded_ = false;                // the rounds ran (`finish` runs them otherwise)
     std::optional<Worker> worker_;        // the call's second thread, once a part runs on two
+    std::optional<LendWorker> lent_;      // ... which the fit's passes split onto (before it goes)
 };
 
 // How each target is met; the searches below are the rules' one place.
@@ -853,10 +854,14 @@ Meshing Refiner::mesh(index_t asked, double max_sum) {
 }
 
 // The call's second thread (with two threads asked for), started now when `start` and not yet
-// running: the strips of each meshing and the edges beside a lift then share one thread.
+// running: the strips of each meshing, the edges beside a lift and the fit's two-part passes
+// (`LendWorker`) then share one thread.
 Worker* Refiner::worker(bool start) {
     if (req_.threads < 2) return nullptr;
-    if (!worker_ && start) worker_.emplace();
+    if (!worker_ && start) {
+        worker_.emplace();
+        lent_.emplace(&*worker_);
+    }
     return worker_ ? &*worker_ : nullptr;
 }
 

@@ -396,3 +396,17 @@ def test_a_strip_mesh_reports_its_flips(monkeypatch):
     assert mesh.stats.flipped_edges > 0
     plain = triangulate(image, background=2047, vertices=1500, diagonals="delaunay")
     assert plain.stats.strips == 2 and plain.stats.flipped_edges == 0
+
+
+@pytest.mark.parametrize("threads", [1, 2])
+def test_a_strip_mesh_with_every_triangle_kept_counts_its_edges(threads, monkeypatch):
+    """No pixel invalid: the call counts the joined strips' edges from their half-edges ((3 F +
+    hull half-edges) / 2; issue 44), against the faces' own distinct undirected edges.
+    """
+    monkeypatch.setenv("RANGEMESH_THREADS", str(threads))
+    depth = scenes.box((240, 320), noise=0.3, seed=3).depth
+    mesh = triangulate(depth, vertices=3000, method="refine")
+    assert mesh.stats.strips == 2 and np.isfinite(depth).all()
+    f = mesh.faces
+    pairs = np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), axis=1)
+    assert mesh.stats.edges == len(np.unique(pairs, axis=0))

@@ -72,7 +72,7 @@ bool Insertion::give_back() noexcept {
     return true;
 }
 
-Insertion::Insertion(const Image& image, const FirstMesh& first, index_t reserve, index_t sr, index_t sc)
+Insertion::Insertion(const Image& image, const FirstMesh& first, index_t reserve, index_t sr, index_t sc, bool scan)
     : image_(image), sr_(sr), sc_(sc) {
     take_kept();
     // stopped half way, no destructor runs: the arrays made so far are freed later all the same
@@ -123,7 +123,17 @@ Insertion::Insertion(const Image& image, const FirstMesh& first, index_t reserve
     }
     tv_.assign(first.triangles.begin(), first.triangles.end());
     he_.assign(first.halfedges.begin(), first.halfedges.end());
-    resize_triangles(cap_t);
+    first_cap_t_ = cap_t;
+    if (scan)
+        scan_first();
+    else
+        reserve_triangles(cap_t);
+}
+
+void Insertion::scan_first() {
+    require(first_cap_t_ > 0, "insertion: the first mesh is scanned once");
+    resize_triangles(first_cap_t_);
+    first_cap_t_ = 0;
     const QuadHeapView heap = this->heap();
     for (index_t t = 0; t < n_t_; ++t) {
         poll_interrupt();
@@ -221,6 +231,15 @@ void Insertion::resize_triangles(index_t cap_t) {
     grow_polled(keyed_, cap_t);
     grow_polled(heap_, static_cast<std::size_t>(QuadHeapView::lines_for(cap_t)));
     grow_polled(slot_, cap_t, index_t{0});
+}
+
+// Room for `cap_t` triangles in every per-triangle array, none of it written.
+void Insertion::reserve_triangles(index_t cap_t) {
+    reserve_polled(tv_, static_cast<std::size_t>(3 * cap_t));
+    reserve_polled(he_, static_cast<std::size_t>(3 * cap_t));
+    reserve_polled(keyed_, static_cast<std::size_t>(cap_t));
+    reserve_polled(heap_, static_cast<std::size_t>(QuadHeapView::lines_for(cap_t)));
+    reserve_polled(slot_, static_cast<std::size_t>(cap_t));
 }
 
 void Insertion::new_triangle(index_t t, index_t a, index_t b, index_t c) {

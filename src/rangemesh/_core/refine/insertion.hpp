@@ -48,13 +48,18 @@ struct Plane {
 class alignas(64) Insertion {
   public:
     // Every triangle of `first` scanned and in the heap; room reserved for `reserve` more
-    // vertices (the arrays grow beyond it).
-    Insertion(const Image& image, const FirstMesh& first, index_t reserve, index_t sr, index_t sc);
+    // vertices (the arrays grow beyond it). With `scan` false the room is only reserved here and
+    // `scan_first` fills it and scans, on any thread: the memory is this thread's allocator's
+    // (a strip's second thread is new each call, and its arena gives the pages back).
+    Insertion(const Image& image, const FirstMesh& first, index_t reserve, index_t sr, index_t sc, bool scan = true);
     ~Insertion();
     Insertion(const Insertion&) = delete;
     Insertion& operator=(const Insertion&) = delete;
     Insertion(Insertion&&) = default;
     Insertion& operator=(Insertion&&) = default;
+
+    // The first mesh's triangles scanned and in the heap (once, after a construction with `scan` false).
+    void scan_first();
 
     // Insert worst pixels until `stop` says so, or no pixel is left to insert.
     void advance(const Stop& stop);
@@ -91,6 +96,7 @@ class alignas(64) Insertion {
     bool fit_child(index_t t, TriangleKey& out) const;
     void make_room();
     void resize_triangles(index_t cap_t);
+    void reserve_triangles(index_t cap_t);
     void new_triangle(index_t t, index_t a, index_t b, index_t c);
     struct Corners {
         index_t a, b, c;
@@ -128,6 +134,7 @@ class alignas(64) Insertion {
     std::vector<index_t> slot_;
     index_t n_heap_ = 0;
     index_t n_valid_v_ = 0;
+    index_t first_cap_t_ = 0;  // the triangles' room `scan_first` fills, until it runs
     double total_ = 0.0;
     index_t hint_ = 0;  // where `locate` starts walking: the last triangle it found
     // per step: the triangles it changed (with repeats), the flips still to test

@@ -260,8 +260,9 @@ ValidFaces split_valid_faces(Span<const index_t> vr, Span<const index_t> vc, Spa
 // The valid faces of an insertion's mesh (triangles `tv`, twins `he`), with one fan each, its
 // walls dropped unless kept (insertion.py's `_assemble`); `n_walls` counts the dropped ones. A
 // large mesh's valid faces are found on the calling thread and `second` when given.
-// `edges`: the faces' distinct edges when every triangle is kept (each edge one half-edge of a
-// triangle and its twin, or one on the hull: (3 F + hull half-edges) / 2), else -1.
+// `edges`: the faces' distinct edges when no fan was pruned and the walls are kept (each edge one
+// half-edge of a face and its twin, or one with no kept twin: (3 F + untwinned half-edges) / 2),
+// else -1.
 ValidFaces assemble(const Image& image, Span<const double> camera, Span<const index_t> vr, Span<const index_t> vc,
                     Span<const index_t> tv, Span<const index_t> he, const MeshRequest& req, index_t& n_walls,
                     index_t& edges, Worker* second = nullptr) {
@@ -279,6 +280,8 @@ ValidFaces assemble(const Image& image, Span<const double> camera, Span<const in
     if (0 < n_f && n_f < tv.size / 3) {
         if (!split) twins = valid_twins(vr, vc, tv, he, image.valid);
         f = one_fan_each(image, std::move(f), twins);
+        if (static_cast<index_t>(f.faces.size() / 3) == n_f && req.walls)  // (no fan pruned: the twins hold)
+            edges = (3 * n_f + static_cast<index_t>(std::count(twins.begin(), twins.end(), index_t{-1}))) / 2;
     }
     if (!req.walls && !f.faces.empty()) f = drop_walls(image, camera, req.pixel_angle, std::move(f), req.jump, n_walls);
     return f;
@@ -342,9 +345,8 @@ Meshing mesh_halves(const Image& image, Span<const double> camera, index_t asked
     out.insertions = static_cast<index_t>(halves.vr.size());
     out.flips = halves.flips;
     out.error_left = halves.total > 0.0;
-    index_t edges = -1;  // (left counted by count_edges: two strips' seam)
     out.mesh = assemble(image, camera, view(halves.vr), view(halves.vc), view(halves.triangles), view(halves.halfedges),
-                        req, out.n_walls, edges, second);
+                        req, out.n_walls, out.edges, second);
     return out;
 }
 
@@ -802,6 +804,7 @@ class Refiner {
     index_t empty_walls_ = 0;             // ... and the walls its mesh dropped
     bool rounded_ = false;                // the rounds ran (`finish` runs them otherwise)
     std::optional<Worker> worker_;        // the call's second thread, once a part runs on two
+    std::optional<LendWorker> lent_;      // ... which the fit's passes split onto (before it goes)
 };
 
 // How each target is met; the searches below are the rules' one place.
@@ -851,21 +854,26 @@ Meshing Refiner::mesh(index_t asked, double max_sum) {
 }
 
 // The call's second thread (with two threads asked for), started now when `start` and not yet
-// running: the strips of each meshing and the edges beside a lift then share one thread.
+// running: the strips of each meshing, the edges beside a lift and the fit's two-part passes
+// (`LendWorker`) then share one thread.
 Worker* Refiner::worker(bool start) {
     if (req_.threads < 2) return nullptr;
-    if (!worker_ && start) worker_.emplace();
+    if (!worker_ && start) {
+        worker_.emplace();
+        lent_.emplace(&*worker_);
+    }
     return worker_ ? &*worker_ : nullptr;
 }
 
 // `lift` of `c`'s mesh (its fit timed) while the second thread counts the mesh's edges, which
-// `finish` reports: on a large mesh the count overlaps the fit's own set-up (one thread else).
+// `finish` reports, unless the assembly counted them: on a large mesh the count overlaps the
+// fit's own set-up (one thread else).
 bool Refiner::lift_counting_edges(Candidate& c) {
     const ValidFaces& f = c.meshing.mesh;
     const index_t n_f = static_cast<index_t>(f.faces.size() / 3);
     bool lifted = false;
     run_both(
-        worker(n_f >= EDGES_BESIDE_MIN_FACES),
+        c.meshing.edges < 0 ? worker(n_f >= EDGES_BESIDE_MIN_FACES) : nullptr,
         [&] {  // (unless the assembly counted them)
             if (c.meshing.edges < 0)
                 c.edges = count_edges(Grid<const std::int32_t>{f.faces.data(), n_f, 3}, c.meshing.n_vertices());

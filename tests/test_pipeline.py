@@ -570,6 +570,37 @@ def test_the_small_calls_native_function_refuses_a_count_its_request_does_not_ho
             call(10, made)
 
 
+def test_the_small_calls_native_function_refuses_made_classes_it_cannot_make_before_meshing():
+    # (review F1) made[0] and made[1] are the classes new_with_dict makes the Stats and the Mesh
+    # of: one it cannot make is refused as the other parts of `made` are, naming refine_image's
+    # argument, before the image is meshed (the clock, read once meshed, never read)
+    import time
+
+    from rangemesh import _core
+    from rangemesh.refine import small
+
+    class Slotted:
+        __slots__ = ("x",)
+
+    r, c = np.mgrid[0:16, 0:16]
+    depth = 100.0 + r + 0.5 * c
+    req = _core.RefineRequest()
+    req.vertices, req.fit, req.flip = 10, False, False
+    reads = []
+
+    def now():
+        reads.append(1)
+        return time.perf_counter()
+
+    for k in (0, 1):
+        for cls in (1, None, dict, Slotted):
+            made = small._MADE[:k] + (cls,) + small._MADE[k + 1:]
+            with pytest.raises(ValueError, match="refine_image: made"):
+                _core.refine_image(depth, 10, 0.0, math.nan, True, req, small._BAND, None,
+                                   time.perf_counter(), now, made)
+    assert reads == []
+
+
 def test_new_with_dict_makes_what_object_new_and_a_set_dict_make():
     # the small call's Stats and Mesh: ``object.__new__(cls)`` given `fields` as its __dict__ by
     # ``object.__setattr__``, neither __new__ nor __init__ of the class run

@@ -434,6 +434,7 @@ void put(PyObject* d, PyObject* key, PyObject* value) {
 }
 
 nb::object new_with_dict(nb::handle cls, nb::handle fields);
+bool dict_class(PyObject* cls);
 
 // A small call's Mesh as `rangemesh.refine.small` made it from the call's values: copies of the
 // instance dicts of `made` = (Stats, Mesh, a Stats' fields, a Mesh's fields, the Targets of counts
@@ -511,10 +512,13 @@ nb::object refine_image(nb::handle image_object, nb::handle vertices, double int
     PyErr_Clear();  // (an int beyond Py_ssize_t: refused below)
     check_input(!count || n_asked == asked.vertices, "refine_image: vertices None or the request's count");
     PyObject* const m = made.ptr();
-    check_input(PyTuple_CheckExact(m) && PyTuple_GET_SIZE(m) == 6 && PyDict_CheckExact(PyTuple_GET_ITEM(m, 2)) &&
-                    PyDict_CheckExact(PyTuple_GET_ITEM(m, 3)) && PyDict_CheckExact(PyTuple_GET_ITEM(m, 4)) &&
-                    PyCallable_Check(PyTuple_GET_ITEM(m, 5)) && PyCallable_Check(now.ptr()),
-                "refine_image: made (Stats, Mesh, two dicts of fields, a dict, a function) and now a clock");
+    check_input(
+        PyTuple_CheckExact(m) && PyTuple_GET_SIZE(m) == 6 && dict_class(PyTuple_GET_ITEM(m, 0)) &&
+            dict_class(PyTuple_GET_ITEM(m, 1)) && PyDict_CheckExact(PyTuple_GET_ITEM(m, 2)) &&
+            PyDict_CheckExact(PyTuple_GET_ITEM(m, 3)) && PyDict_CheckExact(PyTuple_GET_ITEM(m, 4)) &&
+            PyCallable_Check(PyTuple_GET_ITEM(m, 5)) && PyCallable_Check(now.ptr()),
+        "refine_image: made (Stats, Mesh: classes new_with_dict takes, two dicts of fields, a dict, a function) "
+        "and now a clock");
     const bool reference_before_fill = !count;
     const index_t min_valid = asked.vertices;
     PyArrayObject* const image = small_image(image_object);
@@ -563,15 +567,22 @@ nb::object refine_image(nb::handle image_object, nb::handle vertices, double int
     return small_mesh(res, vertices, asked, range.count, rows, cols, prepare, t0, now, made);
 }
 
+// A class `new_with_dict` makes instances of: made by object.__new__, not abstract, its instances
+// taking a __dict__.
+bool dict_class(PyObject* cls) {
+    if (!PyType_Check(cls)) return false;
+    auto* type = reinterpret_cast<PyTypeObject*>(cls);
+    return type->tp_new == PyBaseObject_Type.tp_new && !PyType_HasFeature(type, Py_TPFLAGS_IS_ABSTRACT) &&
+           (PyType_HasFeature(type, Py_TPFLAGS_MANAGED_DICT) || type->tp_dictoffset != 0);
+}
+
 // An instance of `cls` whose __dict__ is `fields` (not copied), neither __new__ nor __init__
 // called: what ``object.__new__(cls)`` and ``object.__setattr__(obj, "__dict__", fields)`` make of
 // a class that takes them, at a fifth of their cost (no empty dict made and dropped between).
 nb::object new_with_dict(nb::handle cls, nb::handle fields) {
     check_input(PyType_Check(cls.ptr()) && PyDict_CheckExact(fields.ptr()), "new_with_dict: a class and a dict");
     auto* type = reinterpret_cast<PyTypeObject*>(cls.ptr());
-    check_input(type->tp_new == PyBaseObject_Type.tp_new && !PyType_HasFeature(type, Py_TPFLAGS_IS_ABSTRACT) &&
-                    (PyType_HasFeature(type, Py_TPFLAGS_MANAGED_DICT) || type->tp_dictoffset != 0),
-                "new_with_dict: a class made by object.__new__ whose instances take a __dict__");
+    check_input(dict_class(cls.ptr()), "new_with_dict: a class made by object.__new__ whose instances take a __dict__");
     nb::object obj = nb::steal(type->tp_alloc(type, 0));
     if (!obj.is_valid() || PyObject_GenericSetDict(obj.ptr(), fields.ptr(), nullptr) < 0) throw nb::python_error();
     return obj;

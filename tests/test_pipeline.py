@@ -494,7 +494,9 @@ def test_a_small_float64_calls_mask_is_the_general_masks_at_every_width(monkeypa
     # path, and the call declined exactly where numpy's mask and range say it must be
     from rangemesh import _core
     from rangemesh.params import DEFAULT_TARGET
-    from rangemesh.refine.small import _BAND
+    from rangemesh.refine.insertion import DEPTH_BAND
+
+    _BAND = 2.0**DEPTH_BAND  # (beyond it the general path scales the depths)
 
     made = []
     real = _core.refine_image
@@ -556,7 +558,7 @@ def test_the_small_calls_native_function_refuses_a_count_its_request_does_not_ho
     req = _core.RefineRequest()  # (the image rectangle first, heights and diagonals as inserted)
     req.vertices, req.fit, req.flip = 10, False, False
     call = lambda vertices, made=small._MADE: _core.refine_image(  # noqa: E731
-        depth, vertices, 0.0, math.nan, True, req, small._BAND, None, time.perf_counter(), time.perf_counter,
+        depth, vertices, (0.0, math.nan, True), req, None, time.perf_counter(), time.perf_counter,
         made)
     mesh = call(10)
     assert len(mesh.pixels) == 10 and mesh.stats.target.met and mesh.stats.target.requested == 10
@@ -568,6 +570,12 @@ def test_the_small_calls_native_function_refuses_a_count_its_request_does_not_ho
                  small._MADE[:5] + (None,)):
         with pytest.raises(ValueError, match="refine_image: made"):
             call(10, made)
+    # the markers and the fill, one tuple of two floats and a bool (not read as something else)
+    for masking in ((0.0, math.nan), [0.0, math.nan, True], (0, math.nan, True), (0.0, math.nan, 1),
+                    (0.0, math.nan, True, True)):
+        with pytest.raises(ValueError, match="refine_image: masking"):
+            _core.refine_image(depth, 10, masking, req, None, time.perf_counter(), time.perf_counter,
+                               small._MADE)
 
 
 def test_the_small_calls_native_function_refuses_made_classes_it_cannot_make_before_meshing():
@@ -596,7 +604,7 @@ def test_the_small_calls_native_function_refuses_made_classes_it_cannot_make_bef
         for cls in (1, None, dict, Slotted):
             made = small._MADE[:k] + (cls,) + small._MADE[k + 1:]
             with pytest.raises(ValueError, match="refine_image: made"):
-                _core.refine_image(depth, 10, 0.0, math.nan, True, req, small._BAND, None,
+                _core.refine_image(depth, 10, (0.0, math.nan, True), req, None,
                                    time.perf_counter(), now, made)
     assert reads == []
 

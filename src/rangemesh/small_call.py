@@ -30,7 +30,10 @@ FLIPS_UNSET = OPTIONS_BY_NAME["flips"].unset
 # beyond the default target's cap, so the small call checks nothing else.
 SMALL_NEED = memory.memory_need((SMALL_PIXELS, 1), "refine", SMALL_PIXELS)
 _FILL_GAPS = defaults().fill_gaps
-_NAN = math.nan
+# the markers of missing depth in an integer image and in a float one (NaN: none), and the fill:
+# `guess_background` without a camera (0 in integer images, nothing in float ones), and None's
+_AUTO_MASKING = (0.0, math.nan, _FILL_GAPS)
+_NAN_MASKING = (math.nan, math.nan, _FILL_GAPS)  # (NaN and infinities only)
 
 
 def small_call(image: np.ndarray, vertices, background) -> Mesh | None:
@@ -43,20 +46,18 @@ def small_call(image: np.ndarray, vertices, background) -> Mesh | None:
     # (a count beyond the image's pixels: the native call finds too few valid ones, and declines)
     if vertices is not None and not (type(vertices) is int and 3 <= vertices < SMALL_PIXELS):
         return None
-    # the markers of missing depth in an integer image and in a float one (NaN: none)
     if type(background) is str:
         if background != "auto":
             return None
-        # (`guess_background` without a camera: 0 in integer images, nothing in float ones)
-        int_marker, float_marker = 0.0, _NAN
+        masking = _AUTO_MASKING
     elif background is None:
-        int_marker = float_marker = _NAN  # (NaN and infinities only)
+        masking = _NAN_MASKING
     elif (type(background) is int and -2**53 <= background <= 2**53) or \
             (type(background) is float and math.isfinite(background)):
-        int_marker = float_marker = float(background)
+        masking = (float(background), float(background), _FILL_GAPS)
     else:
         return None
     free = memory.available_memory()
     if free is not None and free < SMALL_NEED:
         return None  # (the general path checks the memory: it refuses, or meshes)
-    return mesh_small(image, vertices, int_marker, float_marker, _FILL_GAPS, t0, now)
+    return mesh_small(image, vertices, masking, t0, now)

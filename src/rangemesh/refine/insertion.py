@@ -56,7 +56,7 @@ EXACT_SIDE = EXACT_SPAN
 # `greedy_mesh` divides depths by a power of two when their largest magnitude lies beyond
 # 2**DEPTH_BAND or below 2**-DEPTH_BAND: the kernels' squares (plane fits, least squares) overflow
 # from about 1e150 and underflow below about 1e-160. Within the band nothing is copied.
-DEPTH_BAND = 64
+DEPTH_BAND = _core.DEPTH_BAND  # (64: the small call checks the same band natively)
 # effort="best": insertion to this many times the vertices, then collapses down to the count
 # (`_core` refine/collapse.hpp). The measured choice: docs/benchmarks.md, "effort".
 COLLAPSE_BEST = 4.0

@@ -20,7 +20,6 @@ from ..params import DEFAULT_TARGET, NONE_MEANS
 from . import heights as _heights
 from .insertion import (
     _REQUEST_SETTINGS,
-    DEPTH_BAND,
     MAX_BISECT_RUNS,
     MAX_ERROR_STOP,
     MAX_RUNS,
@@ -37,8 +36,6 @@ __all__ = ["SMALL_PIXELS", "mesh_small"]
 # these to it. A larger image's call costs milliseconds: the general path's steps weigh nothing there.
 # (the native call declines larger images: the figure is its own)
 SMALL_PIXELS = _core.SMALL_IMAGE_PIXELS
-# `depth_exponent`'s band: depths beyond it are scaled by the general path.
-_BAND = 2.0**DEPTH_BAND
 # `_request`'s key: the request, made once (read only)
 _REQUESTS: dict = {}
 # The instance dicts a small call's Stats and Mesh copy, in the fields' order (the values set
@@ -76,8 +73,8 @@ def _request(key: tuple) -> _core.RefineRequest:
     return req
 
 
-def mesh_small(image, vertices: int | None, int_background: float, float_background: float,
-               fill_gaps: bool, t0: float, now) -> Mesh | None:
+def mesh_small(image, vertices: int | None, masking: tuple[float, float, bool], t0: float,
+               now) -> Mesh | None:
     """`triangulate(image, vertices=vertices)` of a small image, or None (declined).
 
     Parameters
@@ -87,11 +84,10 @@ def mesh_small(image, vertices: int | None, int_background: float, float_backgro
         take, fewer than `SMALL_PIXELS` pixels, at least 2 a side.
     vertices : int or None
         A count from 3 to below `SMALL_PIXELS`, or None: the default target.
-    int_background, float_background : float
-        What marks missing depth besides NaN and infinities in an integer image and in a float
-        one (NaN: nothing else).
-    fill_gaps : bool
-        Fill single-pixel gaps.
+    masking : tuple of (float, float, bool)
+        ``(int_background, float_background, fill_gaps)``: what marks missing depth besides NaN
+        and infinities in an integer image and in a float one (NaN: nothing else), and whether
+        single-pixel gaps are filled.
     t0 : float
         When the call started (`now`), the clock of ``stats.seconds``.
     now : callable
@@ -105,8 +101,7 @@ def mesh_small(image, vertices: int | None, int_background: float, float_backgro
     req = _REQUESTS.get(key) or _request(key)
     # (its Stats and Mesh made by the native call too, from _MADE: tests/test_pipeline.py holds
     # them to the general path's)
-    return _core.refine_image(image, vertices, int_background, float_background, fill_gaps, req, _BAND,
-                              _heights._direct_solve, t0, now, _MADE)
+    return _core.refine_image(image, vertices, masking, req, _heights._direct_solve, t0, now, _MADE)
 
 
 _MET: dict = {}  # (count, meshings): the Target of a count met, made once (frozen: shared)

@@ -174,6 +174,10 @@ refine::DirectSolve direct_of(nb::handle direct_solve) {
     };
 }
 
+// Depths whose largest magnitude lies outside [2^-DEPTH_BAND, 2^DEPTH_BAND] are scaled first
+// (refine/insertion.py's `depth_exponent`): the kernels' squares overflow from about 1e150.
+constexpr int DEPTH_BAND = 64;
+
 // Images of fewer pixels take `refine_image` (rangemesh/refine/small.py's SMALL_PIXELS, its reasons).
 constexpr index_t SMALL_IMAGE_PIXELS = 2000;
 
@@ -497,16 +501,23 @@ nb::object small_mesh(const MeshResult& res, nb::handle vertices, const MeshRequ
 // its Mesh (`small_mesh`) in one call. None (declined) where the library's general path has more
 // to do or to say: an image that is no `small_image`, fewer valid pixels than the vertices asked,
 // a valid range beyond the float range or holding 0 (a zero marker's warning), a largest depth
-// magnitude outside [1 / band, band] (depths scaled first), no face left, or a call that
+// magnitude outside [2^-DEPTH_BAND, 2^DEPTH_BAND] (depths scaled first), no face left, or a call that
 // declined. `vertices`: None (the default target; its error bound's reference is the mask before
-// the gaps are filled) or the request's count. `int_background` and `float_background`: what
-// marks missing depth besides NaN and infinities in an integer image and in a float one (NaN:
-// nothing else).
-nb::object refine_image(nb::handle image_object, nb::handle vertices, double int_background, double float_background,
-                        bool fill_gaps, const MeshRequest& asked, double band, nb::handle direct_solve, double t0,
-                        nb::handle now, nb::handle made) {
+// the gaps are filled) or the request's count. `masking`: (int_background, float_background,
+// fill_gaps), what marks missing depth besides NaN and infinities in an integer image and in a
+// float one (NaN: nothing else), and whether single-pixel gaps are filled.
+nb::object refine_image(nb::handle image_object, nb::handle vertices, nb::handle masking, const MeshRequest& asked,
+                        nb::handle direct_solve, double t0, nb::handle now, nb::handle made) {
     const auto start = std::chrono::steady_clock::now();
-    check_input(asked.vertices > 0 && band >= 1.0, "refine_image: the vertices asked above 0, band at least 1");
+    check_input(asked.vertices > 0, "refine_image: the vertices asked above 0");
+    PyObject* const mk = masking.ptr();
+    check_input(PyTuple_CheckExact(mk) && PyTuple_GET_SIZE(mk) == 3 && PyFloat_CheckExact(PyTuple_GET_ITEM(mk, 0)) &&
+                    PyFloat_CheckExact(PyTuple_GET_ITEM(mk, 1)) && PyBool_Check(PyTuple_GET_ITEM(mk, 2)),
+                "refine_image: masking (int_background, float_background, fill_gaps): two floats and a bool");
+    const double int_background = PyFloat_AS_DOUBLE(PyTuple_GET_ITEM(mk, 0)),
+                 float_background = PyFloat_AS_DOUBLE(PyTuple_GET_ITEM(mk, 1));
+    const bool fill_gaps = PyTuple_GET_ITEM(mk, 2) == Py_True;
+    const double band = std::ldexp(1.0, DEPTH_BAND);
     const bool count = !vertices.is_none();
     const Py_ssize_t n_asked = count && PyLong_CheckExact(vertices.ptr()) ? PyLong_AsSsize_t(vertices.ptr()) : -1;
     PyErr_Clear();  // (an int beyond Py_ssize_t: refused below)
@@ -676,13 +687,14 @@ void bind_refine_mesh(nb::module_& m) {
     m.def("new_with_dict", &new_with_dict, nb::arg("cls"), nb::arg("fields"),
           "An instance of ``cls`` (a class made by ``object.__new__`` whose instances take a __dict__) with "
           "``fields`` (a dict, not copied) as its __dict__, neither __new__ nor __init__ called.");
-    m.def("refine_image", &refine_image, nb::arg("image"), nb::arg("vertices").none(), nb::arg("int_background"),
-          nb::arg("float_background"), nb::arg("fill_gaps"), nb::arg("request"), nb::arg("band"),
-          nb::arg("direct_solve").none(), nb::arg("t0"), nb::arg("now"), nb::arg("made"),
+    m.attr("DEPTH_BAND") = DEPTH_BAND;
+    m.def("refine_image", &refine_image, nb::arg("image"), nb::arg("vertices").none(), nb::arg("masking"),
+          nb::arg("request"), nb::arg("direct_solve").none(), nb::arg("t0"), nb::arg("now"), nb::arg("made"),
           "The whole refine call of a small image (an (H, W) C-contiguous, aligned, native-order ndarray of float64, "
           "float32 or an integer dtype, H, W >= 2, H * W < SMALL_IMAGE_PIXELS), unit orthographic camera, and its "
-          "Mesh: masked (NaN, inf and ``float_background`` in a float image, ``int_background`` in an integer one, "
-          "unless it is NaN), single-pixel gaps filled when ``fill_gaps``, then ``refine_mesh`` with ``request`` "
+          "Mesh: masked by ``masking`` = (int_background, float_background, fill_gaps) (NaN, inf and "
+          "``float_background`` in a float image, ``int_background`` in an integer one, unless it is NaN), "
+          "single-pixel gaps filled when ``fill_gaps``, then ``refine_mesh`` with ``request`` "
           "(its n_valid, lo and hi set from the image; ``vertices`` None, the default target: the error bound's "
           "reference is the mask before the fill; else the request's count). The Mesh and its Stats are copies of "
           "the fields ``made[2]`` and ``made[3]`` given to ``made[0]`` (Stats) and ``made[1]`` (Mesh), the "
@@ -690,7 +702,7 @@ void bind_refine_mesh(nb::module_& m) {
           "``made[4]`` by ``(vertices, meshings)`` for a count met, else ``made[5](vertices, got, n_valid, "
           "n_pixels, meshings, achieved, asked, want)``. None where the general path has more to do: another "
           "image, fewer valid pixels than ``request.vertices``, a range beyond the float range or holding 0, a "
-          "largest depth magnitude outside [1 / band, band], no face.");
+          "largest depth magnitude outside [2^-DEPTH_BAND, 2^DEPTH_BAND], no face.");
 }
 
 }  // namespace rangemesh::bind
